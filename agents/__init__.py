@@ -1,0 +1,1 @@
+"""Learning agents (the Q-learning LQR, Stable-Baselines3 glue)."""

@@ -1,0 +1,334 @@
+"""ReactionWheel-v0: rest-to-rest attitude maneuvers of a rigid spacecraft with N wheels."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from attitude_envs import quaternion, validation
+from attitude_envs.cost import QuadraticCost
+from attitude_envs.disturbances import Disturbance
+from attitude_envs.integrators import rk4_step, substeps
+from attitude_envs.plants import gyrostat
+from attitude_envs.plants.gyrostat_model import ReactionWheelModel
+from attitude_envs.presets import preset as load_preset
+from attitude_envs.uncertainty import InertiaUncertainty
+
+_OPTION_KEYS = {"attitude", "rate_rad_s", "wheel_speed_rad_s", "target_attitude"}
+
+
+class ReactionWheelEnv(gym.Env):
+    """Rigid spacecraft with N reaction wheels driven to a target attitude.
+
+    Plant: the exact gyrostat equations of :mod:`attitude_envs.plants.gyrostat` (no
+    small-wheel approximation), scalar-last quaternion kinematics, fixed-step RK4 with
+    ``integrator_dt_s`` sub-steps inside each ``control_dt_s`` period, quaternion
+    renormalized after every sub-step. Papers: spec 000 (preset ``"spec-000"``, default)
+    and spec 001 (preset ``"spec-001"``).
+
+    ================  ==========================================================  ==========
+    Quantity          Meaning                                                     Units
+    ================  ==========================================================  ==========
+    State (truth)     q (scalar last), ω body rate, Ω wheel speeds rel. body     -, rad/s
+    Observation       float32 ``x = [q_e,vec (3), ω (3)]`` with q_e = q_T*⊗q,    -, rad/s
+                      w ≥ 0; ``+ h_w = J_s Ω (N)`` when wheel momentum is        N·m·s
+                      weighted; ``+ Ω / Ω_max (N)`` if ``observe_wheel_speeds``   -
+    Action            N normalized motor torques in [-1, 1] (clipped: actuator    -
+                      saturation); physical ``u = a · max_wheel_torque_nm``;      N·m
+                      positive spins wheel i up about a_i, body gets −a_i u_i
+    Reward            −∫ (xᵀQx + u_cᵀRu_c) dt over the step (RK4, augmented        (cost)
+                      state); u_c = body torque −A u or wheel torques u
+    Start state       q within ``initial_angle_deg`` of identity, ω uniform in    deg, rad/s
+                      ±``initial_rate_max_rad_s``, wheels at rest; target within
+                      ``target_angle_deg``; all pinned by ``reset(options=...)``
+    Termination       non-finite state, or tumbling: ``max|ω| > max_rate_rad_s``  rad/s
+                      (default 2π rad/s, one revolution per second)
+    Truncation        simulated time reaches ``episode_duration_s``               s
+    ================  ==========================================================  ==========
+
+    Parameters (``None`` takes the preset's value): ``inertia_kg_m2`` (3×3, whole
+    spacecraft incl. wheel spin inertia), ``wheel_axes`` (3×N unit columns),
+    ``wheel_inertia_kg_m2``, ``max_wheel_torque_nm``, ``max_wheel_speed_rad_s`` (motor
+    driver blocks torque beyond it), ``control_dt_s``, ``integrator_dt_s``,
+    ``episode_duration_s``, ``Q``, ``R``, ``cost_input`` (``"body"``/``"wheel"``),
+    ``wheel_momentum_weight`` (adds ``h_w`` to x, weight per (N·m·s)²), ``target_attitude``,
+    ``target_angle_deg``, ``initial_attitude``, ``initial_angle_deg``, ``initial_rate_rad_s``,
+    ``initial_rate_max_rad_s``, ``inertia_uncertainty`` (see :mod:`attitude_envs.uncertainty`),
+    ``disturbance`` (see :mod:`attitude_envs.disturbances`), ``max_rate_rad_s``,
+    ``observe_wheel_speeds``.
+
+    ``env.unwrapped.model`` is the *nominal* :class:`ReactionWheelModel` (inertia,
+    wheels, cost, linearization); the true inertia and disturbance stay private, and
+    ``info`` carries the truth: ``state`` (``attitude``, ``rate_rad_s``,
+    ``wheel_speed_rad_s``, ``target_attitude``), ``applied`` (mean motor torque actually
+    delivered over the step, N·m), ``commanded``, ``cost``, ``time_s``,
+    ``error_angle_deg``, ``disturbance_torque_nm``, ``true_inertia_kg_m2``.
+    """
+
+    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 10}
+
+    def __init__(
+        self,
+        preset: str = "spec-000",
+        inertia_kg_m2=None,
+        wheel_axes=None,
+        wheel_inertia_kg_m2: float | None = None,
+        max_wheel_torque_nm: float | None = None,
+        max_wheel_speed_rad_s: float | None = None,
+        control_dt_s: float | None = None,
+        integrator_dt_s: float | None = None,
+        episode_duration_s: float | None = None,
+        Q=None,
+        R=None,
+        cost_input: str | None = None,
+        wheel_momentum_weight: float = 0.0,
+        target_attitude=None,
+        target_angle_deg: float | None = None,
+        initial_attitude=None,
+        initial_angle_deg: float | None = None,
+        initial_rate_rad_s=None,
+        initial_rate_max_rad_s: float | None = None,
+        inertia_uncertainty: dict | None = None,
+        disturbance: dict | None = None,
+        max_rate_rad_s: float = 2.0 * np.pi,
+        observe_wheel_speeds: bool = False,
+        render_mode: str | None = None,
+    ) -> None:
+        cfg = load_preset(preset)
+        given = {
+            "inertia_kg_m2": inertia_kg_m2,
+            "wheel_axes": wheel_axes,
+            "wheel_inertia_kg_m2": wheel_inertia_kg_m2,
+            "max_wheel_torque_nm": max_wheel_torque_nm,
+            "max_wheel_speed_rad_s": max_wheel_speed_rad_s,
+            "control_dt_s": control_dt_s,
+            "integrator_dt_s": integrator_dt_s,
+            "episode_duration_s": episode_duration_s,
+            "Q": Q,
+            "R": R,
+            "cost_input": cost_input,
+            "target_attitude": target_attitude,
+            "target_angle_deg": target_angle_deg,
+            "initial_attitude": initial_attitude,
+            "initial_angle_deg": initial_angle_deg,
+            "initial_rate_rad_s": initial_rate_rad_s,
+            "initial_rate_max_rad_s": initial_rate_max_rad_s,
+        }
+        cfg.update({k: v for k, v in given.items() if v is not None})
+        if (
+            control_dt_s is not None
+            and integrator_dt_s is None
+            and not _divides(cfg["control_dt_s"], cfg["integrator_dt_s"])
+        ):
+            cfg["integrator_dt_s"] = cfg["control_dt_s"]  # the preset's sub-step does not fit: one sub-step
+
+        params = gyrostat.GyrostatParams(
+            cfg["inertia_kg_m2"],
+            cfg["wheel_axes"],
+            cfg["wheel_inertia_kg_m2"],
+            cfg["max_wheel_torque_nm"],
+            cfg["max_wheel_speed_rad_s"],
+        )
+        self.control_dt_s = validation.positive("control_dt_s", cfg["control_dt_s"])
+        self.integrator_dt_s = validation.positive("integrator_dt_s", cfg["integrator_dt_s"])
+        self._substeps = substeps(self.control_dt_s, self.integrator_dt_s)
+        self.episode_duration_s = validation.positive("episode_duration_s", cfg["episode_duration_s"])
+        cost_in = validation.choice("cost_input", cfg["cost_input"], {"body", "wheel"})
+        wmw = validation.nonnegative("wheel_momentum_weight", wheel_momentum_weight)
+        n_w = params.n_wheels
+        include_h = wmw > 0
+        n_x = 6 + (n_w if include_h else 0)
+        m_c = 3 if cost_in == "body" else n_w
+        q_mat = validation.psd_matrix("Q", cfg["Q"], 6) if not include_h else None
+        if include_h:
+            q6 = validation.psd_matrix("Q", cfg["Q"], 6)
+            q_mat = np.zeros((n_x, n_x))
+            q_mat[:6, :6] = q6
+            q_mat[6:, 6:] = wmw * np.eye(n_w)
+        cost = QuadraticCost(q_mat, validation.psd_matrix("R", cfg["R"], m_c, definite=True))
+        self.model = ReactionWheelModel(params, cost, cost_in, include_h, self.control_dt_s)
+
+        self._target_fixed = _optional_quaternion("target_attitude", cfg.get("target_attitude"))
+        self._initial_fixed = _optional_quaternion("initial_attitude", cfg.get("initial_attitude"))
+        self._target_angle = _angle("target_angle_deg", cfg["target_angle_deg"])
+        self._initial_angle = _angle("initial_angle_deg", cfg["initial_angle_deg"])
+        rate = cfg.get("initial_rate_rad_s")
+        self._rate_fixed = None if rate is None else validation.finite_array("initial_rate_rad_s", rate, (3,))
+        self._rate_max = validation.nonnegative("initial_rate_max_rad_s", cfg["initial_rate_max_rad_s"])
+        self._uncertainty = InertiaUncertainty.from_config(inertia_uncertainty)
+        self._disturbance = None if disturbance is None else Disturbance(disturbance)
+        self.max_rate_rad_s = validation.positive("max_rate_rad_s", max_rate_rad_s)
+        self.observe_wheel_speeds = bool(observe_wheel_speeds)
+        if self.observe_wheel_speeds and not np.isfinite(params.max_wheel_speed_rad_s):
+            raise ValueError("observe_wheel_speeds needs a finite max_wheel_speed_rad_s to normalize by")
+        if render_mode is not None:
+            validation.choice("render_mode", render_mode, set(self.metadata["render_modes"]))
+        self.render_mode = render_mode
+
+        # Observation bounds: |q_e,vec| <= 1; rates within 2 × max_rate_rad_s (the episode
+        # terminates beyond max_rate_rad_s); wheel momentum within 1.5 × J_s Ω_max.
+        rate_bound = 2.0 * self.max_rate_rad_s
+        obs_high = np.concatenate([np.ones(3), np.full(3, rate_bound)])
+        if include_h:
+            h_bound = 1.5 * params.wheel_inertia_kg_m2 * params.max_wheel_speed_rad_s
+            obs_high = np.concatenate([obs_high, np.full(n_w, h_bound if np.isfinite(h_bound) else 1e6)])
+        if self.observe_wheel_speeds:
+            obs_high = np.concatenate([obs_high, np.full(n_w, 1.5)])
+        obs_low = -obs_high
+        self.observation_space = spaces.Box(obs_low.astype(np.float32), obs_high.astype(np.float32), dtype=np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(n_w,), dtype=np.float32)
+
+        self._plant = params
+        self._y = np.zeros(7 + n_w)
+        self._y[3] = 1.0
+        self._target = np.array([0.0, 0.0, 0.0, 1.0])
+        self._t = 0.0
+        self._renderer = None
+
+    # ------------------------------------------------------------------ gym API
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        options = {} if options is None else dict(options)
+        unknown = set(options) - _OPTION_KEYS
+        if unknown:
+            raise ValueError(f"reset options has unknown keys {sorted(unknown)}; accepted: {sorted(_OPTION_KEYS)}")
+        rng = self.np_random
+        n_w = self._plant.n_wheels
+        self._plant = (
+            self.model.params
+            if self._uncertainty is None
+            else self.model.params.with_inertia(self._uncertainty.draw(self.model.params.inertia_kg_m2, rng))
+        )
+        q0 = self._draw_attitude(self._initial_fixed, self._initial_angle)
+        target = self._draw_attitude(self._target_fixed, self._target_angle)
+        rate = self._rate_fixed if self._rate_fixed is not None else rng.uniform(-self._rate_max, self._rate_max, 3)
+        wheel = np.zeros(n_w)
+        if "attitude" in options:
+            q0 = validation.unit_quaternion("options['attitude']", options["attitude"])
+        if "target_attitude" in options:
+            target = validation.unit_quaternion("options['target_attitude']", options["target_attitude"])
+        if "rate_rad_s" in options:
+            rate = validation.finite_array("options['rate_rad_s']", options["rate_rad_s"], (3,))
+        if "wheel_speed_rad_s" in options:
+            wheel = validation.finite_array("options['wheel_speed_rad_s']", options["wheel_speed_rad_s"], (n_w,))
+        self._y = np.concatenate([q0, rate, wheel])
+        self._target = target
+        self._t = 0.0
+        if self._disturbance is not None:
+            self._disturbance.reset(rng)
+        info = self._info(np.zeros(n_w), np.zeros(n_w), 0.0)
+        if self.render_mode == "human":
+            self.render()
+        return self._observation(), info
+
+    def step(self, action):
+        p = self._plant
+        a = np.clip(validation.action(action, p.n_wheels), -1.0, 1.0)
+        commanded = a * p.max_wheel_torque_nm
+        if self._disturbance is not None:
+            self._disturbance.advance(self.np_random, self.control_dt_s)
+        h = self.integrator_dt_s
+        aug = np.concatenate([self._y, [0.0]])
+        applied_sum = np.zeros(p.n_wheels)
+        for _ in range(self._substeps):
+            u = gyrostat.speed_limited_torque(p, commanded, aug[7:-1], h)
+            applied_sum += u
+            aug = rk4_step(lambda t, y, u=u: self._augmented_derivative(t, y, u), self._t, aug, h)
+            aug[:4] /= np.linalg.norm(aug[:4])
+            self._t += h
+        self._y = aug[:-1]
+        cost = float(aug[-1])
+        applied = applied_sum / self._substeps
+        terminated = not np.all(np.isfinite(aug))
+        if not terminated:
+            terminated = bool(np.max(np.abs(self._y[4:7])) > self.max_rate_rad_s)
+        truncated = bool(self._t >= self.episode_duration_s - 1e-9 * self.control_dt_s) and not terminated
+        obs = (
+            self._observation() if np.all(np.isfinite(self._y)) else np.zeros(self.observation_space.shape, np.float32)
+        )
+        info = self._info(applied, commanded, cost)
+        if self.render_mode == "human":
+            self.render()
+        return obs, -cost, terminated, truncated, info
+
+    def render(self):
+        if self.render_mode is None:
+            gym.logger.warn("render() called without render_mode; pass render_mode='rgb_array' to gym.make")
+            return None
+        if self._renderer is None:
+            from attitude_envs.rendering import AttitudeRenderer
+
+            self._renderer = AttitudeRenderer(human=self.render_mode == "human")
+        p = self._plant
+        return self._renderer.draw(
+            self._y[:4], self._target, self._y[7:], p.max_wheel_speed_rad_s, self._t, self._y[4:7]
+        )
+
+    def close(self):
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    # ------------------------------------------------------------------ internals
+    def _augmented_derivative(self, t: float, aug: np.ndarray, u: np.ndarray) -> np.ndarray:
+        y = aug[:-1]
+        n_w = self._plant.n_wheels
+        ext = np.zeros(3) if self._disturbance is None else self._disturbance.torque_nm_at(t)
+        dy = gyrostat.derivative(self._plant, y, u, ext)
+        x = self.model.error_state(y[:4] / np.linalg.norm(y[:4]), y[4:7], y[7 : 7 + n_w], self._target)
+        return np.concatenate([dy, [self.model.cost.stage(x, self.model.cost_input_of(u))]])
+
+    def _draw_attitude(self, fixed, max_angle_deg: float) -> np.ndarray:
+        if fixed is not None:
+            return fixed.copy()
+        return quaternion.random_within_angle(self.np_random, max_angle_deg)
+
+    def error_state(self) -> np.ndarray:
+        """The true error state ``x`` (float64) of the current state."""
+        return self.model.error_state(self._y[:4], self._y[4:7], self._y[7:], self._target)
+
+    def _observation(self) -> np.ndarray:
+        x = self.error_state()
+        if self.observe_wheel_speeds:
+            x = np.concatenate([x, self._y[7:] / self._plant.max_wheel_speed_rad_s])
+        return x.astype(np.float32)
+
+    def _info(self, applied: np.ndarray, commanded: np.ndarray, cost: float) -> dict:
+        ext = np.zeros(3) if self._disturbance is None else self._disturbance.torque_nm_at(self._t)
+        return {
+            "state": {
+                "attitude": self._y[:4].copy(),
+                "rate_rad_s": self._y[4:7].copy(),
+                "wheel_speed_rad_s": self._y[7:].copy(),
+                "target_attitude": self._target.copy(),
+            },
+            "applied": applied,
+            "commanded": commanded,
+            "cost": cost,
+            "time_s": self._t,
+            "error_angle_deg": float(np.degrees(quaternion.error_angle_rad(self._y[:4], self._target))),
+            "disturbance_torque_nm": ext,
+            "true_inertia_kg_m2": self._plant.inertia_kg_m2.copy(),
+        }
+
+
+def _divides(control_dt_s: float, integrator_dt_s: float) -> bool:
+    try:
+        substeps(control_dt_s, integrator_dt_s)
+    except ValueError:
+        return False
+    return True
+
+
+def _optional_quaternion(name: str, value) -> np.ndarray | None:
+    return None if value is None else validation.unit_quaternion(name, value)
+
+
+def _angle(name: str, value: float) -> float:
+    v = float(value)
+    if not 0.0 <= v <= 180.0:
+        raise ValueError(f"{name} must be in [0, 180], got {value!r}")
+    return v

@@ -1,0 +1,1 @@
+"""Plants: equations of motion, free of any Gymnasium machinery."""

@@ -1,0 +1,141 @@
+"""Rigid spacecraft with N reaction wheels: the exact gyrostat equations.
+
+Conventions (the papers' ``ω̇ = I⁻¹[−ω×(Iω + h_w) + T_c]`` is their small-wheel case):
+
+* ``inertia_kg_m2`` ``I`` is the whole spacecraft's inertia about its centre of mass,
+  *including* the wheels' spin-axis inertia ``J_s``;
+* ``wheel_axes`` ``A`` (3×N) holds the unit spin axes in body axes;
+* ``Ω`` is each wheel's speed *relative to the body* (tachometer reading), rad/s;
+* ``u`` is each wheel's motor torque, N·m: positive spins wheel i up about ``a_i`` and the
+  body receives the reaction ``−a_i u_i``.
+
+With ``I_eff = I − J_s A Aᵀ`` the equations are
+
+    I_eff ω̇ = −ω × (I ω + J_s A Ω) − A u + T_ext
+    J_s (Ω̇_i + a_i·ω̇) = u_i
+    q̇ = ½ q ⊗ [ω, 0]
+
+and the total angular momentum ``R(q)(Iω + J_s A Ω)`` is conserved when ``T_ext = 0``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from attitude_envs import validation
+
+
+@dataclass(frozen=True)
+class GyrostatParams:
+    """Physical parameters of a rigid body with reaction wheels (SI units)."""
+
+    inertia_kg_m2: np.ndarray
+    wheel_axes: np.ndarray
+    wheel_inertia_kg_m2: float
+    max_wheel_torque_nm: float
+    max_wheel_speed_rad_s: float = np.inf
+    inertia_eff_inv: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        inertia = validation.inertia("inertia_kg_m2", self.inertia_kg_m2)
+        axes = validation.finite_array("wheel_axes", self.wheel_axes)
+        if axes.ndim != 2 or axes.shape[0] != 3 or axes.shape[1] == 0:
+            raise ValueError(f"wheel_axes must be a 3xN matrix with N >= 1 wheels, got shape {axes.shape}")
+        norms = np.linalg.norm(axes, axis=0)
+        if np.any(np.abs(norms - 1.0) > 1e-6):
+            raise ValueError(f"wheel_axes columns must be unit vectors, got norms {norms.tolist()}")
+        if np.linalg.matrix_rank(axes, tol=1e-9) < 3:
+            raise ValueError("wheel_axes must have rank 3 (the wheels must span all three body axes)")
+        j_s = validation.positive("wheel_inertia_kg_m2", self.wheel_inertia_kg_m2)
+        validation.positive("max_wheel_torque_nm", self.max_wheel_torque_nm)
+        validation.positive("max_wheel_speed_rad_s", self.max_wheel_speed_rad_s, allow_inf=True)
+        axes = axes / norms
+        inertia_eff = inertia - j_s * axes @ axes.T
+        if np.linalg.eigvalsh(inertia_eff)[0] <= 0:
+            raise ValueError(
+                "wheel_inertia_kg_m2 is too large for inertia_kg_m2: I - J_s A A^T must be positive definite"
+            )
+        object.__setattr__(self, "inertia_kg_m2", inertia)
+        object.__setattr__(self, "wheel_axes", axes)
+        object.__setattr__(self, "wheel_inertia_kg_m2", j_s)
+        object.__setattr__(self, "max_wheel_torque_nm", float(self.max_wheel_torque_nm))
+        object.__setattr__(self, "max_wheel_speed_rad_s", float(self.max_wheel_speed_rad_s))
+        object.__setattr__(self, "inertia_eff_inv", np.linalg.inv(inertia_eff))
+
+    @property
+    def n_wheels(self) -> int:
+        return self.wheel_axes.shape[1]
+
+    def with_inertia(self, inertia_kg_m2: np.ndarray) -> GyrostatParams:
+        """The same wheels on a body of another inertia."""
+        return GyrostatParams(
+            inertia_kg_m2,
+            self.wheel_axes,
+            self.wheel_inertia_kg_m2,
+            self.max_wheel_torque_nm,
+            self.max_wheel_speed_rad_s,
+        )
+
+
+def derivative(
+    params: GyrostatParams, y: np.ndarray, motor_torque_nm: np.ndarray, external_torque_nm: np.ndarray
+) -> np.ndarray:
+    """Time derivative of ``y = [q (4, scalar last), ω (3, rad/s), Ω (N, rad/s)]``."""
+    n = params.n_wheels
+    q, w, wheel = y[:4], y[4:7], y[7 : 7 + n]
+    axes = params.wheel_axes
+    h = params.inertia_kg_m2 @ w + params.wheel_inertia_kg_m2 * (axes @ wheel)
+    gyro = np.array([w[1] * h[2] - w[2] * h[1], w[2] * h[0] - w[0] * h[2], w[0] * h[1] - w[1] * h[0]])
+    w_dot = params.inertia_eff_inv @ (-gyro - axes @ motor_torque_nm + external_torque_nm)
+    wheel_dot = motor_torque_nm / params.wheel_inertia_kg_m2 - axes.T @ w_dot
+    x, yq, z, s = q
+    q_dot = 0.5 * np.array(
+        [
+            s * w[0] + yq * w[2] - z * w[1],
+            s * w[1] + z * w[0] - x * w[2],
+            s * w[2] + x * w[1] - yq * w[0],
+            -(x * w[0] + yq * w[1] + z * w[2]),
+        ]
+    )
+    return np.concatenate([q_dot, w_dot, wheel_dot])
+
+
+def body_momentum(params: GyrostatParams, w: np.ndarray, wheel_speed_rad_s: np.ndarray) -> np.ndarray:
+    """Total angular momentum (body + wheels) in body axes, N·m·s."""
+    return params.inertia_kg_m2 @ w + params.wheel_inertia_kg_m2 * params.wheel_axes @ wheel_speed_rad_s
+
+
+def kinetic_energy(params: GyrostatParams, w: np.ndarray, wheel_speed_rad_s: np.ndarray) -> float:
+    """Rotational kinetic energy of body and wheels, J.
+
+    With ``I`` including the wheels' spin inertia, ``T = ½ωᵀ(I − J_s AAᵀ)ω + ½J_s Σ(Ω_i + a_i·ω)²``.
+    """
+    inertia_eff = params.inertia_kg_m2 - params.wheel_inertia_kg_m2 * params.wheel_axes @ params.wheel_axes.T
+    absolute = wheel_speed_rad_s + params.wheel_axes.T @ w
+    return float(0.5 * w @ inertia_eff @ w + 0.5 * params.wheel_inertia_kg_m2 * absolute @ absolute)
+
+
+def speed_limited_torque(params: GyrostatParams, torque_nm: np.ndarray, wheel_speed_rad_s: np.ndarray, h_s: float):
+    """Motor torque after the torque limit and the wheel-speed limit, N·m.
+
+    The speed limit acts like a motor driver's: over the next ``h_s`` seconds the torque may
+    take a wheel up to ``±max_wheel_speed_rad_s`` but not beyond it (ignoring the small
+    body-coupling term ``a_i·ω̇``), so a wheel at its limit gets no further torque outwards.
+    """
+    u = np.clip(torque_nm, -params.max_wheel_torque_nm, params.max_wheel_torque_nm)
+    if np.isfinite(params.max_wheel_speed_rad_s):
+        j_over_h = params.wheel_inertia_kg_m2 / h_s
+        hi = j_over_h * (params.max_wheel_speed_rad_s - wheel_speed_rad_s)
+        lo = j_over_h * (-params.max_wheel_speed_rad_s - wheel_speed_rad_s)
+        u = np.clip(np.minimum(np.maximum(u, lo), hi), -params.max_wheel_torque_nm, params.max_wheel_torque_nm)
+    return u
+
+
+def pyramid_axes(tilt_deg: float, n: int = 4, azimuth_offset_deg: float = 0.0) -> np.ndarray:
+    """Unit spin axes of ``n`` wheels tilted ``tilt_deg`` out of the body x–y plane,
+    evenly spaced in azimuth starting at ``azimuth_offset_deg`` (3×n)."""
+    beta = np.radians(tilt_deg)
+    az = np.radians(azimuth_offset_deg) + 2.0 * np.pi * np.arange(n) / n
+    return np.vstack([np.cos(beta) * np.cos(az), np.cos(beta) * np.sin(az), np.sin(beta) * np.ones(n)])

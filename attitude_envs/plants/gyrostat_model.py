@@ -1,0 +1,113 @@
+"""Nominal model of the reaction-wheel spacecraft as controllers see it.
+
+Error state (the cost's and the observation's ``x``):
+
+    x = [q_e,vec (3), ω (3, rad/s), h_w (N, N·m·s, only when wheel momentum is weighted)]
+
+with ``q_e = q_T* ⊗ q`` (sign w ≥ 0, see :func:`attitude_envs.quaternion.error`) and
+``h_w,i = J_s Ω_i``. The cost input is either the body torque ``T = −A u`` (3, N·m,
+``cost_input="body"``, as both papers weight it) or the wheel motor torques ``u`` (N, N·m).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from attitude_envs import quaternion
+from attitude_envs.cost import QuadraticCost
+from attitude_envs.linearization import LinearModel
+from attitude_envs.plants.gyrostat import GyrostatParams
+
+
+@dataclass(frozen=True)
+class ReactionWheelModel:
+    """Nominal gyrostat + error state + cost: what model-based controllers may use."""
+
+    params: GyrostatParams
+    cost: QuadraticCost
+    cost_input: str  # "body" or "wheel"
+    include_wheel_momentum: bool
+    control_dt_s: float
+
+    @property
+    def n_state(self) -> int:
+        return 6 + (self.params.n_wheels if self.include_wheel_momentum else 0)
+
+    @property
+    def allocation(self) -> np.ndarray:
+        """Minimum-norm map from a body torque demand ``T`` (N·m) to wheel motor torques
+        ``u = −A⁺ T`` (N×3), so that the body receives ``−A u = T``."""
+        return -np.linalg.pinv(self.params.wheel_axes)
+
+    def cost_input_of(self, motor_torque_nm: np.ndarray) -> np.ndarray:
+        """The cost's input ``u`` for the given wheel motor torques."""
+        if self.cost_input == "body":
+            return -self.params.wheel_axes @ motor_torque_nm
+        return motor_torque_nm
+
+    def error_state(self, q: np.ndarray, w: np.ndarray, wheel_speed_rad_s: np.ndarray, q_target: np.ndarray):
+        """``x`` of the current physical state relative to the target attitude (at rest)."""
+        qe = quaternion.error(q, q_target)
+        parts = [qe[:3], w]
+        if self.include_wheel_momentum:
+            parts.append(self.params.wheel_inertia_kg_m2 * wheel_speed_rad_s)
+        return np.concatenate(parts)
+
+    def error_derivative(
+        self, x: np.ndarray, motor_torque_nm: np.ndarray, wheel_speed_rad_s: np.ndarray | None = None
+    ) -> np.ndarray:
+        """``ẋ`` of the nonlinear plant in error coordinates (the target is inertially fixed).
+
+        When wheel momentum is not part of ``x`` the wheels sit at ``wheel_speed_rad_s``
+        (zero by default); used for finite-difference checks of :meth:`linearize`.
+        """
+        p = self.params
+        v, w = x[:3], x[3:6]
+        if self.include_wheel_momentum:
+            wheel = x[6:] / p.wheel_inertia_kg_m2
+        else:
+            wheel = np.zeros(p.n_wheels) if wheel_speed_rad_s is None else wheel_speed_rad_s
+        s = np.sqrt(max(0.0, 1.0 - v @ v))
+        v_dot = 0.5 * (s * w + np.cross(v, w))
+        h = p.inertia_kg_m2 @ w + p.wheel_inertia_kg_m2 * p.wheel_axes @ wheel
+        w_dot = p.inertia_eff_inv @ (-np.cross(w, h) - p.wheel_axes @ motor_torque_nm)
+        parts = [v_dot, w_dot]
+        if self.include_wheel_momentum:
+            parts.append(motor_torque_nm - p.wheel_inertia_kg_m2 * p.wheel_axes.T @ w_dot)
+        return np.concatenate(parts)
+
+    def linearize(self, wheel_speed_rad_s: np.ndarray | None = None, input: str | None = None) -> LinearModel:
+        """Continuous linearization about the target at rest (``x = 0``), wheels at
+        ``wheel_speed_rad_s`` (default zero). ``input`` is ``"body"`` or ``"wheel"``
+        (default: the cost's input); ``Q`` and ``R`` are the cost's when ``input`` is the
+        cost's input, else ``R`` is mapped (``R_wheel = AᵀR_body A`` is singular for N > 3:
+        use it only with ``input="wheel"`` costs)."""
+        p = self.params
+        input = self.cost_input if input is None else input
+        wheel = np.zeros(p.n_wheels) if wheel_speed_rad_s is None else np.asarray(wheel_speed_rad_s, dtype=float)
+        h0 = p.wheel_inertia_kg_m2 * p.wheel_axes @ wheel
+        n = self.n_state
+        A = np.zeros((n, n))
+        A[:3, 3:6] = 0.5 * np.eye(3)
+        A[3:6, 3:6] = p.inertia_eff_inv @ quaternion.skew(h0)
+        b_wheel = np.zeros((n, p.n_wheels))
+        b_wheel[3:6] = -p.inertia_eff_inv @ p.wheel_axes
+        if self.include_wheel_momentum:
+            A[6:, 3:6] = -p.wheel_inertia_kg_m2 * p.wheel_axes.T @ A[3:6, 3:6]
+            b_wheel[6:] = np.eye(p.n_wheels) - p.wheel_inertia_kg_m2 * p.wheel_axes.T @ b_wheel[3:6]
+        if input == "wheel":
+            B = b_wheel
+            R = self.cost.R if self.cost_input == "wheel" else p.wheel_axes.T @ self.cost.R @ p.wheel_axes
+        elif input == "body":
+            # body torque T enters as u = A⁺(−T)... i.e. through the minimum-norm allocation
+            B = b_wheel @ self.allocation
+            R = self.cost.R if self.cost_input == "body" else self.allocation.T @ self.cost.R @ self.allocation
+        else:
+            raise ValueError(f"input must be one of ['body', 'wheel'], got {input!r}")
+        return LinearModel(A, B, self.cost.Q, R)
+
+    def discrete(self, dt_s: float | None = None, **kwargs) -> LinearModel:
+        """Exact ZOH discretization (plant and cost) over ``dt_s`` (default: the control period)."""
+        return self.linearize(**kwargs).discretize(self.control_dt_s if dt_s is None else dt_s)

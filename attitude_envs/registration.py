@@ -1,0 +1,19 @@
+"""Gymnasium ids of the suite (``attitude_envs/<Name>-v0``)."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+
+ENV_IDS = {
+    "attitude_envs/ReactionWheel-v0": "attitude_envs.envs.reaction_wheel:ReactionWheelEnv",
+    "attitude_envs/LinearSystem-v0": "attitude_envs.envs.linear_system:LinearSystemEnv",
+}
+
+
+def register_envs() -> None:
+    """Register every env id (idempotent)."""
+    for env_id, entry_point in ENV_IDS.items():
+        if env_id not in gym.registry:
+            # Episodes end on simulated time inside the env (truncated), so the time limit
+            # does not depend on control_dt_s; no TimeLimit wrapper is added.
+            gym.register(id=env_id, entry_point=entry_point, disable_env_checker=False)

@@ -1,0 +1,105 @@
+"""Argument checks shared by every env: each raises ``ValueError`` naming the parameter."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def finite_array(name: str, value, shape: tuple[int, ...] | None = None) -> np.ndarray:
+    """Return ``value`` as a float array, checking its shape and that it is finite."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be numeric, got {value!r}") from exc
+    if shape is not None and arr.shape != shape:
+        raise ValueError(f"{name} must have shape {shape}, got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite (no NaN or inf), got {arr.tolist()}")
+    return arr
+
+
+def positive(name: str, value: float, allow_inf: bool = False) -> float:
+    """A strictly positive number (``inf`` allowed only when ``allow_inf``)."""
+    v = float(value)
+    ok = v > 0 and (allow_inf or np.isfinite(v))
+    if not ok:
+        accepted = "(0, inf]" if allow_inf else "(0, inf)"
+        raise ValueError(f"{name} must be in {accepted}, got {value!r}")
+    return v
+
+
+def nonnegative(name: str, value: float) -> float:
+    """A finite number ≥ 0."""
+    v = float(value)
+    if not (np.isfinite(v) and v >= 0):
+        raise ValueError(f"{name} must be in [0, inf), got {value!r}")
+    return v
+
+
+def unit_quaternion(name: str, value, tol: float = 1e-6) -> np.ndarray:
+    """A scalar-last unit quaternion ``[x, y, z, w]`` (norm within ``tol`` of 1), renormalized."""
+    q = finite_array(name, value, (4,))
+    norm = float(np.linalg.norm(q))
+    if abs(norm - 1.0) > tol:
+        raise ValueError(f"{name} must be a unit quaternion [x, y, z, w] (|q| = 1 ± {tol}), got |q| = {norm:.9g}")
+    return q / norm
+
+
+def inertia(name: str, value) -> np.ndarray:
+    """A physically valid inertia tensor, kg·m²: symmetric, positive definite, and whose
+    principal moments satisfy the triangle inequality ``I1 + I2 ≥ I3`` (all permutations)."""
+    inertia_matrix = finite_array(name, value, (3, 3))
+    scale = float(np.max(np.abs(inertia_matrix)))
+    if not np.allclose(inertia_matrix, inertia_matrix.T, rtol=0.0, atol=1e-12 * max(scale, 1.0)):
+        raise ValueError(f"{name} must be symmetric, got {inertia_matrix.tolist()}")
+    moments = np.linalg.eigvalsh(inertia_matrix)
+    if moments[0] <= 0:
+        raise ValueError(f"{name} must be positive definite, got principal moments {moments.tolist()}")
+    if moments[0] + moments[1] < moments[2] * (1.0 - 1e-12):
+        raise ValueError(
+            f"{name} violates the triangle inequality of principal moments (I1 + I2 >= I3): {moments.tolist()}"
+        )
+    return 0.5 * (inertia_matrix + inertia_matrix.T)
+
+
+def psd_matrix(name: str, value, n: int, definite: bool = False) -> np.ndarray:
+    """A symmetric positive semi-definite (or definite) ``n × n`` weight matrix; a vector
+    of length ``n`` or a scalar is taken as a diagonal."""
+    arr = finite_array(name, value)
+    if arr.ndim == 0:
+        arr = np.eye(n) * float(arr)
+    elif arr.ndim == 1:
+        if arr.shape != (n,):
+            raise ValueError(f"{name} must be a scalar, a length-{n} diagonal or an {n}x{n} matrix, got {arr.shape}")
+        arr = np.diag(arr)
+    if arr.shape != (n, n):
+        raise ValueError(f"{name} must be {n}x{n}, got {arr.shape}")
+    if not np.allclose(arr, arr.T, atol=1e-12 * max(1.0, float(np.max(np.abs(arr))))):
+        raise ValueError(f"{name} must be symmetric")
+    low = float(np.min(np.linalg.eigvalsh(arr))) if n else 0.0
+    tol = 1e-12 * max(1.0, float(np.max(np.abs(arr)))) if n else 0.0
+    if definite and low <= 0:
+        raise ValueError(f"{name} must be positive definite, smallest eigenvalue {low:.3g}")
+    if low < -tol:
+        raise ValueError(f"{name} must be positive semi-definite, smallest eigenvalue {low:.3g}")
+    return 0.5 * (arr + arr.T)
+
+
+def choice(name: str, value, accepted) -> str:
+    """One of a fixed set of strings."""
+    if value not in accepted:
+        raise ValueError(f"{name} must be one of {sorted(accepted)}, got {value!r}")
+    return value
+
+
+def action(value, n: int) -> np.ndarray:
+    """A finite action vector of length ``n`` (normalized units)."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"action must be numeric with shape ({n},), got {value!r}") from exc
+    if arr.shape != (n,):
+        raise ValueError(f"action must have shape ({n},), got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"action must be finite (no NaN or inf), got {arr.tolist()}")
+    return arr
