@@ -55,7 +55,7 @@ class LinearSystemEnv(gym.Env):
     Start state       ``x0 ~ N(x0_mean, diag(x0_std²))``, or ``options["state"]``
     Termination       ``‖x‖∞ > divergence_threshold`` or non-finite state
                       (observation bounds follow from it)
-    Truncation        after ``max_episode_steps`` steps
+    Truncation        after ``episode_steps`` steps
     Noise             ``w ~ N(0, process_noise_std²)`` per component, from the
                       env's RNG
     ================  ========================================================  ==========
@@ -63,7 +63,7 @@ class LinearSystemEnv(gym.Env):
     Parameters: ``preset`` (``"spec-001"``, default: spec 001 §2.3's Euler-discretized
     satellite, Δt = 0.01 s) or ``A`` (n×n), ``B`` (n×m), ``Q``, ``R``, ``x0_mean``,
     ``x0_std``, ``process_noise_std``, ``action_scale`` (scalar or m-vector, > 0),
-    ``max_episode_steps``, ``divergence_threshold``, ``dt_s`` (the period the matrices
+    ``episode_steps``, ``divergence_threshold``, ``dt_s`` (the period the matrices
     represent, for reporting). ``env.unwrapped.model`` is the :class:`LinearModel`
     (A, B, Q, R, dt). ``info`` holds ``state`` (x before the step), ``next_state``,
     ``applied`` (physical u after saturation) and ``cost``.
@@ -82,7 +82,7 @@ class LinearSystemEnv(gym.Env):
         x0_std=None,
         process_noise_std: float = 0.0,
         action_scale=None,
-        max_episode_steps: int = 1000,
+        episode_steps: int = 1000,
         divergence_threshold: float = 1e6,
         dt_s: float | None = None,
         render_mode: str | None = None,
@@ -121,9 +121,9 @@ class LinearSystemEnv(gym.Env):
         self.action_scale = np.broadcast_to(scale, (m,)).copy() if scale.ndim == 0 else scale
         if self.action_scale.shape != (m,) or np.any(self.action_scale <= 0):
             raise ValueError(f"action_scale must be > 0, a scalar or length {m}, got {scale.tolist()}")
-        if int(max_episode_steps) < 1:
-            raise ValueError(f"max_episode_steps must be >= 1, got {max_episode_steps!r}")
-        self.max_episode_steps = int(max_episode_steps)
+        if int(episode_steps) < 1:
+            raise ValueError(f"episode_steps must be >= 1, got {episode_steps!r}")
+        self.episode_steps = int(episode_steps)
         self.divergence_threshold = validation.positive("divergence_threshold", divergence_threshold)
         if render_mode is not None:
             raise ValueError(f"render_mode must be None for LinearSystem-v0, got {render_mode!r}")
@@ -164,7 +164,7 @@ class LinearSystemEnv(gym.Env):
         self._x = x_next
         self._steps += 1
         terminated = bool(not np.all(np.isfinite(x_next)) or np.max(np.abs(x_next)) > self.divergence_threshold)
-        truncated = self._steps >= self.max_episode_steps and not terminated
+        truncated = self._steps >= self.episode_steps and not terminated
         info = {"state": x.copy(), "next_state": x_next.copy(), "applied": u, "cost": cost}
         obs = x_next.astype(np.float32) if np.all(np.isfinite(x_next)) else np.zeros(self.model.n, np.float32)
         return obs, -cost, terminated, truncated, info

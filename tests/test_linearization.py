@@ -1,0 +1,109 @@
+"""The nominal model's linearization and exact discretization, checked numerically."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from conftest import asymmetric_inertia
+from scipy.integrate import quad_vec, solve_ivp
+
+from attitude_envs.linearization import LinearModel, zoh, zoh_cost
+
+
+def model_of(**kwargs):
+    return gym.make("attitude_envs/ReactionWheel-v0", **kwargs).unwrapped.model
+
+
+def finite_difference_jacobians(model, wheel, eps=1e-6):
+    n, m = model.n_state, model.params.n_wheels
+    x0, u0 = np.zeros(n), np.zeros(m)
+    if model.include_wheel_momentum:
+        x0[6:] = model.params.wheel_inertia_kg_m2 * wheel
+
+    def f(x, u):
+        return model.error_derivative(x, u, None if model.include_wheel_momentum else wheel)
+
+    A = np.column_stack([(f(x0 + eps * e, u0) - f(x0 - eps * e, u0)) / (2 * eps) for e in np.eye(n)])
+    B = np.column_stack([(f(x0, u0 + eps * e) - f(x0, u0 - eps * e)) / (2 * eps) for e in np.eye(m)])
+    return A, B
+
+
+@pytest.mark.parametrize("wheel_speed", [np.zeros(4), np.array([300.0, -150.0, 80.0, 20.0])])
+@pytest.mark.parametrize("momentum", [False, True])
+def test_linearization_matches_finite_differences(wheel_speed, momentum):
+    model = model_of(
+        inertia_kg_m2=asymmetric_inertia(), cost_input="wheel", R=np.eye(4), wheel_momentum_weight=float(momentum)
+    )
+    lin = model.linearize(wheel_speed_rad_s=wheel_speed, input="wheel")
+    A_fd, B_fd = finite_difference_jacobians(model, wheel_speed)
+    assert np.allclose(lin.A, A_fd, rtol=1e-6, atol=1e-8)
+    assert np.allclose(lin.B, B_fd, rtol=1e-6, atol=1e-8)
+    if np.any(wheel_speed):
+        assert np.abs(lin.A[3:6, 3:6]).max() > 1e-3  # the gyroscopic coupling is really there
+
+
+def test_body_input_linearization_is_the_allocated_wheel_one():
+    model = model_of()
+    body, wheel = model.linearize(input="body"), model.linearize(input="wheel")
+    assert np.allclose(body.B, wheel.B @ model.allocation)
+    # with the minimum-norm allocation the body receives exactly the demanded torque
+    assert np.allclose(-model.params.wheel_axes @ model.allocation, np.eye(3))
+    # small-wheel limit: B_ω ≈ I⁻¹ of spec 000 (I_eff differs by J_s A Aᵀ = 6.7e-4 I)
+    assert np.allclose(body.B[3:6], np.linalg.inv(np.diag([4.0, 4.0, 3.0])), rtol=3e-4)
+
+
+def test_zoh_matches_integrating_the_linear_system(rng):
+    A = rng.normal(size=(4, 4))
+    B = rng.normal(size=(4, 2))
+    x0, u = rng.normal(size=4), rng.normal(size=2)
+    A_d, B_d = zoh(A, B, 0.3)
+    sol = solve_ivp(lambda t, x: A @ x + B @ u, (0, 0.3), x0, rtol=1e-12, atol=1e-14)
+    assert np.allclose(A_d @ x0 + B_d @ u, sol.y[:, -1], rtol=1e-9, atol=1e-12)
+
+
+def test_zoh_cost_matches_quadrature(rng):
+    A = rng.normal(size=(3, 3))
+    B = rng.normal(size=(3, 2))
+    Q = np.diag([1.0, 2.0, 3.0])
+    R = np.array([[2.0, 0.3], [0.3, 1.0]])
+    x0, u = rng.normal(size=3), rng.normal(size=2)
+    Q_d, R_d, N_d = zoh_cost(A, B, Q, R, 0.4)
+
+    def integrand(t):
+        x = zoh(A, B, t)[0] @ x0 + zoh(A, B, t)[1] @ u if t > 0 else x0
+        return np.array([x @ Q @ x + u @ R @ u])
+
+    ref = quad_vec(integrand, 0.0, 0.4, epsabs=1e-13, epsrel=1e-12)[0][0]
+    assert x0 @ Q_d @ x0 + 2 * x0 @ N_d @ u + u @ R_d @ u == pytest.approx(ref, rel=1e-9)
+
+
+def test_env_step_matches_discrete_model_near_the_target():
+    env = gym.make("attitude_envs/ReactionWheel-v0", control_dt_s=0.1).unwrapped
+    disc = env.model.discrete()
+    assert disc.dt_s == 0.1
+    eps = 1e-5
+    x0 = eps * np.array([0.3, -0.5, 0.2, 0.4, 0.1, -0.2])
+    qe = np.concatenate([x0[:3], [np.sqrt(1 - x0[:3] @ x0[:3])]])
+    u_body = 1e-3 * np.array([0.2, -0.1, 0.3])
+    action = env.model.allocation @ u_body / env.model.params.max_wheel_torque_nm
+    env.reset(seed=0, options={"attitude": qe, "rate_rad_s": x0[3:], "target_attitude": [0, 0, 0, 1.0]})
+    obs, reward, _, _, info = env.step(action)
+    u = -env.model.params.wheel_axes @ info["applied"]
+    x_pred = disc.A @ x0 + disc.B @ u
+    assert np.allclose(env.error_state(), x_pred, rtol=0, atol=1e-4 * np.abs(x_pred).max())
+    cost_pred = x0 @ disc.Q @ x0 + 2 * x0 @ disc.N @ u + u @ disc.R @ u
+    assert info["cost"] == pytest.approx(cost_pred, rel=1e-4)
+    assert reward == -info["cost"]
+
+
+def test_lqr_gain_of_spec000_reproduces_the_papers_gains():
+    model = model_of(wheel_inertia_kg_m2=1e-12)  # spec 000 designs with the small-wheel model
+    K = model.linearize().lqr_gain()
+    # spec 000 eqs. 77-78 (gains on ω and q_v); here x is ordered (q_v, ω) and u = −K x
+    assert np.allclose(np.diag(K[:, :3]), 0.2608, atol=5e-5)
+    assert np.allclose(np.diag(K[:, 3:]), [2.5091, 2.5091, 2.4566], atol=5e-5)
+
+
+def test_linear_model_rejects_double_discretization():
+    lin = LinearModel(np.zeros((2, 2)), np.eye(2), np.eye(2), np.eye(2))
+    with pytest.raises(ValueError, match="already discrete"):
+        lin.discretize(0.1).discretize(0.1)
