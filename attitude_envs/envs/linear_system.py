@@ -11,6 +11,7 @@ from gymnasium import spaces
 
 from attitude_envs import validation
 from attitude_envs.cost import QuadraticCost
+from attitude_envs.faults import ActuatorFaults
 from attitude_envs.linearization import LinearModel
 
 
@@ -63,7 +64,8 @@ class LinearSystemEnv(gym.Env):
     Parameters: ``preset`` (``"spec-001"``, default: spec 001 §2.3's Euler-discretized
     satellite, Δt = 0.01 s) or ``A`` (n×n), ``B`` (n×m), ``Q``, ``R``, ``x0_mean``,
     ``x0_std``, ``process_noise_std``, ``action_scale`` (scalar or m-vector, > 0),
-    ``episode_steps``, ``divergence_threshold``, ``dt_s`` (the period the matrices
+    ``episode_steps``, ``divergence_threshold``, ``faults`` (see :mod:`attitude_envs.faults`,
+    time = steps × ``dt_s``), ``dt_s`` (the period the matrices
     represent, for reporting). ``env.unwrapped.model`` is the :class:`LinearModel`
     (A, B, Q, R, dt). ``info`` holds ``state`` (x before the step), ``next_state``,
     ``applied`` (physical u after saturation) and ``cost``.
@@ -85,6 +87,7 @@ class LinearSystemEnv(gym.Env):
         episode_steps: int = 1000,
         divergence_threshold: float = 1e6,
         dt_s: float | None = None,
+        faults: list[dict] | None = None,
         render_mode: str | None = None,
     ) -> None:
         cfg: dict = {}
@@ -121,6 +124,7 @@ class LinearSystemEnv(gym.Env):
         self.action_scale = np.broadcast_to(scale, (m,)).copy() if scale.ndim == 0 else scale
         if self.action_scale.shape != (m,) or np.any(self.action_scale <= 0):
             raise ValueError(f"action_scale must be > 0, a scalar or length {m}, got {scale.tolist()}")
+        self._faults = ActuatorFaults(faults, m, self.action_scale)
         if int(episode_steps) < 1:
             raise ValueError(f"episode_steps must be >= 1, got {episode_steps!r}")
         self.episode_steps = int(episode_steps)
@@ -142,20 +146,22 @@ class LinearSystemEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
         options = {} if options is None else dict(options)
-        unknown = set(options) - {"state"}
+        unknown = set(options) - {"state", "faults"}
         if unknown:
-            raise ValueError(f"reset options has unknown keys {sorted(unknown)}; accepted: ['state']")
+            raise ValueError(f"reset options has unknown keys {sorted(unknown)}; accepted: ['faults', 'state']")
         n = self.model.n
         if "state" in options:
             self._x = validation.finite_array("options['state']", options["state"], (n,)).copy()
         else:
             self._x = self._x0_mean + self._x0_std * self.np_random.normal(size=n)
         self._steps = 0
-        return self._x.astype(np.float32), {"state": self._x.copy()}
+        self._faults.reset(self.np_random, options.get("faults"))
+        return self._x.astype(np.float32), {"state": self._x.copy(), "faults": self._faults.info(0.0)}
 
     def step(self, action):
         a = np.clip(validation.action(action, self.model.m), -1.0, 1.0)
-        u = self.action_scale * a
+        t_s = self._steps * self.model.dt_s
+        u = self._faults.apply(self.action_scale * a, t_s)
         x = self._x
         cost = self.cost.stage(x, u)
         x_next = self.model.A @ x + self.model.B @ u
@@ -166,5 +172,6 @@ class LinearSystemEnv(gym.Env):
         terminated = bool(not np.all(np.isfinite(x_next)) or np.max(np.abs(x_next)) > self.divergence_threshold)
         truncated = self._steps >= self.episode_steps and not terminated
         info = {"state": x.copy(), "next_state": x_next.copy(), "applied": u, "cost": cost}
+        info["faults"] = self._faults.info(t_s)
         obs = x_next.astype(np.float32) if np.all(np.isfinite(x_next)) else np.zeros(self.model.n, np.float32)
         return obs, -cost, terminated, truncated, info

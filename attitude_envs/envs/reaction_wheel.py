@@ -11,13 +11,14 @@ from gymnasium import spaces
 from attitude_envs import quaternion, validation
 from attitude_envs.cost import QuadraticCost
 from attitude_envs.disturbances import Disturbance
+from attitude_envs.faults import ActuatorFaults
 from attitude_envs.integrators import rk4_step, substeps
 from attitude_envs.plants import gyrostat
 from attitude_envs.plants.gyrostat_model import ReactionWheelModel
 from attitude_envs.presets import preset as load_preset
 from attitude_envs.uncertainty import InertiaUncertainty
 
-_OPTION_KEYS = {"attitude", "rate_rad_s", "wheel_speed_rad_s", "target_attitude"}
+_OPTION_KEYS = {"attitude", "rate_rad_s", "wheel_speed_rad_s", "target_attitude", "faults"}
 
 
 class ReactionWheelEnv(gym.Env):
@@ -58,14 +59,16 @@ class ReactionWheelEnv(gym.Env):
     ``target_angle_deg``, ``initial_attitude``, ``initial_angle_deg``, ``initial_rate_rad_s``,
     ``initial_rate_max_rad_s``, ``inertia_uncertainty`` (see :mod:`attitude_envs.uncertainty`),
     ``disturbance`` (see :mod:`attitude_envs.disturbances`), ``max_rate_rad_s``,
-    ``observe_wheel_speeds``.
+    ``observe_wheel_speeds``, ``faults`` (list of fault dicts, see :mod:`attitude_envs.faults`;
+    also per episode as ``reset(options={"faults": [...]})``).
 
     ``env.unwrapped.model`` is the *nominal* :class:`ReactionWheelModel` (inertia,
     wheels, cost, linearization); the true inertia and disturbance stay private, and
     ``info`` carries the truth: ``state`` (``attitude``, ``rate_rad_s``,
     ``wheel_speed_rad_s``, ``target_attitude``), ``applied`` (mean motor torque actually
     delivered over the step, N·m), ``commanded``, ``cost``, ``time_s``,
-    ``error_angle_deg``, ``disturbance_torque_nm``, ``true_inertia_kg_m2``.
+    ``error_angle_deg``, ``disturbance_torque_nm``, ``true_inertia_kg_m2``, ``faults``
+    (ground truth: every fault of the episode with its draws and whether it is active).
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 10}
@@ -95,6 +98,7 @@ class ReactionWheelEnv(gym.Env):
         disturbance: dict | None = None,
         max_rate_rad_s: float = 2.0 * np.pi,
         observe_wheel_speeds: bool = False,
+        faults: list[dict] | None = None,
         render_mode: str | None = None,
     ) -> None:
         cfg = load_preset(preset)
@@ -160,6 +164,7 @@ class ReactionWheelEnv(gym.Env):
         self._rate_max = validation.nonnegative("initial_rate_max_rad_s", cfg["initial_rate_max_rad_s"])
         self._uncertainty = InertiaUncertainty.from_config(inertia_uncertainty)
         self._disturbance = None if disturbance is None else Disturbance(disturbance)
+        self._faults = ActuatorFaults(faults, params.n_wheels, params.max_wheel_torque_nm)
         self.max_rate_rad_s = validation.positive("max_rate_rad_s", max_rate_rad_s)
         self.observe_wheel_speeds = bool(observe_wheel_speeds)
         if self.observe_wheel_speeds and not np.isfinite(params.max_wheel_speed_rad_s):
@@ -186,6 +191,7 @@ class ReactionWheelEnv(gym.Env):
         self._y[3] = 1.0
         self._target = np.array([0.0, 0.0, 0.0, 1.0])
         self._t = 0.0
+        self._steps = 0
         self._renderer = None
 
     # ------------------------------------------------------------------ gym API
@@ -217,8 +223,10 @@ class ReactionWheelEnv(gym.Env):
         self._y = np.concatenate([q0, rate, wheel])
         self._target = target
         self._t = 0.0
+        self._steps = 0
         if self._disturbance is not None:
             self._disturbance.reset(rng)
+        self._faults.reset(rng, options.get("faults"))
         info = self._info(np.zeros(n_w), np.zeros(n_w), 0.0)
         if self.render_mode == "human":
             self.render()
@@ -228,17 +236,21 @@ class ReactionWheelEnv(gym.Env):
         p = self._plant
         a = np.clip(validation.action(action, p.n_wheels), -1.0, 1.0)
         commanded = a * p.max_wheel_torque_nm
+        delivered = self._faults.apply(commanded, self._t)
         if self._disturbance is not None:
             self._disturbance.advance(self.np_random, self.control_dt_s)
         h = self.integrator_dt_s
         aug = np.concatenate([self._y, [0.0]])
         applied_sum = np.zeros(p.n_wheels)
-        for _ in range(self._substeps):
-            u = gyrostat.speed_limited_torque(p, commanded, aug[7:-1], h)
+        t0 = self._t
+        for j in range(self._substeps):
+            u = gyrostat.speed_limited_torque(p, delivered, aug[7:-1], h)
             applied_sum += u
-            aug = rk4_step(lambda t, y, u=u: self._augmented_derivative(t, y, u), self._t, aug, h)
+            aug = rk4_step(lambda t, y, u=u: self._augmented_derivative(t, y, u), t0 + j * h, aug, h)
             aug[:4] /= np.linalg.norm(aug[:4])
-            self._t += h
+        # time from the step count, so that onsets and the time limit do not drift
+        self._steps += 1
+        self._t = self._steps * self.control_dt_s
         self._y = aug[:-1]
         cost = float(aug[-1])
         applied = applied_sum / self._substeps
@@ -312,6 +324,7 @@ class ReactionWheelEnv(gym.Env):
             "error_angle_deg": float(np.degrees(quaternion.error_angle_rad(self._y[:4], self._target))),
             "disturbance_torque_nm": ext,
             "true_inertia_kg_m2": self._plant.inertia_kg_m2.copy(),
+            "faults": self._faults.info(self._t),
         }
 
 
