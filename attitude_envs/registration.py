@@ -4,6 +4,10 @@ from __future__ import annotations
 
 import gymnasium as gym
 
+VECTOR_ENTRY_POINTS = {
+    "attitude_envs/ReactionWheel-v0": "attitude_envs.envs.reaction_wheel_vector:ReactionWheelVectorEnv",
+}
+
 ENV_IDS = {
     "attitude_envs/ReactionWheel-v0": "attitude_envs.envs.reaction_wheel:ReactionWheelEnv",
     "attitude_envs/LinearSystem-v0": "attitude_envs.envs.linear_system:LinearSystemEnv",
@@ -16,4 +20,9 @@ def register_envs() -> None:
         if env_id not in gym.registry:
             # Episodes end on simulated time inside the env (truncated), so the time limit
             # does not depend on control_dt_s; no TimeLimit wrapper is added.
-            gym.register(id=env_id, entry_point=entry_point, disable_env_checker=False)
+            gym.register(
+                id=env_id,
+                entry_point=entry_point,
+                vector_entry_point=VECTOR_ENTRY_POINTS.get(env_id),
+                disable_env_checker=False,
+            )

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
@@ -93,13 +95,15 @@ def choice(name: str, value, accepted) -> str:
 
 
 def action(value, n: int) -> np.ndarray:
-    """A finite action vector of length ``n`` (normalized units)."""
+    """A finite action vector of length ``n`` (normalized units), as float64. Hot path."""
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"action must be numeric with shape ({n},), got {value!r}") from exc
     if arr.shape != (n,):
         raise ValueError(f"action must have shape ({n},), got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
+    # A finite sum proves every entry finite; only a non-finite sum (NaN/inf, or an
+    # overflow of huge finite entries) needs the exact element-wise check.
+    if not math.isfinite(arr.sum()) and not np.isfinite(arr).all():
         raise ValueError(f"action must be finite (no NaN or inf), got {arr.tolist()}")
     return arr

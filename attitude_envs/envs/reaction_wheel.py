@@ -12,8 +12,9 @@ from attitude_envs import quaternion, validation
 from attitude_envs.cost import QuadraticCost
 from attitude_envs.disturbances import Disturbance
 from attitude_envs.faults import ActuatorFaults
-from attitude_envs.integrators import rk4_step, substeps
+from attitude_envs.integrators import substeps
 from attitude_envs.plants import gyrostat
+from attitude_envs.plants import gyrostat_kernels as kernels
 from attitude_envs.plants.gyrostat_model import ReactionWheelModel
 from attitude_envs.presets import preset as load_preset
 from attitude_envs.uncertainty import InertiaUncertainty
@@ -193,6 +194,11 @@ class ReactionWheelEnv(gym.Env):
         self._t = 0.0
         self._steps = 0
         self._renderer = None
+        self._ext_stages = np.zeros((self._substeps, 3, 3))
+        self._pack_kernel_arguments()
+        self._x_buf = np.empty(n_x)
+        self._work = np.empty(kernels.work_size(n_w, n_x))
+        self._qe_w = 1.0
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
@@ -208,6 +214,7 @@ class ReactionWheelEnv(gym.Env):
             if self._uncertainty is None
             else self.model.params.with_inertia(self._uncertainty.draw(self.model.params.inertia_kg_m2, rng))
         )
+        self._pack_kernel_arguments()
         q0 = self._draw_attitude(self._initial_fixed, self._initial_angle)
         target = self._draw_attitude(self._target_fixed, self._target_angle)
         rate = self._rate_fixed if self._rate_fixed is not None else rng.uniform(-self._rate_max, self._rate_max, 3)
@@ -227,44 +234,64 @@ class ReactionWheelEnv(gym.Env):
         if self._disturbance is not None:
             self._disturbance.reset(rng)
         self._faults.reset(rng, options.get("faults"))
+        obs = self._observation()
         info = self._info(np.zeros(n_w), np.zeros(n_w), 0.0)
         if self.render_mode == "human":
             self.render()
-        return self._observation(), info
+        return obs, info
 
     def step(self, action):
         p = self._plant
-        a = np.clip(validation.action(action, p.n_wheels), -1.0, 1.0)
-        commanded = a * p.max_wheel_torque_nm
+        a = validation.action(action, p.n_wheels)
+        commanded = np.minimum(np.maximum(a, -1.0), 1.0) * p.max_wheel_torque_nm
         delivered = self._faults.apply(commanded, self._t)
         if self._disturbance is not None:
             self._disturbance.advance(self.np_random, self.control_dt_s)
-        h = self.integrator_dt_s
-        aug = np.concatenate([self._y, [0.0]])
-        applied_sum = np.zeros(p.n_wheels)
-        t0 = self._t
-        for j in range(self._substeps):
-            u = gyrostat.speed_limited_torque(p, delivered, aug[7:-1], h)
-            applied_sum += u
-            aug = rk4_step(lambda t, y, u=u: self._augmented_derivative(t, y, u), t0 + j * h, aug, h)
-            aug[:4] /= np.linalg.norm(aug[:4])
+            self._fill_disturbance_stages()
+        applied = np.empty(p.n_wheels)
+        cost = kernels.control_step(
+            self._y,
+            delivered,
+            self._ext_stages,
+            self._mats,
+            p.wheel_axes,
+            self._scalars,
+            self._flags,
+            self._target,
+            self.model.cost.Q,
+            self.model.cost.R,
+            applied,
+            self._work,
+        )
         # time from the step count, so that onsets and the time limit do not drift
         self._steps += 1
         self._t = self._steps * self.control_dt_s
-        self._y = aug[:-1]
-        cost = float(aug[-1])
-        applied = applied_sum / self._substeps
-        terminated = not np.all(np.isfinite(aug))
-        if not terminated:
-            terminated = bool(np.max(np.abs(self._y[4:7])) > self.max_rate_rad_s)
+        finite = bool(np.isfinite(self._y).all()) and np.isfinite(cost)
+        terminated = not finite or bool(np.abs(self._y[4:7]).max() > self.max_rate_rad_s)
         truncated = bool(self._t >= self.episode_duration_s - 1e-9 * self.control_dt_s) and not terminated
-        obs = (
-            self._observation() if np.all(np.isfinite(self._y)) else np.zeros(self.observation_space.shape, np.float32)
-        )
+        obs = self._observation() if finite else np.zeros(self.observation_space.shape, np.float32)
         info = self._info(applied, commanded, cost)
         if self.render_mode == "human":
             self.render()
         return obs, -cost, terminated, truncated, info
+
+    def _pack_kernel_arguments(self) -> None:
+        p = self._plant
+        self._mats = np.ascontiguousarray(np.stack([p.inertia_kg_m2, p.inertia_eff_inv]))
+        self._scalars = np.array(
+            [p.wheel_inertia_kg_m2, p.max_wheel_torque_nm, p.max_wheel_speed_rad_s, self.integrator_dt_s]
+        )
+        self._flags = np.array(
+            [self._substeps, self.model.cost_input == "body", self.model.include_wheel_momentum], dtype=np.int64
+        )
+
+    def _fill_disturbance_stages(self) -> None:
+        """External torque at each sub-step's RK4 stage times (t, t + h/2, t + h)."""
+        h = self.integrator_dt_s
+        for j in range(self._substeps):
+            t = self._t + j * h
+            for k, dt in enumerate((0.0, 0.5 * h, h)):
+                self._ext_stages[j, k] = self._disturbance.torque_nm_at(t + dt)
 
     def render(self):
         if self.render_mode is None:
@@ -285,14 +312,6 @@ class ReactionWheelEnv(gym.Env):
             self._renderer = None
 
     # ------------------------------------------------------------------ internals
-    def _augmented_derivative(self, t: float, aug: np.ndarray, u: np.ndarray) -> np.ndarray:
-        y = aug[:-1]
-        n_w = self._plant.n_wheels
-        ext = np.zeros(3) if self._disturbance is None else self._disturbance.torque_nm_at(t)
-        dy = gyrostat.derivative(self._plant, y, u, ext)
-        x = self.model.error_state(y[:4] / np.linalg.norm(y[:4]), y[4:7], y[7 : 7 + n_w], self._target)
-        return np.concatenate([dy, [self.model.cost.stage(x, self.model.cost_input_of(u))]])
-
     def _draw_attitude(self, fixed, max_angle_deg: float) -> np.ndarray:
         if fixed is not None:
             return fixed.copy()
@@ -303,26 +322,39 @@ class ReactionWheelEnv(gym.Env):
         return self.model.error_state(self._y[:4], self._y[4:7], self._y[7:], self._target)
 
     def _observation(self) -> np.ndarray:
-        x = self.error_state()
+        x = self._x_buf
+        self._qe_w = kernels.error_state_into(
+            self._y,
+            self._target,
+            self._plant.wheel_inertia_kg_m2,
+            self.model.include_wheel_momentum,
+            self._plant.n_wheels,
+            x,
+        )
         if self.observe_wheel_speeds:
             x = np.concatenate([x, self._y[7:] / self._plant.max_wheel_speed_rad_s])
         return x.astype(np.float32)
 
     def _info(self, applied: np.ndarray, commanded: np.ndarray, cost: float) -> dict:
-        ext = np.zeros(3) if self._disturbance is None else self._disturbance.torque_nm_at(self._t)
+        # Info holds new arrays every call (gymnasium's checker): one copy of the state and
+        # target, whose slices are views of it.
+        y = np.concatenate([self._y, self._target])
+        n = y.shape[0] - 4
         return {
             "state": {
-                "attitude": self._y[:4].copy(),
-                "rate_rad_s": self._y[4:7].copy(),
-                "wheel_speed_rad_s": self._y[7:].copy(),
-                "target_attitude": self._target.copy(),
+                "attitude": y[:4],
+                "rate_rad_s": y[4:7],
+                "wheel_speed_rad_s": y[7:n],
+                "target_attitude": y[n:],
             },
             "applied": applied,
             "commanded": commanded,
             "cost": cost,
             "time_s": self._t,
-            "error_angle_deg": float(np.degrees(quaternion.error_angle_rad(self._y[:4], self._target))),
-            "disturbance_torque_nm": ext,
+            "error_angle_deg": float(np.degrees(2.0 * np.arccos(min(1.0, self._qe_w)))),
+            "disturbance_torque_nm": np.zeros(3)
+            if self._disturbance is None
+            else np.array(self._disturbance.torque_nm_at(self._t)),
             "true_inertia_kg_m2": self._plant.inertia_kg_m2.copy(),
             "faults": self._faults.info(self._t),
         }

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from attitude_envs import validation
+from attitude_envs.plants import gyrostat_kernels as kernels
 
 
 @dataclass(frozen=True)
@@ -57,12 +58,14 @@ class GyrostatParams:
             raise ValueError(
                 "wheel_inertia_kg_m2 is too large for inertia_kg_m2: I - J_s A A^T must be positive definite"
             )
-        object.__setattr__(self, "inertia_kg_m2", inertia)
-        object.__setattr__(self, "wheel_axes", axes)
+        object.__setattr__(self, "inertia_kg_m2", np.ascontiguousarray(inertia))
+        object.__setattr__(self, "wheel_axes", np.ascontiguousarray(axes))
         object.__setattr__(self, "wheel_inertia_kg_m2", j_s)
         object.__setattr__(self, "max_wheel_torque_nm", float(self.max_wheel_torque_nm))
         object.__setattr__(self, "max_wheel_speed_rad_s", float(self.max_wheel_speed_rad_s))
         object.__setattr__(self, "inertia_eff_inv", np.linalg.inv(inertia_eff))
+        for name in ("inertia_kg_m2", "wheel_axes", "inertia_eff_inv"):
+            getattr(self, name).setflags(write=False)
 
     @property
     def n_wheels(self) -> int:
@@ -83,23 +86,18 @@ def derivative(
     params: GyrostatParams, y: np.ndarray, motor_torque_nm: np.ndarray, external_torque_nm: np.ndarray
 ) -> np.ndarray:
     """Time derivative of ``y = [q (4, scalar last), ω (3, rad/s), Ω (N, rad/s)]``."""
-    n = params.n_wheels
-    q, w, wheel = y[:4], y[4:7], y[7 : 7 + n]
-    axes = params.wheel_axes
-    h = params.inertia_kg_m2 @ w + params.wheel_inertia_kg_m2 * (axes @ wheel)
-    gyro = np.array([w[1] * h[2] - w[2] * h[1], w[2] * h[0] - w[0] * h[2], w[0] * h[1] - w[1] * h[0]])
-    w_dot = params.inertia_eff_inv @ (-gyro - axes @ motor_torque_nm + external_torque_nm)
-    wheel_dot = motor_torque_nm / params.wheel_inertia_kg_m2 - axes.T @ w_dot
-    x, yq, z, s = q
-    q_dot = 0.5 * np.array(
-        [
-            s * w[0] + yq * w[2] - z * w[1],
-            s * w[1] + z * w[0] - x * w[2],
-            s * w[2] + x * w[1] - yq * w[0],
-            -(x * w[0] + yq * w[1] + z * w[2]),
-        ]
+    out = np.empty(7 + params.n_wheels)
+    kernels.derivative_into(
+        np.ascontiguousarray(y, dtype=float),
+        np.ascontiguousarray(motor_torque_nm, dtype=float),
+        np.ascontiguousarray(external_torque_nm, dtype=float),
+        params.inertia_kg_m2,
+        params.inertia_eff_inv,
+        params.wheel_axes,
+        params.wheel_inertia_kg_m2,
+        out,
     )
-    return np.concatenate([q_dot, w_dot, wheel_dot])
+    return out
 
 
 def body_momentum(params: GyrostatParams, w: np.ndarray, wheel_speed_rad_s: np.ndarray) -> np.ndarray:
@@ -124,13 +122,17 @@ def speed_limited_torque(params: GyrostatParams, torque_nm: np.ndarray, wheel_sp
     take a wheel up to ``±max_wheel_speed_rad_s`` but not beyond it (ignoring the small
     body-coupling term ``a_i·ω̇``), so a wheel at its limit gets no further torque outwards.
     """
-    u = np.clip(torque_nm, -params.max_wheel_torque_nm, params.max_wheel_torque_nm)
-    if np.isfinite(params.max_wheel_speed_rad_s):
-        j_over_h = params.wheel_inertia_kg_m2 / h_s
-        hi = j_over_h * (params.max_wheel_speed_rad_s - wheel_speed_rad_s)
-        lo = j_over_h * (-params.max_wheel_speed_rad_s - wheel_speed_rad_s)
-        u = np.clip(np.minimum(np.maximum(u, lo), hi), -params.max_wheel_torque_nm, params.max_wheel_torque_nm)
-    return u
+    out = np.empty(params.n_wheels)
+    kernels.speed_limit_into(
+        np.asarray(torque_nm, dtype=float),
+        np.asarray(wheel_speed_rad_s, dtype=float),
+        params.max_wheel_torque_nm,
+        params.max_wheel_speed_rad_s,
+        params.wheel_inertia_kg_m2,
+        h_s,
+        out,
+    )
+    return out
 
 
 def pyramid_axes(tilt_deg: float, n: int = 4, azimuth_offset_deg: float = 0.0) -> np.ndarray:

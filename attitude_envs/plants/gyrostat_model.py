@@ -18,6 +18,7 @@ import numpy as np
 from attitude_envs import quaternion
 from attitude_envs.cost import QuadraticCost
 from attitude_envs.linearization import LinearModel
+from attitude_envs.plants import gyrostat_kernels as kernels
 from attitude_envs.plants.gyrostat import GyrostatParams
 
 
@@ -49,11 +50,17 @@ class ReactionWheelModel:
 
     def error_state(self, q: np.ndarray, w: np.ndarray, wheel_speed_rad_s: np.ndarray, q_target: np.ndarray):
         """``x`` of the current physical state relative to the target attitude (at rest)."""
-        qe = quaternion.error(q, q_target)
-        parts = [qe[:3], w]
-        if self.include_wheel_momentum:
-            parts.append(self.params.wheel_inertia_kg_m2 * wheel_speed_rad_s)
-        return np.concatenate(parts)
+        y = np.concatenate([q, w, wheel_speed_rad_s]).astype(float)
+        x = np.empty(self.n_state)
+        kernels.error_state_into(
+            y,
+            np.asarray(q_target, dtype=float),
+            self.params.wheel_inertia_kg_m2,
+            self.include_wheel_momentum,
+            self.params.n_wheels,
+            x,
+        )
+        return x
 
     def error_derivative(
         self, x: np.ndarray, motor_torque_nm: np.ndarray, wheel_speed_rad_s: np.ndarray | None = None
