@@ -90,8 +90,12 @@ def episode_metrics(
     energy = (u * u).sum(axis=1)
     tail = t >= t[-1] - steady_state_fraction * (t[-1] - t[0])
     limit = trace.max_wheel_torque_nm
-    saturated = np.any(np.abs(trace.action) > 1.0, axis=1) | np.any(
-        np.abs(trace.applied_nm - trace.commanded_nm) > 1e-9 * limit, axis=1
+    # a step is saturated when the env clipped the action, a wheel ran at its torque limit, or
+    # the speed limit cut a wheel's torque (applied ≠ commanded)
+    saturated = (
+        np.any(np.abs(trace.action) > 1.0, axis=1)
+        | np.any(np.abs(u) >= limit * (1.0 - 1e-6), axis=1)
+        | np.any(np.abs(trace.applied_nm - trace.commanded_nm) > 1e-9 * limit, axis=1)
     )
     peak_wheel = float(np.max(np.abs(wheel)))
     row: dict[str, float | int | bool] = {
@@ -114,7 +118,7 @@ def episode_metrics(
         "energy_sum_nm2": float(np.sum(energy)),
         "peak_motor_torque_nm": float(np.max(np.abs(u))) if u.size else 0.0,
         "peak_wheel_speed_rpm": peak_wheel * RPM_PER_RAD_S,
-        "saturation_fraction": float(np.mean(saturated)) if len(saturated) else 0.0,
+        "saturation_fraction": float(np.mean(saturated)) if len(saturated) else 0.0,  # of the steps
     }
     row["overshoot_pct"] = float(100.0 * row["overshoot_deg"] / alpha[0]) if alpha[0] > 0 else 0.0
     if wheel_speed_limit_rad_s is not None:
