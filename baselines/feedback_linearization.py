@@ -57,6 +57,11 @@ def outer_loop_gain(Q=PAPER_OUTER_Q, R=PAPER_OUTER_R) -> np.ndarray:
     return LinearModel(A, B, q_mat, r_mat).lqr_gain()
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a × b`` for 3-vectors (``np.cross`` is slow on tiny arrays: hot path)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
 def q_double_prime(q: np.ndarray) -> np.ndarray:
     """``Q''(q)`` of spec 000 eq. 67: ``q̇_vec = ½ Q''(q) ω`` (scalar-last ``q``)."""
     q1, q2, q3, q4 = q
@@ -129,8 +134,8 @@ class FeedbackLinearizationPolicy:
         qv_dot = 0.5 * qpp @ w
         q4_dot = -0.5 * float(q[:3] @ w)
         h = self._inertia @ w + self._wheel_momentum @ state.wheel_speed_rad_s
-        w_dot_drift = self._inertia_eff_inv @ -np.cross(w, h)
-        D = 0.5 * (q4_dot * w + np.cross(qv_dot, w)) + 0.5 * qpp @ w_dot_drift  # eq. 25
+        w_dot_drift = self._inertia_eff_inv @ -_cross(w, h)
+        D = 0.5 * (q4_dot * w + _cross(qv_dot, w)) + 0.5 * qpp @ w_dot_drift  # eq. 25
         E = 0.5 * qpp @ self._inertia_eff_inv  # eq. 26
         v = -self.gain @ np.concatenate([q[:3] - y_d, qv_dot])  # eq. 33
         return np.linalg.solve(E, v - D)  # eq. 28
