@@ -1,0 +1,124 @@
+"""Report figures (matplotlib, Agg backend, PNG): episode time histories and a bar chart of J."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from attitude_envs import quaternion  # noqa: E402
+from attitude_envs.evaluation.metrics import RPM_PER_RAD_S  # noqa: E402
+from attitude_envs.evaluation.trace import EpisodeTrace  # noqa: E402
+
+
+def plot_episodes(traces: Mapping[str, EpisodeTrace], path: str | Path, title: str = "") -> Path:
+    """One column per controller (label → trace), rows: eigen-axis error, 3-2-1 Euler angles,
+    body rates, wheel motor torques, wheel speeds. Saved as PNG at ``path``."""
+    if not traces:
+        raise ValueError("traces must contain at least one episode")
+    labels = list(traces)
+    rows = 5
+    fig, axes = plt.subplots(rows, len(labels), figsize=(5.2 * len(labels), 2.3 * rows), sharex=True, squeeze=False)
+    for col, label in enumerate(labels):
+        tr = traces[label]
+        t = tr.time_s
+        t_step = t[:-1]
+        euler = np.array([quaternion.to_euler_321_deg(q) for q in tr.attitude])
+        target_euler = quaternion.to_euler_321_deg(tr.target_attitude[-1])
+        ax = axes[0, col]
+        ax.plot(t, tr.error_angle_deg, color="k")
+        ax.set_ylabel("error angle α [deg]")
+        ax.set_title(label)
+        ax = axes[1, col]
+        for i, name in enumerate(("roll φ", "pitch θ", "yaw ψ")):
+            (line,) = ax.plot(t, euler[:, i], label=name)
+            ax.axhline(target_euler[i], color=line.get_color(), ls=":", lw=0.8)
+        ax.set_ylabel("Euler 3-2-1 [deg]")
+        ax.legend(fontsize=7, loc="best")
+        ax = axes[2, col]
+        for i, name in enumerate("xyz"):
+            ax.plot(t, np.degrees(tr.rate_rad_s[:, i]), label=f"ω{name}")
+        ax.set_ylabel("body rate [deg/s]")
+        ax.legend(fontsize=7, loc="best")
+        ax = axes[3, col]
+        for i in range(tr.applied_nm.shape[1]):
+            ax.step(t_step, tr.applied_nm[:, i], where="post", label=f"wheel {i + 1}")
+        ax.set_ylabel("motor torque [N·m]")
+        ax.legend(fontsize=7, loc="best", ncol=2)
+        ax = axes[4, col]
+        for i in range(tr.wheel_speed_rad_s.shape[1]):
+            ax.plot(t, tr.wheel_speed_rad_s[:, i] * RPM_PER_RAD_S, label=f"wheel {i + 1}")
+        ax.set_ylabel("wheel speed [rpm]")
+        ax.set_xlabel("time [s]")
+        ax.legend(fontsize=7, loc="best", ncol=2)
+    for ax in axes.flat:
+        ax.grid(True, alpha=0.3)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_error_overlay(traces: Mapping[str, EpisodeTrace], path: str | Path, title: str = "") -> Path:
+    """Eigen-axis error angle and its running integral (EULERINT) of several controllers on shared axes."""
+    if not traces:
+        raise ValueError("traces must contain at least one episode")
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.6))
+    for label, tr in traces.items():
+        t = tr.time_s
+        ax1.plot(t, tr.error_angle_deg, label=label)
+        running = np.concatenate(
+            [[0.0], np.cumsum(0.5 * (tr.error_angle_deg[1:] + tr.error_angle_deg[:-1]) * np.diff(t))]
+        )
+        ax2.plot(t, running, label=label)
+    ax1.set_ylabel("error angle α [deg]")
+    ax2.set_ylabel("EULERINT ∫α dt [deg·s]")
+    for ax in (ax1, ax2):
+        ax.set_xlabel("time [s]")
+        ax.grid(True, alpha=0.3)
+        ax.legend()
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_metric_bars(
+    rows: Sequence[Mapping[str, Any]],
+    path: str | Path,
+    metric: str = "J",
+    group: str = "scenario",
+    label: str = "controller",
+    ylabel: str = "episode cost J = ∫(xᵀQx + uᵀRu) dt",
+) -> Path:
+    """Grouped bar chart of the mean of ``metric`` per ``group`` (x) and ``label`` (bars)."""
+    if not rows:
+        raise ValueError("rows must contain at least one row")
+    groups = list(dict.fromkeys(r[group] for r in rows))
+    labels = list(dict.fromkeys(r[label] for r in rows))
+    width = 0.8 / len(labels)
+    fig, ax = plt.subplots(figsize=(max(6.0, 1.2 * len(groups) * len(labels) * 0.6 + 2), 3.8))
+    x = np.arange(len(groups))
+    for j, lab in enumerate(labels):
+        means = [np.mean([r[metric] for r in rows if r[group] == g and r[label] == lab] or [np.nan]) for g in groups]
+        ax.bar(x + (j - (len(labels) - 1) / 2) * width, means, width, label=lab)
+    ax.set_xticks(x, groups)
+    ax.set_ylabel(ylabel)
+    ax.legend()
+    ax.grid(True, axis="y", alpha=0.3)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def _save(fig, path: str | Path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
