@@ -38,6 +38,7 @@ class LQRPolicy:
         pass
 
     def act(self, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
-        x = np.asarray(obs, dtype=float)[: self._n]
-        motor = self._to_motor @ (-self.gain @ x)
+        """Normalized wheel torques for one observation (n,) or a batch (E, n)."""
+        x = np.asarray(obs, dtype=float)[..., : self._n]
+        motor = (x @ -self.gain.T) @ self._to_motor.T
         return np.clip(motor / self._max_torque, -1.0, 1.0).astype(np.float32)

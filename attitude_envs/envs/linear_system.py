@@ -13,6 +13,7 @@ from attitude_envs import validation
 from attitude_envs.cost import QuadraticCost
 from attitude_envs.faults import ActuatorFaults
 from attitude_envs.linearization import LinearModel
+from attitude_envs.plants import linear_kernels
 
 
 def spec001_plant() -> dict:
@@ -163,8 +164,8 @@ class LinearSystemEnv(gym.Env):
         t_s = self._steps * self.model.dt_s
         u = self._faults.apply(self.action_scale * a, t_s)
         x = self._x
-        cost = self.cost.stage(x, u)
-        x_next = self.model.A @ x + self.model.B @ u
+        x_next = np.empty_like(x)
+        cost = linear_kernels.linear_step(x, u, self.model.A, self.model.B, self.cost.Q, self.cost.R, x_next)
         if self._noise_std > 0:
             x_next = x_next + self._noise_std * self.np_random.normal(size=self.model.n)
         self._x = x_next

@@ -1,0 +1,36 @@
+"""Compiled step of the discrete LTI plant, shared by LinearSystem-v0 and its batched env
+(the same loops in the same order, so both paths give bitwise-identical trajectories)."""
+
+from __future__ import annotations
+
+from numba import njit, prange
+
+
+@njit(cache=True, error_model="numpy")
+def linear_step(x, u, A, B, Q, R, out):
+    """``out = A x + B u``; returns the stage cost ``xᵀQx + uᵀRu``."""
+    n, m = B.shape
+    cost = 0.0
+    for i in range(n):
+        acc = 0.0
+        qx = 0.0
+        for j in range(n):
+            acc += A[i, j] * x[j]
+            qx += Q[i, j] * x[j]
+        for j in range(m):
+            acc += B[i, j] * u[j]
+        out[i] = acc
+        cost += x[i] * qx
+    for i in range(m):
+        ru = 0.0
+        for j in range(m):
+            ru += R[i, j] * u[j]
+        cost += u[i] * ru
+    return cost
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def linear_step_batch(X, U, A, B, Q, R, out, costs):
+    """:func:`linear_step` for every row of ``X`` and ``U``."""
+    for e in prange(X.shape[0]):
+        costs[e] = linear_step(X[e], U[e], A, B, Q, R, out[e])
