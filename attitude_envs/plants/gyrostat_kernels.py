@@ -9,7 +9,7 @@ beyond a few small work buffers per call. Equations: see :mod:`attitude_envs.pla
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 
 @njit(cache=True, error_model="numpy")
@@ -251,14 +251,15 @@ def control_step(state, cmd, ext_stages, mats, axes, scalars, flags, q_target, Q
     return aug[size - 1]
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def control_step_batch(
     states, cmds, ext_stages, mats, axes, scalars, flags, q_targets, Q, R, applied_out, costs_out, work
 ):
-    """:func:`control_step` for ``E`` envs at once: rows of ``states``, ``cmds``,
+    """:func:`control_step` for ``E`` envs at once, serially (numba's threads lost to
+    oversubscription on the 2-core machines this was measured on; see benchmarks/): rows of ``states``, ``cmds``,
     ``q_targets``, ``applied_out``; per-env ``mats`` (E, 2, 3, 3) and ``ext_stages``
     (E, n_sub, 3, 3); shared wheels, limits, weights; ``work`` (E, work_size)."""
-    for e in prange(states.shape[0]):
+    for e in range(states.shape[0]):
         costs_out[e] = control_step(
             states[e],
             cmds[e],
@@ -275,9 +276,9 @@ def control_step_batch(
         )
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def error_state_batch(states, q_targets, j_s, include_h, out, qe_w_out):
     """:func:`error_state_into` for every row of ``states``."""
     n = states.shape[1] - 7
-    for e in prange(states.shape[0]):
+    for e in range(states.shape[0]):
         qe_w_out[e] = error_state_into(states[e], q_targets[e], j_s, include_h, n, out[e])

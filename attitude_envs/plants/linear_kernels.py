@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from numba import njit, prange
+from numba import njit
 
 
 @njit(cache=True, error_model="numpy")
@@ -29,8 +29,8 @@ def linear_step(x, u, A, B, Q, R, out):
     return cost
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def linear_step_batch(X, U, A, B, Q, R, out, costs):
     """:func:`linear_step` for every row of ``X`` and ``U``."""
-    for e in prange(X.shape[0]):
+    for e in range(X.shape[0]):
         costs[e] = linear_step(X[e], U[e], A, B, Q, R, out[e])

@@ -1,0 +1,142 @@
+"""Env step throughput: single envs vs Pendulum-v1, batched envs vs CartPole's native vector
+env and vs SyncVectorEnv of the same env, SB3 PPO steps/s, evaluator episodes/s."""
+
+from __future__ import annotations
+
+import time
+
+import gymnasium as gym
+import numpy as np
+
+import attitude_envs  # noqa: F401
+
+
+def _time_single(env, action, seconds: float) -> float:
+    """Mean seconds per step of a single env (wrapped as gym.make returns it)."""
+    env.reset(seed=0)
+    for _ in range(100):
+        env.step(action)
+    n, start = 0, time.perf_counter()
+    while True:
+        for _ in range(500):
+            _, _, term, trunc, _ = env.step(action)
+            if term or trunc:
+                env.reset()
+        n += 500
+        elapsed = time.perf_counter() - start
+        if elapsed > seconds:
+            return elapsed / n
+
+
+def _time_vector(env, actions, seconds: float) -> float:
+    """Env-steps per second of a vector env."""
+    env.reset(seed=0)
+    for _ in range(3):
+        env.step(actions)
+    n, start = 0, time.perf_counter()
+    while True:
+        env.step(actions)
+        n += 1
+        elapsed = time.perf_counter() - start
+        if elapsed > seconds:
+            return n * actions.shape[0] / elapsed
+
+
+def single_env(seconds: float = 1.0) -> list[dict]:
+    pendulum = gym.make("Pendulum-v1")
+    ref = _time_single(pendulum, pendulum.action_space.sample(), seconds)
+    rows = [
+        {
+            "benchmark": "single step",
+            "env": "Pendulum-v1 (reference)",
+            "us_per_step": ref * 1e6,
+            "ratio_to_reference": 1.0,
+        }
+    ]
+    for env_id, kwargs in [("attitude_envs/ReactionWheel-v0", {}), ("attitude_envs/LinearSystem-v0", {})]:
+        env = gym.make(env_id, **kwargs)
+        t = _time_single(env, np.zeros(env.action_space.shape, np.float32), seconds)
+        rows.append({"benchmark": "single step", "env": env_id, "us_per_step": t * 1e6, "ratio_to_reference": t / ref})
+    return rows
+
+
+def batched(sizes=(1, 64, 1024, 4096), seconds: float = 1.0) -> list[dict]:
+    rows = []
+    cart = gym.make_vec("CartPole-v1", num_envs=4096, vectorization_mode="vector_entry_point")
+    cart_rate = _time_vector(cart, np.zeros(4096, dtype=np.int64), seconds)
+    rows.append(
+        {
+            "benchmark": "batched step",
+            "env": "CartPole-v1 native (reference)",
+            "num_envs": 4096,
+            "steps_per_s": cart_rate,
+        }
+    )
+    for env_id in ("attitude_envs/ReactionWheel-v0", "attitude_envs/LinearSystem-v0"):
+        for n in sizes:
+            env = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
+            rate = _time_vector(env, np.zeros((n, *env.single_action_space.shape)), seconds)
+            rows.append(
+                {
+                    "benchmark": "batched step",
+                    "env": env_id,
+                    "num_envs": n,
+                    "steps_per_s": rate,
+                    "ratio_to_cartpole_4096": rate / cart_rate,
+                }
+            )
+        sync = gym.make_vec(env_id, num_envs=64, vectorization_mode="sync")
+        sync_rate = _time_vector(sync, np.zeros((64, *sync.single_action_space.shape)), seconds)
+        native = next(r["steps_per_s"] for r in rows if r["env"] == env_id and r.get("num_envs") == 64)
+        rows.append(
+            {
+                "benchmark": "batched step",
+                "env": f"{env_id} SyncVectorEnv",
+                "num_envs": 64,
+                "steps_per_s": sync_rate,
+                "native_speedup": native / sync_rate,
+            }
+        )
+    return rows
+
+
+def sb3_ppo(steps: int = 4096) -> list[dict]:
+    """PPO training throughput on the native batched env vs DummyVecEnv (16 envs)."""
+    try:
+        from stable_baselines3 import PPO
+        from stable_baselines3.common.vec_env import DummyVecEnv
+    except ImportError:  # the sb3 extra is not installed
+        return []
+    from attitude_envs.envs.sb3_vec_env import SB3VecEnv
+
+    env_id = "attitude_envs/ReactionWheel-v0"
+    rows = []
+    for name, make in [
+        ("native (SB3VecEnv)", lambda: SB3VecEnv(env_id, num_envs=16)),
+        ("DummyVecEnv", lambda: DummyVecEnv([lambda: gym.make(env_id) for _ in range(16)])),
+    ]:
+        model = PPO("MlpPolicy", make(), n_steps=128, batch_size=512, n_epochs=1, seed=0, device="cpu", verbose=0)
+        start = time.perf_counter()
+        model.learn(steps)
+        rows.append(
+            {"benchmark": "sb3 ppo", "env": f"{env_id} {name}", "steps_per_s": steps / (time.perf_counter() - start)}
+        )
+    return rows
+
+
+def evaluator(episodes: int = 5) -> list[dict]:
+    from attitude_envs.evaluation import rollout
+    from baselines.lqr import LQRPolicy
+
+    env = gym.make("attitude_envs/ReactionWheel-v0")
+    policy = LQRPolicy(env)
+    start = time.perf_counter()
+    for seed in range(episodes):
+        rollout(env, policy, seed=seed)
+    return [
+        {
+            "benchmark": "evaluator",
+            "env": "ReactionWheel-v0 LQR 60 s episodes",
+            "episodes_per_s": episodes / (time.perf_counter() - start),
+        }
+    ]
