@@ -81,8 +81,8 @@ def claims(ms: dict[str, dict[str, float]]) -> dict[str, bool]:
         "LQR (paper weights) faster than PD in v_z and psi": vz["lqr-paper"] < vz["pd"]
         and psi["lqr-paper"] < psi["pd"],
         "LQR (paper weights) faster than PD in theta": th["lqr-paper"] < th["pd"],
-        "LQR (paper weights) uses larger inputs than PD": s["lqr-paper"]["peak |u1| (m/s^2)"]
-        > s["pd"]["peak |u1| (m/s^2)"],
+        "LQR (paper weights) uses larger inputs than PD": s["lqr-paper"]["peak abs u1 (m/s^2)"]
+        > s["pd"]["peak abs u1 (m/s^2)"],
         "LQR (feasible weights) faster than PD in v_z, theta and psi": _overall(s["lqr-feasible"]) < _overall(s["pd"])
         and max(vz["lqr-feasible"], th["lqr-feasible"], psi["lqr-feasible"]) < min(psi["pd"], vz["pd"], th["pd"]),
         "Lyapunov faster than fuzzy in v_z, theta and psi": vz["lyapunov"] < vz["fuzzy"]

@@ -57,12 +57,12 @@ def metrics(tr: Trajectory) -> dict[str, float]:
         "settling theta (s)": settling_time(tr.t, tr.x[1], THRESHOLDS["theta"]),
         "settling psi1 (s)": settling_time(tr.t, tr.x[3], THRESHOLDS["psi"]),
         "settling psi2 (s)": settling_time(tr.t, tr.x[5], THRESHOLDS["psi"]),
-        "peak |psi1| after 20 s (deg)": math.degrees(float(psi[0, late].max())),
-        "peak |psi2| after 20 s (deg)": math.degrees(float(psi[1, late].max())),
+        "peak abs psi1 after 20 s (deg)": math.degrees(float(psi[0, late].max())),
+        "peak abs psi2 after 20 s (deg)": math.degrees(float(psi[1, late].max())),
         "min v_z (m/s)": float(tr.x[0].min()),
-        "peak |u1| (m/s^2)": float(np.abs(tr.u[0]).max()),
-        "peak |delta| (deg)": math.degrees(float(np.abs(tr.delta).max())),
-        "peak |M| (N m)": float(np.abs(tr.moment).max()),
+        "peak abs u1 (m/s^2)": float(np.abs(tr.u[0]).max()),
+        "peak abs delta (deg)": math.degrees(float(np.abs(tr.delta).max())),
+        "peak abs M (N m)": float(np.abs(tr.moment).max()),
         "J": tr.cost,
     }
 
