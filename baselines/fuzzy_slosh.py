@@ -108,6 +108,7 @@ class FuzzySloshPDPolicy(NewInputPolicy):
     """Fuzzy gain-scheduled P/PD (Mamdani, scikit-fuzzy); see the module docstring."""
 
     name = "fuzzy"
+    stateful = True  # gains held between schedule updates: simulate sampled, not in an ODE solver
 
     def __init__(self, env, schedule_period_s: float = 1.0, inversion: str = "nonlinear") -> None:
         super().__init__(env, inversion)

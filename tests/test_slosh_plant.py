@@ -233,3 +233,30 @@ def test_bad_parameters_raise(kwargs, name):
 def test_unknown_fill_preset_raises():
     with pytest.raises(ValueError, match="fill_preset"):
         slosh.SloshParams.from_fill_preset("v")
+
+
+@pytest.mark.parametrize(
+    ("preset", "J", "omega", "zeta"),
+    [
+        ("i", (12.0, 1.05), (1.291, 0.976), (0.119, 0.244)),
+        ("ii", (50.5, 1.05), (1.335, 0.976), (0.027, 0.244)),
+        ("iii", (28.0, 5.05), (1.464, 1.335), (0.045, 0.037)),
+        ("iv", (28.0, 1.2), (1.464, 1.291), (0.045, 0.161)),
+    ],
+)
+def test_fill_presets_match_spec_slosh_modes(preset, J, omega, zeta):
+    """Spec §2.2 table: J_i, ω_i = √(m_i l_i a_x / J_i), ζ_i = ε_i / (2 J_i ω_i) per mapping;
+    ω_i also equals the reduced linear model's undamped slosh frequency."""
+    p = slosh.SloshParams.from_fill_preset(preset)
+    np.testing.assert_allclose(p.J, J, atol=1e-9)
+    A, _ = sm.reduced_linear(p, 3000.0)
+    w = np.sqrt(-np.array([A[4, 3], A[6, 5]]))
+    np.testing.assert_allclose(w, omega, atol=1e-3)
+    np.testing.assert_allclose(np.asarray(p.damping_kg_m2_s) / (2 * p.J * w), zeta, atol=1e-3)
+
+
+def test_params_copy_recomputes_derived_constants():
+    p = slosh.SloshParams().with_(mass_kg=1090.0)
+    assert p.total_mass_kg == pytest.approx(1625.0)
+    assert p.S_z == pytest.approx(1090.0 * -0.6 - 480 * 0.05 - 50 * 0.6 - 5 * 0.9)
+    assert p == slosh.SloshParams(mass_kg=1090.0)

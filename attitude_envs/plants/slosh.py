@@ -64,11 +64,11 @@ class SloshParams:
     thrust_n: float = 2250.0
     damping_kg_m2_s: tuple[float, float] = (3.7, 0.5)
     # derived constants (filled in __post_init__)
-    total_mass_kg: float = field(init=False)
-    ml: np.ndarray = field(init=False, repr=False)
-    J: np.ndarray = field(init=False, repr=False)
-    S_z: float = field(init=False)
-    I_rigid: float = field(init=False)
+    total_mass_kg: float = field(init=False, compare=False)
+    ml: np.ndarray = field(init=False, repr=False, compare=False)
+    J: np.ndarray = field(init=False, repr=False, compare=False)
+    S_z: float = field(init=False, compare=False)
+    I_rigid: float = field(init=False, compare=False)
 
     def __post_init__(self) -> None:
         validation.positive("mass_kg", self.mass_kg)

@@ -86,7 +86,7 @@ def simulate_reduced(policy, params: slosh.SloshParams, x0: np.ndarray, v_x0: fl
 
     z0 = np.concatenate([[v_x0], x0])
     t_eval = np.arange(0.0, t_final_s + 1e-9, sample_s)
-    if getattr(policy, "name", "") == "fuzzy":
+    if getattr(policy, "stateful", False):  # the fuzzy schedule: sample and hold
         policy.reset()
         dt, h = 0.1, 0.05
         z, zs, us = z0.copy(), [], []
