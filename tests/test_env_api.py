@@ -29,7 +29,11 @@ CONFIGS = [
         "attitude_envs/LinearSystem-v0",
         {"preset": None, "A": [[1.1, 0.1], [0, 0.9]], "B": [[0], [1]], "process_noise_std": 0.01},
     ),
+    ("attitude_envs/FuelSlosh-v0", {}),
+    ("attitude_envs/FuelSlosh-v0", {"randomize_initial_state": True, "observe_slosh": False}),
 ]
+# configurations that start from a paper's fixed initial condition (no draw)
+FIXED_START = {0: False, 1: True, 2: False, 3: True, 4: False, 5: True, 6: False}
 
 
 def test_every_registered_id_is_covered():
@@ -54,16 +58,14 @@ def trajectory(env, seed, n=40):
     return np.concatenate([np.ravel(o) for o in out])
 
 
-@pytest.mark.parametrize("env_id,kwargs", CONFIGS)
-def test_seeding_is_deterministic(env_id, kwargs):
+@pytest.mark.parametrize("index", range(len(CONFIGS)))
+def test_seeding_is_deterministic(index):
+    env_id, kwargs = CONFIGS[index]
     a = trajectory(gym.make(env_id, **kwargs), seed=5)
     b = trajectory(gym.make(env_id, **kwargs), seed=5)
     c = trajectory(gym.make(env_id, **kwargs), seed=6)
     assert np.array_equal(a, b)
-    # both spec-001 presets start from the paper's fixed initial state; the others draw it
-    fixed_start = kwargs.get("preset", "spec-001") == "spec-001" and env_id.endswith("LinearSystem-v0")
-    fixed_start |= kwargs.get("preset") == "spec-001"
-    assert np.array_equal(a, c) == fixed_start
+    assert np.array_equal(a, c) == FIXED_START[index]
 
 
 @pytest.mark.parametrize("env_id,kwargs", CONFIGS)

@@ -135,3 +135,12 @@ def test_faults_reach_the_linear_system_too():
 def test_bad_fault_configs_name_the_field(fault, match):
     with pytest.raises(ValueError, match=match):
         gym.make(RW, faults=[fault])
+
+
+def test_faults_reach_the_fuel_slosh_actuators():
+    fault = {"kind": "stuck", "index": 0, "value": 0.1, "onset_s": 0.2}
+    env = gym.make("attitude_envs/FuelSlosh-v0", faults=[fault])
+    env.reset(seed=0)
+    applied = [env.step(np.array([0.5, 0.5]))[4]["applied"] for _ in range(4)]
+    assert applied[1][0] == pytest.approx(0.5 * np.radians(30.0)) and applied[2][0] == pytest.approx(0.1)
+    assert applied[3][1] == pytest.approx(1000.0)  # the moment actuator is untouched

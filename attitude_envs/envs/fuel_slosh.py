@@ -11,6 +11,7 @@ from gymnasium import spaces
 
 from attitude_envs import validation
 from attitude_envs.cost import QuadraticCost
+from attitude_envs.faults import ActuatorFaults
 from attitude_envs.integrators import rk4_step, substeps
 from attitude_envs.plants import slosh
 from attitude_envs.plants.slosh_model import PAPER_Q, PAPER_R, FuelSloshModel, reduced_state
@@ -20,7 +21,7 @@ PAPER_INITIAL_STATE = np.array(
     [3000.0, 100.0, math.radians(2.0), 0.0, math.radians(30.0), 0.0, math.radians(-30.0), 0.0]
 )
 _INITIAL_ORDER = (slosh.IVX, slosh.IVZ, slosh.ITH, slosh.IOM, slosh.IPSI1, slosh.IDPSI1, slosh.IPSI2, slosh.IDPSI2)
-_OPTION_KEYS = {"state"}
+_OPTION_KEYS = {"state", "faults"}
 
 
 class FuelSloshEnv(gym.Env):
@@ -67,13 +68,15 @@ class FuelSloshEnv(gym.Env):
     ``observe_slosh``, ``initial_state`` (8 values, order as PAPER_INITIAL_STATE),
     ``randomize_initial_state``, ``max_slosh_angle_deg`` (90), ``max_pitch_rate_rad_s``
     (0.5), ``max_pitch_angle_deg`` (90), ``design_v_x_m_s`` (3000, the nominal linear model's axial speed).
-    ``reset(options={"state": 8 values})`` pins the start state.
+    ``faults`` (actuator 0 = gimbal δ in rad, 1 = pitch moment in N·m; see
+    :mod:`attitude_envs.faults`). ``reset(options={"state": 8 values, "faults": [...]})``
+    pins the start state and the episode's faults.
 
     ``env.unwrapped.model`` is the nominal :class:`FuelSloshModel` (reduced model,
     linearizations, input inversion). ``info``: ``state`` (full truth, named), ``x``
-    (reduced state, float64), ``applied`` ([δ rad, M_c N·m] after clipping),
+    (reduced state, float64), ``applied`` ([δ rad, M_c N·m] after clipping and faults),
     ``commanded`` (same, before clipping), ``new_inputs`` (step-mean [a_z, Ω̇]), ``cost``,
-    ``time_s``. Actuator faults: not yet (the shared fault layer has not landed).
+    ``time_s``, ``faults`` (ground truth).
     """
 
     metadata = {"render_modes": []}
@@ -96,6 +99,7 @@ class FuelSloshEnv(gym.Env):
         max_pitch_rate_rad_s: float = 0.5,
         max_pitch_angle_deg: float = 90.0,
         design_v_x_m_s: float = 3000.0,
+        faults: list[dict] | None = None,
     ) -> None:
         if params is None:
             params = slosh.SloshParams.from_fill_preset(fill_preset)
@@ -135,8 +139,11 @@ class FuelSloshEnv(gym.Env):
         high = np.concatenate([high, slosh_high, [1e4]]) if self.observe_slosh else np.append(high, 1e4)
         self.observation_space = spaces.Box(-high.astype(np.float32), high.astype(np.float32), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+        # actuator 0: gimbal angle (rad), actuator 1: pitch moment (N·m)
+        self._faults = ActuatorFaults(faults, 2, [self.model.max_gimbal_rad, self.model.max_moment_nm])
         self._y = np.zeros(slosh.N_STATE)
         self._t = 0.0
+        self._steps = 0
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
@@ -155,6 +162,8 @@ class FuelSloshEnv(gym.Env):
         self._y = np.zeros(slosh.N_STATE)
         self._y[list(_INITIAL_ORDER)] = init
         self._t = 0.0
+        self._steps = 0
+        self._faults.reset(self.np_random, options.get("faults"))
         zero = np.zeros(2)
         return self._observation(), self._info(zero, zero, zero, 0.0)
 
@@ -163,12 +172,14 @@ class FuelSloshEnv(gym.Env):
         m = self.model
         commanded = np.array([a[0] * m.max_gimbal_rad, a[1] * m.max_moment_nm])
         applied = np.array([np.clip(a[0], -1, 1) * m.max_gimbal_rad, np.clip(a[1], -1, 1) * m.max_moment_nm])
+        applied = self._faults.apply(applied, self._t)
         delta, moment = float(applied[0]), float(applied[1])
         aug = np.concatenate([self._y, np.zeros(3)])  # + cost, ∫a_z, ∫Ω̇
         h = self.integrator_dt_s
-        for _ in range(self._substeps):
-            aug = rk4_step(lambda t, z: self._augmented_derivative(z, delta, moment), self._t, aug, h)
-            self._t += h
+        for j in range(self._substeps):
+            aug = rk4_step(lambda t, z: self._augmented_derivative(z, delta, moment), self._t + j * h, aug, h)
+        self._steps += 1
+        self._t = self._steps * self.control_dt_s  # from the step count: no drift of onsets/time limit
         self._y = aug[: slosh.N_STATE]
         cost = float(aug[slosh.N_STATE])
         new_inputs = aug[slosh.N_STATE + 1 :] / self.control_dt_s
@@ -221,4 +232,5 @@ class FuelSloshEnv(gym.Env):
             "new_inputs": np.asarray(new_inputs, float),
             "cost": cost,
             "time_s": self._t,
+            "faults": self._faults.info(self._t),
         }
