@@ -107,3 +107,12 @@ def action(value, n: int) -> np.ndarray:
     if not math.isfinite(arr.sum()) and not np.isfinite(arr).all():
         raise ValueError(f"action must be finite (no NaN or inf), got {arr.tolist()}")
     return arr
+
+
+def reset_options(options, accepted: set[str]) -> dict:
+    """``reset(options=...)`` as a dict, rejecting unknown keys."""
+    options = {} if options is None else dict(options)
+    unknown = set(options) - accepted
+    if unknown:
+        raise ValueError(f"reset options has unknown keys {sorted(unknown)}; accepted: {sorted(accepted)}")
+    return options

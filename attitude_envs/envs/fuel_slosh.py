@@ -148,10 +148,7 @@ class FuelSloshEnv(gym.Env):
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
-        options = {} if options is None else dict(options)
-        unknown = set(options) - _OPTION_KEYS
-        if unknown:
-            raise ValueError(f"reset options has unknown keys {sorted(unknown)}; accepted: {sorted(_OPTION_KEYS)}")
+        options = validation.reset_options(options, _OPTION_KEYS)
         init = self._initial.copy()
         if self.randomize_initial_state:
             scale = np.abs(PAPER_INITIAL_STATE)

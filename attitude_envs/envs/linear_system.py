@@ -146,10 +146,7 @@ class LinearSystemEnv(gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
-        options = {} if options is None else dict(options)
-        unknown = set(options) - {"state", "faults"}
-        if unknown:
-            raise ValueError(f"reset options has unknown keys {sorted(unknown)}; accepted: ['faults', 'state']")
+        options = validation.reset_options(options, {"state", "faults"})
         n = self.model.n
         if "state" in options:
             self._x = validation.finite_array("options['state']", options["state"], (n,)).copy()

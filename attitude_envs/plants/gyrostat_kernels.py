@@ -151,10 +151,7 @@ def control_step(state, cmd, ext_stages, mats, axes, scalars, flags, q_target, Q
     size = 8 + n
     aug = work[0:size]
     tmp = work[size : 2 * size]
-    k1 = work[2 * size : 3 * size]
-    k2 = work[3 * size : 4 * size]
-    k3 = work[4 * size : 5 * size]
-    k4 = work[5 * size : 6 * size]
+    ks = work[2 * size : 6 * size].reshape((4, size))
     u = work[6 * size : 6 * size + n]
     xbuf = work[6 * size + n : 6 * size + n + Q.shape[0]]
     ubuf = work[6 * size + n + Q.shape[0] :]
@@ -167,82 +164,34 @@ def control_step(state, cmd, ext_stages, mats, axes, scalars, flags, q_target, Q
         speed_limit_into(cmd, aug[7 : 7 + n], max_torque, max_speed, j_s, h, u)
         for i in range(n):
             applied_out[i] += u[i] / n_sub
-        _augmented(
-            aug,
-            u,
-            ext_stages[j, 0],
-            inertia,
-            inertia_eff_inv,
-            axes,
-            j_s,
-            q_target,
-            Q,
-            R,
-            body_input,
-            include_h,
-            xbuf,
-            ubuf,
-            k1,
-        )
+        for stage in range(4):  # classical RK4: stages at t, t + h/2, t + h/2, t + h
+            if stage == 0:
+                for i in range(size):
+                    tmp[i] = aug[i]
+            else:
+                c = h if stage == 3 else 0.5 * h
+                for i in range(size):
+                    tmp[i] = aug[i] + c * ks[stage - 1, i]
+            ext = ext_stages[j, (stage + 1) // 2]
+            _augmented(
+                tmp,
+                u,
+                ext,
+                inertia,
+                inertia_eff_inv,
+                axes,
+                j_s,
+                q_target,
+                Q,
+                R,
+                body_input,
+                include_h,
+                xbuf,
+                ubuf,
+                ks[stage],
+            )
         for i in range(size):
-            tmp[i] = aug[i] + 0.5 * h * k1[i]
-        _augmented(
-            tmp,
-            u,
-            ext_stages[j, 1],
-            inertia,
-            inertia_eff_inv,
-            axes,
-            j_s,
-            q_target,
-            Q,
-            R,
-            body_input,
-            include_h,
-            xbuf,
-            ubuf,
-            k2,
-        )
-        for i in range(size):
-            tmp[i] = aug[i] + 0.5 * h * k2[i]
-        _augmented(
-            tmp,
-            u,
-            ext_stages[j, 1],
-            inertia,
-            inertia_eff_inv,
-            axes,
-            j_s,
-            q_target,
-            Q,
-            R,
-            body_input,
-            include_h,
-            xbuf,
-            ubuf,
-            k3,
-        )
-        for i in range(size):
-            tmp[i] = aug[i] + h * k3[i]
-        _augmented(
-            tmp,
-            u,
-            ext_stages[j, 2],
-            inertia,
-            inertia_eff_inv,
-            axes,
-            j_s,
-            q_target,
-            Q,
-            R,
-            body_input,
-            include_h,
-            xbuf,
-            ubuf,
-            k4,
-        )
-        for i in range(size):
-            aug[i] += (h / 6.0) * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+            aug[i] += (h / 6.0) * (ks[0, i] + 2.0 * ks[1, i] + 2.0 * ks[2, i] + ks[3, i])
         norm = np.sqrt(aug[0] * aug[0] + aug[1] * aug[1] + aug[2] * aug[2] + aug[3] * aug[3])
         for i in range(4):
             aug[i] /= norm
