@@ -42,22 +42,30 @@ def _time_vector(env, actions, seconds: float) -> float:
             return n * actions.shape[0] / elapsed
 
 
-def single_env(seconds: float = 1.0) -> list[dict]:
+def single_env(seconds: float = 1.0, rounds: int = 5) -> list[dict]:
+    """Per-step time of each single env and its ratio to Pendulum-v1, measured alternately
+    in ``rounds`` rounds (median ratio), so that machine noise hits both alike."""
     pendulum = gym.make("Pendulum-v1")
-    ref = _time_single(pendulum, pendulum.action_space.sample(), seconds)
-    rows = [
-        {
-            "benchmark": "single step",
-            "env": "Pendulum-v1 (reference)",
-            "us_per_step": ref * 1e6,
-            "ratio_to_reference": 1.0,
-        }
-    ]
-    for env_id, kwargs in [("attitude_envs/ReactionWheel-v0", {}), ("attitude_envs/LinearSystem-v0", {})]:
-        env = gym.make(env_id, **kwargs)
-        t = _time_single(env, np.zeros(env.action_space.shape, np.float32), seconds)
-        rows.append({"benchmark": "single step", "env": env_id, "us_per_step": t * 1e6, "ratio_to_reference": t / ref})
-    return rows
+    pendulum_action = pendulum.action_space.sample()
+    rows = []
+    ref_times = []
+    for env_id in ("attitude_envs/ReactionWheel-v0", "attitude_envs/LinearSystem-v0", "attitude_envs/FuelSlosh-v0"):
+        env = gym.make(env_id)
+        action = np.zeros(env.action_space.shape, np.float32)
+        pairs = [
+            (_time_single(pendulum, pendulum_action, seconds / rounds), _time_single(env, action, seconds / rounds))
+            for _ in range(rounds)
+        ]
+        ref_times += [p[0] for p in pairs]
+        ratio = float(np.median([t / r for r, t in pairs]))
+        t = float(np.median([p[1] for p in pairs]))
+        rows.append({"benchmark": "single step", "env": env_id, "us_per_step": t * 1e6, "ratio_to_reference": ratio})
+    ref = {
+        "benchmark": "single step",
+        "env": "Pendulum-v1 (reference)",
+        "us_per_step": float(np.median(ref_times)) * 1e6,
+    }
+    return [dict(ref, ratio_to_reference=1.0), *rows]
 
 
 def batched(sizes=(1, 64, 1024, 4096), seconds: float = 1.0) -> list[dict]:
