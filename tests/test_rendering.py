@@ -1,5 +1,6 @@
 import gymnasium as gym
 import numpy as np
+import pytest
 
 
 def test_rgb_array_frames_have_the_declared_shape_and_follow_the_attitude():
@@ -24,3 +25,17 @@ def test_record_video_wrapper_collects_frames():
         env.step(env.action_space.sample())
     frames = env.render()
     assert len(frames) == 4 and frames[0].shape == (320, 480, 3)
+
+
+def test_record_video_writes_an_episode_video(tmp_path):
+    pytest.importorskip("moviepy", reason="the 'video' extra (moviepy) is optional")
+    env = gym.make("attitude_envs/ReactionWheel-v0", render_mode="rgb_array", episode_duration_s=1.0)
+    env = gym.wrappers.RecordVideo(env, str(tmp_path), episode_trigger=lambda e: True, disable_logger=True)
+    env.reset(seed=0)
+    done = False
+    while not done:
+        _, _, terminated, truncated, _ = env.step(env.action_space.sample())
+        done = terminated or truncated
+    env.close()
+    videos = list(tmp_path.glob("*.mp4"))
+    assert len(videos) == 1 and videos[0].stat().st_size > 1000
