@@ -286,6 +286,13 @@ class SensorSuite:
             out[name] = m
         return out
 
+    def parameters(self, name: str) -> dict:
+        """The configured (nominal) noise parameters of channel ``name`` (zeros if unmodelled)."""
+        validation.choice("sensor", name, set(self.channels))
+        axes = self.channels[name].axes
+        zero = {"noise_std": 0.0, "bias_walk_std": 0.0, "initial_bias_std": 0.0, "initial_bias": np.zeros(axes)}
+        return dict(self.config.get(name, zero))
+
     def active_flags(self, t_s: float) -> np.ndarray:
         """1.0 per channel (in declaration order) with an active fault at ``t_s``, else 0.0."""
         active = {f.sensor for f in self.realized if f.active(t_s)}
