@@ -214,3 +214,11 @@ def test_bad_sensor_fault_per_episode_is_rejected_at_reset():
     env = gym.make(RW)
     with pytest.raises(ValueError, match=r"faults\[0\].sensor must be one of"):
         env.reset(seed=0, options={"faults": [{"kind": "bias", "target": "sensor", "sensor": "sun", "value": 1}]})
+
+
+def test_envs_with_sensors_and_hints_pass_the_gymnasium_checker():
+    from gymnasium.utils.env_checker import check_env
+
+    sensors = {"gyro": {"noise_std": 1e-3}, "star_tracker": {"noise_std": 1e-4}, "tachometer": {"noise_std": 0.1}}
+    check_env(gym.make(RW, sensors=sensors, fault_hint=True, faults=[{"kind": "outage", "index": 1}]).unwrapped)
+    check_env(gym.make(LIN, sensors={"state": {"noise_std": 0.01}}, fault_hint=True).unwrapped)

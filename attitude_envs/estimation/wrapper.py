@@ -10,7 +10,7 @@ import numpy as np
 from attitude_envs.estimation.mekf import AttitudeMEKF
 
 
-class EstimatedAttitude(gym.Wrapper):
+class EstimatedAttitude(gym.Wrapper, gym.utils.RecordConstructorArgs):
     """Replaces the first six observation entries ``[q_e,vec, ω]`` of ReactionWheel-v0 by
     those of the MEKF estimate (attitude ``q̂``, rate ``ω_m − b̂``); further entries
     (wheel momentum, wheel speeds, fault hints) pass through as measured.
@@ -22,7 +22,8 @@ class EstimatedAttitude(gym.Wrapper):
     """
 
     def __init__(self, env: gym.Env, filter_params: dict | None = None) -> None:
-        super().__init__(env)
+        gym.utils.RecordConstructorArgs.__init__(self, filter_params=filter_params)
+        gym.Wrapper.__init__(self, env)
         base = env.unwrapped
         sensors = getattr(base, "_sensors", None)
         if sensors is None or "star_tracker" not in sensors.channels or "gyro" not in sensors.channels:
