@@ -30,7 +30,8 @@ intermittent               ``0`` during off periods; on/off dwell times        â
 =========================  ==================================================  =============
 
 The composite output is finally clipped to the actuator's own limit: a fault never makes
-an actuator stronger than it is.
+an actuator stronger than it is. Sensor faults (``"target": "sensor"``) use the same dict
+format and live in :mod:`attitude_envs.sensors`.
 """
 
 from __future__ import annotations
@@ -270,6 +271,14 @@ class ActuatorFaults:
         while t_s >= f._next_switch_s:
             f._on = not f._on
             f._next_switch_s += self._rng.exponential(f.mean_on_s if f._on else f.mean_off_s)
+
+    def active_flags(self, t_s: float) -> np.ndarray:
+        """1.0 per actuator with an active fault at ``t_s``, else 0.0 (the ``fault_hint``)."""
+        flags = np.zeros(self.n)
+        for f in self.realized:
+            if f.active(t_s):
+                flags[f.index] = 1.0
+        return flags
 
     def info(self, t_s: float) -> list[dict]:
         """Ground truth for ``info["faults"]``: every fault of the episode and whether it is active."""

@@ -200,8 +200,5 @@ class LinearSystemEnv(gym.Env):
             info["sensor_bias"] = {k: v.copy() for k, v in self._sensors.bias.items()}
             x = info["sensors"]["state"]
         if self.fault_hint:
-            flags = np.zeros(self.model.m)
-            for f in self._faults.realized:
-                flags[f.index] = max(flags[f.index], float(f.active(t_s)))
-            x = np.concatenate([x, flags, self._sensors.active_flags(t_s)])
+            x = np.concatenate([x, self._faults.active_flags(t_s), self._sensors.active_flags(t_s)])
         return x.astype(np.float32)

@@ -343,10 +343,7 @@ class ReactionWheelEnv(gym.Env):
         if self.observe_wheel_speeds:
             x = np.concatenate([x, wheel / self._plant.max_wheel_speed_rad_s])
         if self.fault_hint:
-            actuators = np.zeros(self._plant.n_wheels)
-            for f in self._faults.realized:
-                actuators[f.index] = max(actuators[f.index], float(f.active(self._t)))
-            x = np.concatenate([x, actuators, self._sensors.active_flags(self._t)])
+            x = np.concatenate([x, self._faults.active_flags(self._t), self._sensors.active_flags(self._t)])
         return x.astype(np.float32)
 
     def _info(self, applied: np.ndarray, commanded: np.ndarray, cost: float) -> dict:
