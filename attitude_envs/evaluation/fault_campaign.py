@@ -101,8 +101,16 @@ def run_campaign(
     return rows
 
 
+def _cell_ratio(cell: list[dict]) -> float:
+    """ΣJ / ΣJ_healthy over a cell's seeds (a mean of per-seed ratios would be dominated
+    by seeds whose healthy maneuver is tiny); NaN for an empty cell."""
+    if not cell:
+        return float("nan")
+    return float(sum(r["J"] for r in cell) / sum(r["J_healthy"] for r in cell))
+
+
 def campaign_table(rows: list[dict]) -> str:
-    """Markdown table: mean J / J_healthy per kind and onset (rows) × severity (columns)."""
+    """Markdown table: ΣJ / ΣJ_healthy per kind and onset (rows) × severity (columns)."""
     faulty = [r for r in rows if r["kind"] != "healthy"]
     severities = sorted({r["severity"] for r in faulty})
     keys = list(dict.fromkeys((r["kind"], r["onset_s"]) for r in faulty))
@@ -111,8 +119,8 @@ def campaign_table(rows: list[dict]) -> str:
     for kind, onset in keys:
         cells = []
         for s in severities:
-            vals = [r["J_ratio"] for r in faulty if (r["kind"], r["onset_s"], r["severity"]) == (kind, onset, s)]
-            cells.append(f"{np.mean(vals):.3g}" if vals else "")
+            cell = [r for r in faulty if (r["kind"], r["onset_s"], r["severity"]) == (kind, onset, s)]
+            cells.append(f"{_cell_ratio(cell):.3g}" if cell else "")
         lines.append(f"| {kind} | {onset:g} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
@@ -163,7 +171,7 @@ def fdi_table(rows: list[dict]) -> str:
 
 
 def campaign_heatmap(rows: list[dict], path: str | Path, title: str = "") -> Path:
-    """Heatmap PNG of mean J / J_healthy (log color scale): kind × severity, one panel per onset."""
+    """Heatmap PNG of ΣJ / ΣJ_healthy (log color scale): kind × severity, one panel per onset."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -179,9 +187,7 @@ def campaign_heatmap(rows: list[dict], path: str | Path, title: str = "") -> Pat
         g = np.full((len(kinds), len(severities)), np.nan)
         for i, k in enumerate(kinds):
             for j, s in enumerate(severities):
-                vals = [r["J_ratio"] for r in faulty if (r["kind"], r["severity"], r["onset_s"]) == (k, s, onset)]
-                if vals:
-                    g[i, j] = np.mean(vals)
+                g[i, j] = _cell_ratio([r for r in faulty if (r["kind"], r["severity"], r["onset_s"]) == (k, s, onset)])
         grids.append(g)
     finite = np.concatenate([g[np.isfinite(g)] for g in grids])
     norm = LogNorm(vmin=max(min(finite.min(), 1.0), 1e-3), vmax=max(finite.max(), 1.0 + 1e-6))
@@ -199,7 +205,7 @@ def campaign_heatmap(rows: list[dict], path: str | Path, title: str = "") -> Pat
             for j in range(len(severities)):
                 if np.isfinite(g[i, j]):
                     ax.text(j, i, f"{g[i, j]:.2g}", ha="center", va="center", color="w", fontsize=8)
-    fig.colorbar(im, ax=list(axes), label="J / J_healthy")
+    fig.colorbar(im, ax=list(axes), label="ΣJ / ΣJ_healthy (seeds)")
     if title:
         fig.suptitle(title)
     path = Path(path)
@@ -284,7 +290,13 @@ def run_campaign_cli(scenario: str, policy: str, out: Path, fdi: bool = False, q
 
         factory = ActuatorFDI.for_env
     rows = run_campaign(env, pol, grid["kinds"], sev, onsets, seeds, grid.get("index", 0), factory)
-    md = [f"# {sc['name']}: policy {policy}", "", "Mean J / J_healthy (same seeds):", "", campaign_table(rows)]
+    md = [
+        f"# {sc['name']}: policy {policy}",
+        "",
+        "ΣJ / ΣJ_healthy over the seeds of each cell (same seeds, same initial conditions):",
+        "",
+        campaign_table(rows),
+    ]
     if fdi:
         md += ["", "IMM fault detection and isolation:", "", fdi_table(rows), "", str(fdi_summary(rows))]
     out.mkdir(parents=True, exist_ok=True)
