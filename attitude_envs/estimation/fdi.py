@@ -1,7 +1,7 @@
 """Actuator fault detection and isolation (FDI) with a filterpy IMM bank.
 
-Hypotheses: ``H0`` healthy, and ``Hi`` (i = 0..N−1) "actuator i delivers only
-``degraded_effectiveness`` (default 0.5) of its command". Each hypothesis is a filterpy
+Hypotheses: ``H0`` healthy, and ``H(i, e)`` (i = 0..N−1, e in ``degraded_effectiveness``,
+default ``(0.5,)``) "actuator i delivers only the fraction e of its command". Each hypothesis is a filterpy
 :class:`~filterpy.kalman.KalmanFilter` on the rate/wheel-speed dynamics of the nominal
 gyrostat (``attitude_envs.plants.gyrostat``) over one control step,
 
@@ -12,12 +12,13 @@ with ``u`` the *commanded* motor torques (N·m, known to the FDI), ``E_h`` the h
 effectiveness, and the gyroscopic torque ``g = −ω × (I ω + J_s A Ω)`` evaluated at the
 latest measurement and held over the step. Measurements: gyro (and tachometers unless
 ``use_tachometer=False``). An :class:`filterpy.kalman.IMMEstimator` mixes the bank with a
-Markov switching matrix (healthy → each fault ``p_fault / N`` per step, fault → healthy
-``p_recover``); its mode probabilities are computed from the filters' log-likelihoods
+Markov switching matrix (healthy → each fault ``p_fault / (N L)`` per step for L levels,
+fault → healthy ``p_recover``); its mode probabilities are computed from the filters' log-likelihoods
 (filterpy multiplies raw likelihoods, which underflow to equality for the large
 innovations of a real fault), floored at 1e-12 so that no hypothesis is locked out.
 
-Decision: actuator i is *isolated* when ``μ_i ≥ threshold`` for ``confirm_steps``
+Decision: with ``μ_i`` the summed probability of actuator i's hypotheses, actuator i is
+*isolated* when ``μ_i ≥ threshold`` for ``confirm_steps``
 consecutive steps; the first isolation is latched with its time (``detection``).
 A loss of effectiveness is only observable while the actuator is commanded: with zero
 command every hypothesis predicts the same.
@@ -25,6 +26,7 @@ command every hypothesis predicts the same.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -60,7 +62,8 @@ class ActuatorFDI:
     Parameters: ``model`` (the env's nominal :class:`ReactionWheelModel`), ``dt_s``
     (control period, s), ``rate_noise_std`` (gyro, rad/s) and ``wheel_noise_std``
     (tachometer, rad/s) — floored at 1e-5 and 1e-2 so a noise-free sensor still leaves
-    room for model error — ``degraded_effectiveness`` in [0, 1), ``p_fault`` and
+    room for model error — ``degraded_effectiveness`` (a level or a list of levels, each
+    in [0, 1)), ``p_fault`` and
     ``p_recover`` (per-step switching probabilities), ``threshold`` in (0.5, 1),
     ``confirm_steps`` ≥ 1, ``rate_process_std`` / ``wheel_process_std`` (model error per
     step, rad/s), ``use_tachometer``.
@@ -72,7 +75,7 @@ class ActuatorFDI:
         dt_s: float,
         rate_noise_std: float = 0.0,
         wheel_noise_std: float = 0.0,
-        degraded_effectiveness: float = 0.5,
+        degraded_effectiveness: float | Sequence[float] = 0.5,
         p_fault: float = 0.01,
         p_recover: float = 0.05,
         threshold: float = 0.95,
@@ -84,9 +87,11 @@ class ActuatorFDI:
         p = model.params
         self.n = p.n_wheels
         self.dt_s = validation.positive("dt_s", dt_s)
-        e = float(degraded_effectiveness)
-        if not 0.0 <= e < 1.0:
-            raise ValueError(f"degraded_effectiveness must be in [0, 1), got {degraded_effectiveness!r}")
+        levels = np.atleast_1d(np.asarray(degraded_effectiveness, dtype=float))
+        if levels.ndim != 1 or levels.size == 0 or np.any((levels < 0) | (levels >= 1)):
+            raise ValueError(
+                f"degraded_effectiveness must be in [0, 1) (one or more levels), got {degraded_effectiveness!r}"
+            )
         for name, v in (("p_fault", p_fault), ("p_recover", p_recover)):
             if not 0.0 < float(v) < 1.0:
                 raise ValueError(f"{name} must be in (0, 1), got {v!r}")
@@ -112,10 +117,15 @@ class ActuatorFDI:
         q_rate = validation.nonnegative("rate_process_std", rate_process_std)
         q_wheel = validation.nonnegative("wheel_process_std", wheel_process_std)
         self.effectiveness = [np.ones(self.n)]
+        owner = [-1]  # actuator of each hypothesis (-1: healthy)
         for i in range(self.n):
-            eff = np.ones(self.n)
-            eff[i] = e
-            self.effectiveness.append(eff)
+            for e in levels:
+                eff = np.ones(self.n)
+                eff[i] = e
+                self.effectiveness.append(eff)
+                owner.append(i)
+        self._owner = np.array(owner)
+        n_h = len(owner)
         self.filters = []
         for _ in self.effectiveness:
             kf = KalmanFilter(dim_x=dim, dim_z=dim_z)
@@ -124,20 +134,29 @@ class ActuatorFDI:
             kf.R = np.diag([r_rate**2] * 3 + [r_wheel**2] * (dim_z - 3))
             kf.Q = np.diag([q_rate**2] * 3 + [q_wheel**2] * self.n)
             self.filters.append(kf)
-        m = np.zeros((self.n + 1, self.n + 1))
-        m[0, 0], m[0, 1:] = 1.0 - p_fault, p_fault / self.n
-        for i in range(1, self.n + 1):
-            m[i, 0], m[i, i] = p_recover, 1.0 - p_recover
+        m = np.zeros((n_h, n_h))
+        m[0, 0], m[0, 1:] = 1.0 - p_fault, p_fault / (n_h - 1)
+        for h in range(1, n_h):
+            m[h, 0], m[h, h] = p_recover, 1.0 - p_recover
         self.transition = m
-        self._p0 = np.r_[1.0 - p_fault, np.full(self.n, p_fault / self.n)]
+        self._p0 = np.r_[1.0 - p_fault, np.full(n_h - 1, p_fault / (n_h - 1))]
         self.imm: IMMEstimator | None = None
         self.detection: dict[str, Any] | None = None
         self._streak = (None, 0)
 
     @property
     def probabilities(self) -> np.ndarray:
-        """Mode probabilities ``[healthy, actuator 0 degraded, ...]``."""
-        return self.imm.mu.copy()
+        """``[P(healthy), P(actuator 0 degraded), ...]`` (levels summed per actuator)."""
+        mu = self.imm.mu
+        return np.r_[mu[0], np.bincount(self._owner[1:], weights=mu[1:], minlength=self.n)]
+
+    @property
+    def hypothesis_probabilities(self) -> list[tuple[int | None, float, float]]:
+        """``(actuator or None, effectiveness, probability)`` of every hypothesis."""
+        out = []
+        for h, (i, mu) in enumerate(zip(self._owner, self.imm.mu, strict=True)):
+            out.append((None if i < 0 else int(i), float(self.effectiveness[h][max(i, 0)]), float(mu)))
+        return out
 
     def reset(self, rate_rad_s: np.ndarray, wheel_speed_rad_s: np.ndarray) -> None:
         """Start on the first measurements."""
@@ -167,13 +186,20 @@ class ActuatorFDI:
         return self.probabilities
 
     def _decide(self, t_s: float) -> None:
-        mu = self.imm.mu
+        mu = self.probabilities
         best = int(np.argmax(mu))
         leader = best - 1 if best > 0 and mu[best] >= self.threshold else None
         count = self._streak[1] + 1 if leader is not None and leader == self._streak[0] else 1
         self._streak = (leader, count if leader is not None else 0)
         if self.detection is None and leader is not None and count >= self.confirm_steps:
-            self.detection = {"index": leader, "time_s": float(t_s), "probability": float(mu[best])}
+            mine = np.flatnonzero(self._owner == leader)
+            level = self.effectiveness[mine[np.argmax(self.imm.mu[mine])]][leader]
+            self.detection = {
+                "index": leader,
+                "time_s": float(t_s),
+                "probability": float(mu[best]),
+                "effectiveness": float(level),
+            }
 
     @classmethod
     def for_env(cls, env, **kwargs) -> ActuatorFDI:
