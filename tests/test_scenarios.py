@@ -94,3 +94,23 @@ def test_scenario_command_line(capsys):
     out = capsys.readouterr().out
     assert "| 0 |" in out and "J / J_healthy" in out
     assert fc.main(["scenario", "nope"]) == 2
+
+
+def test_sensor_kinds_in_the_campaign_grid():
+    env = gym.make("attitude_envs/ReactionWheel-v0", episode_duration_s=30.0)
+    f = fc.campaign_fault(env, "gyro.bias", 0.5, 10.0)
+    assert f == {"kind": "bias", "target": "sensor", "sensor": "gyro", "index": 0, "onset_s": 10.0, "value": 0.005}
+    f = fc.campaign_fault(env, "star_tracker.dropout", 0.5, 10.0)
+    assert f["index"] == "all" and f["duration_s"] == 10.0 and f["mode"] == "hold"
+    assert fc.campaign_fault(env, "gyro.noise_increase", 1.0, 0.0)["value"] == 10.0
+    with pytest.raises(ValueError, match=r"kind \(sensor part\) must be one of"):
+        fc.campaign_fault(env, "sun.bias", 0.5, 0.0)
+    rows = fc.run_campaign(
+        gym.make("attitude_envs/ReactionWheel-v0", episode_duration_s=8.0),
+        LQRPolicy(env),
+        ["gyro.bias"],
+        [1.0],
+        [1.0],
+        [0],
+    )
+    assert rows[1]["J_ratio"] > 1.05  # the controller chases the biased rate

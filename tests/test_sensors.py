@@ -222,3 +222,11 @@ def test_envs_with_sensors_and_hints_pass_the_gymnasium_checker():
     sensors = {"gyro": {"noise_std": 1e-3}, "star_tracker": {"noise_std": 1e-4}, "tachometer": {"noise_std": 0.1}}
     check_env(gym.make(RW, sensors=sensors, fault_hint=True, faults=[{"kind": "outage", "index": 1}]).unwrapped)
     check_env(gym.make(LIN, sensors={"state": {"noise_std": 0.01}}, fault_hint=True).unwrapped)
+
+
+def test_star_tracker_bias_is_a_body_rotation_about_its_axis():
+    rows = run(faults=[sensor_fault("bias", sensor="star_tracker", index=2, value=0.01)])
+    for t, info in rows:
+        q, m = info["state"]["attitude"], info["sensors"]["star_tracker"]
+        err = quaternion.to_rotvec(quaternion.multiply(quaternion.conjugate(q), m))
+        assert np.allclose(err, [0, 0, 0.01 if t >= 0.5 - 1e-9 else 0.0], atol=1e-12)

@@ -48,14 +48,35 @@ SEVERITY: dict[str, Callable[[float, float, float], dict]] = {
 }
 
 
+# sensor faults: kind "<sensor>.<kind>", e.g. "gyro.bias"; severity 1 = this full scale
+SENSOR_SCALE = {"gyro": 0.01, "star_tracker": 0.01, "tachometer": 50.0, "state": 1.0}  # rad/s, rad, rad/s, state
+SENSOR_SEVERITY: dict[str, Callable[[float, float, float], dict]] = {
+    "bias": lambda s, scale, rest: {"value": s * scale},
+    "drift": lambda s, scale, rest: {"value": s * scale / 10.0},
+    "stuck": lambda s, scale, rest: {"duration_s": s * rest},
+    "dropout": lambda s, scale, rest: {"duration_s": s * rest, "mode": "hold"},
+    "noise_increase": lambda s, scale, rest: {"value": 1.0 + 9.0 * s},
+}
+
+
 def campaign_fault(env, kind: str, severity: float, onset_s: float, index: int | str = 0) -> dict:
-    """The fault dict of one grid cell (``index`` an actuator or ``"random"``)."""
-    validation.choice("kind", kind, set(SEVERITY))
+    """The fault dict of one grid cell: an actuator kind of :data:`SEVERITY` (``index``
+    an actuator or ``"random"``) or ``"<sensor>.<kind>"`` of :data:`SENSOR_SEVERITY`
+    (``index`` an axis; the star tracker's stuck/dropout take the whole sensor)."""
     s = float(severity)
     if not 0.0 <= s <= 1.0:
         raise ValueError(f"severity must be in [0, 1], got {severity!r}")
-    limit = _limit(env, 0 if index == "random" else int(index))
     rest = max(_horizon(env) - float(onset_s), 0.0)
+    if "." in str(kind):
+        sensor, sensor_kind = str(kind).split(".", 1)
+        validation.choice("kind (sensor part)", sensor, set(SENSOR_SCALE))
+        validation.choice("kind (fault part)", sensor_kind, set(SENSOR_SEVERITY))
+        whole = sensor == "star_tracker" and sensor_kind in {"stuck", "dropout"}
+        fault = {"kind": sensor_kind, "target": "sensor", "sensor": sensor, "index": "all" if whole else index}
+        fault["onset_s"] = float(onset_s)
+        return fault | SENSOR_SEVERITY[sensor_kind](s, SENSOR_SCALE[sensor], rest)
+    validation.choice("kind", kind, set(SEVERITY) | {f"<sensor>.{k}" for k in SENSOR_SEVERITY})
+    limit = _limit(env, 0 if index == "random" else int(index))
     return {"kind": kind, "target": "actuator", "index": index, "onset_s": float(onset_s)} | SEVERITY[kind](
         s, limit, rest
     )
