@@ -30,7 +30,8 @@ intermittent               ``0`` during off periods; on/off dwell times        â
 =========================  ==================================================  =============
 
 The composite output is finally clipped to the actuator's own limit: a fault never makes
-an actuator stronger than it is.
+an actuator stronger than it is. Sensor faults (``"target": "sensor"``) use the same dict
+format and live in :mod:`attitude_envs.sensors`.
 """
 
 from __future__ import annotations
@@ -164,11 +165,14 @@ class ActuatorFaults:
     """Applies a list of fault dicts to the physical commands of ``n_actuators`` actuators.
 
     ``limits`` are the actuators' own output limits (physical units), used by the
-    ``saturation`` kind and the final clip.
+    ``saturation`` kind and the final clip. Entries whose ``target`` is in
+    ``other_targets`` (e.g. ``{"sensor"}`` in envs with a :class:`~attitude_envs.sensors.SensorSuite`)
+    are left to that layer; any other non-actuator target raises ``ValueError``.
     """
 
-    def __init__(self, configs: list[dict] | None, n_actuators: int, limits) -> None:
+    def __init__(self, configs: list[dict] | None, n_actuators: int, limits, other_targets=()) -> None:
         self.n = int(n_actuators)
+        self.other_targets = frozenset(other_targets)
         self.limits = np.broadcast_to(np.asarray(limits, dtype=float), (self.n,)).copy()
         self.configs = self._validated(configs)
         self.realized: list[RealizedFault] = []
@@ -178,9 +182,12 @@ class ActuatorFaults:
             return []
         if not isinstance(configs, (list, tuple)):
             raise ValueError(f"faults must be a list of fault dicts, got {configs!r}")
-        for i, c in enumerate(configs):
+        mine = [
+            (i, c) for i, c in enumerate(configs) if not (isinstance(c, dict) and c.get("target") in self.other_targets)
+        ]
+        for i, c in mine:
             validate_fault(c, self.n, where=f"faults[{i}]")
-        return [dict(c) for c in configs]
+        return [dict(c) for _, c in mine]
 
     def reset(self, rng: np.random.Generator, configs: list[dict] | None = None) -> None:
         """Draw this episode's faults (``configs`` replaces the construction-time list)."""
@@ -264,6 +271,14 @@ class ActuatorFaults:
         while t_s >= f._next_switch_s:
             f._on = not f._on
             f._next_switch_s += self._rng.exponential(f.mean_on_s if f._on else f.mean_off_s)
+
+    def active_flags(self, t_s: float) -> np.ndarray:
+        """1.0 per actuator with an active fault at ``t_s``, else 0.0 (the ``fault_hint``)."""
+        flags = np.zeros(self.n)
+        for f in self.realized:
+            if f.active(t_s):
+                flags[f.index] = 1.0
+        return flags
 
     def info(self, t_s: float) -> list[dict]:
         """Ground truth for ``info["faults"]``: every fault of the episode and whether it is active."""

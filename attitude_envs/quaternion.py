@@ -103,3 +103,24 @@ def random_within_angle(rng: np.random.Generator, max_angle_deg: float) -> np.nd
         axis = rng.normal(size=3)
     angle = np.radians(rng.uniform(0.0, max_angle_deg))
     return from_axis_angle(axis, angle)
+
+
+def from_rotvec(v: np.ndarray) -> np.ndarray:
+    """Unit quaternion of the rotation vector ``v`` (axis × angle, rad): ``exp(v / 2)``."""
+    v = np.asarray(v, dtype=float)
+    angle = float(np.sqrt(v @ v))
+    if angle < 1e-8:  # second-order series, exact to rounding at this size
+        q = np.concatenate([0.5 * v, [1.0 - angle * angle / 8.0]])
+        return q / np.linalg.norm(q)
+    return np.concatenate([np.sin(0.5 * angle) / angle * v, [np.cos(0.5 * angle)]])
+
+
+def to_rotvec(q: np.ndarray) -> np.ndarray:
+    """Rotation vector (rad) of a unit quaternion, angle in [0, π] (sign chosen with w ≥ 0)."""
+    q = np.asarray(q, dtype=float)
+    if q[3] < 0.0:
+        q = -q
+    s = float(np.linalg.norm(q[:3]))
+    if s < 1e-12:
+        return 2.0 * q[:3]
+    return 2.0 * np.arctan2(s, q[3]) / s * q[:3]

@@ -151,3 +151,8 @@ def test_lqr_policy_acts_on_a_batch():
     batch = policy.act(obs, {})
     assert batch.shape == (5, 4)
     assert np.allclose(batch, np.stack([policy.act(o, {}) for o in obs]), atol=1e-7)
+
+
+def test_batched_env_refuses_what_it_does_not_model():
+    with pytest.raises(ValueError, match="sensors and fault_hint are not supported by the batched env"):
+        make_vec(2, fault_hint=True)

@@ -14,6 +14,7 @@ from attitude_envs.cost import QuadraticCost
 from attitude_envs.faults import ActuatorFaults
 from attitude_envs.linearization import LinearModel
 from attitude_envs.plants import linear_kernels
+from attitude_envs.sensors import Channel, SensorSuite
 
 
 def spec001_plant() -> dict:
@@ -66,7 +67,10 @@ class LinearSystemEnv(gym.Env):
     satellite, Δt = 0.01 s) or ``A`` (n×n), ``B`` (n×m), ``Q``, ``R``, ``x0_mean``,
     ``x0_std``, ``process_noise_std``, ``action_scale`` (scalar or m-vector, > 0),
     ``episode_steps``, ``divergence_threshold``, ``faults`` (see :mod:`attitude_envs.faults`,
-    time = steps × ``dt_s``), ``dt_s`` (the period the matrices
+    time = steps × ``dt_s``; ``"target": "sensor"`` entries are faults of the ``state``
+    sensor), ``sensors`` (``{"state": {...}}``, see :mod:`attitude_envs.sensors`; the
+    observation is then the measured state, ``info["sensors"]["state"]``), ``fault_hint``
+    (append m + 1 active-fault flags: actuators, then the state sensor), ``dt_s`` (the period the matrices
     represent, for reporting). ``env.unwrapped.model`` is the :class:`LinearModel`
     (A, B, Q, R, dt). ``info`` holds ``state`` (x before the step), ``next_state``,
     ``applied`` (physical u after saturation) and ``cost``.
@@ -89,6 +93,8 @@ class LinearSystemEnv(gym.Env):
         divergence_threshold: float = 1e6,
         dt_s: float | None = None,
         faults: list[dict] | None = None,
+        sensors: dict | None = None,
+        fault_hint: bool = False,
         render_mode: str | None = None,
     ) -> None:
         cfg: dict = {}
@@ -125,7 +131,9 @@ class LinearSystemEnv(gym.Env):
         self.action_scale = np.broadcast_to(scale, (m,)).copy() if scale.ndim == 0 else scale
         if self.action_scale.shape != (m,) or np.any(self.action_scale <= 0):
             raise ValueError(f"action_scale must be > 0, a scalar or length {m}, got {scale.tolist()}")
-        self._faults = ActuatorFaults(faults, m, self.action_scale)
+        self._faults = ActuatorFaults(faults, m, self.action_scale, other_targets={"sensor"})
+        self._sensors = SensorSuite(sensors, [Channel("state", n)], faults)
+        self.fault_hint = bool(fault_hint)
         if int(episode_steps) < 1:
             raise ValueError(f"episode_steps must be >= 1, got {episode_steps!r}")
         self.episode_steps = int(episode_steps)
@@ -139,7 +147,10 @@ class LinearSystemEnv(gym.Env):
             + np.linalg.norm(b_mat, np.inf) * float(np.max(self.action_scale))
             + 10.0 * self._noise_std
         )
-        self.observation_space = spaces.Box(-bound, bound, shape=(n,), dtype=np.float32)
+        low, high = np.full(n, -bound), np.full(n, bound)
+        if self.fault_hint:
+            low, high = np.concatenate([low, np.zeros(m + 1)]), np.concatenate([high, np.ones(m + 1)])
+        self.observation_space = spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(m,), dtype=np.float32)
         self._x = self._x0_mean.copy()
         self._steps = 0
@@ -153,8 +164,10 @@ class LinearSystemEnv(gym.Env):
         else:
             self._x = self._x0_mean + self._x0_std * self.np_random.normal(size=n)
         self._steps = 0
+        self._sensors.reset(self.np_random, options.get("faults"))  # own spawned generator
         self._faults.reset(self.np_random, options.get("faults"))
-        return self._x.astype(np.float32), {"state": self._x.copy(), "faults": self._faults.info(0.0)}
+        info = {"state": self._x.copy(), "faults": self._faults.info(0.0) + self._sensors.info(0.0)}
+        return self._observe(self._x, 0.0, info), info
 
     def step(self, action):
         a = np.clip(validation.action(action, self.model.m), -1.0, 1.0)
@@ -170,6 +183,20 @@ class LinearSystemEnv(gym.Env):
         terminated = bool(not np.all(np.isfinite(x_next)) or np.max(np.abs(x_next)) > self.divergence_threshold)
         truncated = self._steps >= self.episode_steps and not terminated
         info = {"state": x.copy(), "next_state": x_next.copy(), "applied": u, "cost": cost}
-        info["faults"] = self._faults.info(t_s)
-        obs = x_next.astype(np.float32) if np.all(np.isfinite(x_next)) else np.zeros(self.model.n, np.float32)
+        # actuator faults as applied over this step, sensor faults at the observation time
+        info["faults"] = self._faults.info(t_s) + self._sensors.info(self._steps * self.model.dt_s)
+        if np.all(np.isfinite(x_next)):
+            obs = self._observe(x_next, self._steps * self.model.dt_s, info)
+        else:
+            obs = np.zeros(self.observation_space.shape, np.float32)
         return obs, -cost, terminated, truncated, info
+
+    def _observe(self, x: np.ndarray, t_s: float, info: dict) -> np.ndarray:
+        """The observation of state ``x`` at time ``t_s`` (measured when sensors are on)."""
+        if self._sensors.enabled:
+            info["sensors"] = self._sensors.measure({"state": x}, t_s)
+            info["sensor_bias"] = {k: v.copy() for k, v in self._sensors.bias.items()}
+            x = info["sensors"]["state"]
+        if self.fault_hint:
+            x = np.concatenate([x, self._faults.active_flags(t_s), self._sensors.active_flags(t_s)])
+        return x.astype(np.float32)

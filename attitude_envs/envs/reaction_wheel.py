@@ -17,6 +17,7 @@ from attitude_envs.plants import gyrostat
 from attitude_envs.plants import gyrostat_kernels as kernels
 from attitude_envs.plants.gyrostat_model import ReactionWheelModel
 from attitude_envs.presets import preset as load_preset
+from attitude_envs.sensors import Channel, SensorSuite
 from attitude_envs.uncertainty import InertiaUncertainty
 
 _OPTION_KEYS = {"attitude", "rate_rad_s", "wheel_speed_rad_s", "target_attitude", "faults"}
@@ -61,7 +62,17 @@ class ReactionWheelEnv(gym.Env):
     ``initial_rate_max_rad_s``, ``inertia_uncertainty`` (see :mod:`attitude_envs.uncertainty`),
     ``disturbance`` (see :mod:`attitude_envs.disturbances`), ``max_rate_rad_s``,
     ``observe_wheel_speeds``, ``faults`` (list of fault dicts, see :mod:`attitude_envs.faults`;
-    also per episode as ``reset(options={"faults": [...]})``).
+    also per episode as ``reset(options={"faults": [...]})``; ``"target": "sensor"`` entries
+    are sensor faults), ``sensors`` (dict, see :mod:`attitude_envs.sensors`: channels
+    ``gyro`` (rad/s), ``star_tracker`` (rad), ``tachometer`` (rad/s); default None: the truth
+    is observed), ``fault_hint`` (append N + 3 flags to the observation: 1.0 per actuator,
+    then per sensor gyro/star tracker/tachometer, with an active fault).
+
+    With sensors (or sensor faults) the observation is the error state of the *measured*
+    attitude, rate and wheel speeds (a dropout in ``"nan"`` mode puts NaN in it, outside
+    the observation bounds by design); ``info["sensors"]`` holds the raw measurements
+    (``star_tracker`` quaternion, ``gyro``, ``tachometer``) and ``info["sensor_bias"]`` the
+    true biases.
 
     ``env.unwrapped.model`` is the *nominal* :class:`ReactionWheelModel` (inertia,
     wheels, cost, linearization); the true inertia and disturbance stay private, and
@@ -100,6 +111,8 @@ class ReactionWheelEnv(gym.Env):
         max_rate_rad_s: float = 2.0 * np.pi,
         observe_wheel_speeds: bool = False,
         faults: list[dict] | None = None,
+        sensors: dict | None = None,
+        fault_hint: bool = False,
         render_mode: str | None = None,
     ) -> None:
         cfg = load_preset(preset)
@@ -165,7 +178,11 @@ class ReactionWheelEnv(gym.Env):
         self._rate_max = validation.nonnegative("initial_rate_max_rad_s", cfg["initial_rate_max_rad_s"])
         self._uncertainty = InertiaUncertainty.from_config(inertia_uncertainty)
         self._disturbance = None if disturbance is None else Disturbance(disturbance)
-        self._faults = ActuatorFaults(faults, params.n_wheels, params.max_wheel_torque_nm)
+        self._faults = ActuatorFaults(faults, params.n_wheels, params.max_wheel_torque_nm, other_targets={"sensor"})
+        channels = [Channel("gyro", 3, units="rad/s"), Channel("star_tracker", 4, "attitude", "rad")]
+        self._sensors = SensorSuite(sensors, [*channels, Channel("tachometer", n_w, units="rad/s")], faults)
+        self._meas: dict[str, np.ndarray] = {}
+        self.fault_hint = bool(fault_hint)
         self.max_rate_rad_s = validation.positive("max_rate_rad_s", max_rate_rad_s)
         self.observe_wheel_speeds = bool(observe_wheel_speeds)
         if self.observe_wheel_speeds and not np.isfinite(params.max_wheel_speed_rad_s):
@@ -184,6 +201,9 @@ class ReactionWheelEnv(gym.Env):
         if self.observe_wheel_speeds:
             obs_high = np.concatenate([obs_high, np.full(n_w, 1.5)])
         obs_low = -obs_high
+        if self.fault_hint:
+            obs_high = np.concatenate([obs_high, np.ones(n_w + 3)])
+            obs_low = np.concatenate([obs_low, np.zeros(n_w + 3)])
         self.observation_space = spaces.Box(obs_low.astype(np.float32), obs_high.astype(np.float32), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(n_w,), dtype=np.float32)
 
@@ -230,7 +250,9 @@ class ReactionWheelEnv(gym.Env):
         self._steps = 0
         if self._disturbance is not None:
             self._disturbance.reset(rng)
+        self._sensors.reset(rng, options.get("faults"))  # spawns its own generator: rng's stream is unchanged
         self._faults.reset(rng, options.get("faults"))
+        self._measure()
         obs = self._observation()
         info = self._info(np.zeros(n_w), np.zeros(n_w), 0.0)
         if self.render_mode == "human":
@@ -266,6 +288,8 @@ class ReactionWheelEnv(gym.Env):
         finite = bool(np.isfinite(self._y).all()) and np.isfinite(cost)
         terminated = not finite or bool(np.abs(self._y[4:7]).max() > self.max_rate_rad_s)
         truncated = bool(self._t >= self.episode_duration_s - 1e-9 * self.control_dt_s) and not terminated
+        if finite:
+            self._measure()
         obs = self._observation() if finite else np.zeros(self.observation_space.shape, np.float32)
         info = self._info(applied, commanded, cost)
         if self.render_mode == "human":
@@ -318,8 +342,14 @@ class ReactionWheelEnv(gym.Env):
         """The true error state ``x`` (float64) of the current state."""
         return self.model.error_state(self._y[:4], self._y[4:7], self._y[7:], self._target)
 
+    def _measure(self) -> None:
+        """Sample the sensors at the current time (no-op when sensors are off)."""
+        if self._sensors.enabled:
+            truth = {"gyro": self._y[4:7], "star_tracker": self._y[:4], "tachometer": self._y[7:]}
+            self._meas = self._sensors.measure(truth, self._t)
+
     def _observation(self) -> np.ndarray:
-        x = self._x_buf
+        x = self._x_buf  # the true error state (also gives info's true error angle)
         self._qe_w = kernels.error_state_into(
             self._y,
             self._target,
@@ -328,8 +358,15 @@ class ReactionWheelEnv(gym.Env):
             self._plant.n_wheels,
             x,
         )
+        wheel = self._y[7:]
+        if self._sensors.enabled:
+            m = self._meas
+            x = self.model.error_state(m["star_tracker"], m["gyro"], m["tachometer"], self._target)
+            wheel = m["tachometer"]
         if self.observe_wheel_speeds:
-            x = np.concatenate([x, self._y[7:] / self._plant.max_wheel_speed_rad_s])
+            x = np.concatenate([x, wheel / self._plant.max_wheel_speed_rad_s])
+        if self.fault_hint:
+            x = np.concatenate([x, self._faults.active_flags(self._t), self._sensors.active_flags(self._t)])
         return x.astype(np.float32)
 
     def _info(self, applied: np.ndarray, commanded: np.ndarray, cost: float) -> dict:
@@ -353,8 +390,14 @@ class ReactionWheelEnv(gym.Env):
             if self._disturbance is None
             else np.array(self._disturbance.torque_nm_at(self._t)),
             "true_inertia_kg_m2": self._plant.inertia_kg_m2.copy(),
-            "faults": self._faults.info(self._t),
-        }
+            "faults": self._faults.info(self._t) + self._sensors.info(self._t),
+        } | self._sensor_info()
+
+    def _sensor_info(self) -> dict:
+        if not self._sensors.enabled:
+            return {}
+        meas = {k: v.copy() for k, v in self._meas.items()}
+        return {"sensors": meas, "sensor_bias": {k: v.copy() for k, v in self._sensors.bias.items()}}
 
 
 def _divides(control_dt_s: float, integrator_dt_s: float) -> bool:

@@ -39,6 +39,8 @@ class BatchedEnv(VectorEnv):
         self.autoreset_mode = AutoresetMode.NEXT_STEP if mode == "next_step" else AutoresetMode.SAME_STEP
         self.metadata = {"autoreset_mode": self.autoreset_mode, "render_modes": []}
         self.envs = [single_env_factory() for _ in range(self.num_envs)]
+        if self.envs[0]._sensors.enabled or self.envs[0].fault_hint:
+            raise ValueError("sensors and fault_hint are not supported by the batched env yet; use SyncVectorEnv")
         self.single_observation_space = self.envs[0].observation_space
         self.single_action_space = self.envs[0].action_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
