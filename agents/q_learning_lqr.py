@@ -71,7 +71,9 @@ class QLearningLQR:
       ``cond_limit``/``cond_warn`` — excitation guard thresholds.
     * ``rls_initial_covariance`` (``None`` = exact init, else β of ``P₀ = βI``),
       ``rls_forgetting`` λ ∈ (0, 1].
-    * ``state_to_options``, ``action_scale`` — see :class:`agents.qlqr.data.EnvAdapter`.
+    * ``state_to_options``, ``action_scale``, ``input_map`` — see
+      :class:`agents.qlqr.data.EnvAdapter` (``input_map`` lets a 4-wheel spacecraft learn
+      in body-torque coordinates). ``exploration_std`` is then in the learner's input units.
 
     After :meth:`learn`: ``gain`` (m×n), ``kernel`` (H, (n+m)², physical units; the
     per-step Q-function), ``history`` (one dict per iteration: ``iteration``, ``phase``,
@@ -103,6 +105,7 @@ class QLearningLQR:
         rls_forgetting: float = 1.0,
         state_to_options=None,
         action_scale=None,
+        input_map=None,
         max_warmup_iterations: int = 10_000,
         name: str | None = None,
     ) -> None:
@@ -121,7 +124,7 @@ class QLearningLQR:
         for key, val in (("tol", tol), ("cond_limit", cond_limit), ("cond_warn", cond_warn)):
             if not (np.isfinite(val) and val > 0):
                 raise ValueError(f"{key} must be in (0, inf), got {val!r}")
-        self.adapter = EnvAdapter(env, state_to_options, action_scale)
+        self.adapter = EnvAdapter(env, state_to_options, action_scale, input_map)
         n, m = self.adapter.n, self.adapter.m
         if sampling is None:
             sampling = "reset" if self.adapter.can_set_state else "trajectory"
@@ -144,7 +147,10 @@ class QLearningLQR:
         self.max_warmup_iterations = int(max_warmup_iterations)
         self.n, self.m = n, m
         self.p = n_features(n + m)
-        sigma = 0.5 * self.adapter.action_scale if exploration_std is None else exploration_std
+        if exploration_std is None:
+            sigma = 0.5 * (self.adapter.action_scale if input_map is None else np.min(self.adapter.action_scale))
+        else:
+            sigma = exploration_std
         self.exploration_std = _vector("exploration_std", sigma, m, positive=True)
         self.state_std = _vector("state_std", state_std, n, positive=False)
         if sampling == "reset" and not np.any(self.state_std > 0):
@@ -160,13 +166,26 @@ class QLearningLQR:
         self.data: Transitions | None = None
         self.samples_used = 0
         self._scale: np.ndarray | None = None
-        self._report = _reporting_model(env)
+        self._given: Transitions | None = None
+        self._report = _reporting_model(env, self.adapter.input_map)
 
     # ------------------------------------------------------------------ public API
-    def learn(self, max_iterations: int | None = None, samples_per_iteration: int | None = None) -> QLearningLQR:
+    def learn(
+        self,
+        max_iterations: int | None = None,
+        samples_per_iteration: int | None = None,
+        data: Transitions | None = None,
+    ) -> QLearningLQR:
         """Run the chosen method; returns ``self``. ``samples_per_iteration`` is the size of
         each fresh batch (PI, or VI with ``reuse_data=False``) or of the single reused batch
-        (LSPI, VI); default ``2(p+1)``. ``max_iterations`` default: 30 (PI), 10⁵ (VI)."""
+        (LSPI, VI); default ``2(p+1)``. ``max_iterations`` default: 30 (PI), 10⁵ (VI).
+        ``data`` (e.g. another agent's ``.data``) replaces the first collected batch: learning
+        from a given data set, off-policy."""
+        if data is not None:
+            if data.X.shape[1:] != (self.n,) or data.U.shape[1:] != (self.m,) or len(data) < 1:
+                raise ValueError(f"data must hold transitions with n = {self.n} states and m = {self.m} inputs")
+            samples_per_iteration = len(data) if samples_per_iteration is None else samples_per_iteration
+        self._given = data
         N = 2 * (self.p + 1) if samples_per_iteration is None else int(samples_per_iteration)
         if N < 1:
             raise ValueError(f"samples_per_iteration must be >= 1, got {samples_per_iteration!r}")
@@ -197,8 +216,7 @@ class QLearningLQR:
         obs = np.asarray(observation, dtype=float)
         if obs.ndim == 1:
             return self.act(obs), None
-        u = -obs.reshape(len(obs), self.n) @ self.gain.T
-        return np.clip(u / self.adapter.action_scale, -1.0, 1.0).astype(np.float32), None
+        return self.adapter.action(-obs.reshape(len(obs), self.n) @ self.gain.T), None
 
     def certainty_equivalence_gain(self, data: Transitions | None = None) -> np.ndarray:
         """Reference gain of a least-squares model + Riccati on the same data
@@ -210,11 +228,14 @@ class QLearningLQR:
 
     # ------------------------------------------------------------------ data and features
     def _collect(self, n_samples: int, gain: np.ndarray) -> Transitions:
-        env_seed = None if self.samples_used else int(self.rng.integers(2**31 - 1))
-        data = collect(
-            self.adapter, n_samples, gain, self.exploration_std, self.state_std, self.rng, env_seed, self.sampling
-        )
-        self.samples_used += n_samples
+        if self._given is not None:
+            data, self._given = self._given, None
+        else:
+            env_seed = None if self.samples_used else int(self.rng.integers(2**31 - 1))
+            data = collect(
+                self.adapter, n_samples, gain, self.exploration_std, self.state_std, self.rng, env_seed, self.sampling
+            )
+        self.samples_used += len(data)
         if self._scale is None:
             sx = np.sqrt(np.mean(np.vstack([data.X, data.Xn]) ** 2, axis=0))
             su = np.sqrt(np.mean(data.U**2, axis=0))
@@ -450,15 +471,17 @@ def _vi_converged(d: list[float], tol: float, window: int = 10) -> bool:
     return r < 1.0 and dk * r / (1.0 - r) < tol
 
 
-def _reporting_model(env) -> tuple[np.ndarray, np.ndarray] | None:
-    """Discrete (A, B) of the env's nominal model, for the spectral-radius diagnostic only."""
+def _reporting_model(env, input_map) -> tuple[np.ndarray, np.ndarray] | None:
+    """Discrete (A, B) of the env's nominal model (in the learner's input coordinates), for
+    the spectral-radius diagnostic only."""
     model = getattr(env.unwrapped, "model", None)
     try:
         if model is not None and hasattr(model, "A") and getattr(model, "dt_s", None) is not None:
-            return np.asarray(model.A), np.asarray(model.B)
+            B = np.asarray(model.B)
+            return np.asarray(model.A), B if input_map is None else B @ input_map
         if model is not None and hasattr(model, "discrete"):
             lin = model.discrete(input="wheel")
-            return lin.A, lin.B
+            return lin.A, lin.B if input_map is None else lin.B @ input_map
     except (ValueError, TypeError, np.linalg.LinAlgError):
         return None
     return None

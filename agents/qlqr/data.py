@@ -39,16 +39,42 @@ class EnvAdapter:
     (``{"state": x}``) and ReactionWheel-v0 (attitude ``[x₀..₂, √(1−|x₀..₂|²)]`` about an
     identity target, rate ``x₃..₅``, wheels at rest). Other envs are sampled along
     trajectories from their own ``reset()``. ``action_scale`` is the physical input of a
-    unit action (per input); by default LinearSystem-v0's ``action_scale`` or
+    unit action (per actuator); by default LinearSystem-v0's ``action_scale`` or
     ReactionWheel-v0's wheel torque rating.
+
+    ``input_map`` (actuators × m) makes the learner's input ``v`` a combination of
+    actuators: command ``M v``; the applied ``v`` is read back as ``M⁺·applied``. With four
+    wheels on three axes, ``M = −A⁺`` (the wheel geometry's minimum-norm allocation) makes
+    ``v`` the body torque, removing the wheel null space that no data can determine.
     """
 
-    def __init__(self, env, state_to_options: Callable[[np.ndarray], dict] | None = None, action_scale=None):
+    def __init__(
+        self,
+        env,
+        state_to_options: Callable[[np.ndarray], dict] | None = None,
+        action_scale=None,
+        input_map=None,
+    ):
         self.env = env
         base = env.unwrapped
         name = type(base).__name__
         self.n = int(np.prod(env.observation_space.shape))
-        self.m = int(np.prod(env.action_space.shape))
+        n_act = int(np.prod(env.action_space.shape))
+        if input_map is None:
+            self.input_map = None
+            self.m = n_act
+        else:
+            M = np.asarray(input_map, dtype=float)
+            if (
+                M.ndim != 2
+                or M.shape[0] != n_act
+                or not np.all(np.isfinite(M))
+                or np.linalg.matrix_rank(M) < M.shape[1]
+            ):
+                raise ValueError(f"input_map must be a finite full-column-rank {n_act} x m matrix, got shape {M.shape}")
+            self.input_map = M
+            self._map_pinv = np.linalg.pinv(M)
+            self.m = M.shape[1]
         self.kind = {"LinearSystemEnv": "linear", "ReactionWheelEnv": "reaction_wheel"}.get(name, "generic")
         if self.kind == "reaction_wheel" and self.n != 6:
             raise ValueError(
@@ -68,7 +94,7 @@ class EnvAdapter:
                 action_scale = base.model.params.max_wheel_torque_nm  # actuator rating, not dynamics
             else:
                 action_scale = 1.0
-        scale = np.broadcast_to(np.asarray(action_scale, dtype=float), (self.m,)).copy()
+        scale = np.broadcast_to(np.asarray(action_scale, dtype=float), (n_act,)).copy()
         if np.any(~np.isfinite(scale)) or np.any(scale <= 0):
             raise ValueError(f"action_scale must be finite and > 0, got {scale.tolist()}")
         self.action_scale = scale
@@ -89,8 +115,15 @@ class EnvAdapter:
         return np.asarray(obs, dtype=float).reshape(self.n)
 
     def action(self, u: np.ndarray) -> np.ndarray:
-        """Normalized action for the physical input ``u`` (clipped to [-1, 1])."""
+        """Normalized action(s) for the learner's input ``u`` (last axis; clipped to [-1, 1])."""
+        if self.input_map is not None:
+            u = u @ self.input_map.T
         return np.clip(u / self.action_scale, -1.0, 1.0).astype(np.float32)
+
+    def applied(self, info: dict) -> np.ndarray:
+        """The learner's input actually applied over the step, from ``info["applied"]``."""
+        a = np.asarray(info["applied"], dtype=float)
+        return a if self.input_map is None else self._map_pinv @ a
 
 
 def _linear_options(x: np.ndarray) -> dict:
@@ -147,6 +180,6 @@ def collect(
         u_cmd = -gain @ x + exploration_std * rng.standard_normal(m)
         obs, _, terminated, truncated, info = env.step(adapter.action(u_cmd))
         x_next = adapter.state(obs, info, after_step=True)
-        X[k], U[k], r[k], Xn[k] = x, np.asarray(info["applied"], dtype=float), float(info["cost"]), x_next
+        X[k], U[k], r[k], Xn[k] = x, adapter.applied(info), float(info["cost"]), x_next
         x = None if (terminated or truncated) else x_next
     return Transitions(X, U, r, Xn)

@@ -154,7 +154,7 @@ def recursive_least_squares(
     return theta[:, 0] if Y.ndim == 1 else theta
 
 
-def greedy_gain(H: np.ndarray, n: int, rel_tol: float = 1e-9) -> tuple[np.ndarray, float]:
+def greedy_gain(H: np.ndarray, n: int, rel_tol: float = 1e-6) -> tuple[np.ndarray, float]:
     """Greedy gain ``K = H_uu⁺ H_ux`` (u = −Kx; spec 001 eq. 13 with the sign moved out).
 
     ``H_uu`` must be positive semi-definite (spec 001 eq. 14): eigenvalues below
