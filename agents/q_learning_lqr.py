@@ -30,6 +30,7 @@ model is used for one diagnostic (closed-loop spectral radius), never for learni
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import numpy as np
@@ -39,6 +40,7 @@ from agents.qlqr import estimators as est
 from agents.qlqr.certainty_equivalence import ce_gain
 from agents.qlqr.data import EnvAdapter, Transitions, collect
 from agents.qlqr.features import n_features, quadratic_features, smat, svec
+from attitude_envs import validation
 
 METHODS = {"policy_iteration", "lspi", "value_iteration"}
 ESTIMATORS = {"batch", "rls"}
@@ -79,6 +81,7 @@ class QLearningLQR:
     per-step Q-function), ``history`` (one dict per iteration: ``iteration``, ``phase``,
     ``samples_used``, ``rank``, ``n_unknowns``, ``cond``, ``delta_H``, ``delta_K``,
     ``spectral_radius`` (reporting only, ``None`` without a model), ``huu_eig_ratio``,
+    ``input_signal_ratio``,
     ``constant`` (λ̂), ``gain``), ``stop_reason``, ``data`` (last batch).
     """
 
@@ -101,6 +104,7 @@ class QLearningLQR:
         tol: float = 1e-10,
         cond_limit: float = 1e13,
         cond_warn: float = 1e10,
+        input_signal_limit: float = 1e-8,
         rls_initial_covariance: float | None = None,
         rls_forgetting: float = 1.0,
         state_to_options=None,
@@ -142,6 +146,7 @@ class QLearningLQR:
         self.constant_feature = constant_feature
         self.row_normalize = row_normalize
         self.tol, self.cond_limit, self.cond_warn = float(tol), float(cond_limit), float(cond_warn)
+        self.input_signal_limit = validation.nonnegative("input_signal_limit", input_signal_limit)
         self.rls_initial_covariance = rls_initial_covariance
         self.rls_forgetting = float(rls_forgetting)
         self.max_warmup_iterations = int(max_warmup_iterations)
@@ -236,6 +241,7 @@ class QLearningLQR:
                 self.adapter, n_samples, gain, self.exploration_std, self.state_std, self.rng, env_seed, self.sampling
             )
         self.samples_used += len(data)
+        self._input_signal = self._check_input_signal(data)
         if self._scale is None:
             sx = np.sqrt(np.mean(np.vstack([data.X, data.Xn]) ** 2, axis=0))
             su = np.sqrt(np.mean(data.U**2, axis=0))
@@ -244,6 +250,33 @@ class QLearningLQR:
             self._scale = s
         self.data = data
         return data
+
+    def _check_input_signal(self, data: Transitions) -> float:
+        """Excitation guard that feature scaling cannot hide: the smallest ratio, over the
+        inputs, of the next-state change the probe causes (from a least-squares fit
+        ``x⁺ ≈ Âx + B̂u``, a diagnostic only) to the size of ``x⁺``. Below ``input_signal_limit``
+        the input's effect is lost in floating-point round-off of the data (note §4: a probe
+        too small relative to the state)."""
+        Z = np.hstack([data.X, data.U])
+        s = np.sqrt(np.mean(Z**2, axis=0))
+        s[s == 0] = 1.0
+        coef = np.linalg.lstsq(Z / s, data.Xn, rcond=None)[0] / s[:, None]
+        B_hat = coef[self.n :].T
+        size = float(np.sqrt(np.mean(data.Xn**2)))
+        effect = np.sqrt(np.mean((data.U[:, None, :] * B_hat[None, :, :]) ** 2, axis=(0, 1)))
+        ratio = float(np.min(effect) / size) if size > 0 else float("inf")
+        if ratio < self.input_signal_limit:
+            raise est.InsufficientExcitationError(
+                f"the probing input changes the next state by only {ratio:.2g} of its size (< input_signal_limit "
+                f"{self.input_signal_limit:.2g}): its effect is lost in round-off; raise exploration_std"
+            )
+        if ratio < 1e-6:
+            warnings.warn(
+                f"the probing input changes the next state by only {ratio:.2g} of its size: expect "
+                "round-off-limited accuracy; raise exploration_std",
+                stacklevel=4,
+            )
+        return ratio
 
     def _features(self, data: Transitions) -> tuple[np.ndarray, np.ndarray]:
         """Instrument rows ``f_k = [φ(z_k); 1]`` and row weights (scaled coordinates)."""
@@ -442,6 +475,7 @@ class QLearningLQR:
                 "delta_K": dK,
                 "spectral_radius": rho,
                 "huu_eig_ratio": ratio,
+                "input_signal_ratio": self._input_signal,
                 "constant": c,
                 "gain": K,
             }
