@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 import scipy.linalg
+from threadpoolctl import threadpool_limits
 
 from agents.qlqr import estimators as est
 from agents.qlqr.certainty_equivalence import ce_gain
@@ -202,10 +203,13 @@ class QLearningLQR:
         self._N = N
         self.history = []
         self.stop_reason = None
-        if self.method == "value_iteration":
-            self._value_iteration(int(max_iterations))
-        else:
-            self._policy_iteration(int(max_iterations))
+        # The linear algebra here is small (p ≲ 150 columns): BLAS threads only add
+        # synchronization cost, which is severe on a loaded machine.
+        with threadpool_limits(1, user_api="blas"):
+            if self.method == "value_iteration":
+                self._value_iteration(int(max_iterations))
+            else:
+                self._policy_iteration(int(max_iterations))
         return self
 
     def reset(self, seed: int | None = None) -> None:
@@ -229,7 +233,8 @@ class QLearningLQR:
         data = self.data if data is None else data
         if data is None:
             raise ValueError("certainty_equivalence_gain needs data: call learn() first")
-        return ce_gain(data, self.discount)
+        with threadpool_limits(1, user_api="blas"):
+            return ce_gain(data, self.discount)
 
     # ------------------------------------------------------------------ data and features
     def _collect(self, n_samples: int, gain: np.ndarray) -> Transitions:
@@ -260,7 +265,7 @@ class QLearningLQR:
         Z = np.hstack([data.X, data.U])
         s = np.sqrt(np.mean(Z**2, axis=0))
         s[s == 0] = 1.0
-        coef = np.linalg.lstsq(Z / s, data.Xn, rcond=None)[0] / s[:, None]
+        coef = est.lstsq_tall(Z / s, data.Xn) / s[:, None]
         B_hat = coef[self.n :].T
         size = float(np.sqrt(np.mean(data.Xn**2)))
         effect = np.sqrt(np.mean((data.U[:, None, :] * B_hat[None, :, :]) ** 2, axis=(0, 1)))
@@ -331,7 +336,7 @@ class QLearningLQR:
         n, s = self.n, self._scale
         Zs = np.hstack([data.X, data.U]) / s
         Ys = np.hstack([data.Xn, -data.Xn @ K.T]) / s
-        M = np.linalg.lstsq(Zs, Ys, rcond=None)[0].T
+        M = est.lstsq_tall(Zs, Ys).T
         lam_theta = design.least_squares(data.r)
         Lam = smat(lam_theta[: self.p], n + self.m)
         Hs = scipy.linalg.solve_discrete_lyapunov(np.sqrt(self.discount) * M.T, Lam)

@@ -13,6 +13,7 @@ import numpy as np
 import scipy.linalg
 
 from agents.qlqr.data import Transitions
+from agents.qlqr.estimators import lstsq_tall
 from agents.qlqr.features import quadratic_features, smat
 
 
@@ -21,7 +22,7 @@ def fit_model(data: Transitions) -> tuple[np.ndarray, np.ndarray]:
     Z = np.hstack([data.X, data.U])
     scale = np.sqrt(np.mean(Z**2, axis=0))
     scale[scale == 0] = 1.0
-    theta = np.linalg.lstsq(Z / scale, data.Xn, rcond=None)[0] / scale[:, None]
+    theta = lstsq_tall(Z / scale, data.Xn) / scale[:, None]
     n = data.X.shape[1]
     return theta[:n].T, theta[n:].T
 
@@ -32,7 +33,7 @@ def fit_cost(data: Transitions) -> np.ndarray:
     scale = np.sqrt(np.mean(Z**2, axis=0))
     scale[scale == 0] = 1.0
     Phi = quadratic_features(Z / scale)
-    theta = np.linalg.lstsq(Phi, data.r, rcond=None)[0]
+    theta = lstsq_tall(Phi, data.r)
     return smat(theta, Z.shape[1]) / np.outer(scale, scale)
 
 

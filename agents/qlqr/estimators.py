@@ -59,11 +59,36 @@ def guard(exc: Excitation, what: str, cond_limit: float, cond_warn: float) -> No
         warnings.warn(f"{what}: regressor condition number {exc.cond:.3g} is large", stacklevel=3)
 
 
+def r_factor(M: np.ndarray, chunk: int = 512) -> np.ndarray:
+    """Upper-triangular ``R`` of ``M = QR`` by tall-skinny QR (QR of row blocks, then of the
+    stacked R's): the same R up to row signs, without forming Q, and fast for N ≫ p (one
+    big LAPACK QR is slow when BLAS threads compete for few cores)."""
+    while len(M) > chunk:
+        M = np.vstack([np.linalg.qr(M[i : i + chunk], mode="r") for i in range(0, len(M), chunk)])
+    return np.linalg.qr(M, mode="r")
+
+
+def _projected(A: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(R_A, Q_Aᵀ Y)`` from one QR of ``[A Y]`` (the top blocks of its R factor)."""
+    k = A.shape[1]
+    R = r_factor(np.hstack([A, Y.reshape(len(A), -1)]))
+    R = np.vstack([R, np.zeros((max(0, k - R.shape[0]), R.shape[1]))])
+    return R[:k, :k], R[:k, k:]
+
+
+def lstsq_tall(A: np.ndarray, Y: np.ndarray) -> np.ndarray:
+    """Least-squares solution of ``A X ≈ Y`` for tall ``A`` via :func:`r_factor` (minimum norm
+    if ``A`` is rank deficient)."""
+    Ra, QtY = _projected(A, Y)
+    X = np.linalg.lstsq(Ra, QtY, rcond=None)[0]
+    return X[:, 0] if Y.ndim == 1 else X
+
+
 class Design:
-    """The instrument rows ``F`` (N×p), row weights ``w`` and their QR factor.
+    """The instrument rows ``F`` (N×p), row weights ``w`` and their R factor.
 
     ``F`` holds ``f_k = φ(z_k)`` (plus a constant column when used). Every solve multiplies
-    rows by ``w`` and columns by ``1/‖column‖`` first.
+    rows by ``w`` and columns by ``1/‖column‖`` first, and uses the QR of ``[F Y]``.
     """
 
     def __init__(self, F: np.ndarray, weights: np.ndarray, cond_limit: float, cond_warn: float, what: str):
@@ -72,17 +97,17 @@ class Design:
         col = np.linalg.norm(Fw, axis=0)
         col[col == 0] = 1.0
         self.col = col
-        Fn = Fw / col
-        self.excitation = excitation(Fn)
+        self.Fn = Fw / col
+        self.excitation = excitation(r_factor(self.Fn)) if len(F) >= F.shape[1] else Excitation(0, F.shape[1], np.inf)
         guard(self.excitation, what, cond_limit, cond_warn)
-        self.Qf, self.Rf = np.linalg.qr(Fn, mode="reduced")
         self.cond_limit, self.cond_warn = cond_limit, cond_warn
 
     def least_squares(self, Y: np.ndarray) -> np.ndarray:
         """``argmin_θ Σ w_k² (f_kᵀθ − y_k)²`` for each column of ``Y`` (fitted-Q / VI, §3.4)."""
-        rhs = self.Qf.T @ (Y * (self.weights if Y.ndim == 1 else self.weights[:, None]))
-        theta = scipy.linalg.solve_triangular(self.Rf, rhs)
-        return theta / (self.col if Y.ndim == 1 else self.col[:, None])
+        Yw = Y * (self.weights if Y.ndim == 1 else self.weights[:, None])
+        Rf, QtY = _projected(self.Fn, Yw)
+        theta = scipy.linalg.solve_triangular(Rf, QtY) / self.col[:, None]
+        return theta[:, 0] if Y.ndim == 1 else theta
 
     def instrumental(self, Psi: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, Excitation]:
         """LSTD-Q: solve ``Σ w_k² f_k ψ_kᵀ θ = Σ w_k² f_k y_k`` (§3.3) as the equivalent
@@ -90,10 +115,11 @@ class Design:
         Pw = Psi * self.weights[:, None]
         pcol = np.linalg.norm(Pw, axis=0)
         pcol[pcol == 0] = 1.0
-        M = self.Qf.T @ (Pw / pcol)
+        _, QtY = _projected(self.Fn, np.hstack([Pw / pcol, (y * self.weights)[:, None]]))
+        M, rhs = QtY[:, :-1], QtY[:, -1]
         exc = excitation(M)
         guard(exc, "LSTD-Q policy evaluation", self.cond_limit, self.cond_warn)
-        theta = np.linalg.solve(M, self.Qf.T @ (y * self.weights))
+        theta = np.linalg.solve(M, rhs)
         return theta / pcol, exc
 
 
@@ -107,9 +133,10 @@ def ordinary_least_squares(
     Pw = Psi * weights[:, None]
     col = np.linalg.norm(Pw, axis=0)
     col[col == 0] = 1.0
-    exc = excitation(Pw / col)
+    Rp, Qty = _projected(Pw / col, y * weights)
+    exc = excitation(Rp)
     guard(exc, "OLS Bellman-residual fit", cond_limit, cond_warn)
-    theta = np.linalg.lstsq(Pw / col, y * weights, rcond=None)[0]
+    theta = scipy.linalg.solve_triangular(Rp, Qty[:, 0])
     return theta / col, exc
 
 
