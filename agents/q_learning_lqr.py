@@ -105,7 +105,7 @@ class QLearningLQR:
         tol: float = 1e-10,
         cond_limit: float = 1e13,
         cond_warn: float = 1e10,
-        input_signal_limit: float = 1e-8,
+        input_signal_limit: float = 1e-9,
         rls_initial_covariance: float | None = None,
         rls_forgetting: float = 1.0,
         state_to_options=None,

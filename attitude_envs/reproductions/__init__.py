@@ -6,4 +6,6 @@ Each entry maps a reproduction id to ``"module:function"``; the function takes
 :func:`attitude_envs.evaluation.reproduction.write_reproduction`.
 """
 
-REPRODUCTIONS: dict[str, str] = {}
+REPRODUCTIONS: dict[str, str] = {
+    "q-learning-lqr": "attitude_envs.reproductions.q_learning_lqr:reproduce",
+}
