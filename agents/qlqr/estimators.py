@@ -181,13 +181,15 @@ def recursive_least_squares(
     return theta[:, 0] if Y.ndim == 1 else theta
 
 
-def greedy_gain(H: np.ndarray, n: int, rel_tol: float = 1e-6) -> tuple[np.ndarray, float]:
+def greedy_gain(H: np.ndarray, n: int, rel_tol: float = 1e-6, cond_limit: float = 1e4) -> tuple[np.ndarray, float]:
     """Greedy gain ``K = H_uu⁺ H_ux`` (u = −Kx; spec 001 eq. 13 with the sign moved out).
 
     ``H_uu`` must be positive semi-definite (spec 001 eq. 14): eigenvalues below
     ``−rel_tol·λ_max`` raise :class:`NotPositiveDefiniteError`. Eigen-directions with
     ``λ < rel_tol·λ_max`` are input directions that change neither cost nor state (e.g. the
     null space of four wheels on three axes); they get no gain (minimum-norm input).
+    Between the two, ``λ_max/λ_min > cond_limit`` raises: such a direction is neither
+    clearly null nor determined well enough by the data to give it a gain.
     Returns ``(K, λ_min/λ_max)``."""
     Huu = 0.5 * (H[n:, n:] + H[n:, n:].T)
     lam, V = np.linalg.eigh(Huu)
@@ -195,6 +197,11 @@ def greedy_gain(H: np.ndarray, n: int, rel_tol: float = 1e-6) -> tuple[np.ndarra
     if top <= 0 or lam[0] < -rel_tol * top:
         raise NotPositiveDefiniteError(f"H_uu is not positive definite (eigenvalues {lam.tolist()})")
     keep = lam > rel_tol * top
+    if np.min(lam[keep]) * cond_limit < top:
+        raise NotPositiveDefiniteError(
+            f"H_uu is nearly singular (eigenvalue ratio {np.min(lam[keep]) / top:.2g}): an input direction barely "
+            "changes cost or state (redundant actuators?); learn in fewer input coordinates with input_map"
+        )
     Vk = V[:, keep]
     K = Vk @ ((Vk.T @ H[n:, :n]) / lam[keep, None])
     return K, float(lam[0] / top)
