@@ -81,7 +81,8 @@ class QLearningLQR:
     After :meth:`learn`: ``gain`` (m×n), ``kernel`` (H, (n+m)², physical units; the
     per-step Q-function), ``history`` (one dict per iteration: ``iteration``, ``phase``,
     ``samples_used``, ``rank``, ``n_unknowns``, ``cond``, ``delta_H``, ``delta_K``,
-    ``spectral_radius`` (reporting only, ``None`` without a model), ``huu_eig_ratio``,
+    ``spectral_radius`` (ρ(A − BK) of the env's nominal model, reporting only; ``None``
+    without a model, and in VI between every 100th iteration after the first 100), ``huu_eig_ratio``,
     ``input_signal_ratio``,
     ``constant`` (λ̂), ``gain``), ``stop_reason``, ``data`` (last batch).
     """
@@ -253,6 +254,7 @@ class QLearningLQR:
             s = np.concatenate([sx, su])
             s[~(s > 0)] = 1.0
             self._scale = s
+            self._outer = np.outer(s, s)
         self.data = data
         return data
 
@@ -302,7 +304,7 @@ class QLearningLQR:
 
     def _kernel(self, theta: np.ndarray) -> tuple[np.ndarray, float | None]:
         d = self.n + self.m
-        H = smat(theta[: self.p], d) / np.outer(self._scale, self._scale)
+        H = smat(theta[: self.p], d) / self._outer
         return H, (float(theta[self.p]) if self._const else None)
 
     def _design(self, F: np.ndarray, w: np.ndarray, what: str) -> est.Design:
@@ -372,7 +374,7 @@ class QLearningLQR:
         design = self._design(F, w, "value iteration")
         a, G = self._vi_maps(data, design, F, w)
         n = self.n
-        sx = self._scale[:n]
+        sxx = self._outer[:n, :n]
         P = np.zeros((n, n))
         K = np.zeros((self.m, n))
         H_prev = None
@@ -383,7 +385,7 @@ class QLearningLQR:
                 F, w = self._features(data)
                 design = self._design(F, w, "value iteration")
                 a, G = self._vi_maps(data, design, F, w)
-            theta = a + G @ svec(P * np.outer(sx, sx))
+            theta = a + G @ svec(P * sxx)
             H, c = self._kernel(theta)
             try:
                 K_new, ratio = est.greedy_gain(H, n)
@@ -394,7 +396,9 @@ class QLearningLQR:
             P = 0.5 * (P + P.T)
             dK = _rel(K_new, K)
             dH = _rel(H, H_prev) if H_prev is not None else 1.0
-            self._record(j, phase, design.excitation, dH, dK, K_new, ratio, c)
+            # the (reporting-only) spectral radius costs an eigensolve: every iteration early on,
+            # then every 100th (None in between)
+            self._record(j, phase, design.excitation, dH, dK, K_new, ratio, c, rho=j < 100 or j % 100 == 0)
             K, H_prev = K_new, H
             self.gain, self.kernel = K, H
             d_hist.append(dK)
@@ -404,7 +408,10 @@ class QLearningLQR:
                 continue
             if _vi_converged(d_hist, self.tol):
                 self.stop_reason = "converged"
+                self.history[-1]["spectral_radius"] = self._spectral_radius(K)
                 return K
+        if self.history:
+            self.history[-1]["spectral_radius"] = self._spectral_radius(K)
         self.stop_reason = "max_iterations" if gate is None else "no stabilizing gain found"
         return None if gate is not None else K
 
@@ -463,11 +470,14 @@ class QLearningLQR:
         self.stop_reason = "max_iterations"
 
     # ------------------------------------------------------------------ diagnostics
-    def _record(self, j, phase, exc, dH, dK, K, ratio, c) -> None:
-        rho = None
-        if self._report is not None:
-            A, B = self._report
-            rho = float(np.max(np.abs(np.linalg.eigvals(A - B @ K))))
+    def _spectral_radius(self, K: np.ndarray) -> float | None:
+        if self._report is None:
+            return None
+        A, B = self._report
+        return float(np.max(np.abs(np.linalg.eigvals(A - B @ K))))
+
+    def _record(self, j, phase, exc, dH, dK, K, ratio, c, rho: bool = True) -> None:
+        rho = self._spectral_radius(K) if rho else None
         self.history.append(
             {
                 "iteration": j,
@@ -490,8 +500,9 @@ class QLearningLQR:
 def _rel(new: np.ndarray, old: np.ndarray | None) -> float:
     if old is None:
         return 1.0
-    den = np.linalg.norm(new)
-    num = np.linalg.norm(new - old)
+    den = np.sqrt(np.vdot(new, new))
+    diff = new - old
+    num = np.sqrt(np.vdot(diff, diff))
     return float(num / den) if den > 0 else (0.0 if num == 0 else float("inf"))
 
 
