@@ -203,3 +203,15 @@ def test_discounted_gain_matches_scaled_dare():
         )
         agent.learn(samples_per_iteration=6)
         assert relative_error(agent.gain, K_star) <= 1e-8
+
+
+def test_value_iteration_with_fresh_batches_like_the_paper():
+    """``reuse_data=False``: a fresh batch of N ≥ p samples per iteration (spec 001 §3.5,
+    eq. 29/31); same iterates as the reused batch, N× the samples."""
+    A, B, Q, R = CASES["kiumarsi2x1"]
+    K_star, _ = dare_gain(A, B, Q, R)
+    agent = QLearningLQR(linear_env(A, B, Q, R), seed=0, exploration_std=1.0, reuse_data=False)
+    agent.learn(samples_per_iteration=6)
+    assert relative_error(agent.gain, K_star) <= 1e-8
+    assert first_below(agent, K_star) <= riccati_iterations(A, B, Q, R)
+    assert [h["samples_used"] for h in agent.history[:3]] == [6, 12, 18]
