@@ -247,11 +247,16 @@ class QLearningLQR:
                 self.adapter, n_samples, gain, self.exploration_std, self.state_std, self.rng, env_seed, self.sampling
             )
         self.samples_used += len(data)
+        self.data = data  # kept even when a guard below refuses it, for inspection
         self._input_signal = self._check_input_signal(data)
         if self._scale is None:
-            sx = np.sqrt(np.mean(np.vstack([data.X, data.Xn]) ** 2, axis=0))
-            su = np.sqrt(np.mean(data.U**2, axis=0))
-            s = np.concatenate([sx, su])
+            # RMS of the *directions* z_k/‖z_k‖: the typical proportions of the coordinates,
+            # not dominated by the largest rows when the data span many orders of magnitude
+            # (unstable trajectories, note §6.6)
+            Z = np.hstack([data.X, data.U])
+            norms = np.linalg.norm(Z, axis=1)
+            Z = Z[norms > 0] / norms[norms > 0, None]
+            s = np.sqrt(np.mean(Z**2, axis=0)) if len(Z) else np.ones(self.n + self.m)
             s[~(s > 0)] = 1.0
             self._scale = s
             self._outer = np.outer(s, s)
@@ -259,20 +264,25 @@ class QLearningLQR:
         return data
 
     def _check_input_signal(self, data: Transitions) -> float:
-        """Excitation guard that feature scaling cannot hide: the smallest ratio, over the
-        inputs, of the next-state change the probe causes (from a least-squares fit
-        ``x⁺ ≈ Âx + B̂u``, a diagnostic only) to the size of ``x⁺``. Below ``input_signal_limit``
-        the input's effect is lost in floating-point round-off of the data (note §4: a probe
-        too small relative to the state)."""
+        """Excitation guard that feature scaling cannot hide (note §4: a probe too small
+        relative to the state). Per sample, the next-state change the probe of each input
+        causes, ``‖b̂_j‖·|u_kj|`` (``B̂`` from a row-normalized least-squares fit
+        ``x⁺ ≈ Âx + B̂u``, a diagnostic only), relative to ``‖x⁺_k‖``; the p-th largest over the
+        samples (p equations must carry the input's effect), minimized over the inputs. Below
+        ``input_signal_limit`` the input's effect is lost in floating-point round-off."""
         Z = np.hstack([data.X, data.U])
         s = np.sqrt(np.mean(Z**2, axis=0))
         s[s == 0] = 1.0
-        coef = est.lstsq_tall(Z / s, data.Xn) / s[:, None]
-        B_hat = coef[self.n :].T
-        size = float(np.sqrt(np.mean(data.Xn**2)))
-        effect = np.sqrt(np.mean((data.U[:, None, :] * B_hat[None, :, :]) ** 2, axis=(0, 1)))
-        ratio = float(np.min(effect) / size) if size > 0 else float("inf")
-        if ratio < self.input_signal_limit:
+        row = np.linalg.norm(Z / s, axis=1)
+        row[row == 0] = 1.0
+        coef = est.lstsq_tall(Z / s / row[:, None], data.Xn / row[:, None]) / s[:, None]
+        b_norm = np.linalg.norm(coef[self.n :], axis=1)  # ‖b̂_j‖ per input
+        size = np.linalg.norm(data.Xn, axis=1)
+        size[size == 0] = np.finfo(float).tiny
+        per_sample = np.abs(data.U) * b_norm / size[:, None]
+        k = min(self.p, len(per_sample))
+        ratio = float(np.min(np.sort(per_sample, axis=0)[-k]))
+        if not ratio >= self.input_signal_limit:
             raise est.InsufficientExcitationError(
                 f"the probing input changes the next state by only {ratio:.2g} of its size (< input_signal_limit "
                 f"{self.input_signal_limit:.2g}): its effect is lost in round-off; raise exploration_std"
@@ -296,8 +306,8 @@ class QLearningLQR:
         if normalize is None:  # note §9.2: when ‖z‖² spans more than 10⁴ (1st to 99th percentile)
             lo, hi = np.percentile(sq, [1.0, 99.0])
             normalize = bool(hi > 1e4 * max(float(lo), 1e-300))
-        if normalize:
-            w = 1.0 / (sq + 1e-12 * max(float(np.mean(sq)), 1e-300))
+        if normalize:  # an all-zero z_k gives the equation 0 = 0: weight 0
+            w = np.divide(1.0, sq, out=np.zeros_like(sq), where=sq > 0)
         else:
             w = np.ones(len(F))
         return F, w

@@ -215,3 +215,22 @@ def test_value_iteration_with_fresh_batches_like_the_paper():
     assert relative_error(agent.gain, K_star) <= 1e-8
     assert first_below(agent, K_star) <= riccati_iterations(A, B, Q, R)
     assert [h["samples_used"] for h in agent.history[:3]] == [6, 12, 18]
+
+
+def test_row_normalization_on_unstable_trajectory_data():
+    """Note §6.6: one trajectory of an unstable plant under u = η spans ~10²⁶ in ‖z‖²; raw least
+    squares is swamped by the last rows, equations divided by ‖z_k‖² stay exact."""
+    A, B, Q, R = CASES["kiumarsi2x1"]  # ρ(A) = 2.84
+    K_star, _ = dare_gain(A, B, Q, R)
+    env = linear_env(A, B, Q, R, x0_std=1.0, max_episode_steps=10_000, divergence_threshold=1e30)
+    errors = {}
+    for normalize in (None, True, False):
+        agent = QLearningLQR(env, seed=0, exploration_std=1.0, sampling="trajectory", row_normalize=normalize)
+        try:
+            agent.learn(samples_per_iteration=30)
+            errors[normalize] = relative_error(agent.gain, K_star)
+        except ValueError:  # refused (guard) instead of a wrong gain is acceptable for raw LS
+            errors[normalize] = np.inf
+    assert max(np.linalg.norm(agent.data.Xn, axis=1)) > 1e10
+    assert errors[True] <= 1e-8 and errors[None] <= 1e-8  # the default detects the dynamic range
+    assert errors[False] > 1e-3
