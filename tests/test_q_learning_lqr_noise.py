@@ -87,7 +87,7 @@ def test_matrix_bellman_equals_certainty_equivalence(sigma_01):
     for T, e in sigma_01.items():
         assert np.allclose(e["matrix_bellman"], e["ce"], rtol=1e-6), T
         gap_lstd = np.median(e["lstd+c"] / e["ce"])
-        assert 1.5 < gap_lstd < 4.0, T  # LSTD-Q is less efficient, at the low end of the published 2–7×
+        assert 1.5 < gap_lstd < 5.0, T  # LSTD-Q is less efficient: 3.9 (T = 1e3), 2.2 (T = 1e4); published 2–7×
 
 
 def test_missing_constant_feature_leaves_a_bias_floor():
