@@ -244,7 +244,14 @@ class QLearningLQR:
         else:
             env_seed = None if self.samples_used else int(self.rng.integers(2**31 - 1))
             data = collect(
-                self.adapter, n_samples, gain, self.exploration_std, self.state_std, self.rng, env_seed, self.sampling
+                self.adapter,
+                n_samples,
+                gain,
+                self.exploration_std,
+                self._sample_std(gain),
+                self.rng,
+                env_seed,
+                self.sampling,
             )
         self.samples_used += len(data)
         self.data = data  # kept even when a guard below refuses it, for inspection
@@ -262,6 +269,18 @@ class QLearningLQR:
             self._outer = np.outer(s, s)
         self.data = data
         return data
+
+    def _sample_std(self, gain: np.ndarray) -> np.ndarray:
+        """Spread of the sampled start states for a behaviour gain: ``state_std``, shrunk so
+        that the feedback part ``−gain·x`` of the action stays within half the actuator range
+        (RMS), since saturated inputs carry no excitation (one-step samples of a linear
+        plant are equally informative at any scale; a nonlinear one is more linear there)."""
+        M = np.eye(self.m) if self.adapter.input_map is None else self.adapter.input_map
+        rms = np.sqrt(((M @ gain) ** 2) @ (self.state_std**2))
+        limit = 0.5 * self.adapter.action_scale
+        with np.errstate(divide="ignore"):
+            shrink = float(np.min(np.where(rms > 0, limit / rms, np.inf)))
+        return self.state_std * min(1.0, shrink)
 
     def _check_input_signal(self, data: Transitions) -> float:
         """Excitation guard that feature scaling cannot hide (note §4: a probe too small

@@ -137,6 +137,12 @@ def test_spacecraft_plant_lstd_pi_and_vi():
     assert relative_error(pi.gain, K_star) <= 1e-8
     assert first_below(pi, K_star) <= hewer_iterations(A, B, Q, R, K0)
     assert max(h["cond"] for h in pi.history) < 1e5
+    # on-policy PI with no initial gain, through the preset's ±2 N·m actuator: the agent finds
+    # a stabilizing gain by value iteration and samples states where −Kx does not saturate
+    onp = QLearningLQR(env, method="policy_iteration", seed=0, state_std=std, exploration_std=1.0)
+    onp.learn(samples_per_iteration=90)
+    assert relative_error(onp.gain, K_star) <= 1e-8
+    assert any(h["phase"] == "vi_warmup" for h in onp.history)
 
 
 def test_excitation_guard_raises_instead_of_wrong_gain():
