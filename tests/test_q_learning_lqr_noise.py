@@ -94,3 +94,28 @@ def test_missing_constant_feature_leaves_a_bias_floor():
     e = _errors(1.0, 30_000, range(4), {"lstd+c": {}, "lstd": {"constant_feature": False}})
     assert np.median(e["lstd"]) > 0.3  # note §9.5: no-constant LSPI stays > 0.3 at σ_w = 1
     assert np.median(e["lstd+c"]) < 0.5 * np.median(e["lstd"])  # note §6.3: 0.09 at T = 1e5
+
+
+def test_on_policy_bradtke_ols_stays_biased_lstd_does_not():
+    """Note §6.4 / §9.5 bias detection: on-policy PI with fresh batches (Bradtke style),
+    krauth3x2, σ_w = 0.1, N = 1500 per iteration, 6 iterations: OLS residual ≈ 0.56 (must stay
+    > 0.3), LSTD-Q + constant ≈ 0.18."""
+    errors: dict[str, list[float]] = {"ols": [], "lstd+c": []}
+    for seed in range(4):
+        for label, kw in (("ols", {"td_estimator": "ols", "constant_feature": False}), ("lstd+c", {})):
+            env = linear_env(A, B, Q, R, process_noise_std=0.1, x0_std=0.0, max_episode_steps=10**7)
+            agent = QLearningLQR(
+                env,
+                method="policy_iteration",
+                seed=seed,
+                exploration_std=1.0,
+                initial_gain=K0,
+                sampling="trajectory",
+                **kw,
+            )
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                agent.learn(samples_per_iteration=1500, max_iterations=6)
+            errors[label].append(relative_error(agent.gain, K_STAR))
+    assert np.median(errors["ols"]) > 0.3
+    assert np.median(errors["lstd+c"]) < 0.5 * np.median(errors["ols"])
