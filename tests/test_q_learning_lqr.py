@@ -85,18 +85,36 @@ def test_vi_follows_riccati_recursion_iteration_by_iteration():
 
 
 @pytest.mark.parametrize("method", ["policy_iteration", "lspi"])
-def test_unstable_plant_without_initial_gain(method):
+def test_unstable_plant_without_initial_gain_value_iteration_first(method):
     A, B, Q, R = CASES["rand6x2-unstable"]
     assert np.max(np.abs(np.linalg.eigvals(A))) > 1.0
     K_star, _ = dare_gain(A, B, Q, R)
     p = n_features(8)
-    agent = QLearningLQR(linear_env(A, B, Q, R), method=method, seed=4, exploration_std=1.0)
+    agent = QLearningLQR(
+        linear_env(A, B, Q, R), method=method, seed=4, exploration_std=1.0, stabilize="value_iteration"
+    )
     agent.learn(samples_per_iteration=p)
     warm = [h for h in agent.history if h["phase"] == "vi_warmup"]
     assert warm and warm[-1]["spectral_radius"] < 1.0  # the data Lyapunov gate accepted a stabilizing gain
     K0 = warm[-1]["gain"]
     assert relative_error(agent.gain, K_star) <= 1e-8
     assert first_below(agent, K_star, phase="policy_iteration") <= hewer_iterations(A, B, Q, R, K0)
+
+
+@pytest.mark.parametrize("name", ["kiumarsi2x1", "rand9x3-unstable"])
+def test_discount_annealing_finds_a_stabilizing_gain(name):
+    A, B, Q, R = CASES[name]
+    n, m = B.shape
+    K_star, _ = dare_gain(A, B, Q, R)
+    agent = QLearningLQR(
+        linear_env(A, B, Q, R), method="lspi", seed=0, exploration_std=1.0, stabilize="discount_annealing"
+    )
+    agent.learn(samples_per_iteration=n_features(n + m))
+    annealing = [h for h in agent.history if h["phase"] == "annealing"]
+    discounts = [h["discount"] for h in annealing]
+    assert discounts[0] == 1e-3 and discounts[-1] == 1.0 and discounts == sorted(discounts)
+    assert annealing[-1]["spectral_radius"] < 1.0
+    assert relative_error(agent.gain, K_star) <= 1e-8
 
 
 def test_rls_exact_initialization_matches_batch_and_ridge_init_is_biased():
@@ -142,7 +160,8 @@ def test_spacecraft_plant_lstd_pi_and_vi():
     onp = QLearningLQR(env, method="policy_iteration", seed=0, state_std=std, exploration_std=1.0)
     onp.learn(samples_per_iteration=90)
     assert relative_error(onp.gain, K_star) <= 1e-8
-    assert any(h["phase"] == "vi_warmup" for h in onp.history)
+    assert any(h["phase"] == "annealing" for h in onp.history)
+    assert max(h["cond"] for h in onp.history if h["phase"] == "policy_iteration") < 1e4
 
 
 def test_excitation_guard_raises_instead_of_wrong_gain():
