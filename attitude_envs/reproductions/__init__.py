@@ -9,4 +9,5 @@ Each entry maps a reproduction id to ``"module:function"``; the function takes
 REPRODUCTIONS: dict[str, str] = {
     "feedback-linearization": "attitude_envs.reproductions.feedback_linearization:reproduce",
     "fuel-slosh": "attitude_envs.reproductions.fuel_slosh:reproduce",
+    "q-learning-lqr": "attitude_envs.reproductions.q_learning_lqr:reproduce",
 }
