@@ -11,6 +11,7 @@ VECTOR_ENTRY_POINTS = {
 ENV_IDS = {
     "attitude_envs/ReactionWheel-v0": "attitude_envs.envs.reaction_wheel:ReactionWheelEnv",
     "attitude_envs/LinearSystem-v0": "attitude_envs.envs.linear_system:LinearSystemEnv",
+    "attitude_envs/AirBearing-v0": "attitude_envs.envs.air_bearing:AirBearingEnv",
 }
 
 
