@@ -8,4 +8,5 @@ Each entry maps a reproduction id to ``"module:function"``; the function takes
 
 REPRODUCTIONS: dict[str, str] = {
     "feedback-linearization": "attitude_envs.reproductions.feedback_linearization:reproduce",
+    "ga-pid": "attitude_envs.reproductions.ga_pid:reproduce",
 }
