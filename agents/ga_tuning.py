@@ -411,12 +411,22 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def tune_pid_main(argv: list[str] | None = None) -> int:
-    """``train.py tune-pid``: run the GA (and the meta-model with ``--mode schedule``), save the gains."""
-    from tqdm import tqdm
+    """``train.py tune-pid``: run the GA (and the meta-model with ``--mode schedule``), save the gains.
 
+    Returns 0, or 2 after printing ``error: ...`` for bad input (``ValueError``)."""
     import attitude_envs  # noqa: F401  (registers the ids)
 
     args = build_parser().parse_args(argv)
+    try:
+        return _tune_pid(args)
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+
+
+def _tune_pid(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
     try:
         env_kwargs = json.loads(args.env_kwargs)
     except json.JSONDecodeError as exc:

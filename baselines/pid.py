@@ -8,8 +8,9 @@ with ``y`` the 3-2-1 Euler angles of the attitude *relative to the target* (``q_
 so ``r = 0``; equal to the paper's angles for its target 0), ``ẏ`` their rates from the body
 rate by eq. 14 (target at rest), errors in **rad** and gains in SI (N·m/rad, N·m·s/rad,
 N·m/(rad·s)) — spec 003 §5 A1. ``T_c`` is the body-torque command (§3.1 REC), mapped to the
-env's wheels by :class:`baselines.allocation.WheelAllocator` (``saturation="clip"``: each of
-the air bearing's three orthogonal wheels saturates on its own axis, as in the paper). The
+env's wheels by :class:`baselines.allocation.WheelAllocator` (default ``saturation="clip"``
+for one wheel per body axis: each of the air bearing's three orthogonal wheels saturates on its
+own axis, as in the paper; ``"scale"`` for other wheel sets, e.g. ReactionWheel-v0's pyramid). The
 integral is a forward-Euler sum over control periods, without anti-windup (A12), and the yaw
 error is wrapped to (−180°, 180°] by the Euler extraction (A13).
 
@@ -147,12 +148,18 @@ class PIDPolicy:
     carries ``state`` (attitude, rate, target) and whose model has wheel axes and a torque
     limit (ReactionWheel-v0, AirBearing-v0). Policy interface of :mod:`baselines.base`."""
 
-    def __init__(self, env, gains: PIDGains | GainSchedule, name: str | None = None, saturation: str = "clip") -> None:
+    def __init__(
+        self, env, gains: PIDGains | GainSchedule, name: str | None = None, saturation: str | None = None
+    ) -> None:
         if not isinstance(gains, PIDGains | GainSchedule):
             raise ValueError(f"gains must be PIDGains or GainSchedule, got {type(gains).__name__}")
         base = env.unwrapped
         self.gains = gains
         self.dt_s = float(base.control_dt_s)
+        if saturation is None:  # per-axis clipping on one wheel per body axis (the paper); else keep direction
+            axes = base.model.params.wheel_axes
+            orthogonal = axes.shape[1] == 3 and np.allclose(np.abs(axes), np.eye(3))
+            saturation = "clip" if orthogonal else "scale"
         self.allocator = WheelAllocator(base.model, saturation=saturation)
         self.name = name or ("pid-fixed" if isinstance(gains, PIDGains) else f"pid-scheduled-{gains.units}")
         self._integral = np.zeros(3)

@@ -210,3 +210,11 @@ def test_reproduction_quick(tmp_path):
     assert len(claimed) == 1 and claimed[0].within  # fixed-PID yaw IAE vs Table 4
     assert (tmp_path / "ga-pid-gains-fixed.json").exists()
     load_gains(tmp_path / "ga-pid-gains-schedule.json")
+
+
+def test_tune_pid_bad_input_returns_2(tmp_path, capsys):
+    out = tmp_path / "x.json"
+    assert tune_pid_main(["--kp-bounds", "2", "1", "--workers", "1", "--out", str(out)]) == 2
+    assert "kp_bounds" in capsys.readouterr().err
+    assert tune_pid_main(["--env-kwargs", "[1]", "--out", str(out)]) == 2
+    assert not out.exists()

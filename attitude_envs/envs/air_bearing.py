@@ -84,7 +84,9 @@ class AirBearingEnv(ReactionWheelEnv):
     (defaults from :data:`AIR_BEARING`; ``disturbance={"kind": "constant", "torque_nm":
     [0.01] * 3}`` is the spec's A11 scenario) plus ``offset_torque_nm`` (``m g r_s``, N·m),
     ``tilt_limit_deg`` and ``initial_euler_max_deg``. Wheel inertia (0.01 kg·m²) and speed
-    limit (6000 rpm) are ASSUMED: the paper gives none.
+    limit (6000 rpm) are ASSUMED: the paper gives none. ``env.unwrapped.model.params`` carries
+    ``offset_torque_nm``; the model's ``linearize()`` is the free body's (it leaves out the
+    offset's roll/pitch stiffness ``p_z``, spec 003 eq. 17).
     """
 
     def __init__(
