@@ -150,11 +150,18 @@ def test_same_pipeline_tunes_reaction_wheel_v0(tmp_path):
 def test_tune_pid_schedule_mode_writes_loadable_schedule(tmp_path):
     out = tmp_path / "s.json"
     argv = ["--env-kwargs", json.dumps(SHORT), "--mode", "schedule", "--maneuvers", "3", "--units", "deg"]
+    argv += ["--regressor", "final"]
     assert tune_pid_main([*argv, "--population", "3", "--generations", "1", "--workers", "1", "--out", str(out)]) == 0
     schedule = load_gains(out)
     assert isinstance(schedule, GainSchedule) and schedule.units == "deg"
     doc = json.loads(out.read_text())
     assert np.array(doc["data_bank"]["genes"]).shape == (3, 9)
+    assert doc["regressor"] == "final"
+    # the literal option regresses on the states at the end of each optimal run, not the start
+    starts = np.array([quaternion.to_euler_321_deg(m["options"]["attitude"]) for m in doc["maneuvers"]])
+    finals = np.degrees(np.array(doc["data_bank"]["angles_rad"]))
+    assert np.abs(finals).max() < np.abs(starts).max()
+    assert not np.allclose(finals, starts, atol=0.5)
 
 
 def test_sample_maneuvers_replay_the_env_start():
