@@ -80,7 +80,7 @@ def test_pendulum_energy_is_conserved_with_idle_wheels():
         _, _, term, trunc, info = env.step(np.zeros(3))
         done = term or trunc
         rolls.append(info["euler_321_deg"][0])
-        assert energy(info) == pytest.approx(e0, rel=1e-7, abs=1e-9)
+        assert energy(info) == pytest.approx(e0, rel=1e-10)
     assert not term
     assert min(rolls) < -5.0 < 5.0 < max(rolls)  # it really swung (period ≈ 28 s)
     assert abs(e0) > 0.01
