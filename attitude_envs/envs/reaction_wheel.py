@@ -300,7 +300,13 @@ class ReactionWheelEnv(gym.Env):
         p = self._plant
         self._mats = np.ascontiguousarray(np.stack([p.inertia_kg_m2, p.inertia_eff_inv]))
         self._scalars = np.array(
-            [p.wheel_inertia_kg_m2, p.max_wheel_torque_nm, p.max_wheel_speed_rad_s, self.integrator_dt_s]
+            [
+                p.wheel_inertia_kg_m2,
+                p.max_wheel_torque_nm,
+                p.max_wheel_speed_rad_s,
+                self.integrator_dt_s,
+                *p.offset_torque_nm,
+            ]
         )
         self._flags = np.array(
             [self._substeps, self.model.cost_input == "body", self.model.include_wheel_momentum], dtype=np.int64

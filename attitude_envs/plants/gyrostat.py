@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from attitude_envs import validation
+from attitude_envs import quaternion, validation
 from attitude_envs.plants import gyrostat_kernels as kernels
 
 
@@ -37,6 +37,8 @@ class GyrostatParams:
     wheel_inertia_kg_m2: float
     max_wheel_torque_nm: float
     max_wheel_speed_rad_s: float = np.inf
+    # m g r_s (N·m, body axes): centre-of-mass offset on an air bearing, see gravity_torque_nm
+    offset_torque_nm: np.ndarray | None = None
     inertia_eff_inv: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -64,7 +66,9 @@ class GyrostatParams:
         object.__setattr__(self, "max_wheel_torque_nm", float(self.max_wheel_torque_nm))
         object.__setattr__(self, "max_wheel_speed_rad_s", float(self.max_wheel_speed_rad_s))
         object.__setattr__(self, "inertia_eff_inv", np.linalg.inv(inertia_eff))
-        for name in ("inertia_kg_m2", "wheel_axes", "inertia_eff_inv"):
+        offset = np.zeros(3) if self.offset_torque_nm is None else self.offset_torque_nm
+        object.__setattr__(self, "offset_torque_nm", validation.finite_array("offset_torque_nm", offset, (3,)).copy())
+        for name in ("inertia_kg_m2", "wheel_axes", "inertia_eff_inv", "offset_torque_nm"):
             getattr(self, name).setflags(write=False)
 
     @property
@@ -79,6 +83,7 @@ class GyrostatParams:
             self.wheel_inertia_kg_m2,
             self.max_wheel_torque_nm,
             self.max_wheel_speed_rad_s,
+            self.offset_torque_nm,
         )
 
 
@@ -96,8 +101,26 @@ def derivative(
         params.wheel_axes,
         params.wheel_inertia_kg_m2,
         out,
+        params.offset_torque_nm,
     )
     return out
+
+
+def gravity_torque_nm(params: GyrostatParams, q: np.ndarray) -> np.ndarray:
+    """Torque of gravity about the bearing's centre of rotation, N·m, body axes (spec 003 eq. 6–9).
+
+    ``p × K`` with ``p = offset_torque_nm = m g r_s`` and ``K = R(q)ᵀ e_Z`` the gravity
+    direction (inertial +Z points down) in body axes. With ``p_z > 0`` (centre of mass below
+    the centre of rotation) it is restoring in roll and pitch.
+    """
+    k = quaternion.to_matrix(np.asarray(q, dtype=float)).T[:, 2]
+    return np.cross(params.offset_torque_nm, k)
+
+
+def gravity_potential_j(params: GyrostatParams, q: np.ndarray) -> float:
+    """Potential energy of the offset centre of mass, J: ``V = −p·K`` (so ``−∂V/∂θ = p × K``)."""
+    k = quaternion.to_matrix(np.asarray(q, dtype=float)).T[:, 2]
+    return float(-params.offset_torque_nm @ k)
 
 
 def body_momentum(params: GyrostatParams, w: np.ndarray, wheel_speed_rad_s: np.ndarray) -> np.ndarray:

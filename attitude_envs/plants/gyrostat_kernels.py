@@ -13,15 +13,29 @@ from numba import njit
 
 
 @njit(cache=True, error_model="numpy")
-def derivative_into(y, u, ext, inertia, inertia_eff_inv, axes, j_s, out):
+def derivative_into(y, u, ext, inertia, inertia_eff_inv, axes, j_s, out, offset=None):
     """``out[:7+N] = ẏ`` for ``y = [q (4), ω (3), Ω (N)]``, motor torques ``u`` (N, N·m),
-    external torque ``ext`` (3, N·m, body axes)."""
+    external torque ``ext`` (3, N·m, body axes).
+
+    ``offset`` (3, N·m, optional): the centre-of-mass offset torque vector ``p = m g r_s``
+    of a platform on a spherical air bearing (spec 003 eq. 6–9): the body receives
+    ``p × K`` with ``K = R(q)ᵀ e_Z`` the unit gravity direction (inertial +Z, "down") in
+    body axes, ``K = [−sθ, sφcθ, cφcθ]`` in 3-2-1 Euler angles (eq. 7).
+    """
     n = axes.shape[1]
     w0, w1, w2 = y[4], y[5], y[6]
     h0 = inertia[0, 0] * w0 + inertia[0, 1] * w1 + inertia[0, 2] * w2
     h1 = inertia[1, 0] * w0 + inertia[1, 1] * w1 + inertia[1, 2] * w2
     h2 = inertia[2, 0] * w0 + inertia[2, 1] * w1 + inertia[2, 2] * w2
     r0, r1, r2 = ext[0], ext[1], ext[2]
+    if offset is not None:
+        qx, qy, qz, qw = y[0], y[1], y[2], y[3]
+        k0 = 2.0 * (qx * qz - qy * qw)
+        k1 = 2.0 * (qy * qz + qx * qw)
+        k2 = 1.0 - 2.0 * (qx * qx + qy * qy)
+        r0 += offset[1] * k2 - offset[2] * k1
+        r1 += offset[2] * k0 - offset[0] * k2
+        r2 += offset[0] * k1 - offset[1] * k0
     for i in range(n):
         hw = j_s * y[7 + i]
         h0 += axes[0, i] * hw
@@ -120,9 +134,9 @@ def speed_limit_into(cmd, wheel, max_torque, max_speed, j_s, h, out):
 
 @njit(cache=True, error_model="numpy")
 def _augmented(
-    aug, u, ext, inertia, inertia_eff_inv, axes, j_s, q_target, Q, R, body_input, include_h, xbuf, ubuf, out
+    aug, u, ext, inertia, inertia_eff_inv, axes, j_s, q_target, Q, R, body_input, include_h, xbuf, ubuf, out, offset
 ):
-    derivative_into(aug, u, ext, inertia, inertia_eff_inv, axes, j_s, out)
+    derivative_into(aug, u, ext, inertia, inertia_eff_inv, axes, j_s, out, offset)
     out[aug.shape[0] - 1] = stage_cost(aug, u, q_target, axes, j_s, Q, R, body_input, include_h, xbuf, ubuf)
 
 
@@ -137,7 +151,8 @@ def control_step(state, cmd, ext_stages, mats, axes, scalars, flags, q_target, Q
     with the motor command ``cmd`` held; the stage cost is integrated as an extra state.
 
     Packed arguments (few arguments keep numba's dispatch cheap): ``mats = [I, I_eff⁻¹]``
-    (2×3×3), ``scalars = [J_s, max_torque, max_speed, h]``, ``flags = [n_sub, body_input,
+    (2×3×3), ``scalars = [J_s, max_torque, max_speed, h, p_x, p_y, p_z]`` (``p``: the
+    centre-of-mass offset torque vector of :func:`derivative_into`, zeros for a free body), ``flags = [n_sub, body_input,
     include_h]``. ``ext_stages[j, k]`` is the external torque at sub-step ``j``, RK4 stage
     time ``t_j + (0, h/2, h)[k]``. The quaternion is renormalized after each sub-step.
     ``applied_out`` receives the mean motor torque delivered; returns the step cost.
@@ -146,6 +161,7 @@ def control_step(state, cmd, ext_stages, mats, axes, scalars, flags, q_target, Q
     inertia = mats[0]
     inertia_eff_inv = mats[1]
     j_s, max_torque, max_speed, h = scalars[0], scalars[1], scalars[2], scalars[3]
+    offset = scalars[4:7]
     n_sub, body_input, include_h = flags[0], flags[1] != 0, flags[2] != 0
     n = axes.shape[1]
     size = 8 + n
@@ -189,6 +205,7 @@ def control_step(state, cmd, ext_stages, mats, axes, scalars, flags, q_target, Q
                 xbuf,
                 ubuf,
                 ks[stage],
+                offset,
             )
         for i in range(size):
             aug[i] += (h / 6.0) * (ks[0, i] + 2.0 * ks[1, i] + 2.0 * ks[2, i] + ks[3, i])

@@ -10,4 +10,5 @@ REPRODUCTIONS: dict[str, str] = {
     "feedback-linearization": "attitude_envs.reproductions.feedback_linearization:reproduce",
     "fuel-slosh": "attitude_envs.reproductions.fuel_slosh:reproduce",
     "q-learning-lqr": "attitude_envs.reproductions.q_learning_lqr:reproduce",
+    "ga-pid": "attitude_envs.reproductions.ga_pid:reproduce",
 }
