@@ -230,3 +230,19 @@ def test_star_tracker_bias_is_a_body_rotation_about_its_axis():
         q, m = info["state"]["attitude"], info["sensors"]["star_tracker"]
         err = quaternion.to_rotvec(quaternion.multiply(quaternion.conjugate(q), m))
         assert np.allclose(err, [0, 0, 0.01 if t >= 0.5 - 1e-9 else 0.0], atol=1e-12)
+
+
+def test_fuel_slosh_state_sensor_and_fault_hint():
+    from gymnasium.utils.env_checker import check_env
+
+    fault = {"kind": "bias", "target": "sensor", "sensor": "state", "index": 1, "value": 0.01, "onset_s": 0.2}
+    env = gym.make("attitude_envs/FuelSlosh-v0", sensors={"state": {"noise_std": 0.0}}, faults=[fault], fault_hint=True)
+    obs, _ = env.reset(seed=0)
+    assert obs.shape == (8 + 3,)
+    for _ in range(4):
+        obs, _, _, _, info = env.step(np.zeros(2))
+        truth = np.append(info["x"], info["state"]["v_x_m_s"])
+        active = info["time_s"] >= 0.2 - 1e-9
+        assert np.allclose(obs[:8], truth + np.eye(8)[1] * (0.01 if active else 0.0), atol=1e-6)
+        assert obs[-1] == float(active)
+    check_env(gym.make("attitude_envs/FuelSlosh-v0", sensors={"state": {"noise_std": 1e-3}}, fault_hint=True).unwrapped)

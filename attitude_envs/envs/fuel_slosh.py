@@ -15,6 +15,7 @@ from attitude_envs.faults import ActuatorFaults
 from attitude_envs.integrators import rk4_step, substeps
 from attitude_envs.plants import slosh
 from attitude_envs.plants.slosh_model import PAPER_Q, PAPER_R, FuelSloshModel, reduced_state
+from attitude_envs.sensors import Channel, SensorSuite
 
 # Spec 004 Table 4 (READ): [v_x, v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2] in m/s, rad, rad/s.
 PAPER_INITIAL_STATE = np.array(
@@ -69,7 +70,9 @@ class FuelSloshEnv(gym.Env):
     ``randomize_initial_state``, ``max_slosh_angle_deg`` (90), ``max_pitch_rate_rad_s``
     (0.5), ``max_pitch_angle_deg`` (90), ``design_v_x_m_s`` (3000, the nominal linear model's axial speed).
     ``faults`` (actuator 0 = gimbal δ in rad, 1 = pitch moment in N·m; see
-    :mod:`attitude_envs.faults`). ``reset(options={"state": 8 values, "faults": [...]})``
+    :mod:`attitude_envs.faults`; ``"target": "sensor"`` entries hit the ``state`` sensor),
+    ``sensors`` (``{"state": {...}}``, see :mod:`attitude_envs.sensors`: the observation is
+    then measured), ``fault_hint`` (append 3 active-fault flags: 2 actuators, the sensor). ``reset(options={"state": 8 values, "faults": [...]})``
     pins the start state and the episode's faults.
 
     ``env.unwrapped.model`` is the nominal :class:`FuelSloshModel` (reduced model,
@@ -100,6 +103,8 @@ class FuelSloshEnv(gym.Env):
         max_pitch_angle_deg: float = 90.0,
         design_v_x_m_s: float = 3000.0,
         faults: list[dict] | None = None,
+        sensors: dict | None = None,
+        fault_hint: bool = False,
     ) -> None:
         if params is None:
             params = slosh.SloshParams.from_fill_preset(fill_preset)
@@ -140,7 +145,16 @@ class FuelSloshEnv(gym.Env):
         self.observation_space = spaces.Box(-high.astype(np.float32), high.astype(np.float32), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
         # actuator 0: gimbal angle (rad), actuator 1: pitch moment (N·m)
-        self._faults = ActuatorFaults(faults, 2, [self.model.max_gimbal_rad, self.model.max_moment_nm])
+        self._faults = ActuatorFaults(
+            faults, 2, [self.model.max_gimbal_rad, self.model.max_moment_nm], other_targets={"sensor"}
+        )
+        self._sensors = SensorSuite(sensors, [Channel("state", len(high))], faults)
+        self.fault_hint = bool(fault_hint)
+        if self.fault_hint:  # 2 actuator flags + 1 sensor flag in [0, 1]
+            low = np.concatenate([-high, np.zeros(3)]).astype(np.float32)
+            self.observation_space = spaces.Box(
+                low, np.concatenate([high, np.ones(3)]).astype(np.float32), dtype=np.float32
+            )
         self._y = np.zeros(slosh.N_STATE)
         self._t = 0.0
         self._steps = 0
@@ -160,6 +174,7 @@ class FuelSloshEnv(gym.Env):
         self._y[list(_INITIAL_ORDER)] = init
         self._t = 0.0
         self._steps = 0
+        self._sensors.reset(self.np_random, options.get("faults"))  # own spawned generator
         self._faults.reset(self.np_random, options.get("faults"))
         zero = np.zeros(2)
         return self._observation(), self._info(zero, zero, zero, 0.0)
@@ -203,6 +218,10 @@ class FuelSloshEnv(gym.Env):
         x = reduced_state(self._y)
         vx = self._y[slosh.IVX]
         obs = np.append(x, vx) if self.observe_slosh else np.array([x[0], x[1], x[2], vx])
+        if self._sensors.enabled:
+            obs = self._sensors.measure({"state": obs}, self._t)["state"]
+        if self.fault_hint:
+            obs = np.concatenate([obs, self._faults.active_flags(self._t), self._sensors.active_flags(self._t)])
         return obs.astype(np.float32)
 
     @property
@@ -229,5 +248,5 @@ class FuelSloshEnv(gym.Env):
             "new_inputs": np.asarray(new_inputs, float),
             "cost": cost,
             "time_s": self._t,
-            "faults": self._faults.info(self._t),
+            "faults": self._faults.info(self._t) + self._sensors.info(self._t),
         }
