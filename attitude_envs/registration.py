@@ -7,6 +7,7 @@ import gymnasium as gym
 ENV_IDS = {
     "attitude_envs/ReactionWheel-v0": "attitude_envs.envs.reaction_wheel:ReactionWheelEnv",
     "attitude_envs/LinearSystem-v0": "attitude_envs.envs.linear_system:LinearSystemEnv",
+    "attitude_envs/Magnetorquer-v0": "attitude_envs.envs.magnetorquer:MagnetorquerEnv",
 }
 
 
