@@ -67,7 +67,7 @@ class SmoothBangBang:
         """(∫∫f, ∫f, f) at ``t_s`` (s², s, 1)."""
         if t_s <= 0.0:
             return 0.0, 0.0, 0.0
-        for a, b, f, v, p in self._pieces:
+        for _a, b, f, v, p in self._pieces:
             if t_s <= b:
                 return _horner(p, t_s), _horner(v, t_s), _horner(f, t_s)
         v0, p0 = self._final

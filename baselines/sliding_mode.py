@@ -86,7 +86,9 @@ def terminal_term(q_e: np.ndarray, gains: SlidingModeGains, modified: bool = Tru
         return sgn * a**gains.r, gains.r * np.maximum(a, 1e-6) ** (gains.r - 1.0)
     near = a < gains.epsilon
     s_c = np.where(near, gains.kappa1 * q_e + gains.kappa2 * sgn * q_e**2, sgn * a**gains.r)
-    ds = np.where(near, gains.kappa1 + 2.0 * gains.kappa2 * a, gains.r * np.maximum(a, gains.epsilon) ** (gains.r - 1.0))
+    ds = np.where(
+        near, gains.kappa1 + 2.0 * gains.kappa2 * a, gains.r * np.maximum(a, gains.epsilon) ** (gains.r - 1.0)
+    )
     return s_c, ds
 
 

@@ -179,7 +179,9 @@ class MagnetorquerEnv(gym.Env):
                 raise ValueError(f"reference has unknown keys {sorted(unknown)}")
             ref = SmoothBangBang(ref_cfg["delta_deg"], ref_cfg["t_final_s"], ref_cfg["start_deg"])
         else:
-            ref = SmoothBangBang((0.0, 0.0, 0.0), 1.0, validation.finite_array("target_euler_deg", target_euler_deg, (3,)))
+            ref = SmoothBangBang(
+                (0.0, 0.0, 0.0), 1.0, validation.finite_array("target_euler_deg", target_euler_deg, (3,))
+            )
         self._initial_angle = float(initial_angle_deg)
         if not 0.0 <= self._initial_angle <= 180.0:
             raise ValueError(f"initial_angle_deg must be in [0, 180], got {initial_angle_deg!r}")
@@ -263,7 +265,9 @@ class MagnetorquerEnv(gym.Env):
         if "mean_anomaly_deg" in options:
             anomaly = float(validation.finite_array("options['mean_anomaly_deg']", options["mean_anomaly_deg"], ()))
         else:
-            anomaly = float(rng.uniform(0.0, 360.0)) if self._random_anomaly else float(self._orbit_cfg["mean_anomaly_deg"])
+            anomaly = (
+                float(rng.uniform(0.0, 360.0)) if self._random_anomaly else float(self._orbit_cfg["mean_anomaly_deg"])
+            )
         self.orbit = self._make_orbit(anomaly)
         self._orbit_cache = {}
         self._ctx_cache = {}
@@ -453,6 +457,5 @@ class MagnetorquerEnv(gym.Env):
 # Spec 002 eq. (40): magnetorquer effectiveness E = diag(0.9, 0.7, 0.6) for t > 50 s, through
 # the shared fault layer (actuators 0–2 are the dipoles).
 PAPER_FAULTS = [
-    {"kind": "loss_of_effectiveness", "index": i, "value": v, "onset_s": 50.0}
-    for i, v in enumerate((0.1, 0.3, 0.4))
+    {"kind": "loss_of_effectiveness", "index": i, "value": v, "onset_s": 50.0} for i, v in enumerate((0.1, 0.3, 0.4))
 ]

@@ -132,8 +132,11 @@ def run_traced(env, policy, seed: int | None = None, options: dict | None = None
 
 
 def tracking_metrics(
-    trace: EpisodeTrace, max_dipole_am2: float, max_wheel_torque_nm: float, fault_time_s: float | None = 50.0,
-    recover_threshold: float = 0.02
+    trace: EpisodeTrace,
+    max_dipole_am2: float,
+    max_wheel_torque_nm: float,
+    fault_time_s: float | None = 50.0,
+    recover_threshold: float = 0.02,
 ) -> dict[str, float]:
     """Eqs. (42)–(44) (AST and ASM on the applied signals, ASM also on the commanded
     dipoles), the chattering index of the normalized command (dimensionless total
@@ -155,4 +158,3 @@ def tracking_metrics(
         err = np.linalg.norm(trace.q_e, axis=1)
         out["time_to_recover_s"] = time_to_recover(trace.time_s, err, fault_time_s, recover_threshold)
     return out
-

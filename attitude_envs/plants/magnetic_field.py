@@ -131,9 +131,13 @@ class FieldModel:
         angles = gmst0 + EARTH_RATE_RAD_S * times
         c, s = np.cos(angles), np.sin(angles)
         # ECEF = R_z(−θ) ECI
-        ecef = np.column_stack([c * pos_eci[:, 0] + s * pos_eci[:, 1], -s * pos_eci[:, 0] + c * pos_eci[:, 1], pos_eci[:, 2]])
+        ecef = np.column_stack(
+            [c * pos_eci[:, 0] + s * pos_eci[:, 1], -s * pos_eci[:, 0] + c * pos_eci[:, 1], pos_eci[:, 2]]
+        )
         b_ecef = igrf_ecef_t(ecef, self.epoch)
-        b_eci = np.column_stack([c * b_ecef[:, 0] - s * b_ecef[:, 1], s * b_ecef[:, 0] + c * b_ecef[:, 1], b_ecef[:, 2]])
+        b_eci = np.column_stack(
+            [c * b_ecef[:, 0] - s * b_ecef[:, 1], s * b_ecef[:, 0] + c * b_ecef[:, 1], b_ecef[:, 2]]
+        )
         self._table_t, self._table_b = times, b_eci
 
     def eci_t(self, t_s: float, state: OrbitState) -> np.ndarray:
@@ -149,5 +153,7 @@ class FieldModel:
     def orbital_t(self, t_s: float, state: OrbitState, inclination_rad: float) -> np.ndarray:
         """Field in the orbital (LVLH) frame, tesla."""
         if self.model == "dipole-printed":
-            return dipole_printed_orbital_t(state.radius_m, state.argument_of_latitude_rad, inclination_rad, self.strength)
+            return dipole_printed_orbital_t(
+                state.radius_m, state.argument_of_latitude_rad, inclination_rad, self.strength
+            )
         return state.eci_from_orbital.T @ self.eci_t(t_s, state)

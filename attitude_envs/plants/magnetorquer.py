@@ -138,7 +138,12 @@ def derivative(
 
 
 def angular_momentum_inertial(
-    q_bo: np.ndarray, w_bi: np.ndarray, wheel_speed: float, inertia_kg_m2: np.ndarray, wheel_inertia_kg_m2: float, eci_from_orbital: np.ndarray
+    q_bo: np.ndarray,
+    w_bi: np.ndarray,
+    wheel_speed: float,
+    inertia_kg_m2: np.ndarray,
+    wheel_inertia_kg_m2: float,
+    eci_from_orbital: np.ndarray,
 ) -> np.ndarray:
     """Total angular momentum (body + wheel) in ECI axes, N·m·s."""
     h_b = inertia_kg_m2 @ w_bi + wheel_inertia_kg_m2 * wheel_speed * E_Y
