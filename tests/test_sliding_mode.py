@@ -8,8 +8,8 @@ from attitude_envs.envs.magnetorquer import PAPER_FAULTS
 from attitude_envs.evaluation import rollout
 from attitude_envs.evaluation.tracking_metrics import (
     additive_error,
-    ast_eq43,
     asm_eq44,
+    ast_eq43,
     chattering_index,
     rms_eq42,
     run_traced,
@@ -101,9 +101,13 @@ def _sliding_history(apply_equivalent: bool) -> np.ndarray:
         u_c, s, _ = pol.demand(info)
         s_values.append(s)
         if apply_equivalent:  # an ideal actuator: u_c enters as an external body torque
-            env._disturbance_at = lambda t, u=u_c.copy(): u
+            env._disturbance_at = _constant(u_c.copy())
         _, _, _, _, info = env.step(np.zeros(4, dtype=np.float32))
     return np.array(s_values)
+
+
+def _constant(torque_nm):
+    return lambda t: torque_nm
 
 
 def test_equivalent_control_cancels_the_nominal_dynamics():
