@@ -202,6 +202,8 @@ class MagnetorquerEnv(gym.Env):
             self.control_dt_s,
         )
         self._faults = ActuatorFaults(faults, 4, params.limits)
+        diagonal = np.count_nonzero(q_mat - np.diag(np.diag(q_mat))) + np.count_nonzero(r_mat - np.diag(np.diag(r_mat)))
+        self._diag_weights = (np.diag(q_mat).tolist(), np.diag(r_mat).tolist()) if diagonal == 0 else None
         self.max_rate_rad_s = validation.positive("max_rate_rad_s", max_rate_rad_s)
         if render_mode is not None:
             raise ValueError(f"render_mode must be None (no renderer for Magnetorquer-v0), got {render_mode!r}")
@@ -384,24 +386,64 @@ class MagnetorquerEnv(gym.Env):
         return ctx
 
     def _augmented_derivative(self, t: float, aug: np.ndarray, m: np.ndarray, t_w: float) -> np.ndarray:
-        y = aug[:-1]
-        q = y[:4] / np.linalg.norm(y[:4])
+        x, y, z, w, w0, w1, w2 = aug[:7].tolist()
+        n = (x * x + y * y + z * z + w * w) ** -0.5
+        x, y, z, w = x * n, y * n, z * n, w * n
         orb, b_orb, q_d, w_d, inertia, eff_inv, dist = self._context(t)
-        b = mt.orbital_to_body(q) @ b_orb
-        tau_m = mt.cross(m, b)
+        # b = R b_orb with R = to_matrix(q)ᵀ (eq. 4)
+        o0, o1, o2 = b_orb.tolist()
+        b0 = (1 - 2 * (y * y + z * z)) * o0 + 2 * (x * y + z * w) * o1 + 2 * (x * z - y * w) * o2
+        b1 = 2 * (x * y - z * w) * o0 + (1 - 2 * (x * x + z * z)) * o1 + 2 * (y * z + x * w) * o2
+        b2 = 2 * (x * z + y * w) * o0 + 2 * (y * z - x * w) * o1 + (1 - 2 * (x * x + y * y)) * o2
+        m0, m1, m2 = m.tolist()
+        tau = (m1 * b2 - m2 * b1, m2 * b0 - m0 * b2, m0 * b1 - m1 * b0)  # m × b (eq. 8)
         ext = dist
         if self.gravity_gradient:
-            ext = ext + mt.gravity_gradient_nm(q, inertia, orb.radius_m)
+            ext = ext + mt.gravity_gradient_nm(np.array([x, y, z, w]), inertia, orb.radius_m)
+        e0, e1, e2 = ext.tolist()
         j_w = self.model.params.wheel_inertia_kg_m2
-        dy = mt.derivative(y, inertia, eff_inv, j_w, t_w, tau_m + ext, orb.rate_rad_s, orb.rate_dot_rad_s2)
-        q_e = quaternion.error(q, q_d)
-        w_e = y[4:7] - quaternion.to_matrix(q_e).T @ w_d
-        u = tau_m.copy()
-        u[1] += t_w
-        cost = self.model.cost
-        stage = float(q_e[:3] @ cost.Q[:3, :3] @ q_e[:3] + 2.0 * q_e[:3] @ cost.Q[:3, 3:] @ w_e)
-        stage += float(w_e @ cost.Q[3:, 3:] @ w_e + u @ cost.R @ u)
-        return np.concatenate([dy, [stage]])
+        dy = mt.derivative(
+            aug,
+            inertia,
+            eff_inv,
+            j_w,
+            t_w,
+            (tau[0] + e0, tau[1] + e1, tau[2] + e2),
+            orb.rate_rad_s,
+            orb.rate_dot_rad_s2,
+        )
+        # error quaternion q_e = q_d* ⊗ q (w ≥ 0) and ω_e = ω − C(q_e)ᵀ ω_d
+        dx, dy_, dz, dw = q_d.tolist()
+        ex = dw * x - dx * w - dy_ * z + dz * y
+        ey = dw * y - dy_ * w - dz * x + dx * z
+        ez = dw * z - dz * w - dx * y + dy_ * x
+        ew = dw * w + dx * x + dy_ * y + dz * z
+        if ew < 0:
+            ex, ey, ez, ew = -ex, -ey, -ez, -ew
+        v0, v1, v2 = w_d.tolist()
+        we0 = w0 - ((1 - 2 * (ey * ey + ez * ez)) * v0 + 2 * (ex * ey + ez * ew) * v1 + 2 * (ex * ez - ey * ew) * v2)
+        we1 = w1 - (2 * (ex * ey - ez * ew) * v0 + (1 - 2 * (ex * ex + ez * ez)) * v1 + 2 * (ey * ez + ex * ew) * v2)
+        we2 = w2 - (2 * (ex * ez + ey * ew) * v0 + 2 * (ey * ez - ex * ew) * v1 + (1 - 2 * (ex * ex + ey * ey)) * v2)
+        u = (tau[0], tau[1] + t_w, tau[2])
+        if self._diag_weights is not None:
+            qw, rw = self._diag_weights
+            stage = (
+                qw[0] * ex * ex
+                + qw[1] * ey * ey
+                + qw[2] * ez * ez
+                + qw[3] * we0 * we0
+                + qw[4] * we1 * we1
+                + qw[5] * we2 * we2
+                + rw[0] * u[0] * u[0]
+                + rw[1] * u[1] * u[1]
+                + rw[2] * u[2] * u[2]
+            )
+        else:
+            stage = self.model.cost.stage(np.array([ex, ey, ez, we0, we1, we2]), np.array(u))
+        out = np.empty(9)
+        out[:8] = dy
+        out[8] = stage
+        return out
 
     def _error_state(self, q: np.ndarray, rate: np.ndarray, t_s: float) -> np.ndarray:
         q_d, w_d, _ = self.model.reference.attitude(t_s)

@@ -104,37 +104,52 @@ def inertial_rate(q: np.ndarray, rate_bo: np.ndarray, orbital_rate_rad_s: float)
 
 
 def derivative(
-    y: np.ndarray,
+    y,
     inertia_kg_m2: np.ndarray,
     inertia_eff_inv: np.ndarray,
     wheel_inertia_kg_m2: float,
     wheel_torque_nm: float,
-    torque_nm: np.ndarray,
+    torque_nm,
     orbital_rate_rad_s: float,
     orbital_rate_dot_rad_s2: float = 0.0,
 ) -> np.ndarray:
-    """Time derivative of ``y = [q (4), ω_bo (3), Ω (1)]`` (see the module docstring)."""
-    q, w_bo, om = y[:4], y[4:7], y[7]
-    r_y = orbital_to_body(q)[:, 1]  # R e_y: orbital y axis in body axes
-    r_w_oi = -orbital_rate_rad_s * r_y
-    w_bi = w_bo + r_w_oi
-    h = inertia_kg_m2 @ w_bi
-    h[1] += wheel_inertia_kg_m2 * om
-    rhs = -cross(w_bi, h) + torque_nm
-    rhs[1] += wheel_torque_nm
-    w_bi_dot = inertia_eff_inv @ rhs
-    om_dot = -wheel_torque_nm / wheel_inertia_kg_m2 - w_bi_dot[1]
-    w_bo_dot = w_bi_dot + cross(w_bo, r_w_oi) + orbital_rate_dot_rad_s2 * r_y
-    x, yq, z, s = q
-    q_dot = 0.5 * np.array(
+    """Time derivative of ``y = [q (4), ω_bo (3), Ω (1)]`` (see the module docstring).
+
+    Written with Python floats (3-vectors are cheaper that way than as numpy arrays: this
+    is the hot path of every env step).
+    """
+    x, yq, z, s, w0, w1, w2, om = (float(v) for v in y[:8])
+    # R e_y: the orbital y axis in body axes (row 1 of to_matrix(q))
+    r0, r1, r2 = 2 * (x * yq + z * s), 1 - 2 * (x * x + z * z), 2 * (yq * z - x * s)
+    nd = orbital_rate_rad_s
+    a0, a1, a2 = -nd * r0, -nd * r1, -nd * r2  # R ω_oi
+    b0, b1, b2 = w0 + a0, w1 + a1, w2 + a2  # ω_bi
+    (i00, i01, i02), (i10, i11, i12), (i20, i21, i22) = inertia_kg_m2.tolist()
+    h0 = i00 * b0 + i01 * b1 + i02 * b2
+    h1 = i10 * b0 + i11 * b1 + i12 * b2 + wheel_inertia_kg_m2 * om
+    h2 = i20 * b0 + i21 * b1 + i22 * b2
+    t0, t1, t2 = (float(v) for v in torque_nm)
+    c0 = -(b1 * h2 - b2 * h1) + t0
+    c1 = -(b2 * h0 - b0 * h2) + t1 + wheel_torque_nm
+    c2 = -(b0 * h1 - b1 * h0) + t2
+    (e00, e01, e02), (e10, e11, e12), (e20, e21, e22) = inertia_eff_inv.tolist()
+    d0 = e00 * c0 + e01 * c1 + e02 * c2
+    d1 = e10 * c0 + e11 * c1 + e12 * c2
+    d2 = e20 * c0 + e21 * c1 + e22 * c2
+    om_dot = -wheel_torque_nm / wheel_inertia_kg_m2 - d1
+    ndd = orbital_rate_dot_rad_s2
+    return np.array(
         [
-            s * w_bo[0] + yq * w_bo[2] - z * w_bo[1],
-            s * w_bo[1] + z * w_bo[0] - x * w_bo[2],
-            s * w_bo[2] + x * w_bo[1] - yq * w_bo[0],
-            -(x * w_bo[0] + yq * w_bo[1] + z * w_bo[2]),
+            0.5 * (s * w0 + yq * w2 - z * w1),
+            0.5 * (s * w1 + z * w0 - x * w2),
+            0.5 * (s * w2 + x * w1 - yq * w0),
+            -0.5 * (x * w0 + yq * w1 + z * w2),
+            d0 + (w1 * a2 - w2 * a1) + ndd * r0,
+            d1 + (w2 * a0 - w0 * a2) + ndd * r1,
+            d2 + (w0 * a1 - w1 * a0) + ndd * r2,
+            om_dot,
         ]
     )
-    return np.concatenate([q_dot, w_bo_dot, [om_dot]])
 
 
 def angular_momentum_inertial(

@@ -6,4 +6,6 @@ Each entry maps a reproduction id to ``"module:function"``; the function takes
 :func:`attitude_envs.evaluation.reproduction.write_reproduction`.
 """
 
-REPRODUCTIONS: dict[str, str] = {}
+REPRODUCTIONS: dict[str, str] = {
+    "fault-tolerant-smc": "attitude_envs.reproductions.fault_tolerant_smc:reproduce",
+}
