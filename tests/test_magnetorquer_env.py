@@ -86,7 +86,7 @@ def test_torque_free_motion_conserves_inertial_momentum_with_the_wheel_working()
             st["inertial_rate_rad_s"],
             st["wheel_speed_rad_s"][0],
             inertia,
-            2 * 0 + env.model.params.wheel_inertia_kg_m2,
+            env.model.params.wheel_inertia_kg_m2,
             orbit_state.eci_from_orbital,
         )
 
