@@ -222,7 +222,6 @@ class MagnetorquerEnv(gym.Env):
         self._orbit_cache: dict[float, OrbitState] = {}
         self._ctx_cache: dict[float, tuple] = {}
         self._eff_inv: np.ndarray | None = None
-        self._b_orb = np.zeros(3)
 
     # ------------------------------------------------------------------ construction helpers
     def _orbit(self, config: dict | None) -> KeplerOrbit:
