@@ -217,15 +217,15 @@ def _notes(duration: float, claims: list[str], plots: list[Path]) -> str:
             "γ1, γ2, r, ϵ, κ, μ, p, q and the trajectory are not printed, and with the printed disturbance "
             "the x/z magnetic authority is marginal (spec §6 item 8).",
             "",
-            "`consistent-eq9`: `consistent` with eq. (9) exactly as printed (field y, z flipped relative to "
-            "the physical dipole in the paper's LVLH frame), the field of the spec's own prototype.",
-            "",
             "`as-printed`: all printed numbers (sign(S), Ĥ(0) = 0.605, ρ1 = ρ2 = 0.0015, allocation (16)–(17), "
             "eq. (9) as printed, eq. (39) disturbance at full scale, ΔJ(t) of eq. (35)). "
             "`consistent`: physical dipole field, disturbance × 0.1, 'xz' allocation, boundary layer "
             "δ = 1e-3 rad/s, AMNFTSMC with Ĥ(0) = ρ2/(1 + ρ1) and μ scaled by the same factor as Ĥ(0) "
             "(printed Ĥ(0) is ~2600× the wheel torque limit). The FTSMC row is the spec §4.7 stand-in, "
             "not the paper's reference [13].",
+            "",
+            "`consistent-eq9`: `consistent` with eq. (9) exactly as printed (field y, z flipped relative to "
+            "the physical dipole in the paper's LVLH frame), the field of the spec's own prototype.",
             "",
             "Qualitative claims (paper: adaptive beats non-adaptive on RMS and chattering; both keep tracking "
             "after the fault):",
