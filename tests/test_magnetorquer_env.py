@@ -222,3 +222,26 @@ def test_eccentricity_at_or_above_one_raises():
     for e in (1.0, 1.5):
         with pytest.raises(ValueError, match=r"eccentricity must be in \[0, 1\)"):
             KeplerOrbit(7.2e6, e, 69.5)
+
+
+def test_gravity_gradient_torque_option():
+    """3μ/r³ ô × (Iô), ô the nadir in body axes: zero at the principal-axes-aligned attitude,
+    (3μ/r³)(I_zz − I_yy) sinθ cosθ about x after a roll θ (circular orbit, r = a)."""
+    inertia = np.diag([0.9, 1.0, 1.2])
+    env = gym.make(
+        MT,
+        inertia_kg_m2=inertia,
+        disturbance=None,
+        time_varying_inertia=None,
+        gravity_gradient=True,
+        orbit={"model": "circular", "mean_anomaly_deg": 0.0},
+        **SHORT,
+    ).unwrapped
+    _, info = env.reset(seed=0, options={"attitude": [0, 0, 0, 1.0]})
+    assert np.allclose(info["disturbance_torque_nm"], 0.0, atol=1e-20)
+    theta = np.radians(20.0)
+    _, info = env.reset(seed=0, options={"attitude": quaternion.from_axis_angle([1, 0, 0], theta)})
+    k = 3 * 3.986004418e14 / env.orbit.a**3
+    expected = k * (1.2 - 1.0) * np.sin(theta) * np.cos(theta)
+    assert np.allclose(info["disturbance_torque_nm"], [expected, 0, 0], rtol=1e-12, atol=1e-20)
+    assert abs(expected) > 1e-7
