@@ -14,6 +14,7 @@ ENV_IDS = {
     "attitude_envs/LinearSystem-v0": "attitude_envs.envs.linear_system:LinearSystemEnv",
     "attitude_envs/FuelSlosh-v0": "attitude_envs.envs.fuel_slosh:FuelSloshEnv",
     "attitude_envs/AirBearing-v0": "attitude_envs.envs.air_bearing:AirBearingEnv",
+    "attitude_envs/Magnetorquer-v0": "attitude_envs.envs.magnetorquer:MagnetorquerEnv",
 }
 
 

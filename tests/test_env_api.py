@@ -26,6 +26,7 @@ CONFIGS = [
     ),
     ("attitude_envs/LinearSystem-v0", {}),
     ("attitude_envs/AirBearing-v0", {"disturbance": {"kind": "constant", "torque_nm": [0.01, 0.01, 0.01]}}),
+    ("attitude_envs/Magnetorquer-v0", {"episode_duration_s": 20.0, "observe_field": True}),
     (
         "attitude_envs/LinearSystem-v0",
         {"preset": None, "A": [[1.1, 0.1], [0, 0.9]], "B": [[0], [1]], "process_noise_std": 0.01},

@@ -11,4 +11,5 @@ REPRODUCTIONS: dict[str, str] = {
     "fuel-slosh": "attitude_envs.reproductions.fuel_slosh:reproduce",
     "q-learning-lqr": "attitude_envs.reproductions.q_learning_lqr:reproduce",
     "ga-pid": "attitude_envs.reproductions.ga_pid:reproduce",
+    "fault-tolerant-smc": "attitude_envs.reproductions.fault_tolerant_smc:reproduce",
 }

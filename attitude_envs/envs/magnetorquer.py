@@ -1,0 +1,502 @@
+"""Magnetorquer-v0: nano-satellite with three magnetorquers and one y-axis wheel (spec 002)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from attitude_envs import quaternion, validation
+from attitude_envs.cost import QuadraticCost
+from attitude_envs.disturbances import Disturbance
+from attitude_envs.faults import ActuatorFaults
+from attitude_envs.integrators import rk4_step, substeps
+from attitude_envs.plants import magnetorquer as mt
+from attitude_envs.plants.magnetic_field import DIPOLE_STRENGTH_T_M3, FieldModel
+from attitude_envs.plants.orbit import KeplerOrbit, OrbitState
+from attitude_envs.trajectories import SmoothBangBang
+from attitude_envs.uncertainty import InertiaUncertainty
+
+_OPTION_KEYS = {"attitude", "rate_rad_s", "wheel_speed_rad_s", "faults", "mean_anomaly_deg"}
+# Spec 002 Table 1 [READ]; RAAN and argument of perigee are not printed [ASSUME 0].
+PAPER_ORBIT = {
+    "model": "keplerian",
+    "apogee_altitude_km": 1250.0,
+    "perigee_altitude_km": 311.0,
+    "inclination_deg": 69.5,
+    "raan_deg": 0.0,
+    "arg_perigee_deg": 0.0,
+    "mean_anomaly_deg": "random",
+}
+PAPER_REFERENCE = {"delta_deg": [10.0, 20.0, 10.0], "t_final_s": 1200.0, "start_deg": [0.0, 0.0, 0.0]}
+FIELD_SCALE_T = 5e-5  # observation scale of the body-frame field
+WHEEL_SPEED_SCALE_RAD_S = 1e3  # observation scale of the wheel speed
+
+
+@dataclass(frozen=True)
+class MagnetorquerModel:
+    """The nominal model a model-based controller may use (``env.unwrapped.model``).
+
+    ``params`` holds the nominal inertia ``J_t`` (with the wheel's spin inertia), the wheel
+    and the limits; ``orbital_rate_rad_s`` is the mean motion ω0 (the paper's constant
+    orbital rate); ``reference`` the desired trajectory; ``cost`` the Q, R of the reward on
+    ``x = [q_e,vec, ω_e]`` and the body control torque ``u = m × b + e_y T_w``.
+    """
+
+    params: mt.MagnetorquerParams
+    orbital_rate_rad_s: float
+    inclination_rad: float
+    reference: SmoothBangBang
+    cost: QuadraticCost
+    control_dt_s: float
+
+
+class MagnetorquerEnv(gym.Env):
+    """Attitude tracking/regulation of a nano-satellite with 3 magnetorquers + 1 wheel on y.
+
+    Paper: Sadigh, Kashaninia, Dehghan, J. Control 15(4), 2022 (spec 002). Plant:
+    :mod:`attitude_envs.plants.magnetorquer` (exact gyrostat equations with one wheel,
+    attitude relative to the orbital LVLH frame), orbit :mod:`attitude_envs.plants.orbit`,
+    field :mod:`attitude_envs.plants.magnetic_field`; fixed-step RK4 with the stage cost as
+    an extra state, quaternion renormalized after every sub-step.
+
+    ================  ==========================================================  ===========
+    Quantity          Meaning                                                     Units
+    ================  ==========================================================  ===========
+    State (truth)     q (body rel. orbital frame, scalar last), ω_bo, wheel       -, rad/s
+                      speed Ω relative to the body; orbit (anomaly), time
+    Observation       float32 ``[q_e,vec (3), ω_e (3), Ω/1000 (1)]``, q_e =       -, rad/s,
+                      q_d*⊗q (w ≥ 0), ω_e = ω_bo − C(q_e)ᵀω_d; ``+ b/5e-5 T``     krad/s, -
+                      (body-frame field, 3) if ``observe_field``
+    Action            4 in [-1, 1] (clipped): dipoles ``m = a[:3]·max_dipole_am2``  A·m²
+                      and the wheel torque on the body about +y                    N·m
+                      ``T_w = a[3]·max_wheel_torque_nm`` (spec eq. 7 convention)
+    Reward            −∫ (xᵀQx + uᵀRu) dt over the step, x = [q_e,vec, ω_e],       (cost)
+                      u = m_applied × b + e_y T_w,applied (body torque, N·m)
+    Start state       tracking: q = q_d(0), ω_bo = 0, Ω = 0 (paper); regulation:
+                      q within ``initial_angle_deg`` of the target, ω_bo uniform   deg, rad/s
+                      in ±``initial_rate_max_rad_s``; orbit anomaly from the seed
+    Termination       non-finite state or ``max|ω_bo| > max_rate_rad_s``          rad/s
+    Truncation        simulated time reaches ``episode_duration_s`` (default two  s
+                      orbital periods, the paper's 12 038 s)
+    ================  ==========================================================  ===========
+
+    Parameters: ``task`` (``"tracking"``: spec 002's smooth bang-bang 3-2-1 Euler reference,
+    ``reference`` = {delta_deg, t_final_s, start_deg}; ``"regulation"``: hold
+    ``target_euler_deg``); ``inertia_kg_m2`` (nominal J_t), ``wheel_inertia_kg_m2``,
+    ``max_dipole_am2`` (0.5), ``max_wheel_torque_nm`` (2.3e-4), ``max_wheel_momentum_nms``
+    (40 as printed; 0.04 is the spec's likely reading); ``orbit`` (dict, keys of
+    ``PAPER_ORBIT``; ``model`` "keplerian"/"circular", ``mean_anomaly_deg`` a number or
+    "random"); ``field_model`` ("dipole", "dipole-printed", "igrf"), ``dipole_strength_t_m3``,
+    ``field_epoch``, ``observe_field``; ``disturbance`` ("paper": eq. 39 × ``disturbance_scale``,
+    ``disturbance_second_harmonic``; a dict of :mod:`attitude_envs.disturbances`; or None);
+    ``gravity_gradient``; ``time_varying_inertia`` (eq. 35 by default, dict or None);
+    ``inertia_uncertainty`` (random dispersions, :mod:`attitude_envs.uncertainty`);
+    ``control_dt_s``, ``integrator_dt_s``, ``episode_duration_s``, ``Q``, ``R``,
+    ``max_rate_rad_s``, ``faults`` (actuator indices 0–2 dipoles, 3 wheel; see
+    :mod:`attitude_envs.faults`; the paper's E = diag(0.9, 0.7, 0.6) after 50 s is
+    ``PAPER_FAULTS``).
+
+    ``info``: ``state`` (attitude, rate_rad_s = ω_bo, inertial_rate_rad_s, wheel_speed_rad_s,
+    wheel_momentum_nms), ``reference`` (attitude, rate_rad_s, attitude_rate), ``time_s``,
+    ``magnetic_field_body_t``, ``magnetic_field_orbital_t``, ``orbit`` (radius_m,
+    argument_of_latitude_rad, rate_rad_s), ``commanded`` and ``applied`` (4: dipoles after
+    faults, wheel torque after faults and the momentum limit, step means), ``magnetic_torque_nm``
+    and ``control_torque_nm`` (step means), ``disturbance_torque_nm``, ``true_inertia_kg_m2``,
+    ``cost``, ``error_angle_deg``, ``faults``.
+    """
+
+    metadata = {"render_modes": []}
+
+    def __init__(
+        self,
+        task: str = "tracking",
+        reference: dict | None = None,
+        target_euler_deg=(0.0, 0.0, 0.0),
+        initial_angle_deg: float = 10.0,
+        initial_rate_max_rad_s: float | None = None,
+        inertia_kg_m2=None,
+        wheel_inertia_kg_m2: float = mt.PAPER_WHEEL_INERTIA_KG_M2,
+        max_dipole_am2: float = mt.PAPER_MAX_DIPOLE_AM2,
+        max_wheel_torque_nm: float = mt.PAPER_MAX_WHEEL_TORQUE_NM,
+        max_wheel_momentum_nms: float = mt.PAPER_MAX_WHEEL_MOMENTUM_NMS,
+        orbit: dict | None = None,
+        field_model: str = "dipole",
+        dipole_strength_t_m3: float = DIPOLE_STRENGTH_T_M3,
+        field_epoch: str = "2020-01-01T00:00:00",
+        observe_field: bool = False,
+        disturbance: str | dict | None = "paper",
+        disturbance_scale: float = 1.0,
+        disturbance_second_harmonic: bool = False,
+        gravity_gradient: bool = False,
+        time_varying_inertia: dict | None = mt.PAPER_DELTA_J,
+        inertia_uncertainty: dict | None = None,
+        control_dt_s: float = 0.1,
+        integrator_dt_s: float | None = None,
+        episode_duration_s: float | None = None,
+        Q=None,
+        R=None,
+        max_rate_rad_s: float = 1.0,
+        faults: list[dict] | None = None,
+        render_mode: str | None = None,
+    ) -> None:
+        self.task = validation.choice("task", task, {"tracking", "regulation"})
+        if inertia_kg_m2 is None:
+            inertia_kg_m2 = mt.PAPER_BODY_INERTIA_KG_M2 + wheel_inertia_kg_m2 * np.outer(mt.E_Y, mt.E_Y)
+        params = mt.MagnetorquerParams(
+            inertia_kg_m2, wheel_inertia_kg_m2, max_dipole_am2, max_wheel_torque_nm, max_wheel_momentum_nms
+        )
+        self.orbit = self._orbit(orbit)
+        self.field = FieldModel(field_model, dipole_strength_t_m3, field_epoch)
+        self.observe_field = bool(observe_field)
+        if isinstance(disturbance, str):
+            validation.choice("disturbance", disturbance, {"paper"})
+            self._disturbance = "paper"
+        else:
+            self._disturbance = None if disturbance is None else Disturbance(disturbance)
+        self.disturbance_scale = validation.nonnegative("disturbance_scale", disturbance_scale)
+        self.disturbance_second_harmonic = bool(disturbance_second_harmonic)
+        self.gravity_gradient = bool(gravity_gradient)
+        self._delta_j = mt.TimeVaryingInertia.from_config(time_varying_inertia)
+        if self._delta_j is not None:
+            self._delta_j.check_against(params.inertia_kg_m2)
+        self._uncertainty = InertiaUncertainty.from_config(inertia_uncertainty)
+        self.control_dt_s = validation.positive("control_dt_s", control_dt_s)
+        self.integrator_dt_s = validation.positive(
+            "integrator_dt_s", self.control_dt_s if integrator_dt_s is None else integrator_dt_s
+        )
+        self._substeps = substeps(self.control_dt_s, self.integrator_dt_s)
+        self.episode_duration_s = validation.positive(
+            "episode_duration_s", 2.0 * self.orbit.period_s if episode_duration_s is None else episode_duration_s
+        )
+        if self.task == "tracking":
+            ref_cfg = dict(PAPER_REFERENCE, **(reference or {}))
+            unknown = set(ref_cfg) - set(PAPER_REFERENCE)
+            if unknown:
+                raise ValueError(f"reference has unknown keys {sorted(unknown)}")
+            ref = SmoothBangBang(ref_cfg["delta_deg"], ref_cfg["t_final_s"], ref_cfg["start_deg"])
+        else:
+            ref = SmoothBangBang(
+                (0.0, 0.0, 0.0), 1.0, validation.finite_array("target_euler_deg", target_euler_deg, (3,))
+            )
+        self._initial_angle = float(initial_angle_deg)
+        if not 0.0 <= self._initial_angle <= 180.0:
+            raise ValueError(f"initial_angle_deg must be in [0, 180], got {initial_angle_deg!r}")
+        default_rate = 0.0 if self.task == "tracking" else 1e-3
+        self._rate_max = validation.nonnegative(
+            "initial_rate_max_rad_s", default_rate if initial_rate_max_rad_s is None else initial_rate_max_rad_s
+        )
+        # [ASSUME] cost weights (the paper defines none): 1 per unit q_e², 1e3 per (rad/s)²,
+        # 1e4 per (N·m)² of body torque — a 0.01 attitude error and 1e-3 N·m weigh alike.
+        q_mat = validation.psd_matrix("Q", np.diag([1.0] * 3 + [1e3] * 3) if Q is None else Q, 6)
+        r_mat = validation.psd_matrix("R", 1e4 * np.eye(3) if R is None else R, 3, definite=True)
+        self.model = MagnetorquerModel(
+            params,
+            self.orbit.mean_motion_rad_s,
+            self.orbit.inclination_rad,
+            ref,
+            QuadraticCost(q_mat, r_mat),
+            self.control_dt_s,
+        )
+        self._faults = ActuatorFaults(faults, 4, params.limits)
+        diagonal = np.count_nonzero(q_mat - np.diag(np.diag(q_mat))) + np.count_nonzero(r_mat - np.diag(np.diag(r_mat)))
+        self._diag_weights = (np.diag(q_mat).tolist(), np.diag(r_mat).tolist()) if diagonal == 0 else None
+        self.max_rate_rad_s = validation.positive("max_rate_rad_s", max_rate_rad_s)
+        if render_mode is not None:
+            raise ValueError(f"render_mode must be None (no renderer for Magnetorquer-v0), got {render_mode!r}")
+        self.render_mode = None
+
+        high = np.concatenate([np.ones(3), np.full(3, 2.0 * self.max_rate_rad_s), [1e3]])
+        if self.observe_field:
+            high = np.concatenate([high, np.full(3, 3.0)])
+        self.observation_space = spaces.Box(-high.astype(np.float32), high.astype(np.float32), dtype=np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(4,), dtype=np.float32)
+
+        self._inertia = params.inertia_kg_m2
+        self._y = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0])
+        self._t = 0.0
+        self._steps = 0
+        self._orbit_cache: dict[float, OrbitState] = {}
+        self._ctx_cache: dict[float, tuple] = {}
+        self._eff_inv: np.ndarray | None = None
+
+    # ------------------------------------------------------------------ construction helpers
+    def _orbit(self, config: dict | None) -> KeplerOrbit:
+        cfg = dict(PAPER_ORBIT)
+        if config is not None:
+            if not isinstance(config, dict):
+                raise ValueError(f"orbit must be a dict or None, got {config!r}")
+            unknown = set(config) - set(PAPER_ORBIT)
+            if unknown:
+                raise ValueError(f"orbit has unknown keys {sorted(unknown)}")
+            cfg.update(config)
+        self._random_anomaly = isinstance(cfg["mean_anomaly_deg"], str)
+        if self._random_anomaly:
+            validation.choice("orbit.mean_anomaly_deg", cfg["mean_anomaly_deg"], {"random"})
+        self._orbit_cfg = cfg
+        return self._make_orbit(0.0 if self._random_anomaly else float(cfg["mean_anomaly_deg"]))
+
+    def _make_orbit(self, mean_anomaly_deg: float) -> KeplerOrbit:
+        c = self._orbit_cfg
+        return KeplerOrbit.from_altitudes(
+            c["apogee_altitude_km"],
+            c["perigee_altitude_km"],
+            c["inclination_deg"],
+            raan_deg=c["raan_deg"],
+            arg_perigee_deg=c["arg_perigee_deg"],
+            mean_anomaly_deg=mean_anomaly_deg,
+            model=c["model"],
+        )
+
+    # ------------------------------------------------------------------ gym API
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        options = {} if options is None else dict(options)
+        unknown = set(options) - _OPTION_KEYS
+        if unknown:
+            raise ValueError(f"reset options has unknown keys {sorted(unknown)}; accepted: {sorted(_OPTION_KEYS)}")
+        rng = self.np_random
+        nominal = self.model.params.inertia_kg_m2
+        self._inertia = nominal if self._uncertainty is None else self._uncertainty.draw(nominal, rng)
+        if self._delta_j is not None and self._uncertainty is not None:
+            self._delta_j.check_against(self._inertia)
+        if "mean_anomaly_deg" in options:
+            anomaly = float(validation.finite_array("options['mean_anomaly_deg']", options["mean_anomaly_deg"], ()))
+        else:
+            anomaly = (
+                float(rng.uniform(0.0, 360.0)) if self._random_anomaly else float(self._orbit_cfg["mean_anomaly_deg"])
+            )
+        self.orbit = self._make_orbit(anomaly)
+        self._orbit_cache = {}
+        self._ctx_cache = {}
+        self._eff_inv = None
+        self.field.prepare(self.orbit, self.episode_duration_s + self.control_dt_s)
+        q_d, _, _ = self.model.reference.attitude(0.0)
+        if self.task == "tracking":
+            q0 = q_d.copy()
+        else:
+            q0 = quaternion.multiply(q_d, quaternion.random_within_angle(rng, self._initial_angle))
+        rate = rng.uniform(-self._rate_max, self._rate_max, 3) if self._rate_max > 0 else np.zeros(3)
+        wheel = np.zeros(1)
+        if "attitude" in options:
+            q0 = validation.unit_quaternion("options['attitude']", options["attitude"])
+        if "rate_rad_s" in options:
+            rate = validation.finite_array("options['rate_rad_s']", options["rate_rad_s"], (3,))
+        if "wheel_speed_rad_s" in options:
+            wheel = validation.finite_array("options['wheel_speed_rad_s']", options["wheel_speed_rad_s"], (1,))
+        self._y = np.concatenate([q0, rate, wheel])
+        self._t = 0.0
+        self._steps = 0
+        if isinstance(self._disturbance, Disturbance):
+            self._disturbance.reset(rng)
+        self._faults.reset(rng, options.get("faults"))
+        zeros = np.zeros(4)
+        return self._observation(), self._info(zeros, zeros, np.zeros(3), np.zeros(3), 0.0)
+
+    def step(self, action):
+        p = self.model.params
+        a = np.clip(validation.action(action, 4), -1.0, 1.0)
+        commanded = a * p.limits
+        delivered = self._faults.apply(commanded, self._t)
+        m = delivered[:3]
+        if isinstance(self._disturbance, Disturbance):
+            self._disturbance.advance(self.np_random, self.control_dt_s)
+        h = self.integrator_dt_s
+        aug = np.concatenate([self._y, [0.0]])
+        wheel_sum, tau_m_sum = 0.0, np.zeros(3)
+        t0 = self._t
+        for j in range(self._substeps):
+            ts = t0 + j * h
+            w_bi = mt.inertial_rate(aug[:4], aug[4:7], self._orbit_state(ts).rate_rad_s)
+            h_w = p.wheel_inertia_kg_m2 * (aug[7] + w_bi[1])
+            t_w = mt.wheel_momentum_limited(float(delivered[3]), h_w, p.max_wheel_momentum_nms)
+            wheel_sum += t_w
+            tau_m_sum += mt.cross(m, mt.orbital_to_body(aug[:4]) @ self._context(ts)[1])
+            aug = rk4_step(lambda t, y, t_w=t_w: self._augmented_derivative(t, y, m, t_w), ts, aug, h)
+            aug[:4] /= np.linalg.norm(aug[:4])
+        self._steps += 1
+        self._t = self._steps * self.control_dt_s
+        self._orbit_cache = {k: v for k, v in self._orbit_cache.items() if k >= self._t - 1e-12}
+        self._ctx_cache = {k: v for k, v in self._ctx_cache.items() if k >= self._t - 1e-12}
+        self._y = aug[:-1]
+        cost = float(aug[-1])
+        applied = np.concatenate([m, [wheel_sum / self._substeps]])
+        tau_m = tau_m_sum / self._substeps
+        control = tau_m + mt.E_Y * applied[3]
+        finite = bool(np.all(np.isfinite(aug)))
+        terminated = (not finite) or bool(np.max(np.abs(self._y[4:7])) > self.max_rate_rad_s)
+        truncated = bool(self._t >= self.episode_duration_s - 1e-9 * self.control_dt_s) and not terminated
+        obs = self._observation() if finite else np.zeros(self.observation_space.shape, np.float32)
+        return obs, -cost, terminated, truncated, self._info(applied, commanded, tau_m, control, cost)
+
+    # ------------------------------------------------------------------ internals
+    def _orbit_state(self, t_s: float) -> OrbitState:
+        state = self._orbit_cache.get(t_s)
+        if state is None:
+            state = self.orbit.state_at(t_s)
+            self._orbit_cache[t_s] = state
+        return state
+
+    def _field_orbital(self, t_s: float) -> np.ndarray:
+        return self.field.orbital_t(t_s, self._orbit_state(t_s), self.orbit.inclination_rad)
+
+    def true_inertia_at(self, t_s: float) -> np.ndarray:
+        """The true inertia ``I + ΔJ(t)`` of the plant at ``t_s``, kg·m² (evaluation truth)."""
+        return self._inertia if self._delta_j is None else self._inertia + self._delta_j.delta_at(t_s)
+
+    def _disturbance_at(self, t_s: float) -> np.ndarray:
+        if self._disturbance == "paper":
+            return mt.paper_disturbance_nm(
+                t_s, self.model.orbital_rate_rad_s, self.disturbance_scale, self.disturbance_second_harmonic
+            )
+        if self._disturbance is None:
+            return np.zeros(3)
+        return self.disturbance_scale * self._disturbance.torque_nm_at(t_s)
+
+    def external_torque_at(self, t_s: float, q: np.ndarray) -> np.ndarray:
+        """Disturbance (+ gravity gradient when enabled) on the body, N·m."""
+        d = self._disturbance_at(t_s)
+        if self.gravity_gradient:
+            d = d + mt.gravity_gradient_nm(q, self.true_inertia_at(t_s), self._orbit_state(t_s).radius_m)
+        return d
+
+    def _context(self, t_s: float) -> tuple:
+        """Everything that depends on time only, cached for the RK4 stages that share ``t_s``:
+        orbit state, orbital-frame field, reference, true inertia and I_eff⁻¹, disturbance."""
+        ctx = self._ctx_cache.get(t_s)
+        if ctx is None:
+            orb = self._orbit_state(t_s)
+            b_orb = self.field.orbital_t(t_s, orb, self.orbit.inclination_rad)
+            q_d, w_d, _ = self.model.reference.attitude(t_s)
+            inertia = self.true_inertia_at(t_s)
+            if self._delta_j is None and self._eff_inv is not None:
+                eff_inv = self._eff_inv
+            else:
+                eff = inertia.copy()
+                eff[1, 1] -= self.model.params.wheel_inertia_kg_m2
+                eff_inv = np.linalg.inv(eff)
+                if self._delta_j is None:
+                    self._eff_inv = eff_inv
+            ctx = (orb, b_orb, q_d, w_d, inertia, eff_inv, self._disturbance_at(t_s))
+            self._ctx_cache[t_s] = ctx
+        return ctx
+
+    def _augmented_derivative(self, t: float, aug: np.ndarray, m: np.ndarray, t_w: float) -> np.ndarray:
+        x, y, z, w, w0, w1, w2 = aug[:7].tolist()
+        n = (x * x + y * y + z * z + w * w) ** -0.5
+        x, y, z, w = x * n, y * n, z * n, w * n
+        orb, b_orb, q_d, w_d, inertia, eff_inv, dist = self._context(t)
+        # b = R b_orb with R = to_matrix(q)ᵀ (eq. 4)
+        o0, o1, o2 = b_orb.tolist()
+        b0 = (1 - 2 * (y * y + z * z)) * o0 + 2 * (x * y + z * w) * o1 + 2 * (x * z - y * w) * o2
+        b1 = 2 * (x * y - z * w) * o0 + (1 - 2 * (x * x + z * z)) * o1 + 2 * (y * z + x * w) * o2
+        b2 = 2 * (x * z + y * w) * o0 + 2 * (y * z - x * w) * o1 + (1 - 2 * (x * x + y * y)) * o2
+        m0, m1, m2 = m.tolist()
+        tau = (m1 * b2 - m2 * b1, m2 * b0 - m0 * b2, m0 * b1 - m1 * b0)  # m × b (eq. 8)
+        ext = dist
+        if self.gravity_gradient:
+            ext = ext + mt.gravity_gradient_nm(np.array([x, y, z, w]), inertia, orb.radius_m)
+        e0, e1, e2 = ext.tolist()
+        j_w = self.model.params.wheel_inertia_kg_m2
+        dy = mt.derivative(
+            aug,
+            inertia,
+            eff_inv,
+            j_w,
+            t_w,
+            (tau[0] + e0, tau[1] + e1, tau[2] + e2),
+            orb.rate_rad_s,
+            orb.rate_dot_rad_s2,
+        )
+        # error quaternion q_e = q_d* ⊗ q (w ≥ 0) and ω_e = ω − C(q_e)ᵀ ω_d
+        dx, dy_, dz, dw = q_d.tolist()
+        ex = dw * x - dx * w - dy_ * z + dz * y
+        ey = dw * y - dy_ * w - dz * x + dx * z
+        ez = dw * z - dz * w - dx * y + dy_ * x
+        ew = dw * w + dx * x + dy_ * y + dz * z
+        if ew < 0:
+            ex, ey, ez, ew = -ex, -ey, -ez, -ew
+        v0, v1, v2 = w_d.tolist()
+        we0 = w0 - ((1 - 2 * (ey * ey + ez * ez)) * v0 + 2 * (ex * ey + ez * ew) * v1 + 2 * (ex * ez - ey * ew) * v2)
+        we1 = w1 - (2 * (ex * ey - ez * ew) * v0 + (1 - 2 * (ex * ex + ez * ez)) * v1 + 2 * (ey * ez + ex * ew) * v2)
+        we2 = w2 - (2 * (ex * ez + ey * ew) * v0 + 2 * (ey * ez - ex * ew) * v1 + (1 - 2 * (ex * ex + ey * ey)) * v2)
+        u = (tau[0], tau[1] + t_w, tau[2])
+        if self._diag_weights is not None:
+            qw, rw = self._diag_weights
+            stage = (
+                qw[0] * ex * ex
+                + qw[1] * ey * ey
+                + qw[2] * ez * ez
+                + qw[3] * we0 * we0
+                + qw[4] * we1 * we1
+                + qw[5] * we2 * we2
+                + rw[0] * u[0] * u[0]
+                + rw[1] * u[1] * u[1]
+                + rw[2] * u[2] * u[2]
+            )
+        else:
+            stage = self.model.cost.stage(np.array([ex, ey, ez, we0, we1, we2]), np.array(u))
+        out = np.empty(9)
+        out[:8] = dy
+        out[8] = stage
+        return out
+
+    def _error_state(self, q: np.ndarray, rate: np.ndarray, t_s: float) -> np.ndarray:
+        q_d, w_d, _ = self.model.reference.attitude(t_s)
+        q_e = quaternion.error(q, q_d)
+        w_e = rate - quaternion.to_matrix(q_e).T @ w_d
+        return np.concatenate([q_e[:3], w_e])
+
+    def error_state(self) -> np.ndarray:
+        """The true error state ``x = [q_e,vec, ω_e]`` (float64) now."""
+        return self._error_state(self._y[:4], self._y[4:7], self._t)
+
+    def _observation(self) -> np.ndarray:
+        parts = [self.error_state(), self._y[7:] / WHEEL_SPEED_SCALE_RAD_S]
+        if self.observe_field:
+            parts.append(mt.orbital_to_body(self._y[:4]) @ self._field_orbital(self._t) / FIELD_SCALE_T)
+        return np.concatenate(parts).astype(np.float32)
+
+    def _info(self, applied, commanded, tau_m, control, cost: float) -> dict:
+        q, rate = self._y[:4], self._y[4:7]
+        orb = self._orbit_state(self._t)
+        b_orb = self._field_orbital(self._t)
+        w_bi = mt.inertial_rate(q, rate, orb.rate_rad_s)
+        q_d, w_d, q_dot = self.model.reference.attitude(self._t)
+        return {
+            "state": {
+                "attitude": q.copy(),
+                "rate_rad_s": rate.copy(),
+                "inertial_rate_rad_s": w_bi,
+                "wheel_speed_rad_s": self._y[7:].copy(),
+                "wheel_momentum_nms": float(self.model.params.wheel_inertia_kg_m2 * (self._y[7] + w_bi[1])),
+            },
+            "reference": {"attitude": q_d.copy(), "rate_rad_s": w_d.copy(), "attitude_rate": q_dot.copy()},
+            "time_s": self._t,
+            "magnetic_field_body_t": mt.orbital_to_body(q) @ b_orb,
+            "magnetic_field_orbital_t": b_orb.copy(),
+            "orbit": {
+                "radius_m": orb.radius_m,
+                "argument_of_latitude_rad": orb.argument_of_latitude_rad,
+                "rate_rad_s": orb.rate_rad_s,
+            },
+            "commanded": np.asarray(commanded, dtype=float),
+            "applied": np.asarray(applied, dtype=float),
+            "magnetic_torque_nm": tau_m,
+            "control_torque_nm": control,
+            "disturbance_torque_nm": np.array(self.external_torque_at(self._t, q)),
+            "true_inertia_kg_m2": self.true_inertia_at(self._t).copy(),
+            "cost": cost,
+            "error_angle_deg": float(np.degrees(quaternion.error_angle_rad(q, q_d))),
+            "faults": self._faults.info(self._t),
+        }
+
+
+# Spec 002 eq. (40): magnetorquer effectiveness E = diag(0.9, 0.7, 0.6) for t > 50 s, through
+# the shared fault layer (actuators 0–2 are the dipoles).
+PAPER_FAULTS = [
+    {"kind": "loss_of_effectiveness", "index": i, "value": v, "onset_s": 50.0} for i, v in enumerate((0.1, 0.3, 0.4))
+]

@@ -1,0 +1,145 @@
+"""Keplerian orbit (two-body, no perturbations) and the orbital (LVLH) frame.
+
+Spec 002 §2.6 / Table 1 gives the orbit by its apogee and perigee altitudes (1250 km,
+311 km) over a spherical Earth of radius 6371 km, inclination 69.5°; the printed orbital
+rate ω0 = 10.439e-4 rad/s is the mean motion sqrt(μ/a³) at a = 7151.5 km.
+
+Frames. ECI: x to the ascending-node reference direction (RAAN measured from it), z to
+the north pole. The orbital frame is the LVLH frame of spec 002 eq. (3): ``x`` completes
+the triad (along-track for a circular orbit), ``y = −h/|h|`` (orbit anti-normal), ``z =
+−r/|r|`` (nadir). It rotates about ``y`` with the true-anomaly rate, so its angular velocity
+in its own axes is ``ω_oi = [0, −ν̇, 0]`` (eq. 3 with ν̇ = ω0 on a circular orbit).
+
+``model="keplerian"`` propagates the ellipse (Kepler's equation by Newton iteration);
+``model="circular"`` is the paper's approximation: radius ``a``, argument of latitude
+``α = α0 + ω0 t``, constant rate ω0 (spec 002 §6 item 6).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from attitude_envs import validation
+
+MU_EARTH_M3_S2 = 3.986004418e14
+EARTH_RADIUS_M = 6371.0e3  # spec 002 §2.6: the radius that reproduces the printed ω0
+MODELS = ("keplerian", "circular")
+
+
+@dataclass(frozen=True)
+class OrbitState:
+    """Where the spacecraft is at one time (SI units, ECI axes)."""
+
+    position_m: np.ndarray
+    velocity_m_s: np.ndarray
+    radius_m: float
+    argument_of_latitude_rad: float
+    rate_rad_s: float  # ν̇: the orbital frame's rotation rate about −y
+    rate_dot_rad_s2: float  # ν̈
+    eci_from_orbital: np.ndarray  # 3×3, columns are the orbital axes in ECI
+
+
+class KeplerOrbit:
+    """A two-body orbit from its elements; angles in degrees, altitudes in km.
+
+    ``mean_anomaly_deg`` is the mean anomaly at t = 0 (the env may draw it from its seed).
+    Raises ``ValueError`` for eccentricity outside [0, 1), inclination outside [0, 180], a
+    perigee below the Earth's surface or an unknown ``model``.
+    """
+
+    def __init__(
+        self,
+        semi_major_axis_m: float,
+        eccentricity: float,
+        inclination_deg: float,
+        raan_deg: float = 0.0,
+        arg_perigee_deg: float = 0.0,
+        mean_anomaly_deg: float = 0.0,
+        model: str = "keplerian",
+        mu_m3_s2: float = MU_EARTH_M3_S2,
+    ) -> None:
+        self.a = validation.positive("semi_major_axis_m", semi_major_axis_m)
+        e = float(eccentricity)
+        if not (np.isfinite(e) and 0.0 <= e < 1.0):
+            raise ValueError(f"eccentricity must be in [0, 1), got {eccentricity!r}")
+        self.e = e
+        inc = float(inclination_deg)
+        if not (np.isfinite(inc) and 0.0 <= inc <= 180.0):
+            raise ValueError(f"inclination_deg must be in [0, 180], got {inclination_deg!r}")
+        self.inclination_rad = np.radians(inc)
+        self.raan_rad = np.radians(validation.finite_array("raan_deg", raan_deg, ()))
+        self.arg_perigee_rad = np.radians(validation.finite_array("arg_perigee_deg", arg_perigee_deg, ()))
+        self.mean_anomaly0_rad = np.radians(validation.finite_array("mean_anomaly_deg", mean_anomaly_deg, ()))
+        self.model = validation.choice("orbit.model", model, MODELS)
+        self.mu = validation.positive("mu_m3_s2", mu_m3_s2)
+        if self.a * (1.0 - self.e) <= EARTH_RADIUS_M * 0.5:
+            raise ValueError(f"perigee radius {self.a * (1 - self.e):.0f} m is inside the Earth")
+        self.mean_motion_rad_s = float(np.sqrt(self.mu / self.a**3))
+        self._p = self.a * (1.0 - self.e**2)
+        self._h = float(np.sqrt(self.mu * self._p))
+        ci, si = np.cos(self.inclination_rad), np.sin(self.inclination_rad)
+        co, so = np.cos(self.raan_rad), np.sin(self.raan_rad)
+        # perifocal → ECI for node line (ascending node) and orbit normal; argument of
+        # latitude u rotates within the plane: r̂ = n̂ cos u + m̂ sin u.
+        self._node = np.array([co, so, 0.0])
+        self._in_plane = np.array([-so * ci, co * ci, si])
+        self._normal = np.array([so * si, -co * si, ci])
+
+    @classmethod
+    def from_altitudes(
+        cls,
+        apogee_altitude_km: float,
+        perigee_altitude_km: float,
+        inclination_deg: float,
+        earth_radius_km: float = EARTH_RADIUS_M / 1e3,
+        **kwargs,
+    ) -> KeplerOrbit:
+        """Spec 002 Table 1 style: apogee/perigee altitudes above a spherical Earth, km."""
+        ra = (validation.positive("earth_radius_km", earth_radius_km) + float(apogee_altitude_km)) * 1e3
+        rp = (earth_radius_km + float(perigee_altitude_km)) * 1e3
+        if not (np.isfinite(ra) and np.isfinite(rp)) or rp <= earth_radius_km * 1e3 or ra < rp:
+            raise ValueError(
+                "apogee_altitude_km and perigee_altitude_km must be positive with apogee >= perigee, "
+                f"got {apogee_altitude_km!r}, {perigee_altitude_km!r}"
+            )
+        return cls(0.5 * (ra + rp), (ra - rp) / (ra + rp), inclination_deg, **kwargs)
+
+    @property
+    def period_s(self) -> float:
+        return 2.0 * np.pi / self.mean_motion_rad_s
+
+    def true_anomaly_rad(self, t_s: float) -> float:
+        """ν(t) from Kepler's equation M = E − e sin E (Newton, |ΔE| < 1e-13)."""
+        mean = self.mean_anomaly0_rad + self.mean_motion_rad_s * t_s
+        if self.e == 0.0:
+            return float(mean)
+        ecc = mean + self.e * np.sin(mean)
+        for _ in range(30):
+            step = (ecc - self.e * np.sin(ecc) - mean) / (1.0 - self.e * np.cos(ecc))
+            ecc -= step
+            if abs(step) < 1e-13:
+                break
+        return float(2.0 * np.arctan2(np.sqrt(1 + self.e) * np.sin(ecc / 2), np.sqrt(1 - self.e) * np.cos(ecc / 2)))
+
+    def state_at(self, t_s: float) -> OrbitState:
+        """Position, velocity, frame and rates at ``t_s`` seconds after epoch."""
+        if self.model == "circular":
+            u = float(self.arg_perigee_rad + self.mean_anomaly0_rad + self.mean_motion_rad_s * t_s)
+            r, r_dot = self.a, 0.0
+            nu_dot, nu_ddot = self.mean_motion_rad_s, 0.0
+        else:
+            nu = self.true_anomaly_rad(t_s)
+            u = float(self.arg_perigee_rad + nu)
+            r = self._p / (1.0 + self.e * np.cos(nu))
+            nu_dot = self._h / r**2
+            r_dot = self.mu / self._h * self.e * np.sin(nu)
+            nu_ddot = -2.0 * nu_dot * r_dot / r
+        r_hat = self._node * np.cos(u) + self._in_plane * np.sin(u)
+        t_hat = -self._node * np.sin(u) + self._in_plane * np.cos(u)
+        position = r * r_hat
+        velocity = r_dot * r_hat + r * nu_dot * t_hat
+        # LVLH: z nadir, y anti-normal, x = y × z (= t̂)
+        frame = np.column_stack([t_hat, -self._normal, -r_hat])
+        return OrbitState(position, velocity, float(r), u, float(nu_dot), float(nu_ddot), frame)
