@@ -246,3 +246,25 @@ def test_fuel_slosh_state_sensor_and_fault_hint():
         assert np.allclose(obs[:8], truth + np.eye(8)[1] * (0.01 if active else 0.0), atol=1e-6)
         assert obs[-1] == float(active)
     check_env(gym.make("attitude_envs/FuelSlosh-v0", sensors={"state": {"noise_std": 1e-3}}, fault_hint=True).unwrapped)
+
+
+def test_magnetorquer_sensors_reach_the_observation():
+    from gymnasium.utils.env_checker import check_env
+
+    mag = "attitude_envs/Magnetorquer-v0"
+    kwargs = {"episode_duration_s": 5.0, "observe_field": True}
+    fault = {"kind": "bias", "target": "sensor", "sensor": "magnetometer", "index": 2, "value": 1e-6, "onset_s": 0.3}
+    truth_env = gym.make(mag, **kwargs)
+    sensed = gym.make(mag, **kwargs, sensors={"gyro": {"noise_std": 0.0}}, faults=[fault], fault_hint=True)
+    o_truth, _ = truth_env.reset(seed=4)
+    o_meas, _ = sensed.reset(seed=4)
+    assert np.allclose(o_meas[:10], o_truth, atol=1e-6) and o_meas.shape == (10 + 8,)
+    for _ in range(5):
+        o_truth = truth_env.step(np.zeros(4))[0]
+        o_meas, _, _, _, info = sensed.step(np.zeros(4))
+        active = info["time_s"] >= 0.3 - 1e-9
+        shift = 1e-6 / 5e-5 if active else 0.0  # FIELD_SCALE_T normalizes the field observation
+        assert np.allclose(o_meas[:7], o_truth[:7], atol=1e-6)  # noise-free gyro and star tracker
+        assert o_meas[9] - o_truth[9] == pytest.approx(shift, abs=1e-5)
+        assert o_meas[-1] == float(active)  # magnetometer is the last sensor flag
+    check_env(gym.make(mag, **kwargs, sensors={"magnetometer": {"noise_std": 1e-8}}, fault_hint=True).unwrapped)

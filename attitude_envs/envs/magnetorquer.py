@@ -17,6 +17,7 @@ from attitude_envs.integrators import rk4_step, substeps
 from attitude_envs.plants import magnetorquer as mt
 from attitude_envs.plants.magnetic_field import DIPOLE_STRENGTH_T_M3, FieldModel
 from attitude_envs.plants.orbit import KeplerOrbit, OrbitState
+from attitude_envs.sensors import Channel, SensorSuite
 from attitude_envs.trajectories import SmoothBangBang
 from attitude_envs.uncertainty import InertiaUncertainty
 
@@ -97,7 +98,11 @@ class MagnetorquerEnv(gym.Env):
     ``inertia_uncertainty`` (random dispersions, :mod:`attitude_envs.uncertainty`);
     ``control_dt_s``, ``integrator_dt_s``, ``episode_duration_s``, ``Q``, ``R``,
     ``max_rate_rad_s``, ``faults`` (actuator indices 0–2 dipoles, 3 wheel; see
-    :mod:`attitude_envs.faults`; the paper's E = diag(0.9, 0.7, 0.6) after 50 s is
+    :mod:`attitude_envs.faults`; ``"target": "sensor"`` entries hit the sensors), ``sensors``
+    (channels ``gyro`` = inertial rate, ``star_tracker``, ``tachometer``, ``magnetometer`` =
+    body field in T; see :mod:`attitude_envs.sensors`: the observation is then built from
+    the measurements), ``fault_hint`` (append 4 actuator + 4 sensor active-fault flags);
+    the paper's E = diag(0.9, 0.7, 0.6) after 50 s is
     ``PAPER_FAULTS``).
 
     ``info``: ``state`` (attitude, rate_rad_s = ω_bo, inertial_rate_rad_s, wheel_speed_rad_s,
@@ -141,6 +146,8 @@ class MagnetorquerEnv(gym.Env):
         R=None,
         max_rate_rad_s: float = 1.0,
         faults: list[dict] | None = None,
+        sensors: dict | None = None,
+        fault_hint: bool = False,
         render_mode: str | None = None,
     ) -> None:
         self.task = validation.choice("task", task, {"tracking", "regulation"})
@@ -201,7 +208,15 @@ class MagnetorquerEnv(gym.Env):
             QuadraticCost(q_mat, r_mat),
             self.control_dt_s,
         )
-        self._faults = ActuatorFaults(faults, 4, params.limits)
+        self._faults = ActuatorFaults(faults, 4, params.limits, other_targets={"sensor"})
+        channels = [
+            Channel("gyro", 3, units="rad/s"),  # inertial rate ω_bi, body axes
+            Channel("star_tracker", 4, "attitude", "rad"),  # attitude relative to the orbital frame
+            Channel("tachometer", 1, units="rad/s"),
+            Channel("magnetometer", 3, units="T"),  # body-frame field
+        ]
+        self._sensors = SensorSuite(sensors, channels, faults)
+        self.fault_hint = bool(fault_hint)
         diagonal = np.count_nonzero(q_mat - np.diag(np.diag(q_mat))) + np.count_nonzero(r_mat - np.diag(np.diag(r_mat)))
         self._diag_weights = (np.diag(q_mat).tolist(), np.diag(r_mat).tolist()) if diagonal == 0 else None
         self.max_rate_rad_s = validation.positive("max_rate_rad_s", max_rate_rad_s)
@@ -212,12 +227,16 @@ class MagnetorquerEnv(gym.Env):
         high = np.concatenate([np.ones(3), np.full(3, 2.0 * self.max_rate_rad_s), [1e3]])
         if self.observe_field:
             high = np.concatenate([high, np.full(3, 3.0)])
-        self.observation_space = spaces.Box(-high.astype(np.float32), high.astype(np.float32), dtype=np.float32)
+        low = -high
+        if self.fault_hint:  # 4 actuator flags + 4 sensor-channel flags in [0, 1]
+            low, high = np.concatenate([low, np.zeros(8)]), np.concatenate([high, np.ones(8)])
+        self.observation_space = spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(4,), dtype=np.float32)
 
         self._inertia = params.inertia_kg_m2
         self._y = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0])
         self._t = 0.0
+        self._meas: dict[str, np.ndarray] = {}
         self._steps = 0
         self._orbit_cache: dict[float, OrbitState] = {}
         self._ctx_cache: dict[float, tuple] = {}
@@ -292,6 +311,7 @@ class MagnetorquerEnv(gym.Env):
         self._steps = 0
         if isinstance(self._disturbance, Disturbance):
             self._disturbance.reset(rng)
+        self._sensors.reset(rng, options.get("faults"))  # own spawned generator
         self._faults.reset(rng, options.get("faults"))
         zeros = np.zeros(4)
         return self._observation(), self._info(zeros, zeros, np.zeros(3), np.zeros(3), 0.0)
@@ -455,9 +475,24 @@ class MagnetorquerEnv(gym.Env):
         return self._error_state(self._y[:4], self._y[4:7], self._t)
 
     def _observation(self) -> np.ndarray:
-        parts = [self.error_state(), self._y[7:] / WHEEL_SPEED_SCALE_RAD_S]
+        q, rate, wheel = self._y[:4], self._y[4:7], self._y[7:]
+        field = mt.orbital_to_body(q) @ self._field_orbital(self._t)
+        if self._sensors.enabled:
+            n = self._orbit_state(self._t).rate_rad_s
+            truth = {
+                "gyro": mt.inertial_rate(q, rate, n),
+                "star_tracker": q,
+                "tachometer": wheel,
+                "magnetometer": field,
+            }
+            self._meas = self._sensors.measure(truth, self._t)
+            q, wheel, field = self._meas["star_tracker"], self._meas["tachometer"], self._meas["magnetometer"]
+            rate = self._meas["gyro"] - mt.inertial_rate(q, np.zeros(3), n)  # ω_bo from the measured attitude
+        parts = [self._error_state(q, rate, self._t), wheel / WHEEL_SPEED_SCALE_RAD_S]
         if self.observe_field:
-            parts.append(mt.orbital_to_body(self._y[:4]) @ self._field_orbital(self._t) / FIELD_SCALE_T)
+            parts.append(field / FIELD_SCALE_T)
+        if self.fault_hint:
+            parts += [self._faults.active_flags(self._t), self._sensors.active_flags(self._t)]
         return np.concatenate(parts).astype(np.float32)
 
     def _info(self, applied, commanded, tau_m, control, cost: float) -> dict:
@@ -491,8 +526,8 @@ class MagnetorquerEnv(gym.Env):
             "true_inertia_kg_m2": self.true_inertia_at(self._t).copy(),
             "cost": cost,
             "error_angle_deg": float(np.degrees(quaternion.error_angle_rad(q, q_d))),
-            "faults": self._faults.info(self._t),
-        }
+            "faults": self._faults.info(self._t) + self._sensors.info(self._t),
+        } | ({"sensors": {k: v.copy() for k, v in self._meas.items()}} if self._sensors.enabled else {})
 
 
 # Spec 002 eq. (40): magnetorquer effectiveness E = diag(0.9, 0.7, 0.6) for t > 50 s, through
