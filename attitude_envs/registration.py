@@ -7,6 +7,7 @@ import gymnasium as gym
 VECTOR_ENTRY_POINTS = {
     "attitude_envs/ReactionWheel-v0": "attitude_envs.envs.reaction_wheel_vector:ReactionWheelVectorEnv",
     "attitude_envs/LinearSystem-v0": "attitude_envs.envs.linear_system_vector:LinearSystemVectorEnv",
+    "attitude_envs/AirBearing-v0": "attitude_envs.envs.reaction_wheel_vector:AirBearingVectorEnv",
 }
 
 ENV_IDS = {

@@ -156,3 +156,27 @@ def test_lqr_policy_acts_on_a_batch():
 def test_batched_env_refuses_what_it_does_not_model():
     with pytest.raises(ValueError, match="sensors and fault_hint are not supported by the batched env"):
         make_vec(2, fault_hint=True)
+
+
+def test_air_bearing_batch_matches_single_envs_including_the_tilt_stop():
+    ab = "attitude_envs/AirBearing-v0"
+    n, kwargs = 3, {"episode_duration_s": 3.0}
+    vec = gym.make_vec(ab, num_envs=n, vectorization_mode="vector_entry_point", **kwargs)
+    singles = [gym.make(ab, **kwargs).unwrapped for _ in range(n)]
+    options = {"euler_321_deg": [38.0, 0.0, 0.0], "rate_rad_s": [0.3, 0.0, 0.0]}  # tips over the 40° stop
+    vec.reset(seed=1)
+    vec.unwrapped._reset_one(0, 1, options)
+    singles[0].reset(seed=1, options=options)
+    for i in range(1, n):
+        singles[i].reset(seed=1 + i)
+    stopped = False
+    for _ in range(30):
+        actions = np.zeros((n, 3))
+        obs, rewards, term, trunc, _ = vec.step(actions)
+        for i, s in enumerate(singles):
+            o, r, te, tr, _ = s.step(actions[i])
+            assert np.array_equal(obs[i], o) and rewards[i] == r and te == term[i] and tr == trunc[i]
+        if term[0]:
+            stopped = True
+            break
+    assert stopped and not term[1:].any()

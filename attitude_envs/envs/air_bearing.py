@@ -148,6 +148,14 @@ class AirBearingEnv(ReactionWheelEnv):
             terminated, truncated = True, False
         return obs, reward, terminated, truncated, info
 
+    def batch_termination(self, states: np.ndarray) -> np.ndarray:
+        """The tilt stop for rows of true states (the batched env's termination hook)."""
+        x, y, z, w = states[:, 0], states[:, 1], states[:, 2], states[:, 3]
+        n2 = x * x + y * y + z * z + w * w
+        roll = np.arctan2(2.0 * (w * x + y * z), n2 - 2.0 * (x * x + y * y))
+        pitch = np.arcsin(np.clip(2.0 * (w * y - z * x) / n2, -1.0, 1.0))
+        return np.maximum(np.abs(roll), np.abs(pitch)) > self._tilt_limit_rad
+
     def _info(self, applied: np.ndarray, commanded: np.ndarray, cost: float) -> dict:
         info = super()._info(applied, commanded, cost)
         roll, pitch, yaw = euler_321_rad(self._y)

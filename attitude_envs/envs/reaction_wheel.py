@@ -312,6 +312,11 @@ class ReactionWheelEnv(gym.Env):
             [self._substeps, self.model.cost_input == "body", self.model.include_wheel_momentum], dtype=np.int64
         )
 
+    def batch_termination(self, states: np.ndarray) -> np.ndarray:
+        """Env-specific failures for rows of true states ``[q, ω, Ω]`` (the batched env's
+        hook; subclasses with extra termination rules override it). None here."""
+        return np.zeros(states.shape[0], dtype=bool)
+
     def _fill_disturbance_stages(self) -> None:
         """External torque at each sub-step's RK4 stage times (t, t + h/2, t + h)."""
         h = self.integrator_dt_s

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from attitude_envs.envs.air_bearing import AirBearingEnv
 from attitude_envs.envs.reaction_wheel import ReactionWheelEnv
 from attitude_envs.envs.vector_base import BatchedEnv
 from attitude_envs.plants import gyrostat_kernels as kernels
@@ -21,8 +22,10 @@ class ReactionWheelVectorEnv(BatchedEnv):
     autoreset). Infos are dicts of arrays with gymnasium's ``_key`` masks: ``cost``,
     ``applied`` (N·m), ``time_s``, ``error_angle_deg``."""
 
+    single_env_class = ReactionWheelEnv
+
     def __init__(self, num_envs: int = 1, autoreset_mode: str = "next_step", render_mode: str | None = None, **kwargs):
-        super().__init__(lambda: ReactionWheelEnv(**kwargs), num_envs, autoreset_mode, render_mode)
+        super().__init__(lambda: self.single_env_class(**kwargs), num_envs, autoreset_mode, render_mode)
         first = self.envs[0]
         self.model = first.model
         p = first.model.params
@@ -99,6 +102,7 @@ class ReactionWheelVectorEnv(BatchedEnv):
         self._steps += 1
         finite = np.isfinite(self._states).all(axis=1) & np.isfinite(self._costs)
         terminated = ~finite | (np.abs(self._states[:, 4:7]).max(axis=1) > self._max_rate)
+        terminated |= first.batch_termination(self._states)
         truncated = (self._steps * self._dt >= self._duration - 1e-9 * self._dt) & ~terminated
         infos = self._with_masks(
             {"cost": self._costs.copy(), "applied": self._applied.copy(), "time_s": self._steps * self._dt},
@@ -121,3 +125,10 @@ class ReactionWheelVectorEnv(BatchedEnv):
         view = self._states.view()
         view.setflags(write=False)
         return view
+
+
+class AirBearingVectorEnv(ReactionWheelVectorEnv):
+    """Natively batched AirBearing-v0 (same compiled step with the offset torque; the tilt
+    stop through :meth:`AirBearingEnv.batch_termination`)."""
+
+    single_env_class = AirBearingEnv
