@@ -65,7 +65,7 @@ class EvalCostCallback(BaseCallback):
         self.history: list[dict[str, float]] = []
 
     def _init_callback(self) -> None:
-        self._last = self.num_timesteps
+        self._last = int(self.model.num_timesteps)  # the callback's own counter is only set on the first step
         best = self.out_dir / "best" / "best.json"
         if best.is_file():
             self.best_J = float(json.loads(best.read_text())["J_mean"])
@@ -133,7 +133,7 @@ class ResumableCheckpointCallback(BaseCallback):
         self._last = 0
 
     def _init_callback(self) -> None:
-        self._last = self.num_timesteps
+        self._last = int(self.model.num_timesteps)  # the callback's own counter is only set on the first step
 
     def _on_step(self) -> bool:
         if self.num_timesteps - self._last >= self.save_freq:

@@ -295,8 +295,13 @@ def _sort_key(key: tuple) -> tuple:
 _CACHE: dict[str, tuple[Any, Any]] = {}
 
 
-def _fault_onset_s(faults: list[dict[str, Any]]) -> float | None:
-    onsets = [float(f.get("onset_s", 0.0)) for f in faults if isinstance(f.get("onset_s", 0.0), int | float)]
+def _fault_onset_s(faults: list[dict[str, Any]], env) -> float | None:
+    """Earliest onset of the episode's faults as realized (drawn onsets included), s; None without faults."""
+    if not faults:
+        return None
+    layer = getattr(env.unwrapped, "_faults", None)  # the env's ActuatorFaults: its realized draws
+    realized = layer.info(0.0) if layer is not None else faults
+    onsets = [float(f.get("onset_s") or 0.0) for f in realized if isinstance(f.get("onset_s", 0.0), int | float | None)]
     return min(onsets) if onsets else None
 
 
@@ -381,7 +386,7 @@ def _attitude_metrics(env, policy, job: dict[str, Any]) -> dict[str, Any]:
     final_error = float(trace.error_angle_deg[-1])
     m["final_error_deg"] = final_error
     m["success"] = bool(np.isfinite(m["J"]) and not trace.terminated and final_error <= job["success_error_deg"])
-    onset = _fault_onset_s(job["env_kwargs"].get("faults") or [])
+    onset = _fault_onset_s(job["env_kwargs"].get("faults") or [], env)
     if onset is not None:
         band = float(job["metrics"].get("settling_band_deg", 1.0))
         after = trace.time_s >= onset
