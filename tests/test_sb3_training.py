@@ -80,14 +80,17 @@ def test_resume_continues_a_killed_run_with_its_replay_buffer(tmp_path):
     out = tmp_path / "run"
     first = _sac(out, 250)  # checkpoints at 100 and 200 steps
     assert first.timesteps == 250 and first.resumed_from is None
-    latest = json.loads((out / "checkpoints" / "latest.json").read_text())
-    assert latest["timesteps"] == 200
-    assert (out / "checkpoints" / latest["dir"] / "replay_buffer.pkl").is_file()
-    assert (out / "checkpoints" / latest["dir"] / "vecnormalize.pkl").is_file()  # obs normalization saved
-    # "Kill": the run dies after its 200-step checkpoint, before finishing.
+    checkpoints = out / "checkpoints"
+    assert sorted(p.name for p in checkpoints.glob("step_*")) == ["step_000000000200", "step_000000000250"]
+    assert json.loads((checkpoints / "latest.json").read_text())["timesteps"] == 250  # the finished run
+    assert (checkpoints / "step_000000000200" / "replay_buffer.pkl").is_file()
+    assert (checkpoints / "step_000000000200" / "vecnormalize.pkl").is_file()  # obs normalization saved
+    # "Kill" at step 230: what the disk holds then is the 200-step checkpoint and its pointer.
     import shutil
 
     shutil.rmtree(out / "final")
+    shutil.rmtree(checkpoints / "step_000000000250")
+    (checkpoints / "latest.json").write_text(json.dumps({"timesteps": 200, "dir": "step_000000000200"}))
     with pytest.raises(ValueError, match="already holds a run; pass --resume"):
         _sac(out, 400)
     with pytest.raises(ValueError, match="seed 4 differs"):

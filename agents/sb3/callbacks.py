@@ -142,11 +142,10 @@ class ResumableCheckpointCallback(BaseCallback):
         return True
 
     def save(self) -> Path:
-        directory = self.root / f"step_{self.num_timesteps:012d}"
+        steps = int(self.model.num_timesteps)
+        directory = self.root / f"step_{steps:012d}"
         save_snapshot(self.model, directory, self.replay_buffer)
-        atomic_write_text(
-            self.root / "latest.json", json.dumps({"timesteps": self.num_timesteps, "dir": directory.name}) + "\n"
-        )
+        atomic_write_text(self.root / "latest.json", json.dumps({"timesteps": steps, "dir": directory.name}) + "\n")
         done = sorted(p for p in self.root.glob("step_*") if p.is_dir() and not p.name.endswith(".tmp"))
         for old in done[: -self.keep]:
             shutil.rmtree(old, ignore_errors=True)

@@ -193,6 +193,9 @@ def train(
             tb_log_name=algo,
         )
     last_eval = evaluator.run_evaluation() if not evaluator.history else evaluator.history[-1]
+    done = latest_checkpoint(out_dir)
+    if done is None or done["timesteps"] != int(model.num_timesteps):
+        checkpointer.save()  # a finished run can be extended with --resume and a larger budget
     save_snapshot(model, out_dir / "final", replay_buffer=False)
     eval_env.close()
     venv.close()
