@@ -142,7 +142,8 @@ def _policy_specs(args: argparse.Namespace) -> list[dict]:
         check_policy_name(name)
         if name == "sb3":
             raise ValueError("use --model PATH for a saved Stable-Baselines3 model")
-        specs.append({"name": name, "policy": name, "params": parse_overrides([p for p in params.split(",") if p])})
+        label = text.replace(":", "-").replace(",", "_").replace("=", "-")
+        specs.append({"name": label, "policy": name, "params": parse_overrides([p for p in params.split(",") if p])})
     for i, path in enumerate(args.model or []):
         specs.append({"name": f"model{i}" if len(args.model) > 1 else "model", "policy": "sb3", "model": path})
     if not specs:

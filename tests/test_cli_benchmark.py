@@ -97,6 +97,7 @@ def test_train_and_evaluate_commands(benchmark_run, tmp_path, capsys):
         (["benchmark", "--config", "medium", "--out", "X"], "--config must be one of ['quick', 'full'] or a YAML"),
         (["train", "--algo", "ppo", "--env-kwargs", "{a: [", "--out", "X"], "--env-kwargs is malformed YAML"),
         (["train", "--algo", "ppo", "--params", "gamma=0.9", "--out", "X"], "override must look like key:value"),
+        (["train", "--algo", "ppo", "--params", "n_envs:1", "gama:0.9", "--out", "X"], "bad hyperparameters for ppo"),
     ],
 )
 def test_bad_input_is_a_one_line_error(argv, message, tmp_path, monkeypatch, capsys):

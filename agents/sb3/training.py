@@ -162,14 +162,18 @@ def train(
     if checkpoint is None:
         if hp["normalize"] is not None:
             venv = VecNormalize(venv, gamma=float(entry.get("gamma", 0.99)), **hp["normalize"])
-        model = cls(
-            hp["policy"],
-            venv,
-            seed=int(seed),
-            verbose=verbose,
-            tensorboard_log=_tensorboard_dir(out_dir, tensorboard),
-            **hp["kwargs"],
-        )
+        try:
+            model = cls(
+                hp["policy"],
+                venv,
+                seed=int(seed),
+                verbose=verbose,
+                tensorboard_log=_tensorboard_dir(out_dir, tensorboard),
+                **hp["kwargs"],
+            )
+        except (TypeError, AssertionError, KeyError) as exc:  # SB3 reports bad hyperparameters this way
+            venv.close()
+            raise ValueError(f"bad hyperparameters for {algo} ({sorted(hp['kwargs'])}): {exc}") from exc
     else:
         path = checkpoint["path"]
         if (path / "vecnormalize.pkl").is_file():
