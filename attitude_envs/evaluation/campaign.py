@@ -307,9 +307,10 @@ def _fault_onset_s(faults: list[dict[str, Any]], env) -> float | None:
 
 def run_job(job: dict[str, Any]) -> dict[str, Any]:
     """Run one job (``kind`` ``train`` or ``episode``) in this process; returns its result row."""
-    import torch
+    if job["kind"] == "train" or job.get("policy", {}).get("policy") == "sb3":
+        import torch  # only for jobs that need it: importing torch costs seconds per worker
 
-    torch.set_num_threads(1)
+        torch.set_num_threads(1)  # episodes and small networks: threads only contend
     if job["kind"] == "train":
         return _run_training(job)
     return _run_episode(job)
@@ -420,8 +421,14 @@ def _generic_metrics(env, policy, job: dict[str, Any]) -> dict[str, Any]:
 
 
 def _mp_context(mp):
-    """``fork`` where available (no re-import of the caller's ``__main__``, fast start), else ``spawn``."""
-    return mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+    """``fork`` where available (fast start, no re-import of the caller's ``__main__``), unless this
+    process already runs torch (forking its thread pools can hang the child): then ``forkserver``."""
+    import sys
+
+    methods = mp.get_all_start_methods()
+    if "fork" in methods and "torch" not in sys.modules:
+        return mp.get_context("fork")
+    return mp.get_context("forkserver" if "forkserver" in methods else "spawn")
 
 
 class LocalExecutor:
@@ -622,12 +629,6 @@ def run_campaign(
                 f"--out {str(out_dir)!r} holds results of a different campaign definition "
                 f"({previous.get('name')!r}); choose another --out or delete it"
             )
-    out_dir.mkdir(parents=True, exist_ok=True)
-    tmp = marker.with_name(marker.name + ".tmp")
-    tmp.write_text(
-        json.dumps({"name": campaign.name, "fingerprint": campaign.fingerprint, "source": campaign.source}) + "\n"
-    )
-    os.replace(tmp, marker)
     say = progress or (lambda _msg: None)
     skipped: dict[str, str] = {}
     for agent in campaign.agents:
@@ -638,6 +639,12 @@ def run_campaign(
             skipped[agent.name] = reason
             say(f"skipping optional agent {agent.name}: {reason}")
     _probe_models(campaign, skipped)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    tmp = marker.with_name(marker.name + ".tmp")
+    tmp.write_text(
+        json.dumps({"name": campaign.name, "fingerprint": campaign.fingerprint, "source": campaign.source}) + "\n"
+    )
+    os.replace(tmp, marker)
     start = time.perf_counter()
     executor = make_executor(ray_address, workers)
     trained: list[dict[str, Any]] = []
