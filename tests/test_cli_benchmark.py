@@ -94,6 +94,10 @@ def test_train_and_evaluate_commands(benchmark_run, tmp_path, capsys):
         (["train", "--algo", "ppo", "--env", "Nope-v9", "--out", "X"], "unknown env id 'Nope-v9'; accepted:"),
         (["evaluate", "--policy", "pid", "--out", "X"], "unknown policy 'pid'; accepted: ['feedback-linearization'"),
         (["evaluate", "--policy", "lqr", "--env-kwargs", "{preset: x}", "--out", "X"], "preset must be one of"),
+        (
+            ["evaluate", "--policy", "zero", "--env-kwargs", "{wheels: 3}", "--out", "X"],
+            "bad keyword arguments for env",
+        ),
         (["benchmark", "--config", "medium", "--out", "X"], "--config must be one of ['quick', 'full'] or a YAML"),
         (["train", "--algo", "ppo", "--env-kwargs", "{a: [", "--out", "X"], "--env-kwargs is malformed YAML"),
         (["train", "--algo", "ppo", "--params", "gamma=0.9", "--out", "X"], "override must look like key:value"),

@@ -30,6 +30,7 @@ from agents.sb3.callbacks import (
 )
 from agents.sb3.hyperparams import load_hyperparams, split_hyperparams
 from agents.sb3.registry import algorithm_class, check_algorithm, is_off_policy
+from attitude_envs.make import check_env_id, make_checked
 
 
 @dataclass
@@ -42,16 +43,6 @@ class TrainResult:
     resumed_from: int | None
     wall_time_s: float
     last_eval: dict[str, float] | None
-
-
-def check_env_id(env_id: str) -> str:
-    """``env_id`` if registered (the suite's ids are registered on import); ``ValueError`` otherwise."""
-    import attitude_envs  # noqa: F401  (registers the ids)
-
-    if env_id not in gym.registry:
-        ours = sorted(k for k in gym.registry if k.startswith("attitude_envs/"))
-        raise ValueError(f"unknown env id {env_id!r}; accepted: {ours} (or any registered gymnasium id)")
-    return env_id
 
 
 def _json_safe(value: Any) -> Any:
@@ -125,7 +116,7 @@ def train(
     out_dir = Path(out_dir)
     env_kwargs = dict(env_kwargs or {})
     entry = load_hyperparams(algo, env_id, hyperparams_file, overrides)
-    probe = gym.make(env_id, **env_kwargs)  # validates the env kwargs before anything is written
+    probe = make_checked(env_id, **env_kwargs)  # validates the env kwargs before anything is written
     n_actions = int(np.prod(probe.action_space.shape))
     probe.close()
     hp = split_hyperparams(entry, n_actions)

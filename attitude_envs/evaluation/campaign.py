@@ -140,7 +140,7 @@ def load_campaign(config: str | Path | dict) -> Campaign:
     envs = []
     for i, e in enumerate(data.get("envs") or []):
         _require(isinstance(e, dict) and "id" in e, f"envs[{i}] must be a mapping with an 'id', got {e!r}")
-        from agents.sb3.training import check_env_id
+        from attitude_envs.make import check_env_id
 
         check_env_id(str(e["id"]))
         name = _name(f"envs[{i}].name", e.get("name", str(e["id"]).split("/")[-1]))
@@ -593,6 +593,7 @@ def _probe_models(campaign: Campaign, skipped: dict[str, str]) -> None:
 
     import attitude_envs  # noqa: F401
     from agents.policies import build_policy
+    from attitude_envs.make import make_checked
 
     for env in campaign.envs:
         for scenario in env.scenarios:
@@ -600,7 +601,7 @@ def _probe_models(campaign: Campaign, skipped: dict[str, str]) -> None:
                 kwargs = {**env.kwargs, **dict(scenario.get("env_kwargs") or {})}
                 if faults:
                     kwargs["faults"] = copy.deepcopy(faults)
-                gym.make(env.id, **kwargs).close()
+                make_checked(env.id, **kwargs).close()
         for agent in campaign.agents_for(env):
             if agent.name in skipped or agent.spec["policy"] != "sb3" or agent.train is not None:
                 continue
