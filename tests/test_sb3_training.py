@@ -121,9 +121,17 @@ def test_resume_without_a_checkpoint_is_an_error(tmp_path):
         _sac(tmp_path / "empty", 100, resume=True)
 
 
-def test_rl_zoo3_sees_the_envs():
-    zoo = pytest.importorskip("rl_zoo3")
-    import importlib
+def test_rl_zoo3_trains_on_the_envs_with_the_shipped_file(tmp_path):
+    """Runs only where rl_zoo3 is installed (not in this project's CI)."""
+    pytest.importorskip("rl_zoo3")
+    import subprocess
+    import sys
 
-    importlib.import_module("attitude_envs")  # what `--gym-packages attitude_envs` does
-    assert RW in gym.registry and zoo is not None
+    from agents.sb3.hyperparams import hyperparams_path
+
+    cmd = [sys.executable, "-m", "rl_zoo3.train", "--algo", "ppo", "--env", RW, "--gym-packages", "attitude_envs"]
+    cmd += ["--conf-file", str(hyperparams_path("ppo")), "-n", "128", "--log-folder", str(tmp_path), "--seed", "0"]
+    cmd += ["--hyperparams", "n_envs:1", "n_steps:64", "batch_size:32", "--eval-freq", "-1"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert list(tmp_path.rglob("*.zip"))
