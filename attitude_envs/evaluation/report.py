@@ -139,7 +139,7 @@ def plot_leaderboard(boards, path: str | Path) -> Path:
 
 
 def plot_fault_heatmap(rows: Sequence[Mapping[str, Any]], env: str, path: str | Path) -> Path | None:
-    """Agent × fault heatmap of mean J relative to the agent's fault-free J, for one env."""
+    """Agent × fault heatmap of mean J (colour: log10), for one env; None with a single fault case."""
     rs = [r for r in rows if r["env"] == env]
     faults = list(dict.fromkeys(r["fault"] for r in rs))
     if len(faults) < 2:
