@@ -1,0 +1,82 @@
+"""Policy registry: every controller the CLI and campaigns can name, built from an env.
+
+``build_policy(spec, env)`` with ``spec = {"policy": NAME, "params": {...}, ...}``:
+
+==================  ==========================================================  =================
+name                controller                                                   params
+==================  ==========================================================  =================
+zero                no torque (free drift)                                       —
+lqr                 ``baselines.lqr.LQRPolicy`` on the nominal linearization     discretization, Q, R
+quaternion-lqr      spec 000's quaternion LQR law                                Q, R, stiffness, saturation
+feedback-linearization  spec 000's feedback linearization + LQR outer loop        Q, R, output, q4_min, ...
+linear-lqr          discrete LQR on a LinearSystem-v0 env's (A, B, Q, R)         —
+q-learning-lqr      ``agents.QLearningLQR`` (model-free; learns at build time)   constructor kwargs; ``learn``
+sb3                 a saved Stable-Baselines3 model (``model: PATH``)            deterministic
+==================  ==========================================================  =================
+
+Imports are lazy, so a controller whose package is not installed (or not merged yet, the
+Q-learning LQR) only fails when it is used, with a ``ValueError`` that says so.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+POLICIES: dict[str, str] = {
+    "zero": "baselines.base:ZeroPolicy",
+    "lqr": "baselines.lqr:LQRPolicy",
+    "quaternion-lqr": "baselines.quaternion_lqr:QuaternionLQRPolicy",
+    "feedback-linearization": "baselines.feedback_linearization:FeedbackLinearizationPolicy",
+    "linear-lqr": "baselines.linear_lqr:LinearLQRPolicy",
+    "q-learning-lqr": "agents:QLearningLQR",
+    "sb3": "agents.sb3.training:load_trained",
+}
+
+
+class PolicyUnavailable(ValueError):
+    """The named policy exists in the registry but its code is not installed here."""
+
+
+def check_policy_name(name: str) -> str:
+    if name not in POLICIES:
+        raise ValueError(f"unknown policy {name!r}; accepted: {sorted(POLICIES)}")
+    return name
+
+
+def _import(target: str):
+    module, attr = target.split(":")
+    try:
+        return getattr(importlib.import_module(module), attr)
+    except (ImportError, AttributeError) as exc:
+        raise PolicyUnavailable(f"policy {target!r} is not available in this install ({exc})") from exc
+
+
+def build_policy(spec: dict[str, Any], env, name: str | None = None):
+    """The Policy (``reset(seed)``, ``act(obs, info)``) described by ``spec`` for ``env``.
+
+    ``spec["policy"]``: a registry name; ``spec["params"]``: its keyword arguments;
+    for ``sb3``, ``spec["model"]``: the saved model (``.zip`` or run directory);
+    for ``q-learning-lqr``, ``spec["learn"]``: keyword arguments of ``learn``.
+    """
+    kind = check_policy_name(str(spec.get("policy")))
+    params = dict(spec.get("params") or {})
+    label = name or spec.get("name") or kind
+    if kind == "sb3":
+        from baselines.base import SB3Policy
+
+        if "model" not in spec:
+            raise ValueError("policy 'sb3' needs model: PATH (a saved model .zip or its run directory)")
+        predictor = _import(POLICIES[kind])(spec["model"], env)
+        return SB3Policy(predictor, deterministic=bool(params.get("deterministic", True)), name=label)
+    cls = _import(POLICIES[kind])
+    if kind == "q-learning-lqr":
+        agent = cls(env, name=label, **params)
+        agent.learn(**dict(spec.get("learn") or {}))
+        return agent
+    try:
+        policy = cls(env, **params)
+    except TypeError as exc:
+        raise ValueError(f"bad parameters for policy {kind!r}: {exc}") from exc
+    policy.name = label
+    return policy
