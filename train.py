@@ -11,6 +11,7 @@ python train.py envs                                   # registered env ids and 
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 import time
 
@@ -142,7 +143,7 @@ def _policy_specs(args: argparse.Namespace) -> list[dict]:
         check_policy_name(name)
         if name == "sb3":
             raise ValueError("use --model PATH for a saved Stable-Baselines3 model")
-        label = text.replace(":", "-").replace(",", "_").replace("=", "-")
+        label = re.sub(r"[^A-Za-z0-9._]+", "-", text).strip("-")  # e.g. pid:gains:/x/g.json → pid-gains-x-g.json
         specs.append({"name": label, "policy": name, "params": parse_overrides([p for p in params.split(",") if p])})
     for i, path in enumerate(args.model or []):
         specs.append({"name": f"model{i}" if len(args.model) > 1 else "model", "policy": "sb3", "model": path})
@@ -168,6 +169,14 @@ def _evaluate(args: argparse.Namespace) -> int:
     faults = _yaml_arg("--fault-grid", args.fault_grid) or {"none": []}
     scenarios = _yaml_arg("--scenarios", args.scenarios) or [{"name": "default"}]
     kwargs = _env_kwargs(args)
+    if args.scenario:  # a packaged scenario preset: its env, env kwargs and faults (healthy run beside it)
+        from attitude_envs.scenarios import load_scenario
+
+        preset = load_scenario(args.scenario)
+        if preset["env"] and args.env == ENV_DEFAULT:
+            args.env = preset["env"]
+        kwargs = {**preset["env_kwargs"], **kwargs}
+        faults = {"healthy": [], preset["name"]: preset["faults"]}
     config = {
         "name": "evaluate",
         "seeds": list(range(args.seed_offset, args.seed_offset + args.seeds)),
@@ -190,10 +199,19 @@ def _benchmark(args: argparse.Namespace) -> int:
     return 0
 
 
+ENV_DEFAULT = "attitude_envs/ReactionWheel-v0"
+
+
 def _add_env_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--env", default="attitude_envs/ReactionWheel-v0", help="registered env id")
+    p.add_argument("--env", default=ENV_DEFAULT, help="registered env id")
     p.add_argument("--env-kwargs", help="env keyword arguments as YAML/JSON (or @FILE), e.g. '{preset: spec-000}'")
     p.add_argument("--faults", help="actuator faults as a YAML list (attitude_envs.faults), or @FILE")
+
+
+def _tune_pid(args: argparse.Namespace) -> int:
+    from agents.ga_tuning import tune_pid_main
+
+    return tune_pid_main(args.rest)
 
 
 def _add_executor_options(p: argparse.ArgumentParser) -> None:
@@ -241,6 +259,9 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--model", action="append", help="a saved SB3 model (.zip or run directory)")
     ev.add_argument("--scenarios", help="YAML list of {name, options, env_kwargs}, or @FILE")
     ev.add_argument("--fault-grid", help="YAML mapping fault-name → fault list, or @FILE")
+    ev.add_argument(
+        "--scenario", help="a packaged scenario preset (wheel-failure, stuck-wheel, ...): env, kwargs and faults"
+    )
     ev.add_argument("--seeds", type=int, default=5, help="episodes per cell (>= 1)")
     ev.add_argument("--seed-offset", type=int, default=0, help="first episode seed")
     ev.add_argument("--out", required=True, help="output directory (episodes.csv/json, report.md, figures)")
@@ -253,10 +274,19 @@ def build_parser() -> argparse.ArgumentParser:
     bm.add_argument("--no-video", action="store_true", help="skip the episode video even if the campaign asks for it")
     _add_executor_options(bm)
     bm.set_defaults(func=_benchmark)
+
+    tp = sub.add_parser(
+        "tune-pid", add_help=False, help="GA-tune PID gains (spec 003 pipeline); `tune-pid --help` for its options"
+    )
+    tp.add_argument("rest", nargs=argparse.REMAINDER)
+    tp.set_defaults(func=_tune_pid)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["tune-pid"]:  # its own argument parser (agents.ga_tuning), options passed through
+        return _tune_pid(argparse.Namespace(rest=argv[1:]))
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:

@@ -10,6 +10,14 @@ lqr                 ``baselines.lqr.LQRPolicy`` on the nominal linearization    
 quaternion-lqr      spec 000's quaternion LQR law                                Q, R, stiffness, saturation
 feedback-linearization  spec 000's feedback linearization + LQR outer loop        Q, R, output, q4_min, ...
 linear-lqr          discrete LQR on a LinearSystem-v0 env's (A, B, Q, R)         —
+pid                 spec 003's PID (AirBearing-v0, ReactionWheel-v0)             gains (paper-fixed,
+                                                                                 paper-schedule-rad|deg,
+                                                                                 or a tune-pid JSON)
+slosh-pd, -lqr,     spec 004's P/PD, LQR, Lyapunov, fuzzy (FuelSlosh-v0)         see baselines/slosh.py
+-lyapunov, -fuzzy
+amnftsmc, mnftsmc,  spec 002's sliding-mode controllers (Magnetorquer-v0)        gain overrides
+ftsmc-standin
+bdot                B-dot detumbling (Magnetorquer-v0)                           gain_nms
 q-learning-lqr      ``agents.QLearningLQR`` (model-free; learns at build time)   constructor kwargs; ``learn``
 sb3                 a saved Stable-Baselines3 model (``model: PATH``)            deterministic
 ==================  ==========================================================  =================
@@ -29,6 +37,15 @@ POLICIES: dict[str, str] = {
     "quaternion-lqr": "baselines.quaternion_lqr:QuaternionLQRPolicy",
     "feedback-linearization": "baselines.feedback_linearization:FeedbackLinearizationPolicy",
     "linear-lqr": "baselines.linear_lqr:LinearLQRPolicy",
+    "pid": "baselines.pid:pid_policy",
+    "slosh-pd": "baselines.slosh:SloshPDPolicy",
+    "slosh-lqr": "baselines.slosh:SloshLQRPolicy",
+    "slosh-lyapunov": "baselines.slosh:SloshLyapunovPolicy",
+    "slosh-fuzzy": "baselines.fuzzy_slosh:FuzzySloshPDPolicy",
+    "amnftsmc": "baselines.sliding_mode:AMNFTSMCPolicy",
+    "mnftsmc": "baselines.sliding_mode:MNFTSMCPolicy",
+    "ftsmc-standin": "baselines.sliding_mode:FTSMCStandInPolicy",
+    "bdot": "baselines.bdot:BDotPolicy",
     "q-learning-lqr": "agents:QLearningLQR",
     "sb3": "agents.sb3.training:load_trained",
 }

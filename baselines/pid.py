@@ -195,3 +195,19 @@ def euler_error(q, rate_rad_s, q_target) -> tuple[np.ndarray, np.ndarray]:
     )
     roll, pitch, yaw = euler_321_rad(e)
     return np.array([roll, pitch, yaw]), np.array(euler_321_rates(roll, pitch, rate_rad_s))
+
+
+def pid_policy(env, gains: str = "paper-fixed", **kwargs: Any) -> PIDPolicy:
+    """A :class:`PIDPolicy` by name (the policy registry's ``pid``): ``gains`` is
+    ``"paper-fixed"`` (Table 3), ``"paper-schedule-rad"`` / ``"paper-schedule-deg"`` (eq. 24)
+    or the path of a gains JSON written by ``train.py tune-pid``."""
+    named = {
+        "paper-fixed": lambda: PAPER_FIXED,
+        "paper-schedule-rad": lambda: paper_schedule("rad"),
+        "paper-schedule-deg": lambda: paper_schedule("deg"),
+    }
+    if gains in named:
+        return PIDPolicy(env, named[gains](), **kwargs)
+    if not Path(gains).is_file():
+        raise ValueError(f"gains must be one of {sorted(named)} or a gains JSON file, got {gains!r}")
+    return PIDPolicy.from_file(env, gains, **kwargs)

@@ -22,3 +22,23 @@ def test_bad_preset_is_a_one_line_error_with_exit_code_2():
 
 def test_unknown_reproduction_is_rejected():
     assert train.main(["reproduce", "no-such-paper"]) == 2
+
+
+def test_tune_pid_writes_gains_that_evaluate_loads(tmp_path, capsys):
+    gains = tmp_path / "gains.json"
+    argv = ["tune-pid", "--env", "attitude_envs/AirBearing-v0", "--population", "4", "--generations", "1"]
+    assert train.main([*argv, "--workers", "1", "--out", str(gains)]) == 0
+    assert gains.is_file()
+    out = tmp_path / "eval"
+    argv = ["evaluate", "--env", "attitude_envs/AirBearing-v0", "--policy", f"pid:gains:{gains}", "--seeds", "1"]
+    assert train.main([*argv, "--workers", "1", "--out", str(out)]) == 0
+    assert "pid-gains-" in capsys.readouterr().out
+    assert (out / "report.md").is_file()
+
+
+def test_evaluate_runs_a_scenario_preset_beside_the_healthy_run(tmp_path, capsys):
+    argv = ["evaluate", "--policy", "lqr", "--scenario", "wheel-failure", "--seeds", "1", "--workers", "1"]
+    assert train.main([*argv, "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "fault: wheel-failure" in out and "fault: healthy" in out
+    assert train.main(["evaluate", "--policy", "lqr", "--scenario", "no-such", "--out", str(tmp_path)]) == 2
