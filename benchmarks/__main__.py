@@ -42,11 +42,13 @@ def main(argv: list[str] | None = None) -> int:
         "ratio_to_cartpole_4096",
         "native_speedup",
         "episodes_per_s",
+        "samples_to_1e-6",
+        "wall_s",
     ]
-    print(f"{'benchmark':<14}{'env':<52}{'N':>6}  result")
+    print(f"{'benchmark':<16}{'env':<52}{'N':>6}  result")
     for r in rows:
-        result = ", ".join(f"{k}={r[k]:.3g}" for k in keys if k in r)
-        print(f"{r['benchmark']:<14}{r['env']:<52}{r.get('num_envs', ''):>6}  {result}")
+        result = ", ".join(f"{k}={r[k]:.3g}" if isinstance(r[k], float) else f"{k}={r[k]}" for k in keys if k in r)
+        print(f"{r['benchmark']:<16}{r['env']:<52}{r.get('num_envs', ''):>6}  {result}")
     print(f"peak memory {peak_mb:.0f} MB, wall {meta['wall_s']:.0f} s, {meta['machine']}")
     return 0
 

@@ -10,6 +10,14 @@ import numpy as np
 
 import attitude_envs  # noqa: F401
 
+SINGLE_ENV_IDS = (
+    "attitude_envs/ReactionWheel-v0",
+    "attitude_envs/AirBearing-v0",
+    "attitude_envs/LinearSystem-v0",
+    "attitude_envs/Magnetorquer-v0",
+    "attitude_envs/FuelSlosh-v0",
+)
+
 
 def _time_single(env, action, seconds: float) -> float:
     """Mean seconds per step of a single env (wrapped as gym.make returns it)."""
@@ -49,7 +57,7 @@ def single_env(seconds: float = 1.0, rounds: int = 5) -> list[dict]:
     pendulum_action = pendulum.action_space.sample()
     rows = []
     ref_times = []
-    for env_id in ("attitude_envs/ReactionWheel-v0", "attitude_envs/LinearSystem-v0", "attitude_envs/FuelSlosh-v0"):
+    for env_id in SINGLE_ENV_IDS:
         env = gym.make(env_id)
         action = np.zeros(env.action_space.shape, np.float32)
         pairs = [

@@ -131,6 +131,21 @@ def spacecraft(seed: int = 0) -> list[dict]:
     return rows
 
 
+def rows(quick: bool = False) -> list[dict]:
+    """Rows for ``python -m benchmarks``: samples and seconds to 1e-6 gain error."""
+    out = []
+    for r in run([2, 6] if quick else [2, 4, 6, 8, 10, 12]):
+        out.append(
+            {
+                "benchmark": "q-learning lqr",
+                "env": f"n={r['n']} {r['learner']}",
+                "samples_to_1e-6": r["samples_to_target"],
+                "wall_s": r["wall_s"],
+            }
+        )
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--out", default="benchmarks/q_learning_lqr.json")
