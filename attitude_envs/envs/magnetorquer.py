@@ -273,10 +273,7 @@ class MagnetorquerEnv(gym.Env):
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
-        options = {} if options is None else dict(options)
-        unknown = set(options) - _OPTION_KEYS
-        if unknown:
-            raise ValueError(f"reset options has unknown keys {sorted(unknown)}; accepted: {sorted(_OPTION_KEYS)}")
+        options = validation.reset_options(options, _OPTION_KEYS)
         rng = self.np_random
         nominal = self.model.params.inertia_kg_m2
         self._inertia = nominal if self._uncertainty is None else self._uncertainty.draw(nominal, rng)
