@@ -92,7 +92,7 @@ def test_train_and_evaluate_commands(benchmark_run, tmp_path, capsys):
     [
         (["train", "--algo", "dqn", "--out", "X"], "algorithm must be one of ['a2c', 'ddpg', 'ppo', 'recurrentppo'"),
         (["train", "--algo", "ppo", "--env", "Nope-v9", "--out", "X"], "unknown env id 'Nope-v9'; accepted:"),
-        (["evaluate", "--policy", "mpc", "--out", "X"], "unknown policy 'mpc'; accepted: ['feedback-linearization'"),
+        (["evaluate", "--policy", "mpc", "--out", "X"], "unknown policy 'mpc'; accepted: ['amnftsmc'"),
         (["evaluate", "--policy", "lqr", "--env-kwargs", "{preset: x}", "--out", "X"], "preset must be one of"),
         (
             ["evaluate", "--policy", "zero", "--env-kwargs", "{wheels: 3}", "--out", "X"],
