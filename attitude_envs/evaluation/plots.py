@@ -62,7 +62,7 @@ def plot_episodes(traces: Mapping[str, EpisodeTrace], path: str | Path, title: s
     if title:
         fig.suptitle(title)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_error_overlay(traces: Mapping[str, EpisodeTrace], path: str | Path, title: str = "") -> Path:
@@ -86,7 +86,7 @@ def plot_error_overlay(traces: Mapping[str, EpisodeTrace], path: str | Path, tit
     if title:
         fig.suptitle(title)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_metric_bars(
@@ -113,12 +113,13 @@ def plot_metric_bars(
     ax.legend()
     ax.grid(True, axis="y", alpha=0.3)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
-def _save(fig, path: str | Path) -> Path:
+def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
+    """Write ``fig`` as a PNG at ``path`` (parents created) and close it."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=dpi)
     plt.close(fig)
     return path

@@ -167,13 +167,9 @@ def plot_fault_heatmap(rows: Sequence[Mapping[str, Any]], env: str, path: str | 
 
 
 def _save(fig, path: str | Path) -> Path:
-    import matplotlib.pyplot as plt
+    from attitude_envs.evaluation.plots import save_figure
 
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=100)
 
 
 def git_revision(root: str | Path | None = None) -> str:
