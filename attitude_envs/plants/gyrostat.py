@@ -138,26 +138,6 @@ def kinetic_energy(params: GyrostatParams, w: np.ndarray, wheel_speed_rad_s: np.
     return float(0.5 * w @ inertia_eff @ w + 0.5 * params.wheel_inertia_kg_m2 * absolute @ absolute)
 
 
-def speed_limited_torque(params: GyrostatParams, torque_nm: np.ndarray, wheel_speed_rad_s: np.ndarray, h_s: float):
-    """Motor torque after the torque limit and the wheel-speed limit, N·m.
-
-    The speed limit acts like a motor driver's: over the next ``h_s`` seconds the torque may
-    take a wheel up to ``±max_wheel_speed_rad_s`` but not beyond it (ignoring the small
-    body-coupling term ``a_i·ω̇``), so a wheel at its limit gets no further torque outwards.
-    """
-    out = np.empty(params.n_wheels)
-    kernels.speed_limit_into(
-        np.asarray(torque_nm, dtype=float),
-        np.asarray(wheel_speed_rad_s, dtype=float),
-        params.max_wheel_torque_nm,
-        params.max_wheel_speed_rad_s,
-        params.wheel_inertia_kg_m2,
-        h_s,
-        out,
-    )
-    return out
-
-
 def pyramid_axes(tilt_deg: float, n: int = 4, azimuth_offset_deg: float = 0.0) -> np.ndarray:
     """Unit spin axes of ``n`` wheels tilted ``tilt_deg`` out of the body x–y plane,
     evenly spaced in azimuth starting at ``azimuth_offset_deg`` (3×n)."""

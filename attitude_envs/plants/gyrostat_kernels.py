@@ -11,6 +11,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from attitude_envs.plants.kernel_math import quad_form
+
 
 @njit(cache=True, error_model="numpy")
 def derivative_into(y, u, ext, inertia, inertia_eff_inv, axes, j_s, out, offset=None):
@@ -91,13 +93,7 @@ def stage_cost(y, u, q_target, axes, j_s, Q, R, body_input, include_h, xbuf, ubu
     """``xᵀQx + u_cᵀRu_c`` with ``u_c = −A u`` (``body_input``) or ``u``."""
     n = axes.shape[1]
     error_state_into(y, q_target, j_s, include_h, n, xbuf)
-    total = 0.0
-    nx = Q.shape[0]
-    for i in range(nx):
-        acc = 0.0
-        for j in range(nx):
-            acc += Q[i, j] * xbuf[j]
-        total += xbuf[i] * acc
+    total = quad_form(Q, xbuf, Q.shape[0])
     if body_input:
         for k in range(3):
             acc = 0.0
@@ -109,18 +105,15 @@ def stage_cost(y, u, q_target, axes, j_s, Q, R, body_input, include_h, xbuf, ubu
         for i in range(n):
             ubuf[i] = u[i]
         m = n
-    for i in range(m):
-        acc = 0.0
-        for j in range(m):
-            acc += R[i, j] * ubuf[j]
-        total += ubuf[i] * acc
-    return total
+    return total + quad_form(R, ubuf, m)
 
 
 @njit(cache=True, error_model="numpy")
 def speed_limit_into(cmd, wheel, max_torque, max_speed, j_s, h, out):
-    """Motor torque after the torque limit and the motor driver's speed limit (see
-    :func:`attitude_envs.plants.gyrostat.speed_limited_torque`)."""
+    """Motor torque (N·m) after the torque limit and the motor driver's speed limit: over
+    the next ``h`` seconds the torque may take a wheel up to ``±max_speed`` but not beyond
+    it (ignoring the small body-coupling term ``a_i·ω̇``), so a wheel at its limit gets no
+    further torque outwards."""
     n = cmd.shape[0]
     for i in range(n):
         v = min(max(cmd[i], -max_torque), max_torque)

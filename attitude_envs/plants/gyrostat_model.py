@@ -42,12 +42,6 @@ class ReactionWheelModel:
         ``u = −A⁺ T`` (N×3), so that the body receives ``−A u = T``."""
         return -np.linalg.pinv(self.params.wheel_axes)
 
-    def cost_input_of(self, motor_torque_nm: np.ndarray) -> np.ndarray:
-        """The cost's input ``u`` for the given wheel motor torques."""
-        if self.cost_input == "body":
-            return -self.params.wheel_axes @ motor_torque_nm
-        return motor_torque_nm
-
     def error_state(self, q: np.ndarray, w: np.ndarray, wheel_speed_rad_s: np.ndarray, q_target: np.ndarray):
         """``x`` of the current physical state relative to the target attitude (at rest)."""
         y = np.concatenate([q, w, wheel_speed_rad_s]).astype(float)

@@ -5,28 +5,21 @@ from __future__ import annotations
 
 from numba import njit
 
+from attitude_envs.plants.kernel_math import quad_form
+
 
 @njit(cache=True, error_model="numpy")
 def linear_step(x, u, A, B, Q, R, out):
     """``out = A x + B u``; returns the stage cost ``xᵀQx + uᵀRu``."""
     n, m = B.shape
-    cost = 0.0
     for i in range(n):
         acc = 0.0
-        qx = 0.0
         for j in range(n):
             acc += A[i, j] * x[j]
-            qx += Q[i, j] * x[j]
         for j in range(m):
             acc += B[i, j] * u[j]
         out[i] = acc
-        cost += x[i] * qx
-    for i in range(m):
-        ru = 0.0
-        for j in range(m):
-            ru += R[i, j] * u[j]
-        cost += u[i] * ru
-    return cost
+    return quad_form(Q, x, n) + quad_form(R, u, m)
 
 
 @njit(cache=True, error_model="numpy")
