@@ -7,6 +7,8 @@ maps body-frame vectors to the inertial frame, ``v_I = R(q) v_B``. Kinematics ar
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
@@ -63,11 +65,16 @@ def to_matrix(q: np.ndarray) -> np.ndarray:
     )
 
 
+def _norm(v: np.ndarray) -> float:
+    """``np.linalg.norm`` of a float vector (the same ``sqrt(v·v)``) without its overhead."""
+    return math.sqrt(v.dot(v))
+
+
 def from_axis_angle(axis: np.ndarray, angle_rad: float) -> np.ndarray:
     """Unit quaternion of a rotation by ``angle_rad`` about the unit ``axis``."""
     axis = np.asarray(axis, dtype=float)
     half = 0.5 * angle_rad
-    return np.concatenate([np.sin(half) * axis / np.linalg.norm(axis), [np.cos(half)]])
+    return np.concatenate([np.sin(half) * axis / _norm(axis), [np.cos(half)]])
 
 
 def from_euler_321_deg(roll_deg: float, pitch_deg: float, yaw_deg: float) -> np.ndarray:
@@ -99,7 +106,7 @@ def to_euler_321_deg(q: np.ndarray) -> np.ndarray:
 def random_within_angle(rng: np.random.Generator, max_angle_deg: float) -> np.ndarray:
     """Rotation about a uniformly random axis by an angle uniform in [0, max_angle_deg]."""
     axis = rng.normal(size=3)
-    while np.linalg.norm(axis) < 1e-9:  # pragma: no cover - measure-zero event
+    while _norm(axis) < 1e-9:  # pragma: no cover - measure-zero event
         axis = rng.normal(size=3)
     angle = np.radians(rng.uniform(0.0, max_angle_deg))
     return from_axis_angle(axis, angle)

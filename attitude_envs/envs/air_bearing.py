@@ -128,7 +128,7 @@ class AirBearingEnv(ReactionWheelEnv):
         self._euler_max = euler_max
         self._random_start = kwargs.get("initial_attitude") is None
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+    def _reset_state(self, seed: int | None, options: dict[str, Any] | None) -> None:
         options = {} if options is None else dict(options)
         gym.Env.reset(self, seed=seed)  # seed here: the start attitude is drawn before the parent's draws
         if "euler_321_deg" in options:
@@ -140,7 +140,7 @@ class AirBearingEnv(ReactionWheelEnv):
             options["attitude"] = quaternion.from_euler_321_deg(
                 *self.np_random.uniform(-self._euler_max, self._euler_max)
             )
-        return super().reset(seed=None, options=options)
+        super()._reset_state(None, options)
 
     def step(self, action):
         obs, reward, terminated, truncated, info = super().step(action)

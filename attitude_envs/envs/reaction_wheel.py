@@ -208,30 +208,55 @@ class ReactionWheelEnv(gym.Env):
         self.action_space = spaces.Box(-1.0, 1.0, shape=(n_w,), dtype=np.float32)
 
         self._plant = params
+        # State, target and outputs as one-column struct-of-arrays views for the compiled
+        # step (the batched env's kernel with one lane; updated in place).
         self._y = np.zeros(7 + n_w)
         self._y[3] = 1.0
         self._target = np.array([0.0, 0.0, 0.0, 1.0])
+        self._y_col, self._target_col = self._y.reshape(-1, 1), self._target.reshape(-1, 1)
+        self._y_block, self._target_block = self._y.reshape(1, -1, 1), self._target.reshape(1, -1, 1)
         self._t = 0.0
         self._steps = 0
         self._renderer = None
         self._ext_stages = np.zeros((self._substeps, 3, 3))
+        self._ext_rows = self._ext_stages.reshape(1, -1, 1) if self._disturbance is not None else np.zeros((1, 0, 1))
         self._pack_kernel_arguments()
-        self._x_buf = np.empty(n_x)
-        self._work = np.empty(kernels.work_size(n_w, n_x))
+        body_input = self.model.cost_input == "body"
+        self._kernel = kernels.step_kernel(n_w, 1, include_h, body_input)
+        self._work = np.zeros(kernels.work_size(n_w, 1, include_h, body_input))
+        self._step_count = np.zeros(1, dtype=np.int64)
+        self._no_skip = np.zeros(1, dtype=bool)
+        self._out_applied = np.zeros((1, n_w))
+        self._out_cost = np.zeros(1)
+        self._out_reward = np.zeros(1)
+        self._out_obs = np.zeros((1, n_x + (n_w if self.observe_wheel_speeds else 0)), dtype=np.float32)
+        self._out_qe_w = np.ones(1)
+        self._out_terminated = np.zeros(1, dtype=bool)
+        self._out_truncated = np.zeros(1, dtype=bool)
+        self._x_col = np.empty((n_x, 1))
         self._qe_w = 1.0
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        super().reset(seed=seed)
+        self._reset_state(seed, options)
+        self._measure()
+        obs = self._observation()
+        n_w = self._plant.n_wheels
+        info = self._info(np.zeros(n_w), np.zeros(n_w), 0.0)
+        if self.render_mode == "human":
+            self.render()
+        return obs, info
+
+    def _reset_state(self, seed: int | None, options: dict[str, Any] | None) -> None:
+        """Seed, draw and set the start state, target, plant, faults and disturbance (all of
+        ``reset`` but the observation and info; the batched env's reset of a sub-env)."""
+        gym.Env.reset(self, seed=seed)
         options = validation.reset_options(options, _OPTION_KEYS)
         rng = self.np_random
         n_w = self._plant.n_wheels
-        self._plant = (
-            self.model.params
-            if self._uncertainty is None
-            else self.model.params.with_inertia(self._uncertainty.draw(self.model.params.inertia_kg_m2, rng))
-        )
-        self._pack_kernel_arguments()
+        if self._uncertainty is not None:
+            self._plant = self.model.params.with_inertia(self._uncertainty.draw(self.model.params.inertia_kg_m2, rng))
+            self._pack_matrices()
         q0 = self._draw_attitude(self._initial_fixed, self._initial_angle)
         target = self._draw_attitude(self._target_fixed, self._target_angle)
         rate = self._rate_fixed if self._rate_fixed is not None else rng.uniform(-self._rate_max, self._rate_max, 3)
@@ -244,20 +269,15 @@ class ReactionWheelEnv(gym.Env):
             rate = validation.finite_array("options['rate_rad_s']", options["rate_rad_s"], (3,))
         if "wheel_speed_rad_s" in options:
             wheel = validation.finite_array("options['wheel_speed_rad_s']", options["wheel_speed_rad_s"], (n_w,))
-        self._y = np.concatenate([q0, rate, wheel])
-        self._target = target
+        self._y[:4], self._y[4:7], self._y[7:] = q0, rate, wheel
+        self._target[:] = target
         self._t = 0.0
         self._steps = 0
+        self._step_count[0] = 0
         if self._disturbance is not None:
             self._disturbance.reset(rng)
         self._sensors.reset(rng, options.get("faults"))  # spawns its own generator: rng's stream is unchanged
         self._faults.reset(rng, options.get("faults"))
-        self._measure()
-        obs = self._observation()
-        info = self._info(np.zeros(n_w), np.zeros(n_w), 0.0)
-        if self.render_mode == "human":
-            self.render()
-        return obs, info
 
     def step(self, action):
         p = self._plant
@@ -267,50 +287,70 @@ class ReactionWheelEnv(gym.Env):
         if self._disturbance is not None:
             self._disturbance.advance(self.np_random, self.control_dt_s)
             self._fill_disturbance_stages()
-        applied = np.empty(p.n_wheels)
-        cost = kernels.control_step(
-            self._y,
-            delivered,
-            self._ext_stages,
+        self._kernel(
+            self._y_block,
+            delivered.reshape(1, -1),
+            False,
+            self._no_skip,
+            self._ext_rows,
             self._mats,
-            p.wheel_axes,
-            self._scalars,
-            self._flags,
-            self._target,
-            self.model.cost.Q,
-            self.model.cost.R,
-            applied,
+            self._target_block,
+            self._constants,
+            self._substeps,
+            self._step_count,
+            self._out_applied,
+            self._out_cost,
+            self._out_reward,
+            self._out_obs,
+            self._out_qe_w,
+            self._out_terminated,
+            self._out_truncated,
+            self.observe_wheel_speeds,
             self._work,
         )
+        cost = float(self._out_cost[0])
+        applied = self._out_applied[0].copy()
         # time from the step count, so that onsets and the time limit do not drift
         self._steps += 1
         self._t = self._steps * self.control_dt_s
-        finite = bool(np.isfinite(self._y).all()) and np.isfinite(cost)
-        terminated = not finite or bool(np.abs(self._y[4:7]).max() > self.max_rate_rad_s)
-        truncated = bool(self._t >= self.episode_duration_s - 1e-9 * self.control_dt_s) and not terminated
+        terminated = bool(self._out_terminated[0])  # non-finite, or tumbling beyond max_rate_rad_s
+        truncated = bool(self._out_truncated[0])
+        finite = not terminated or (bool(np.isfinite(self._y).all()) and np.isfinite(cost))
         if finite:
             self._measure()
-        obs = self._observation() if finite else np.zeros(self.observation_space.shape, np.float32)
+            self._qe_w = float(self._out_qe_w[0])
+        if not finite:
+            obs = np.zeros(self.observation_space.shape, np.float32)
+        elif self._sensors.enabled or self.fault_hint:
+            obs = self._observation()
+        else:
+            obs = self._out_obs[0].copy()  # the kernel's observation of the true state
         info = self._info(applied, commanded, cost)
         if self.render_mode == "human":
             self.render()
         return obs, -cost, terminated, truncated, info
 
     def _pack_kernel_arguments(self) -> None:
+        """The compiled step's constants and the plant's matrices (after a parameter change)."""
         p = self._plant
-        self._mats = np.ascontiguousarray(np.stack([p.inertia_kg_m2, p.inertia_eff_inv]))
-        self._scalars = np.array(
-            [
-                p.wheel_inertia_kg_m2,
-                p.max_wheel_torque_nm,
-                p.max_wheel_speed_rad_s,
-                self.integrator_dt_s,
-                *p.offset_torque_nm,
-            ]
+        self._pack_matrices()
+        self._constants = kernels.pack_constants(
+            p.wheel_axes,
+            self.model.cost.Q,
+            self.model.cost.R,
+            p.wheel_inertia_kg_m2,
+            p.max_wheel_torque_nm,
+            p.max_wheel_speed_rad_s,
+            self.integrator_dt_s,
+            p.offset_torque_nm,
+            self.max_rate_rad_s,
+            self.control_dt_s,
+            self.episode_duration_s,
         )
-        self._flags = np.array(
-            [self._substeps, self.model.cost_input == "body", self.model.include_wheel_momentum], dtype=np.int64
-        )
+
+    def _pack_matrices(self) -> None:
+        p = self._plant
+        self._mats = kernels.pack_matrices(p.inertia_kg_m2, p.inertia_eff_inv).reshape(1, -1, 1)
 
     def batch_termination(self, states: np.ndarray) -> np.ndarray:
         """Env-specific failures for rows of true states ``[q, ω, Ω]`` (the batched env's
@@ -360,15 +400,17 @@ class ReactionWheelEnv(gym.Env):
             self._meas = self._sensors.measure(truth, self._t)
 
     def _observation(self) -> np.ndarray:
-        x = self._x_buf  # the true error state (also gives info's true error angle)
-        self._qe_w = kernels.error_state_into(
-            self._y,
-            self._target,
+        qe_w = self._out_qe_w  # the true error state (also gives info's true error angle)
+        kernels.error_state_columns(
+            self._y_col,
+            self._target_col,
             self._plant.wheel_inertia_kg_m2,
             self.model.include_wheel_momentum,
-            self._plant.n_wheels,
-            x,
+            self._x_col,
+            qe_w,
         )
+        self._qe_w = float(qe_w[0])
+        x = self._x_col[:, 0]
         wheel = self._y[7:]
         if self._sensors.enabled:
             m = self._meas

@@ -1,10 +1,11 @@
-"""Natively batched ReactionWheel-v0: all envs advance in one compiled, parallel call.
+"""Natively batched ReactionWheel-v0: all envs advance in one compiled SIMD call.
 
 ``gymnasium.make_vec("attitude_envs/ReactionWheel-v0", num_envs=N,
 vectorization_mode="vector_entry_point", **env_kwargs)``. Sub-env ``i`` reset with seed
 ``s`` follows exactly the trajectory of a single ``ReactionWheel-v0`` reset with ``s + i``
-(the same compiled step; a test checks bitwise equality). Faults and disturbances are
-applied per sub-env in Python, so only the sub-envs that have them pay.
+(the same compiled step, :mod:`attitude_envs.plants.gyrostat_kernels`, with one env per
+SIMD lane; a test checks bitwise equality). Faults and disturbances are applied per
+sub-env in Python, so only batches that have them pay.
 """
 
 from __future__ import annotations
@@ -20,7 +21,11 @@ from attitude_envs.plants import gyrostat_kernels as kernels
 class ReactionWheelVectorEnv(BatchedEnv):
     """``num_envs`` ReactionWheel-v0 envs stepped as one array (see :class:`BatchedEnv` for
     autoreset). Infos are dicts of arrays with gymnasium's ``_key`` masks: ``cost``,
-    ``applied`` (N·m), ``time_s``, ``error_angle_deg``."""
+    ``applied`` (N·m), ``time_s``, ``error_angle_deg``.
+
+    The states live in the kernel's blocked struct-of-arrays layout
+    (:func:`~attitude_envs.plants.gyrostat_kernels.blocks`); :attr:`states` gives them as
+    (E, 7+N) rows."""
 
     single_env_class = ReactionWheelEnv
 
@@ -29,102 +34,133 @@ class ReactionWheelVectorEnv(BatchedEnv):
         first = self.envs[0]
         self.model = first.model
         p = first.model.params
-        self._n_wheels = p.n_wheels
-        self._observe_wheels = first.observe_wheel_speeds
+        e, n, lanes = self.num_envs, p.n_wheels, kernels.BATCH_LANES
+        self._n_wheels = n
         self._max_speed = p.max_wheel_speed_rad_s
         self._max_torque = p.max_wheel_torque_nm
         self._dt = first.control_dt_s
-        self._duration = first.episode_duration_s
-        self._max_rate = first.max_rate_rad_s
-        e, n = self.num_envs, p.n_wheels
-        self._states = np.zeros((e, 7 + n))
-        self._targets = np.zeros((e, 4))
-        self._mats = np.zeros((e, 2, 3, 3))
-        self._ext = np.zeros((e, first._substeps, 3, 3))
-        self._steps = np.zeros(e, dtype=np.int64)
-        self._x = np.zeros((e, first.model.n_state))
-        self._qe_w = np.ones(e)
-        self._applied = np.zeros((e, n))
-        self._costs = np.zeros(e)
-        self._work = np.zeros((e, kernels.work_size(n, first.model.n_state)))
+        self._observe_wheels = first.observe_wheel_speeds
+        self._n_obs = first._out_obs.shape[1]
+        include_h, body_input = self.model.include_wheel_momentum, self.model.cost_input == "body"
+        self._kernel = kernels.step_kernel(n, lanes, include_h, body_input)
+        self._work = np.zeros(kernels.work_size(n, lanes, include_h, body_input))
+        self._constants = first._constants  # shared by all sub-envs (same keywords)
+        self._substeps = first._substeps
+        self._Y = kernels.blocks(e, 7 + n, lanes)
+        self._T = kernels.blocks(e, 4, lanes)
+        self._Y[:, 3, :] = self._T[:, 3, :] = 1.0  # identity attitudes in the padding lanes
+        self._M = kernels.blocks(e, kernels.MAT_ROWS, lanes)
         self._has_disturbance = first._disturbance is not None
+        self._ext = kernels.blocks(e, 9 * first._substeps if self._has_disturbance else 0, lanes)
+        self._steps = np.zeros(e, dtype=np.int64)
         self._faulty = np.zeros(e, dtype=bool)
+        self._n_faulty = 0
+        self._no_skip = np.zeros(e, dtype=bool)
+        self._extra_termination = type(first).batch_termination is not ReactionWheelEnv.batch_termination
+
+    def _reset_sub(self, i: int, seed: int | None, options: dict | None) -> None:
+        self.envs[i]._reset_state(seed, options)
 
     def _load(self, i: int) -> None:
         sub = self.envs[i]
-        self._states[i] = sub._y
-        self._targets[i] = sub._target
-        self._mats[i] = sub._mats
+        b, lane = divmod(i, kernels.BATCH_LANES)
+        self._Y[b, :, lane] = sub._y
+        self._T[b, :, lane] = sub._target
+        self._M[b, :, lane] = sub._mats[0, :, 0]
         self._steps[i] = 0
-        self._faulty[i] = bool(sub._faults.realized)
+        faulty = bool(sub._faults.realized)
+        self._n_faulty += int(faulty) - int(self._faulty[i])
+        self._faulty[i] = faulty
 
-    def _observations(self) -> np.ndarray:
-        kernels.error_state_batch(
-            self._states,
-            self._targets,
+    def _observations(self, indices=None) -> np.ndarray:
+        idx = np.arange(self.num_envs) if indices is None else np.asarray(indices)
+        b, lane = np.divmod(idx, kernels.BATCH_LANES)
+        y = np.ascontiguousarray(self._Y[b, :, lane].T)
+        x = np.empty((self.model.n_state, idx.size))
+        kernels.error_state_columns(
+            y,
+            np.ascontiguousarray(self._T[b, :, lane].T),
             self.model.params.wheel_inertia_kg_m2,
             self.model.include_wheel_momentum,
-            self._x,
-            self._qe_w,
+            x,
+            np.empty(idx.size),
         )
-        obs = self._x
+        obs = x.T
         if self._observe_wheels:
-            obs = np.concatenate([obs, self._states[:, 7:] / self._max_speed], axis=1)
+            obs = np.concatenate([obs, y[7:].T / self._max_speed], axis=1)
         return obs.astype(np.float32)
 
-    def _advance(self, actions):
-        a = self._check_actions(actions, self._n_wheels)
-        commanded = np.minimum(np.maximum(a, -1.0), 1.0) * self._max_torque
-        for i in np.flatnonzero(self._faulty):
-            commanded[i] = self.envs[i]._faults.apply(commanded[i], self._steps[i] * self._dt)
+    def _advance(self, actions, skipped):
+        a = np.asarray(actions, dtype=np.float64)
+        e, n = self.num_envs, self._n_wheels
+        if a.shape != (e, n):
+            raise ValueError(f"actions must have shape ({e}, {n}), got {a.shape}")
+        scale = True  # the kernel clips and scales the normalized actions ...
+        skip = self._no_skip if skipped is None else skipped
+        if self._n_faulty:  # ... unless faults act on the commanded torques first
+            a = self._check_actions(a, n)
+            scale = False
+            a = np.minimum(np.maximum(a, -1.0), 1.0) * self._max_torque
+            for i in np.flatnonzero(self._faulty & ~skip):
+                a[i] = self.envs[i]._faults.apply(a[i], self._steps[i] * self._dt)
         if self._has_disturbance:
             for i, env in enumerate(self.envs):
+                if skip[i]:
+                    continue
                 env._t = self._steps[i] * self._dt
                 env._disturbance.advance(env.np_random, self._dt)
                 env._fill_disturbance_stages()
-                self._ext[i] = env._ext_stages
-        first = self.envs[0]
-        kernels.control_step_batch(
-            self._states,
-            commanded,
+                self._ext[i // kernels.BATCH_LANES, :, i % kernels.BATCH_LANES] = env._ext_stages.ravel()
+        obs = np.empty((e, self._n_obs), dtype=np.float32)
+        cost = np.empty(e)
+        reward = np.empty(e)
+        applied = np.empty((e, n))
+        angle = np.empty(e)
+        terminated = np.empty(e, dtype=bool)
+        truncated = np.empty(e, dtype=bool)
+        n_done = self._kernel(
+            self._Y,
+            a,
+            scale,
+            skip,
             self._ext,
-            self._mats,
-            self.model.params.wheel_axes,
-            first._scalars,
-            first._flags,
-            self._targets,
-            self.model.cost.Q,
-            self.model.cost.R,
-            self._applied,
-            self._costs,
+            self._M,
+            self._T,
+            self._constants,
+            self._substeps,
+            self._steps,
+            applied,
+            cost,
+            reward,
+            obs,
+            angle,
+            terminated,
+            truncated,
+            self._observe_wheels,
             self._work,
         )
-        self._steps += 1
-        finite = np.isfinite(self._states).all(axis=1) & np.isfinite(self._costs)
-        terminated = ~finite | (np.abs(self._states[:, 4:7]).max(axis=1) > self._max_rate)
-        terminated |= first.batch_termination(self._states)
-        truncated = (self._steps * self._dt >= self._duration - 1e-9 * self._dt) & ~terminated
-        infos = self._with_masks(
-            {"cost": self._costs.copy(), "applied": self._applied.copy(), "time_s": self._steps * self._dt},
-            self.num_envs,
+        if n_done < 0:
+            raise ValueError("actions must be finite (no NaN or inf)")
+        if self._extra_termination:
+            stop = self.envs[0].batch_termination(self.states)
+            terminated |= stop
+            truncated &= ~stop
+            n_done = np.count_nonzero(terminated) + np.count_nonzero(truncated)
+        np.minimum(angle, 1.0, out=angle)  # q_e,w → error angle, deg (the single env's formula)
+        np.arccos(angle, out=angle)
+        angle *= 2.0
+        np.degrees(angle, out=angle)
+        infos = self._infos(
+            {"cost": cost, "applied": applied, "time_s": self._steps * self._dt, "error_angle_deg": angle}
         )
-        return -self._costs, terminated, truncated, infos
-
-    def step(self, actions):
-        obs, rewards, terminated, truncated, infos = super().step(actions)
-        infos.update(
-            self._with_masks(
-                {"error_angle_deg": np.degrees(2.0 * np.arccos(np.minimum(1.0, self._qe_w)))}, self.num_envs
-            )
-        )
-        return obs, rewards, terminated, truncated, infos
+        return obs, reward, terminated, truncated, infos, n_done
 
     @property
     def states(self) -> np.ndarray:
-        """True physical states ``[q, ω, Ω]`` of all sub-envs (E × (7+N)), read-only view."""
-        view = self._states.view()
-        view.setflags(write=False)
-        return view
+        """True physical states ``[q, ω, Ω]`` of all sub-envs (E × (7+N)), a read-only copy."""
+        rows = self._Y.transpose(0, 2, 1).reshape(-1, self._Y.shape[1])[: self.num_envs]
+        rows.setflags(write=False)
+        return rows
 
 
 class AirBearingVectorEnv(ReactionWheelVectorEnv):

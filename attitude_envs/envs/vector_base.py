@@ -19,13 +19,20 @@ from attitude_envs import validation
 
 class BatchedEnv(VectorEnv):
     """Subclasses implement ``_load(i)`` (copy sub-env ``i``'s fresh state into the batch
-    arrays), ``_advance(actions)`` (one batched step → rewards, terminated, truncated, info
-    dict of arrays) and ``_observations()``.
+    arrays), ``_advance(actions, skipped)`` (one batched step → new arrays of observations,
+    rewards, terminated, truncated, an info dict of arrays (see :meth:`_infos`), and the
+    number of sub-envs that ended; sub-envs in the mask ``skipped`` (or none) were just
+    reset and do not step: their observation is the reset one, reward and cost 0, not
+    ended, no random draws) and ``_observations(indices)`` (of the given sub-envs, all
+    when None).
 
     ``autoreset_mode``: ``"next_step"`` (gymnasium's default: the step after an episode
-    ends resets that sub-env, ignores its action, reward 0) or ``"same_step"`` (the
-    sub-env resets in the step that ends it; ``infos["final_obs"]`` holds its last
-    observation; what SB3 expects).
+    ends resets that sub-env, ignores its action, reward 0, and its infos are masked out)
+    or ``"same_step"`` (the sub-env resets in the step that ends it;
+    ``infos["final_obs"]`` holds its last observation; what SB3 expects).
+
+    Every array ``step`` returns is new (the env keeps no reference to it), so callers may
+    keep and modify them; the ``_key`` masks of the infos are shared read-only arrays.
     """
 
     def __init__(self, single_env_factory, num_envs: int, autoreset_mode: str, render_mode: str | None) -> None:
@@ -47,9 +54,17 @@ class BatchedEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.render_mode = None
         self._needs_reset = np.zeros(self.num_envs, dtype=bool)
+        self._n_needs_reset = 0
+        self._all_envs = np.ones(self.num_envs, dtype=bool)
+        self._all_envs.setflags(write=False)
+
+    def _reset_sub(self, i: int, seed: int | None, options: dict | None) -> None:
+        """Reset sub-env ``i`` (its own draws, its own generator); subclasses may skip
+        building the sub-env's observation and info, which the batch does not use."""
+        self.envs[i].reset(seed=seed, options=options)
 
     def _reset_one(self, i: int, seed: int | None, options: dict | None) -> None:
-        self.envs[i].reset(seed=seed, options=options)
+        self._reset_sub(i, seed, options)
         self._load(i)
 
     def reset(self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None):
@@ -65,10 +80,12 @@ class BatchedEnv(VectorEnv):
         for i in indices:
             self._reset_one(i, seeds[i], options)
             self._needs_reset[i] = False
+        self._n_needs_reset = int(np.count_nonzero(self._needs_reset))
         return self._observations(), {}
 
     def _check_actions(self, actions, n_actions: int) -> np.ndarray:
-        a = np.asarray(actions, dtype=float)
+        """``actions`` as a float64 (num_envs, n_actions) array (no copy when it is one)."""
+        a = np.asarray(actions, dtype=np.float64)
         if a.shape != (self.num_envs, n_actions):
             raise ValueError(f"actions must have shape ({self.num_envs}, {n_actions}), got {a.shape}")
         if not np.isfinite(a.sum()) and not np.isfinite(a).all():
@@ -76,34 +93,39 @@ class BatchedEnv(VectorEnv):
         return a
 
     def step(self, actions):
-        rewards, terminated, truncated, infos = self._advance(actions)
-        skipped = self._needs_reset.copy()
-        if skipped.any():  # next-step autoreset: these sub-envs ended last step
+        skipped = None
+        if self._n_needs_reset:  # next-step autoreset: these sub-envs ended last step
+            skipped = self._needs_reset
             for i in np.flatnonzero(skipped):
                 self._reset_one(i, None, None)
-            rewards[skipped] = 0.0
-            terminated[skipped] = False
-            truncated[skipped] = False
-            infos["cost"][skipped] = 0.0
-            infos["_cost"] = ~skipped
-        obs = self._observations()
-        done = terminated | truncated
+        obs, rewards, terminated, truncated, infos, n_done = self._advance(actions, skipped)
+        if skipped is not None:
+            stepped = ~skipped
+            stepped.setflags(write=False)
+            for key in [k for k in infos if not k.startswith("_")]:
+                infos["_" + key] = stepped
         if self.autoreset_mode == AutoresetMode.NEXT_STEP:
-            self._needs_reset = done
-        elif done.any():
+            if n_done:
+                self._needs_reset = terminated | truncated
+            elif self._n_needs_reset:
+                self._needs_reset = np.zeros(self.num_envs, dtype=bool)
+            self._n_needs_reset = n_done
+        elif n_done:
+            done = terminated | truncated
+            idx = np.flatnonzero(done)
             final_obs = np.empty(self.num_envs, dtype=object)  # one array per sub-env (gymnasium's layout)
-            for i in np.flatnonzero(done):
+            for i in idx:
                 final_obs[i] = obs[i].copy()
                 self._reset_one(i, None, None)
+            obs[idx] = self._observations(idx)
             infos["final_obs"] = final_obs
-            infos["_final_obs"] = done.copy()
-            obs = self._observations()
+            infos["_final_obs"] = done
         return obs, rewards, terminated, truncated, infos
 
-    @staticmethod
-    def _with_masks(arrays: dict[str, np.ndarray], n: int) -> dict:
+    def _infos(self, arrays: dict[str, np.ndarray]) -> dict:
+        """Per-sub-env info arrays with gymnasium's ``_key`` masks (all sub-envs)."""
         infos: dict[str, Any] = {}
         for key, value in arrays.items():
             infos[key] = value
-            infos["_" + key] = np.ones(n, dtype=bool)
+            infos["_" + key] = self._all_envs
         return infos

@@ -91,19 +91,21 @@ def derivative(
     params: GyrostatParams, y: np.ndarray, motor_torque_nm: np.ndarray, external_torque_nm: np.ndarray
 ) -> np.ndarray:
     """Time derivative of ``y = [q (4, scalar last), ω (3, rad/s), Ω (N, rad/s)]``."""
-    out = np.empty(7 + params.n_wheels)
-    kernels.derivative_into(
-        np.ascontiguousarray(y, dtype=float),
-        np.ascontiguousarray(motor_torque_nm, dtype=float),
-        np.ascontiguousarray(external_torque_nm, dtype=float),
-        params.inertia_kg_m2,
-        params.inertia_eff_inv,
-        params.wheel_axes,
-        params.wheel_inertia_kg_m2,
-        out,
-        params.offset_torque_nm,
+    n = params.n_wheels
+    out = np.empty((7 + n, 1))
+    empty = np.zeros(0)
+    constants = kernels.pack_constants(
+        params.wheel_axes, empty, empty, params.wheel_inertia_kg_m2, 0.0, np.inf, 0.0, params.offset_torque_nm
     )
-    return out
+    kernels.derivative_columns(
+        np.ascontiguousarray(y, dtype=float).reshape(7 + n, 1),
+        np.ascontiguousarray(motor_torque_nm, dtype=float).reshape(n, 1),
+        np.ascontiguousarray(external_torque_nm, dtype=float).reshape(3, 1),
+        kernels.pack_matrices(params.inertia_kg_m2, params.inertia_eff_inv).reshape(-1, 1),
+        constants,
+        out,
+    )
+    return out[:, 0]
 
 
 def gravity_torque_nm(params: GyrostatParams, q: np.ndarray) -> np.ndarray:

@@ -2,242 +2,518 @@
 the error state, the stage cost and the RK4 control step, used by the single env, the batched
 vector env and (through thin wrappers in :mod:`attitude_envs.plants.gyrostat`) by the tests.
 
-Written for the sizes they have: scalar loops over 3-vectors and N wheels, no temporaries
-beyond a few small work buffers per call. Equations: see :mod:`attitude_envs.plants.gyrostat`.
+Layout: struct of arrays. A batch of ``E`` envs keeps its state as ``Y`` (7+N, E) (rows
+``q`` (4, scalar last), ``ω`` (3, rad/s), ``Ω`` (N, rad/s); one column per env). The step
+works on blocks of ``lanes`` envs copied into a scratch buffer whose rows are ``lanes``
+long, so every inner loop runs over the env index with unit stride and LLVM turns it into
+SIMD instructions (each env is one SIMD lane; nothing mixes lanes, so a lane computes
+exactly the same IEEE operations in the same order whatever the vector width: the single
+env, compiled with ``lanes=1``, and the batched env agree bitwise). No fastmath: no
+reassociation, no fused multiply-add contraction.
+
+The step kernels are specialized by :func:`step_kernel` on the wheel count, the block width
+and the cost layout (compile-time constants, so the wheel and cost loops unroll and the row
+offsets are constants); any wheel count works. Equations: see
+:mod:`attitude_envs.plants.gyrostat`.
 """
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from numba import njit
 
-from attitude_envs.plants.kernel_math import quad_form
+#: Block width of the batched step (envs per SIMD block). 64 lanes keep one block's
+#: scratch rows (~10 kB for 4 wheels) in the L1 cache.
+BATCH_LANES = 64
+
+#: Packed per-env matrices: rows 0–8 the inertia ``I`` (row-major), 9–17 ``I_eff⁻¹``.
+MAT_ROWS = 18
+
+# Scalar constants of the step, in the order of :func:`pack_constants`.
+_JS, _MAX_TORQUE, _MAX_SPEED, _H, _PX, _PY, _PZ, _MAX_RATE, _DT, _DURATION = range(10)
+N_SCALARS = 10
 
 
-@njit(cache=True, error_model="numpy")
-def derivative_into(y, u, ext, inertia, inertia_eff_inv, axes, j_s, out, offset=None):
-    """``out[:7+N] = ẏ`` for ``y = [q (4), ω (3), Ω (N)]``, motor torques ``u`` (N, N·m),
-    external torque ``ext`` (3, N·m, body axes).
+def pack_constants(
+    axes: np.ndarray,
+    q_mat: np.ndarray,
+    r_mat: np.ndarray,
+    wheel_inertia_kg_m2: float,
+    max_torque_nm: float,
+    max_speed_rad_s: float,
+    integrator_dt_s: float,
+    offset_torque_nm: np.ndarray,
+    max_rate_rad_s: float = np.inf,
+    control_dt_s: float = 0.0,
+    episode_duration_s: float = np.inf,
+) -> np.ndarray:
+    """The shared constants of a step in one float64 vector: ``axes`` (3×N, row-major),
+    ``Q``, ``R`` (row-major), then ``J_s`` (kg·m²), torque limit (N·m), speed limit (rad/s),
+    ``h`` (s), offset torque ``p`` (3, N·m), tumble limit (rad/s), control period (s),
+    episode duration (s). The step reads them from its scratch buffer."""
+    scalars = [
+        wheel_inertia_kg_m2,
+        max_torque_nm,
+        max_speed_rad_s,
+        integrator_dt_s,
+        *np.asarray(offset_torque_nm, dtype=float),
+        max_rate_rad_s,
+        control_dt_s,
+        episode_duration_s,
+    ]
+    return np.concatenate([np.ravel(axes), np.ravel(q_mat), np.ravel(r_mat), np.asarray(scalars, dtype=float)])
 
-    ``offset`` (3, N·m, optional): the centre-of-mass offset torque vector ``p = m g r_s``
-    of a platform on a spherical air bearing (spec 003 eq. 6–9): the body receives
-    ``p × K`` with ``K = R(q)ᵀ e_Z`` the unit gravity direction (inertial +Z, "down") in
-    body axes, ``K = [−sθ, sφcθ, cφcθ]`` in 3-2-1 Euler angles (eq. 7).
+
+def pack_matrices(inertia: np.ndarray, inertia_eff_inv: np.ndarray) -> np.ndarray:
+    """One env's column of the per-env matrix rows (:data:`MAT_ROWS`)."""
+    return np.concatenate([np.ravel(inertia), np.ravel(inertia_eff_inv)])
+
+
+# ---------------------------------------------------------------------------- lane math
+# Each function computes one env (lane ``e``) of a block whose scratch rows are ``B``
+# floats long: row ``r`` of the block is ``W[base + r * B + e]``. Inlined into the step
+# loops (numba IR inlining), so the loops over ``e`` vectorize.
+
+
+@njit(inline="always", error_model="numpy")
+def _derivative_lane(W, C, e, B, n, y, u, uj, ext, mat, out, ax, sc):
+    """Rows ``out[0:7+n]`` = ẏ of the state rows ``y`` (q, ω, Ω), motor torque rows ``u``
+    (N·m) and ``uj`` (``u_i / J_s``, see :func:`_input_terms_lane`), external torque rows
+    ``ext`` (3, N·m, body), matrix rows ``mat``; ``ax`` and ``sc`` are the offsets of the
+    wheel axes and of the scalars (:func:`pack_constants`).
+
+    ``I_eff ω̇ = −ω × (Iω + J_s A Ω) − A u + T_ext + p × K`` with ``K = R(q)ᵀ e_Z`` the unit
+    gravity direction in body axes (air-bearing offset torque, spec 003 eq. 6–9; ``p = 0``
+    for a free body), ``Ω̇_i = u_i / J_s − a_i·ω̇``, ``q̇ = ½ q ⊗ [ω, 0]``.
     """
-    n = axes.shape[1]
-    w0, w1, w2 = y[4], y[5], y[6]
-    h0 = inertia[0, 0] * w0 + inertia[0, 1] * w1 + inertia[0, 2] * w2
-    h1 = inertia[1, 0] * w0 + inertia[1, 1] * w1 + inertia[1, 2] * w2
-    h2 = inertia[2, 0] * w0 + inertia[2, 1] * w1 + inertia[2, 2] * w2
-    r0, r1, r2 = ext[0], ext[1], ext[2]
-    if offset is not None:
-        qx, qy, qz, qw = y[0], y[1], y[2], y[3]
-        k0 = 2.0 * (qx * qz - qy * qw)
-        k1 = 2.0 * (qy * qz + qx * qw)
-        k2 = 1.0 - 2.0 * (qx * qx + qy * qy)
-        r0 += offset[1] * k2 - offset[2] * k1
-        r1 += offset[2] * k0 - offset[0] * k2
-        r2 += offset[0] * k1 - offset[1] * k0
+    j_s = C[sc + _JS]
+    qx = W[y * B + e]
+    qy = W[(y + 1) * B + e]
+    qz = W[(y + 2) * B + e]
+    qw = W[(y + 3) * B + e]
+    w0 = W[(y + 4) * B + e]
+    w1 = W[(y + 5) * B + e]
+    w2 = W[(y + 6) * B + e]
+    h0 = W[mat * B + e] * w0 + W[(mat + 1) * B + e] * w1 + W[(mat + 2) * B + e] * w2
+    h1 = W[(mat + 3) * B + e] * w0 + W[(mat + 4) * B + e] * w1 + W[(mat + 5) * B + e] * w2
+    h2 = W[(mat + 6) * B + e] * w0 + W[(mat + 7) * B + e] * w1 + W[(mat + 8) * B + e] * w2
+    r0 = W[ext * B + e]
+    r1 = W[(ext + 1) * B + e]
+    r2 = W[(ext + 2) * B + e]
+    k0 = 2.0 * (qx * qz - qy * qw)
+    k1 = 2.0 * (qy * qz + qx * qw)
+    k2 = 1.0 - 2.0 * (qx * qx + qy * qy)
+    p0, p1, p2 = C[sc + _PX], C[sc + _PY], C[sc + _PZ]
+    r0 += p1 * k2 - p2 * k1
+    r1 += p2 * k0 - p0 * k2
+    r2 += p0 * k1 - p1 * k0
     for i in range(n):
-        hw = j_s * y[7 + i]
-        h0 += axes[0, i] * hw
-        h1 += axes[1, i] * hw
-        h2 += axes[2, i] * hw
-        r0 -= axes[0, i] * u[i]
-        r1 -= axes[1, i] * u[i]
-        r2 -= axes[2, i] * u[i]
+        a0, a1, a2 = C[ax + i], C[ax + n + i], C[ax + 2 * n + i]
+        hw = j_s * W[(y + 7 + i) * B + e]
+        h0 += a0 * hw
+        h1 += a1 * hw
+        h2 += a2 * hw
+        ui = W[(u + i) * B + e]
+        r0 -= a0 * ui
+        r1 -= a1 * ui
+        r2 -= a2 * ui
     r0 -= w1 * h2 - w2 * h1
     r1 -= w2 * h0 - w0 * h2
     r2 -= w0 * h1 - w1 * h0
-    d0 = inertia_eff_inv[0, 0] * r0 + inertia_eff_inv[0, 1] * r1 + inertia_eff_inv[0, 2] * r2
-    d1 = inertia_eff_inv[1, 0] * r0 + inertia_eff_inv[1, 1] * r1 + inertia_eff_inv[1, 2] * r2
-    d2 = inertia_eff_inv[2, 0] * r0 + inertia_eff_inv[2, 1] * r1 + inertia_eff_inv[2, 2] * r2
-    x, yq, z, s = y[0], y[1], y[2], y[3]
-    out[0] = 0.5 * (s * w0 + yq * w2 - z * w1)
-    out[1] = 0.5 * (s * w1 + z * w0 - x * w2)
-    out[2] = 0.5 * (s * w2 + x * w1 - yq * w0)
-    out[3] = -0.5 * (x * w0 + yq * w1 + z * w2)
-    out[4] = d0
-    out[5] = d1
-    out[6] = d2
+    m = mat + 9
+    d0 = W[m * B + e] * r0 + W[(m + 1) * B + e] * r1 + W[(m + 2) * B + e] * r2
+    d1 = W[(m + 3) * B + e] * r0 + W[(m + 4) * B + e] * r1 + W[(m + 5) * B + e] * r2
+    d2 = W[(m + 6) * B + e] * r0 + W[(m + 7) * B + e] * r1 + W[(m + 8) * B + e] * r2
+    W[out * B + e] = 0.5 * (qw * w0 + qy * w2 - qz * w1)
+    W[(out + 1) * B + e] = 0.5 * (qw * w1 + qz * w0 - qx * w2)
+    W[(out + 2) * B + e] = 0.5 * (qw * w2 + qx * w1 - qy * w0)
+    W[(out + 3) * B + e] = -0.5 * (qx * w0 + qy * w1 + qz * w2)
+    W[(out + 4) * B + e] = d0
+    W[(out + 5) * B + e] = d1
+    W[(out + 6) * B + e] = d2
     for i in range(n):
-        out[7 + i] = u[i] / j_s - (axes[0, i] * d0 + axes[1, i] * d1 + axes[2, i] * d2)
+        a0, a1, a2 = C[ax + i], C[ax + n + i], C[ax + 2 * n + i]
+        W[(out + 7 + i) * B + e] = W[(uj + i) * B + e] - (a0 * d0 + a1 * d1 + a2 * d2)
 
 
-@njit(cache=True, error_model="numpy")
-def error_state_into(y, q_target, j_s, include_h, n_wheels, out):
-    """``out = x = [q_e,vec, ω, (J_s Ω)]`` with ``q_e = q_T* ⊗ q/|q|`` (w ≥ 0); returns ``q_e,w``."""
-    norm = np.sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2] + y[3] * y[3])
-    qx, qy, qz, qw = y[0] / norm, y[1] / norm, y[2] / norm, y[3] / norm
-    px, py, pz, pw = -q_target[0], -q_target[1], -q_target[2], q_target[3]
+@njit(inline="always", error_model="numpy")
+def _error_state_lane(W, C, e, B, n, include_h, y, target, x, sc):
+    """Rows ``x`` = ``[q_e,vec, ω, (J_s Ω)]`` with ``q_e = q_T* ⊗ q/|q|`` (``q_e,w ≥ 0``) of
+    the state rows ``y`` and target rows ``target``; returns ``q_e,w``."""
+    qx = W[y * B + e]
+    qy = W[(y + 1) * B + e]
+    qz = W[(y + 2) * B + e]
+    qw = W[(y + 3) * B + e]
+    norm = np.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+    qx, qy, qz, qw = qx / norm, qy / norm, qz / norm, qw / norm
+    px = -W[target * B + e]
+    py = -W[(target + 1) * B + e]
+    pz = -W[(target + 2) * B + e]
+    pw = W[(target + 3) * B + e]
     ex = pw * qx + px * qw + py * qz - pz * qy
     ey = pw * qy - px * qz + py * qw + pz * qx
     ez = pw * qz + px * qy - py * qx + pz * qw
     ew = pw * qw - px * qx - py * qy - pz * qz
     if ew < 0.0:
         ex, ey, ez, ew = -ex, -ey, -ez, -ew
-    out[0] = ex
-    out[1] = ey
-    out[2] = ez
-    out[3] = y[4]
-    out[4] = y[5]
-    out[5] = y[6]
+    W[x * B + e] = ex
+    W[(x + 1) * B + e] = ey
+    W[(x + 2) * B + e] = ez
+    W[(x + 3) * B + e] = W[(y + 4) * B + e]
+    W[(x + 4) * B + e] = W[(y + 5) * B + e]
+    W[(x + 5) * B + e] = W[(y + 6) * B + e]
     if include_h:
-        for i in range(n_wheels):
-            out[6 + i] = j_s * y[7 + i]
+        j_s = C[sc + _JS]
+        for i in range(n):
+            W[(x + 6 + i) * B + e] = j_s * W[(y + 7 + i) * B + e]
     return ew
 
 
-@njit(cache=True, error_model="numpy")
-def stage_cost(y, u, q_target, axes, j_s, Q, R, body_input, include_h, xbuf, ubuf):
-    """``xᵀQx + u_cᵀRu_c`` with ``u_c = −A u`` (``body_input``) or ``u``."""
-    n = axes.shape[1]
-    error_state_into(y, q_target, j_s, include_h, n, xbuf)
-    total = quad_form(Q, xbuf, Q.shape[0])
+@njit(inline="always", error_model="numpy")
+def _quad_form_lane(W, C, e, B, mat, v, k):
+    """``vᵀ M v`` of the ``k`` rows ``v``, ``M`` row-major at offset ``mat`` (row-by-row
+    summation, the order of :func:`attitude_envs.plants.kernel_math.quad_form`)."""
+    total = 0.0
+    for i in range(k):
+        acc = 0.0
+        for j in range(k):
+            acc += C[mat + i * k + j] * W[(v + j) * B + e]
+        total += W[(v + i) * B + e] * acc
+    return total
+
+
+@njit(inline="always", error_model="numpy")
+def _state_cost_lane(W, C, e, B, n, include_h, y, target, x, cq, sc):
+    """``xᵀQx`` of the state rows ``y`` (``x``: scratch rows for the error state)."""
+    _error_state_lane(W, C, e, B, n, include_h, y, target, x, sc)
+    return _quad_form_lane(W, C, e, B, cq, x, 6 + n if include_h else 6)
+
+
+@njit(inline="always", error_model="numpy")
+def _input_terms_lane(W, C, e, B, n, body_input, u, uj, uc, ax, cr, sc):
+    """What the RK4 stages share while the motor torque rows ``u`` are held: rows ``uj`` =
+    ``u_i / J_s``, and the returned input cost ``u_cᵀRu_c`` with ``u_c = −A u``
+    (``body_input``) or ``u`` (``uc``: scratch rows)."""
+    j_s = C[sc + _JS]
+    for i in range(n):
+        W[(uj + i) * B + e] = W[(u + i) * B + e] / j_s
     if body_input:
         for k in range(3):
             acc = 0.0
             for i in range(n):
-                acc -= axes[k, i] * u[i]
-            ubuf[k] = acc
-        m = 3
-    else:
-        for i in range(n):
-            ubuf[i] = u[i]
-        m = n
-    return total + quad_form(R, ubuf, m)
+                acc -= C[ax + k * n + i] * W[(u + i) * B + e]
+            W[(uc + k) * B + e] = acc
+        return _quad_form_lane(W, C, e, B, cr, uc, 3)
+    return _quad_form_lane(W, C, e, B, cr, u, n)
 
 
-@njit(cache=True, error_model="numpy")
-def speed_limit_into(cmd, wheel, max_torque, max_speed, j_s, h, out):
-    """Motor torque (N·m) after the torque limit and the motor driver's speed limit: over
-    the next ``h`` seconds the torque may take a wheel up to ``±max_speed`` but not beyond
-    it (ignoring the small body-coupling term ``a_i·ω̇``), so a wheel at its limit gets no
-    further torque outwards."""
-    n = cmd.shape[0]
-    for i in range(n):
-        v = min(max(cmd[i], -max_torque), max_torque)
-        if max_speed < np.inf:
-            hi = j_s / h * (max_speed - wheel[i])
-            lo = j_s / h * (-max_speed - wheel[i])
-            v = min(max(v, lo), hi)
-            v = min(max(v, -max_torque), max_torque)
-        out[i] = v
+@njit(inline="always", error_model="numpy")
+def _clip(v, lo, hi):
+    """``min(max(v, lo), hi)`` written as two selects (numba's ``min``/``max`` do not vectorize)."""
+    v = lo if v < lo else v
+    return hi if v > hi else v
 
 
-@njit(cache=True, error_model="numpy")
-def _augmented(
-    aug, u, ext, inertia, inertia_eff_inv, axes, j_s, q_target, Q, R, body_input, include_h, xbuf, ubuf, out, offset
-):
-    derivative_into(aug, u, ext, inertia, inertia_eff_inv, axes, j_s, out, offset)
-    out[aug.shape[0] - 1] = stage_cost(aug, u, q_target, axes, j_s, Q, R, body_input, include_h, xbuf, ubuf)
+@njit(inline="always", error_model="numpy")
+def _speed_limit_lane(W, C, e, B, i, cmd, wheel, sc):
+    """Motor torque (N·m) of wheel ``i`` after the torque limit and the motor driver's
+    speed limit: over the next ``h`` seconds the torque may take the wheel up to
+    ``±max_speed`` but not beyond (ignoring the small body-coupling term ``a_i·ω̇``), so a
+    wheel at its limit gets no further torque outwards."""
+    max_torque, max_speed, j_s, h = C[sc + _MAX_TORQUE], C[sc + _MAX_SPEED], C[sc + _JS], C[sc + _H]
+    v = _clip(W[(cmd + i) * B + e], -max_torque, max_torque)
+    wheel_speed = W[(wheel + i) * B + e]
+    hi = j_s / h * (max_speed - wheel_speed)
+    lo = j_s / h * (-max_speed - wheel_speed)
+    limited = _clip(_clip(v, lo, hi), -max_torque, max_torque)
+    return limited if max_speed < np.inf else v
 
 
-def work_size(n_wheels: int, n_state: int) -> int:
-    """Length of the scratch buffer :func:`control_step` needs (allocated once by the caller)."""
-    return 6 * (8 + n_wheels) + n_wheels + n_state + max(3, n_wheels)
+class _Rows:
+    """Layout of the step's constants vector (:func:`pack_constants`) and of its scratch
+    buffer, rows of ``lanes`` floats (row ``r`` at ``r * lanes``), for ``n`` wheels:
+    compile-time constants of the kernel. The constants stay in their own array: a
+    loop-invariant load from the scratch array being written would stop LLVM's vectorizer."""
+
+    def __init__(self, n: int, lanes: int, include_h: bool, body_input: bool) -> None:
+        self.n_state = 6 + n if include_h else 6
+        self.m_cost = 3 if body_input else n
+        self.ax = 0  # constants: axes (3n), Q, R, scalars (pack_constants)
+        self.cq = 3 * n
+        self.cr = self.cq + self.n_state * self.n_state
+        self.sc = self.cr + self.m_cost * self.m_cost
+        self.n_const = self.sc + N_SCALARS
+        self.size = size = 8 + n  # state + integrated cost
+        self.aug = 0
+        self.k = self.aug + size  # current RK4 stage's derivative
+        self.acc = self.k + size  # weighted sum of the stages
+        self.tmp = self.acc + size  # current stage's input
+        self.u = self.tmp + size  # motor torque (N·m)
+        self.cmd = self.u + n  # commanded torque (N·m)
+        self.app = self.cmd + n  # mean torque delivered (N·m)
+        self.mat = self.app + n
+        self.target = self.mat + MAT_ROWS
+        self.x = self.target + 4
+        self.uc = self.x + self.n_state
+        self.uj = self.uc + max(3, n)  # u / J_s
+        self.ru = self.uj + n  # input cost u_cᵀRu_c
+        self.ext = self.ru + 1  # external torque at the current stage's time
+        self.qe_w = self.ext + 3  # outputs: q_e,w, 0 if finite (else NaN), max |ω|
+        self.finite = self.qe_w + 1
+        self.rate = self.finite + 1
+        self.save = self.rate + 1  # the loaded states of envs that skip the step
+        self.n_rows = self.save + size - 1
 
 
-@njit(cache=True, error_model="numpy")
-def control_step(state, cmd, ext_stages, mats, axes, scalars, flags, q_target, Q, R, applied_out, work):
-    """Advance ``state = [q, ω, Ω]`` (in place) over ``n_sub`` RK4 sub-steps of ``h`` seconds
-    with the motor command ``cmd`` held; the stage cost is integrated as an extra state.
+def work_size(n_wheels: int, lanes: int, include_h: bool, body_input: bool) -> int:
+    """Length of the scratch buffer of :func:`step_kernel`'s kernel (allocated once by the
+    caller; no allocation in the hot path)."""
+    return _Rows(n_wheels, lanes, include_h, body_input).n_rows * lanes
 
-    Packed arguments (few arguments keep numba's dispatch cheap): ``mats = [I, I_eff⁻¹]``
-    (2×3×3), ``scalars = [J_s, max_torque, max_speed, h, p_x, p_y, p_z]`` (``p``: the
-    centre-of-mass offset torque vector of :func:`derivative_into`, zeros for a free body), ``flags = [n_sub, body_input,
-    include_h]``. ``ext_stages[j, k]`` is the external torque at sub-step ``j``, RK4 stage
-    time ``t_j + (0, h/2, h)[k]``. The quaternion is renormalized after each sub-step.
-    ``applied_out`` receives the mean motor torque delivered; returns the step cost.
-    ``work`` is a scratch buffer of :func:`work_size` floats (no allocation in the hot path).
+
+@functools.cache
+def step_kernel(n_wheels: int, lanes: int, include_h: bool, body_input: bool):
+    """The compiled batched step for ``n_wheels`` wheels, blocks of ``lanes`` envs and the
+    cost layout (``include_h``: wheel momentum in ``x``; ``body_input``: cost on the body
+    torque ``−A u``), memoized (numba also caches it on disk)::
+
+        kernel(Y, cmd, scale, skip, ext, M, T, constants, n_sub, steps,
+               applied, cost, reward, obs, qe_w, terminated, truncated, observe_wheels, W)
+
+    Per-env inputs are blocked struct-of-arrays (see :func:`blocks`): ``Y`` (nb, 7+N,
+    lanes) the states ``[q, ω, Ω]``, ``M`` (nb, 18, lanes) :func:`pack_matrices`, ``T``
+    (nb, 4, lanes) the targets, ``ext`` (nb, 9·n_sub, lanes) external torques (row
+    ``9j + 3k + c``: sub-step ``j``, RK4 stage time ``t_j + (0, h/2, h)[k]``, axis ``c``;
+    N·m) or (nb, 0, lanes) for none. Env ``g`` is lane ``g % lanes`` of block
+    ``g // lanes``; lanes past the ``E`` envs are padding (computed, never reported).
+
+    Advances ``Y`` in place over ``n_sub`` RK4 sub-steps of ``h`` with the motor command
+    held, the stage cost integrated as an extra state and the quaternion renormalized
+    after each sub-step. ``cmd`` (E, N): normalized actions (``scale``: clipped to [−1, 1]
+    and times the torque limit, as the env does) or motor torques (N·m). ``skip`` (E,
+    bool): envs that keep their state (just reset: their observation is computed, their
+    cost, reward and flags are zero, their step counter stays). ``constants``:
+    :func:`pack_constants`; ``steps`` (E, int): step counters, incremented.
+
+    Outputs per env: ``applied`` (E, N) mean motor torque delivered (N·m), ``cost`` (E) the
+    step cost and ``reward`` (E) its negative, ``obs`` (E, n_obs) float32 ``[x, (Ω/Ω_max)]`` of the new state (zeros when
+    it is not finite), ``qe_w`` (E) the error quaternion's scalar part, ``terminated``
+    (non-finite state or cost, or ``max|ω|`` above the tumble limit) and ``truncated`` (the
+    episode time reached, not terminated). Returns the number of envs that terminated or
+    truncated, or −1, changing nothing, when ``cmd`` holds a NaN or an infinity.
+    ``W``: :func:`work_size` floats.
     """
-    inertia = mats[0]
-    inertia_eff_inv = mats[1]
-    j_s, max_torque, max_speed, h = scalars[0], scalars[1], scalars[2], scalars[3]
-    offset = scalars[4:7]
-    n_sub, body_input, include_h = flags[0], flags[1] != 0, flags[2] != 0
-    n = axes.shape[1]
-    size = 8 + n
-    aug = work[0:size]
-    tmp = work[size : 2 * size]
-    ks = work[2 * size : 6 * size].reshape((4, size))
-    u = work[6 * size : 6 * size + n]
-    xbuf = work[6 * size + n : 6 * size + n + Q.shape[0]]
-    ubuf = work[6 * size + n + Q.shape[0] :]
-    for i in range(size - 1):
-        aug[i] = state[i]
-    aug[size - 1] = 0.0
-    for i in range(n):
-        applied_out[i] = 0.0
-    for j in range(n_sub):
-        speed_limit_into(cmd, aug[7 : 7 + n], max_torque, max_speed, j_s, h, u)
-        for i in range(n):
-            applied_out[i] += u[i] / n_sub
-        for stage in range(4):  # classical RK4: stages at t, t + h/2, t + h/2, t + h
-            if stage == 0:
-                for i in range(size):
-                    tmp[i] = aug[i]
-            else:
-                c = h if stage == 3 else 0.5 * h
-                for i in range(size):
-                    tmp[i] = aug[i] + c * ks[stage - 1, i]
-            ext = ext_stages[j, (stage + 1) // 2]
-            _augmented(
-                tmp,
-                u,
-                ext,
-                inertia,
-                inertia_eff_inv,
-                axes,
-                j_s,
-                q_target,
-                Q,
-                R,
-                body_input,
-                include_h,
-                xbuf,
-                ubuf,
-                ks[stage],
-                offset,
-            )
-        for i in range(size):
-            aug[i] += (h / 6.0) * (ks[0, i] + 2.0 * ks[1, i] + 2.0 * ks[2, i] + ks[3, i])
-        norm = np.sqrt(aug[0] * aug[0] + aug[1] * aug[1] + aug[2] * aug[2] + aug[3] * aug[3])
-        for i in range(4):
-            aug[i] /= norm
-    for i in range(size - 1):
-        state[i] = aug[i]
-    return aug[size - 1]
+    n = int(n_wheels)
+    B = int(lanes)
+    include_h = bool(include_h)
+    body_input = bool(body_input)
+    lay = _Rows(n, B, include_h, body_input)
+    n_state = lay.n_state
+    AX, CQ, CR, SC, SIZE = lay.ax, lay.cq, lay.cr, lay.sc, lay.size
+    AUG, K, ACC, TMP, U, CMD, APP = lay.aug, lay.k, lay.acc, lay.tmp, lay.u, lay.cmd, lay.app
+    MAT, TGT, X, UC, UJ, RU, EXT = lay.mat, lay.target, lay.x, lay.uc, lay.uj, lay.ru, lay.ext
+    QEW, FIN, RATE, SAVE = lay.qe_w, lay.finite, lay.rate, lay.save
+
+    @njit(cache=True, error_model="numpy")
+    def kernel(
+        Y,
+        cmd,
+        scale,
+        skip,
+        ext,
+        M,
+        T,
+        C,
+        n_sub,
+        steps,
+        applied,
+        cost,
+        reward,
+        obs,
+        qe_w,
+        terminated,
+        truncated,
+        observe_wheels,
+        W,
+    ):
+        E = cmd.shape[0]
+        zero = 0.0  # 0·x is 0 for every finite x, NaN otherwise
+        for g in range(E):
+            for i in range(n):
+                zero += 0.0 * cmd[g, i]
+        if zero != 0.0:
+            return -1
+        h = C[SC + _H]
+        max_torque = C[SC + _MAX_TORQUE]
+        max_rate, dt, duration = C[SC + _MAX_RATE], C[SC + _DT], C[SC + _DURATION]
+        max_speed = C[SC + _MAX_SPEED]
+        has_ext = ext.shape[1] > 0
+        n_done = 0
+        for b in range(Y.shape[0]):
+            e0 = b * B
+            count = min(B, E - e0)
+            # load the block: contiguous rows, no gathers
+            for r in range(SIZE - 1):
+                for e in range(B):
+                    W[(AUG + r) * B + e] = Y[b, r, e]
+            for r in range(MAT_ROWS):
+                for e in range(B):
+                    W[(MAT + r) * B + e] = M[b, r, e]
+            for r in range(4):
+                for e in range(B):
+                    W[(TGT + r) * B + e] = T[b, r, e]
+            n_skip = 0
+            for e in range(B):
+                W[(AUG + SIZE - 1) * B + e] = 0.0
+                for c in range(3):
+                    W[(EXT + c) * B + e] = 0.0
+            for e in range(count):
+                n_skip += skip[e0 + e]
+            if n_skip:  # keep the just-reset states
+                for r in range(SIZE - 1):
+                    for e in range(B):
+                        W[(SAVE + r) * B + e] = W[(AUG + r) * B + e]
+            for i in range(n):
+                for e in range(B):
+                    W[(APP + i) * B + e] = 0.0
+                    W[(CMD + i) * B + e] = 0.0  # padding lanes: no torque
+                for e in range(count):
+                    a = cmd[e0 + e, i]
+                    W[(CMD + i) * B + e] = _clip(a, -1.0, 1.0) * max_torque if scale else a
+            for j in range(n_sub):
+                for e in range(B):
+                    for i in range(n):
+                        v = _speed_limit_lane(W, C, e, B, i, CMD, AUG + 7, SC)
+                        W[(U + i) * B + e] = v
+                        W[(APP + i) * B + e] += v / n_sub
+                    W[RU * B + e] = _input_terms_lane(W, C, e, B, n, body_input, U, UJ, UC, AX, CR, SC)
+                for stage in range(4):  # classical RK4: stages at t, t + h/2, t + h/2, t + h
+                    if has_ext:
+                        row = 9 * j + 3 * ((stage + 1) // 2)
+                        for c in range(3):
+                            for e in range(B):
+                                W[(EXT + c) * B + e] = ext[b, row + c, e]
+                    if stage == 0:
+                        for r in range(SIZE):
+                            for e in range(B):
+                                W[(TMP + r) * B + e] = W[(AUG + r) * B + e]
+                    else:
+                        step = h if stage == 3 else 0.5 * h
+                        for r in range(SIZE):
+                            for e in range(B):
+                                W[(TMP + r) * B + e] = W[(AUG + r) * B + e] + step * W[(K + r) * B + e]
+                    for e in range(B):  # SIMD loops: one env per lane
+                        _derivative_lane(W, C, e, B, n, TMP, U, UJ, EXT, MAT, K, AX, SC)
+                    for e in range(B):  # the stage cost xᵀQx + u_cᵀRu_c
+                        state_cost = _state_cost_lane(W, C, e, B, n, include_h, TMP, TGT, X, CQ, SC)
+                        W[(K + SIZE - 1) * B + e] = state_cost + W[RU * B + e]
+                    # acc = k1 + 2 k2 + 2 k3 + k4, summed in that order
+                    if stage == 0:
+                        for r in range(SIZE):
+                            for e in range(B):
+                                W[(ACC + r) * B + e] = W[(K + r) * B + e]
+                    else:
+                        weight = 1.0 if stage == 3 else 2.0
+                        for r in range(SIZE):
+                            for e in range(B):
+                                W[(ACC + r) * B + e] += weight * W[(K + r) * B + e]
+                for r in range(SIZE):
+                    for e in range(B):
+                        W[(AUG + r) * B + e] += (h / 6.0) * W[(ACC + r) * B + e]
+                for e in range(B):
+                    qx, qy = W[AUG * B + e], W[(AUG + 1) * B + e]
+                    qz, qw = W[(AUG + 2) * B + e], W[(AUG + 3) * B + e]
+                    norm = np.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+                    for r in range(4):
+                        W[(AUG + r) * B + e] /= norm
+            if n_skip:
+                for e in range(count):
+                    if skip[e0 + e]:
+                        for r in range(SIZE - 1):
+                            W[(AUG + r) * B + e] = W[(SAVE + r) * B + e]
+            for r in range(SIZE - 1):
+                for e in range(B):
+                    Y[b, r, e] = W[(AUG + r) * B + e]
+            # outputs: error state, finiteness (Σ y·0 is 0 or NaN) and tumble rate per lane
+            for e in range(B):
+                W[QEW * B + e] = _error_state_lane(W, C, e, B, n, include_h, AUG, TGT, X, SC)
+                zero = 0.0
+                for r in range(SIZE):
+                    zero += 0.0 * W[(AUG + r) * B + e]
+                W[FIN * B + e] = zero
+                w0, w1, w2 = abs(W[(AUG + 4) * B + e]), abs(W[(AUG + 5) * B + e]), abs(W[(AUG + 6) * B + e])
+                w0 = w1 if w1 > w0 else w0
+                W[RATE * B + e] = w2 if w2 > w0 else w0
+            for e in range(count):
+                g = e0 + e
+                finite = W[FIN * B + e] == 0.0
+                qe_w[g] = W[QEW * B + e]
+                if skip[g]:
+                    cost[g] = reward[g] = 0.0
+                    terminated[g] = truncated[g] = False
+                    for i in range(n):
+                        applied[g, i] = 0.0
+                else:
+                    term = not finite or W[RATE * B + e] > max_rate
+                    cost[g] = W[(AUG + SIZE - 1) * B + e]
+                    reward[g] = -W[(AUG + SIZE - 1) * B + e]
+                    steps[g] += 1
+                    trunc = steps[g] * dt >= duration - 1e-9 * dt and not term
+                    terminated[g] = term
+                    truncated[g] = trunc
+                    n_done += term or trunc
+                    for i in range(n):
+                        applied[g, i] = W[(APP + i) * B + e]
+                for r in range(n_state):
+                    obs[g, r] = np.float32(W[(X + r) * B + e]) if finite else np.float32(0.0)
+                if observe_wheels:
+                    for i in range(n):
+                        v = W[(AUG + 7 + i) * B + e] / max_speed
+                        obs[g, n_state + i] = np.float32(v) if finite else np.float32(0.0)
+        return n_done
+
+    return kernel
+
+
+def blocks(n_envs: int, rows: int, lanes: int) -> np.ndarray:
+    """Zeros in the blocked struct-of-arrays layout of :func:`step_kernel`'s per-env
+    inputs: (⌈n_envs / lanes⌉, rows, lanes); env ``g`` is ``[g // lanes, :, g % lanes]``."""
+    return np.zeros((-(-int(n_envs) // lanes), rows, lanes))
 
 
 @njit(cache=True, error_model="numpy")
-def control_step_batch(
-    states, cmds, ext_stages, mats, axes, scalars, flags, q_targets, Q, R, applied_out, costs_out, work
-):
-    """:func:`control_step` for ``E`` envs at once, serially (numba's threads lost to
-    oversubscription on the 2-core machines this was measured on; see benchmarks/): rows of ``states``, ``cmds``,
-    ``q_targets``, ``applied_out``; per-env ``mats`` (E, 2, 3, 3) and ``ext_stages``
-    (E, n_sub, 3, 3); shared wheels, limits, weights; ``work`` (E, work_size)."""
-    for e in range(states.shape[0]):
-        costs_out[e] = control_step(
-            states[e],
-            cmds[e],
-            ext_stages[e],
-            mats[e],
-            axes,
-            scalars,
-            flags,
-            q_targets[e],
-            Q,
-            R,
-            applied_out[e],
-            work[e],
-        )
+def derivative_columns(Y, U, EXT, M, constants, out):
+    """ẏ of every column of ``Y`` (7+N, E) with motor torques ``U`` (N, E), external
+    torques ``EXT`` (3, E), matrices ``M`` (18, E) and :func:`pack_constants` ``constants``
+    (the generic, unspecialized path the tests and :func:`gyrostat.derivative` use)."""
+    n = Y.shape[0] - 7
+    y, u, uj = 0, 7 + n, 7 + 2 * n  # one lane (B = 1): row r is W[r]
+    ext = uj + n
+    mat, o = ext + 3, ext + 3 + MAT_ROWS
+    W = np.empty(o + 7 + n)
+    sc = constants.shape[0] - N_SCALARS
+    for e in range(Y.shape[1]):
+        W[y : y + 7 + n] = Y[:, e]
+        W[u : u + n] = U[:, e]
+        W[uj : uj + n] = U[:, e] / constants[sc + _JS]
+        W[ext : ext + 3] = EXT[:, e]
+        W[mat : mat + MAT_ROWS] = M[:, e]
+        _derivative_lane(W, constants, 0, 1, n, y, u, uj, ext, mat, o, 0, sc)
+        out[:, e] = W[o : o + 7 + n]
 
 
 @njit(cache=True, error_model="numpy")
-def error_state_batch(states, q_targets, j_s, include_h, out, qe_w_out):
-    """:func:`error_state_into` for every row of ``states``."""
-    n = states.shape[1] - 7
-    for e in range(states.shape[0]):
-        qe_w_out[e] = error_state_into(states[e], q_targets[e], j_s, include_h, n, out[e])
+def error_state_columns(Y, T, j_s, include_h, out, qe_w_out):
+    """The error state of every column of ``Y`` (7+N, E) against targets ``T`` (4, E):
+    ``out`` (n_state, E) ``[q_e,vec, ω, (J_s Ω)]``, ``qe_w_out`` (E) ``q_e,w``."""
+    n = Y.shape[0] - 7
+    n_state = out.shape[0]
+    C = np.full(1, j_s)  # J_s at offset 0 (= _JS)
+    W = np.empty(11 + n + n_state)
+    for e in range(Y.shape[1]):
+        W[: 7 + n] = Y[:, e]
+        W[7 + n : 11 + n] = T[:, e]
+        qe_w_out[e] = _error_state_lane(W, C, 0, 1, n, include_h, 0, 7 + n, 11 + n, 0)
+        out[:, e] = W[11 + n : 11 + n + n_state]

@@ -44,17 +44,17 @@ class ReactionWheelModel:
 
     def error_state(self, q: np.ndarray, w: np.ndarray, wheel_speed_rad_s: np.ndarray, q_target: np.ndarray):
         """``x`` of the current physical state relative to the target attitude (at rest)."""
-        y = np.concatenate([q, w, wheel_speed_rad_s]).astype(float)
-        x = np.empty(self.n_state)
-        kernels.error_state_into(
+        y = np.concatenate([q, w, wheel_speed_rad_s]).astype(float).reshape(-1, 1)
+        x = np.empty((self.n_state, 1))
+        kernels.error_state_columns(
             y,
-            np.asarray(q_target, dtype=float),
+            np.asarray(q_target, dtype=float).reshape(4, 1),
             self.params.wheel_inertia_kg_m2,
             self.include_wheel_momentum,
-            self.params.n_wheels,
             x,
+            np.empty(1),
         )
-        return x
+        return x[:, 0]
 
     def error_derivative(
         self, x: np.ndarray, motor_torque_nm: np.ndarray, wheel_speed_rad_s: np.ndarray | None = None
