@@ -52,6 +52,122 @@ def test_sub_envs_match_single_envs_bitwise_across_autoreset(faults):
     assert np.allclose(vec.states[:, 7:], 0.0)  # wheels back at rest after the reset
 
 
+def _step_singles_with_autoreset(singles, actions, done_before):
+    """Single envs stepped as gymnasium's next-step autoreset does: a sub-env that ended
+    last step resets (no seed: its own generator goes on) and reports reward 0."""
+    out = []
+    for i, s in enumerate(singles):
+        if done_before[i]:
+            o, _ = s.reset()
+            out.append((o, 0.0, False, False, None))
+        else:
+            out.append(s.step(actions[i]))
+    return out
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {  # two blocks of lanes, the second partial; sub-steps, disturbance, wheel-speed limit, faults
+            "integrator_dt_s": 0.05,
+            "max_wheel_speed_rad_s": 30.0,
+            "disturbance": {"kind": "random_walk", "std_nm_per_sqrt_s": 1e-3, "initial_nm": [1e-3, 0.0, -1e-3]},
+            "faults": [{"kind": "loss_of_effectiveness", "index": "random", "value": 0.5, "onset_s": 0.3}],
+            "max_rate_rad_s": 0.1,  # some sub-envs tumble and terminate
+            "initial_rate_max_rad_s": 0.08,
+        },
+        {"observe_wheel_speeds": True, "wheel_momentum_weight": 10.0, "cost_input": "wheel", "R": np.eye(4)},
+    ],
+    ids=["partial-block-disturbance-faults-limits", "wheel-cost-and-momentum"],
+)
+def test_sub_envs_match_single_envs_bitwise_in_every_kernel_path(kwargs):
+    n, seed = 67 if "disturbance" in kwargs else 3, 7
+    vec = make_vec(n, **kwargs)
+    singles = [gym.make(RW, **{**KWARGS, **kwargs}).unwrapped for _ in range(n)]
+    obs, _ = vec.reset(seed=seed)
+    assert np.array_equal(obs, np.stack([s.reset(seed=seed + i)[0] for i, s in enumerate(singles)]))
+    rng = np.random.default_rng(1)
+    done = np.zeros(n, dtype=bool)
+    ended = 0
+    for _ in range(45):  # past the 2 s episodes: next-step autoreset of every sub-env
+        actions = rng.uniform(-1.2, 1.2, (n, 4))
+        obs, rewards, term, trunc, infos = vec.step(actions)
+        for i, (o, r, te, tr, info) in enumerate(_step_singles_with_autoreset(singles, actions, done)):
+            assert np.array_equal(obs[i], o) and rewards[i] == r and te == term[i] and tr == trunc[i], i
+            assert infos["_cost"][i] == (info is not None)
+            if info is not None:
+                assert np.array_equal(infos["applied"][i], info["applied"]) and infos["cost"][i] == info["cost"]
+                assert infos["error_angle_deg"][i] == info["error_angle_deg"]
+                assert infos["time_s"][i] == info["time_s"]
+        done = term | trunc
+        ended += done.sum()
+    assert ended >= n
+
+
+def test_linear_system_batch_matches_single_envs_across_autoreset_with_noise():
+    kwargs = {"x0_std": 0.1, "process_noise_std": 0.01, "episode_steps": 5}
+    n = 3
+    vec = gym.make_vec("attitude_envs/LinearSystem-v0", num_envs=n, vectorization_mode="vector_entry_point", **kwargs)
+    singles = [gym.make("attitude_envs/LinearSystem-v0", **kwargs).unwrapped for _ in range(n)]
+    vec.reset(seed=4)
+    for i, s in enumerate(singles):
+        s.reset(seed=4 + i)
+    rng = np.random.default_rng(3)
+    done = np.zeros(n, dtype=bool)
+    for _ in range(13):  # two autoresets: the reset step draws no process noise
+        actions = rng.uniform(-1, 1, (n, 3))
+        obs, rewards, term, trunc, _ = vec.step(actions)
+        for i, (o, r, te, tr, _) in enumerate(_step_singles_with_autoreset(singles, actions, done)):
+            assert np.array_equal(obs[i], o) and rewards[i] == r and te == term[i] and tr == trunc[i]
+        done = term | trunc
+
+
+def test_batched_rk4_global_error_is_fourth_order():
+    from scipy.integrate import solve_ivp
+
+    u_cmd = np.array([0.3, -0.2, 0.1, 0.4])
+    options = {"rate_rad_s": [0.4, -0.3, 0.5], "wheel_speed_rad_s": [50.0, -40.0, 20.0, 0.0]}
+    kwargs = {"max_wheel_speed_rad_s": np.inf, "episode_duration_s": 1e6, "max_rate_rad_s": 100.0}
+    kwargs |= {"inertia_uncertainty": None, "control_dt_s": 0.2}
+    errors = []
+    for h in (0.2, 0.1, 0.05):
+        vec = make_vec(2, integrator_dt_s=h, **kwargs)
+        vec.reset(seed=0, options=options)
+        y0 = vec.states[0].copy()
+        for _ in range(50):
+            vec.step(np.tile(u_cmd, (2, 1)))
+        if not errors:
+            p = vec.unwrapped.model.params
+            sol = solve_ivp(
+                lambda t, y: gyrostat.derivative(p, y, u_cmd * p.max_wheel_torque_nm, np.zeros(3)),
+                (0.0, 10.0),
+                y0,
+                method="DOP853",
+                rtol=1e-13,
+                atol=1e-14,
+            )
+            ref = sol.y[:, -1]
+        assert np.array_equal(vec.states[0], vec.states[1])
+        errors.append(np.linalg.norm(vec.states[0][:7] - ref[:7]))
+    ratios = [errors[0] / errors[1], errors[1] / errors[2]]
+    assert errors[-1] < 1e-6
+    for r in ratios:
+        assert 12.0 < r < 20.0, (errors, ratios)
+
+
+def test_returned_arrays_are_not_reused_by_the_env():
+    vec = make_vec(2)
+    vec.reset(seed=0)
+    first = vec.step(np.ones((2, 4)))
+    kept = [np.copy(a) for a in first[:4]] + [{k: np.copy(v) for k, v in first[4].items()}]
+    for _ in range(3):
+        vec.step(-np.ones((2, 4)))
+    for a, b in zip(first[:4], kept[:4], strict=True):
+        assert np.array_equal(a, b)
+    for k, v in kept[4].items():
+        assert np.array_equal(first[4][k], v)
+
+
 def test_same_step_autoreset_reports_final_observation():
     vec = make_vec(2, autoreset_mode="same_step")
     vec.reset(seed=0)

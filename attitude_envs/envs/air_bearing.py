@@ -17,6 +17,7 @@ import numpy as np
 from attitude_envs import quaternion, validation
 from attitude_envs.envs.reaction_wheel import ReactionWheelEnv
 from attitude_envs.euler import euler_321_rad
+from attitude_envs.plants import gyrostat_kernels as kernels
 from attitude_envs.plants.gyrostat import GyrostatParams
 
 RPM = 2.0 * np.pi / 60.0
@@ -111,14 +112,14 @@ class AirBearingEnv(ReactionWheelEnv):
             p.max_wheel_speed_rad_s,
             validation.finite_array("offset_torque_nm", offset, (3,)),
         )
-        self.model = dataclasses.replace(self.model, params=params)
-        self._plant = params
-        self._pack_kernel_arguments()
         limit = float(tilt_limit_deg)
         if not 0.0 < limit < 90.0:
             raise ValueError(f"tilt_limit_deg must be in (0, 90), got {tilt_limit_deg!r}")
         self.tilt_limit_deg = limit
-        self._tilt_limit_rad = math.radians(limit)
+        self._tilt_limit_rad = math.radians(limit)  # the compiled step terminates beyond it
+        self.model = dataclasses.replace(self.model, params=params)
+        self._plant = params
+        self._pack_kernel_arguments()
         euler_max = validation.finite_array("initial_euler_max_deg", initial_euler_max_deg, (3,))
         if np.any(euler_max < 0) or np.any(euler_max[:2] >= limit) or euler_max[2] > 180.0:
             raise ValueError(
@@ -142,23 +143,9 @@ class AirBearingEnv(ReactionWheelEnv):
             )
         super()._reset_state(None, options)
 
-    def step(self, action):
-        obs, reward, terminated, truncated, info = super().step(action)
-        if info["tilt_limit_hit"] and not terminated:
-            terminated, truncated = True, False
-        return obs, reward, terminated, truncated, info
-
-    def batch_termination(self, states: np.ndarray) -> np.ndarray:
-        """The tilt stop for rows of true states (the batched env's termination hook)."""
-        x, y, z, w = states[:, 0], states[:, 1], states[:, 2], states[:, 3]
-        n2 = x * x + y * y + z * z + w * w
-        roll = np.arctan2(2.0 * (w * x + y * z), n2 - 2.0 * (x * x + y * y))
-        pitch = np.arcsin(np.clip(2.0 * (w * y - z * x) / n2, -1.0, 1.0))
-        return np.maximum(np.abs(roll), np.abs(pitch)) > self._tilt_limit_rad
-
     def _info(self, applied: np.ndarray, commanded: np.ndarray, cost: float) -> dict:
         info = super()._info(applied, commanded, cost)
         roll, pitch, yaw = euler_321_rad(self._y)
         info["euler_321_deg"] = np.array([math.degrees(roll), math.degrees(pitch), math.degrees(yaw)])
-        info["tilt_limit_hit"] = max(abs(roll), abs(pitch)) > self._tilt_limit_rad
+        info["tilt_limit_hit"] = bool(kernels.tilt_exceeded(self._y, self._constants))
         return info

@@ -208,6 +208,7 @@ class ReactionWheelEnv(gym.Env):
         self.action_space = spaces.Box(-1.0, 1.0, shape=(n_w,), dtype=np.float32)
 
         self._plant = params
+        self._tilt_limit_rad = np.inf  # no roll/pitch stop (AirBearing-v0 has one)
         # State, target and outputs as one-column struct-of-arrays views for the compiled
         # step (the batched env's kernel with one lane; updated in place).
         self._y = np.zeros(7 + n_w)
@@ -221,11 +222,10 @@ class ReactionWheelEnv(gym.Env):
         self._ext_stages = np.zeros((self._substeps, 3, 3))
         self._ext_rows = self._ext_stages.reshape(1, -1, 1) if self._disturbance is not None else np.zeros((1, 0, 1))
         self._pack_kernel_arguments()
-        body_input = self.model.cost_input == "body"
-        self._kernel = kernels.step_kernel(n_w, 1, include_h, body_input)
-        self._work = np.zeros(kernels.work_size(n_w, 1, include_h, body_input))
+        self._work = np.zeros(kernels.work_size(n_w, 1, include_h, self.model.cost_input == "body"))
         self._step_count = np.zeros(1, dtype=np.int64)
         self._no_skip = np.zeros(1, dtype=bool)
+        self._out_time = np.zeros(1)
         self._out_applied = np.zeros((1, n_w))
         self._out_cost = np.zeros(1)
         self._out_reward = np.zeros(1)
@@ -298,6 +298,7 @@ class ReactionWheelEnv(gym.Env):
             self._constants,
             self._substeps,
             self._step_count,
+            self._out_time,
             self._out_applied,
             self._out_cost,
             self._out_reward,
@@ -331,8 +332,9 @@ class ReactionWheelEnv(gym.Env):
         return obs, -cost, terminated, truncated, info
 
     def _pack_kernel_arguments(self) -> None:
-        """The compiled step's constants and the plant's matrices (after a parameter change)."""
+        """The compiled step, its constants and the plant's matrices (after a parameter change)."""
         p = self._plant
+        self._kernel = kernels.kernel_for(self.model, 1)
         self._pack_matrices()
         self._constants = kernels.pack_constants(
             p.wheel_axes,
@@ -346,16 +348,12 @@ class ReactionWheelEnv(gym.Env):
             self.max_rate_rad_s,
             self.control_dt_s,
             self.episode_duration_s,
+            self._tilt_limit_rad,
         )
 
     def _pack_matrices(self) -> None:
         p = self._plant
         self._mats = kernels.pack_matrices(p.inertia_kg_m2, p.inertia_eff_inv).reshape(1, -1, 1)
-
-    def batch_termination(self, states: np.ndarray) -> np.ndarray:
-        """Env-specific failures for rows of true states ``[q, ω, Ω]`` (the batched env's
-        hook; subclasses with extra termination rules override it). None here."""
-        return np.zeros(states.shape[0], dtype=bool)
 
     def _fill_disturbance_stages(self) -> None:
         """External torque at each sub-step's RK4 stage times (t, t + h/2, t + h)."""

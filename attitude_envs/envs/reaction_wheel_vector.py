@@ -17,6 +17,8 @@ from attitude_envs.envs.reaction_wheel import ReactionWheelEnv
 from attitude_envs.envs.vector_base import BatchedEnv
 from attitude_envs.plants import gyrostat_kernels as kernels
 
+_TWO_RAD_TO_DEG = 2.0 * (180.0 / np.pi)  # np.degrees multiplies by 180/π; times 2 is exact
+
 
 class ReactionWheelVectorEnv(BatchedEnv):
     """``num_envs`` ReactionWheel-v0 envs stepped as one array (see :class:`BatchedEnv` for
@@ -42,7 +44,7 @@ class ReactionWheelVectorEnv(BatchedEnv):
         self._observe_wheels = first.observe_wheel_speeds
         self._n_obs = first._out_obs.shape[1]
         include_h, body_input = self.model.include_wheel_momentum, self.model.cost_input == "body"
-        self._kernel = kernels.step_kernel(n, lanes, include_h, body_input)
+        self._kernel = kernels.kernel_for(self.model, lanes)
         self._work = np.zeros(kernels.work_size(n, lanes, include_h, body_input))
         self._constants = first._constants  # shared by all sub-envs (same keywords)
         self._substeps = first._substeps
@@ -56,7 +58,6 @@ class ReactionWheelVectorEnv(BatchedEnv):
         self._faulty = np.zeros(e, dtype=bool)
         self._n_faulty = 0
         self._no_skip = np.zeros(e, dtype=bool)
-        self._extra_termination = type(first).batch_termination is not ReactionWheelEnv.batch_termination
 
     def _reset_sub(self, i: int, seed: int | None, options: dict | None) -> None:
         self.envs[i]._reset_state(seed, options)
@@ -112,6 +113,7 @@ class ReactionWheelVectorEnv(BatchedEnv):
                 env._fill_disturbance_stages()
                 self._ext[i // kernels.BATCH_LANES, :, i % kernels.BATCH_LANES] = env._ext_stages.ravel()
         obs = np.empty((e, self._n_obs), dtype=np.float32)
+        time_s = np.empty(e)
         cost = np.empty(e)
         reward = np.empty(e)
         applied = np.empty((e, n))
@@ -129,6 +131,7 @@ class ReactionWheelVectorEnv(BatchedEnv):
             self._constants,
             self._substeps,
             self._steps,
+            time_s,
             applied,
             cost,
             reward,
@@ -141,18 +144,9 @@ class ReactionWheelVectorEnv(BatchedEnv):
         )
         if n_done < 0:
             raise ValueError("actions must be finite (no NaN or inf)")
-        if self._extra_termination:
-            stop = self.envs[0].batch_termination(self.states)
-            terminated |= stop
-            truncated &= ~stop
-            n_done = np.count_nonzero(terminated) + np.count_nonzero(truncated)
-        np.minimum(angle, 1.0, out=angle)  # q_e,w → error angle, deg (the single env's formula)
-        np.arccos(angle, out=angle)
-        angle *= 2.0
-        np.degrees(angle, out=angle)
-        infos = self._infos(
-            {"cost": cost, "applied": applied, "time_s": self._steps * self._dt, "error_angle_deg": angle}
-        )
+        np.arccos(angle, out=angle)  # min(1, q_e,w) → error angle, deg: the single env's
+        angle *= _TWO_RAD_TO_DEG  # np.degrees(2 arccos(.)), bit for bit
+        infos = self._infos({"cost": cost, "applied": applied, "time_s": time_s, "error_angle_deg": angle})
         return obs, reward, terminated, truncated, infos, n_done
 
     @property
@@ -164,7 +158,7 @@ class ReactionWheelVectorEnv(BatchedEnv):
 
 
 class AirBearingVectorEnv(ReactionWheelVectorEnv):
-    """Natively batched AirBearing-v0 (same compiled step with the offset torque; the tilt
-    stop through :meth:`AirBearingEnv.batch_termination`)."""
+    """Natively batched AirBearing-v0 (the same compiled step, with the offset torque and
+    the roll/pitch stop)."""
 
     single_env_class = AirBearingEnv

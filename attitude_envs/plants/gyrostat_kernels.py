@@ -32,8 +32,8 @@ BATCH_LANES = 64
 MAT_ROWS = 18
 
 # Scalar constants of the step, in the order of :func:`pack_constants`.
-_JS, _MAX_TORQUE, _MAX_SPEED, _H, _PX, _PY, _PZ, _MAX_RATE, _DT, _DURATION = range(10)
-N_SCALARS = 10
+_JS, _MAX_TORQUE, _MAX_SPEED, _H, _PX, _PY, _PZ, _MAX_RATE, _DT, _DURATION, _TILT_SIN, _TILT_COS = range(12)
+N_SCALARS = 12
 
 
 def pack_constants(
@@ -48,11 +48,17 @@ def pack_constants(
     max_rate_rad_s: float = np.inf,
     control_dt_s: float = 0.0,
     episode_duration_s: float = np.inf,
+    tilt_limit_rad: float = np.inf,
 ) -> np.ndarray:
     """The shared constants of a step in one float64 vector: ``axes`` (3×N, row-major),
     ``Q``, ``R`` (row-major), then ``J_s`` (kg·m²), torque limit (N·m), speed limit (rad/s),
     ``h`` (s), offset torque ``p`` (3, N·m), tumble limit (rad/s), control period (s),
-    episode duration (s). The step reads them from its scratch buffer."""
+    episode duration (s), and the sine and cosine of the roll/pitch stop ``tilt_limit_rad``
+    (in (0, π/2); infinite: none) of :func:`tilt_exceeded`."""
+    if np.isfinite(tilt_limit_rad):
+        tilt_sin, tilt_cos = float(np.sin(tilt_limit_rad)), float(np.cos(tilt_limit_rad))
+    else:
+        tilt_sin, tilt_cos = 2.0, -2.0  # never: |sin θ| <= 1 and cos φ >= -1
     scalars = [
         wheel_inertia_kg_m2,
         max_torque_nm,
@@ -62,6 +68,8 @@ def pack_constants(
         max_rate_rad_s,
         control_dt_s,
         episode_duration_s,
+        tilt_sin,
+        tilt_cos,
     ]
     return np.concatenate([np.ravel(axes), np.ravel(q_mat), np.ravel(r_mat), np.asarray(scalars, dtype=float)])
 
@@ -78,15 +86,16 @@ def pack_matrices(inertia: np.ndarray, inertia_eff_inv: np.ndarray) -> np.ndarra
 
 
 @njit(inline="always", error_model="numpy")
-def _derivative_lane(W, C, e, B, n, y, u, uj, ext, mat, out, ax, sc):
+def _derivative_lane(W, C, e, B, n, offset, y, u, uj, ext, mat, out, ax, sc):
     """Rows ``out[0:7+n]`` = ẏ of the state rows ``y`` (q, ω, Ω), motor torque rows ``u``
     (N·m) and ``uj`` (``u_i / J_s``, see :func:`_input_terms_lane`), external torque rows
     ``ext`` (3, N·m, body), matrix rows ``mat``; ``ax`` and ``sc`` are the offsets of the
     wheel axes and of the scalars (:func:`pack_constants`).
 
     ``I_eff ω̇ = −ω × (Iω + J_s A Ω) − A u + T_ext + p × K`` with ``K = R(q)ᵀ e_Z`` the unit
-    gravity direction in body axes (air-bearing offset torque, spec 003 eq. 6–9; ``p = 0``
-    for a free body), ``Ω̇_i = u_i / J_s − a_i·ω̇``, ``q̇ = ½ q ⊗ [ω, 0]``.
+    gravity direction in body axes (air-bearing offset torque, spec 003 eq. 6–9; left out
+    unless ``offset``: ``p = 0`` for a free body), ``Ω̇_i = u_i / J_s − a_i·ω̇``,
+    ``q̇ = ½ q ⊗ [ω, 0]``.
     """
     j_s = C[sc + _JS]
     qx = W[y * B + e]
@@ -102,13 +111,14 @@ def _derivative_lane(W, C, e, B, n, y, u, uj, ext, mat, out, ax, sc):
     r0 = W[ext * B + e]
     r1 = W[(ext + 1) * B + e]
     r2 = W[(ext + 2) * B + e]
-    k0 = 2.0 * (qx * qz - qy * qw)
-    k1 = 2.0 * (qy * qz + qx * qw)
-    k2 = 1.0 - 2.0 * (qx * qx + qy * qy)
-    p0, p1, p2 = C[sc + _PX], C[sc + _PY], C[sc + _PZ]
-    r0 += p1 * k2 - p2 * k1
-    r1 += p2 * k0 - p0 * k2
-    r2 += p0 * k1 - p1 * k0
+    if offset:
+        k0 = 2.0 * (qx * qz - qy * qw)
+        k1 = 2.0 * (qy * qz + qx * qw)
+        k2 = 1.0 - 2.0 * (qx * qx + qy * qy)
+        p0, p1, p2 = C[sc + _PX], C[sc + _PY], C[sc + _PZ]
+        r0 += p1 * k2 - p2 * k1
+        r1 += p2 * k0 - p0 * k2
+        r2 += p0 * k1 - p1 * k0
     for i in range(n):
         a0, a1, a2 = C[ax + i], C[ax + n + i], C[ax + 2 * n + i]
         hw = j_s * W[(y + 7 + i) * B + e]
@@ -172,23 +182,28 @@ def _error_state_lane(W, C, e, B, n, include_h, y, target, x, sc):
 
 
 @njit(inline="always", error_model="numpy")
-def _quad_form_lane(W, C, e, B, mat, v, k):
+def _quad_form_lane(W, C, e, B, mat, v, k, diagonal):
     """``vᵀ M v`` of the ``k`` rows ``v``, ``M`` row-major at offset ``mat`` (row-by-row
-    summation, the order of :func:`attitude_envs.plants.kernel_math.quad_form`)."""
+    summation, the order of :func:`attitude_envs.plants.kernel_math.quad_form`). With
+    ``diagonal`` (``M`` is) the zero terms are left out: for finite ``v`` the same value,
+    bit for bit (each row's sum is ``0 + M_ii v_i`` either way)."""
     total = 0.0
     for i in range(k):
-        acc = 0.0
-        for j in range(k):
-            acc += C[mat + i * k + j] * W[(v + j) * B + e]
+        if diagonal:
+            acc = 0.0 + C[mat + i * k + i] * W[(v + i) * B + e]
+        else:
+            acc = 0.0
+            for j in range(k):
+                acc += C[mat + i * k + j] * W[(v + j) * B + e]
         total += W[(v + i) * B + e] * acc
     return total
 
 
 @njit(inline="always", error_model="numpy")
-def _state_cost_lane(W, C, e, B, n, include_h, y, target, x, cq, sc):
+def _state_cost_lane(W, C, e, B, n, include_h, diagonal_q, y, target, x, cq, sc):
     """``xᵀQx`` of the state rows ``y`` (``x``: scratch rows for the error state)."""
     _error_state_lane(W, C, e, B, n, include_h, y, target, x, sc)
-    return _quad_form_lane(W, C, e, B, cq, x, 6 + n if include_h else 6)
+    return _quad_form_lane(W, C, e, B, cq, x, 6 + n if include_h else 6, diagonal_q)
 
 
 @njit(inline="always", error_model="numpy")
@@ -205,8 +220,28 @@ def _input_terms_lane(W, C, e, B, n, body_input, u, uj, uc, ax, cr, sc):
             for i in range(n):
                 acc -= C[ax + k * n + i] * W[(u + i) * B + e]
             W[(uc + k) * B + e] = acc
-        return _quad_form_lane(W, C, e, B, cr, uc, 3)
-    return _quad_form_lane(W, C, e, B, cr, u, n)
+        return _quad_form_lane(W, C, e, B, cr, uc, 3, False)
+    return _quad_form_lane(W, C, e, B, cr, u, n, False)
+
+
+@njit(inline="always", error_model="numpy")
+def _tilt_lane(qx, qy, qz, qw, tilt_sin, tilt_cos):
+    """Whether roll φ or pitch θ (3-2-1 Euler angles of ``q``) is beyond the stop ``L``:
+    ``|θ| > L ⟺ |sin θ| > sin L`` and ``|φ| > L ⟺ cos φ < cos L`` (``L < π/2``), the
+    angles of :func:`attitude_envs.euler.euler_321_rad` without the inverse trigonometry."""
+    n2 = qx * qx + qy * qy + qz * qz + qw * qw
+    s = 2.0 * (qw * qx + qy * qz)
+    c = n2 - 2.0 * (qx * qx + qy * qy)
+    sin_pitch = 2.0 * (qw * qy - qz * qx) / n2
+    return (abs(sin_pitch) > tilt_sin) | (c < tilt_cos * np.sqrt(s * s + c * c))
+
+
+@njit(cache=True, error_model="numpy")
+def tilt_exceeded(q, constants):
+    """:func:`_tilt_lane` of one quaternion ``q`` with the stop of :func:`pack_constants`'s
+    ``constants`` (the single env's ``info``; the step uses the same test)."""
+    sc = constants.shape[0] - N_SCALARS
+    return _tilt_lane(q[0], q[1], q[2], q[3], constants[sc + _TILT_SIN], constants[sc + _TILT_COS])
 
 
 @njit(inline="always", error_model="numpy")
@@ -263,7 +298,8 @@ class _Rows:
         self.qe_w = self.ext + 3  # outputs: q_e,w, 0 if finite (else NaN), max |ω|
         self.finite = self.qe_w + 1
         self.rate = self.finite + 1
-        self.save = self.rate + 1  # the loaded states of envs that skip the step
+        self.tilt = self.rate + 1  # 1 if beyond the roll/pitch stop, else 0
+        self.save = self.tilt + 1  # the loaded states of envs that skip the step
         self.n_rows = self.save + size - 1
 
 
@@ -273,13 +309,28 @@ def work_size(n_wheels: int, lanes: int, include_h: bool, body_input: bool) -> i
     return _Rows(n_wheels, lanes, include_h, body_input).n_rows * lanes
 
 
-@functools.cache
-def step_kernel(n_wheels: int, lanes: int, include_h: bool, body_input: bool):
-    """The compiled batched step for ``n_wheels`` wheels, blocks of ``lanes`` envs and the
-    cost layout (``include_h``: wheel momentum in ``x``; ``body_input``: cost on the body
-    torque ``−A u``), memoized (numba also caches it on disk)::
+def kernel_for(model, lanes: int):
+    """:func:`step_kernel` for a :class:`~attitude_envs.plants.gyrostat_model.ReactionWheelModel`."""
+    q = model.cost.Q
+    return step_kernel(
+        model.params.n_wheels,
+        lanes,
+        model.include_wheel_momentum,
+        model.cost_input == "body",
+        bool(np.array_equal(q, np.diag(np.diag(q)))),
+        bool(np.any(model.params.offset_torque_nm != 0.0)),
+    )
 
-        kernel(Y, cmd, scale, skip, ext, M, T, constants, n_sub, steps,
+
+@functools.cache
+def step_kernel(n_wheels: int, lanes: int, include_h: bool, body_input: bool, diagonal_q: bool, offset: bool):
+    """The compiled batched step for ``n_wheels`` wheels, blocks of ``lanes`` envs, the
+    cost layout (``include_h``: wheel momentum in ``x``; ``body_input``: cost on the body
+    torque ``−A u``; ``diagonal_q``: ``Q`` is diagonal, its zeros are skipped) and the
+    offset torque (``offset``: ``p ≠ 0``, else left out), memoized (numba also caches it
+    on disk)::
+
+        kernel(Y, cmd, scale, skip, ext, M, T, constants, n_sub, steps, time_s,
                applied, cost, reward, obs, qe_w, terminated, truncated, observe_wheels, W)
 
     Per-env inputs are blocked struct-of-arrays (see :func:`blocks`): ``Y`` (nb, 7+N,
@@ -295,12 +346,14 @@ def step_kernel(n_wheels: int, lanes: int, include_h: bool, body_input: bool):
     and times the torque limit, as the env does) or motor torques (N·m). ``skip`` (E,
     bool): envs that keep their state (just reset: their observation is computed, their
     cost, reward and flags are zero, their step counter stays). ``constants``:
-    :func:`pack_constants`; ``steps`` (E, int): step counters, incremented.
+    :func:`pack_constants`; ``steps`` (E, int): step counters, incremented; ``time_s``
+    (E): output, ``steps · control_dt_s``.
 
     Outputs per env: ``applied`` (E, N) mean motor torque delivered (N·m), ``cost`` (E) the
     step cost and ``reward`` (E) its negative, ``obs`` (E, n_obs) float32 ``[x, (Ω/Ω_max)]`` of the new state (zeros when
-    it is not finite), ``qe_w`` (E) the error quaternion's scalar part, ``terminated``
-    (non-finite state or cost, or ``max|ω|`` above the tumble limit) and ``truncated`` (the
+    it is not finite), ``qe_w`` (E) the error quaternion's scalar part (at most 1), ``terminated``
+    (non-finite state or cost, ``max|ω|`` above the tumble limit, or roll or pitch beyond
+    the stop, :func:`tilt_exceeded`) and ``truncated`` (the
     episode time reached, not terminated). Returns the number of envs that terminated or
     truncated, or −1, changing nothing, when ``cmd`` holds a NaN or an infinity.
     ``W``: :func:`work_size` floats.
@@ -309,12 +362,14 @@ def step_kernel(n_wheels: int, lanes: int, include_h: bool, body_input: bool):
     B = int(lanes)
     include_h = bool(include_h)
     body_input = bool(body_input)
+    diagonal_q = bool(diagonal_q)
+    offset = bool(offset)
     lay = _Rows(n, B, include_h, body_input)
     n_state = lay.n_state
     AX, CQ, CR, SC, SIZE = lay.ax, lay.cq, lay.cr, lay.sc, lay.size
     AUG, K, ACC, TMP, U, CMD, APP = lay.aug, lay.k, lay.acc, lay.tmp, lay.u, lay.cmd, lay.app
     MAT, TGT, X, UC, UJ, RU, EXT = lay.mat, lay.target, lay.x, lay.uc, lay.uj, lay.ru, lay.ext
-    QEW, FIN, RATE, SAVE = lay.qe_w, lay.finite, lay.rate, lay.save
+    QEW, FIN, RATE, TILT, SAVE = lay.qe_w, lay.finite, lay.rate, lay.tilt, lay.save
 
     @njit(cache=True, error_model="numpy")
     def kernel(
@@ -328,6 +383,7 @@ def step_kernel(n_wheels: int, lanes: int, include_h: bool, body_input: bool):
         C,
         n_sub,
         steps,
+        time_s,
         applied,
         cost,
         reward,
@@ -349,6 +405,7 @@ def step_kernel(n_wheels: int, lanes: int, include_h: bool, body_input: bool):
         max_torque = C[SC + _MAX_TORQUE]
         max_rate, dt, duration = C[SC + _MAX_RATE], C[SC + _DT], C[SC + _DURATION]
         max_speed = C[SC + _MAX_SPEED]
+        tilt_sin, tilt_cos = C[SC + _TILT_SIN], C[SC + _TILT_COS]
         has_ext = ext.shape[1] > 0
         n_done = 0
         for b in range(Y.shape[0]):
@@ -405,9 +462,9 @@ def step_kernel(n_wheels: int, lanes: int, include_h: bool, body_input: bool):
                             for e in range(B):
                                 W[(TMP + r) * B + e] = W[(AUG + r) * B + e] + step * W[(K + r) * B + e]
                     for e in range(B):  # SIMD loops: one env per lane
-                        _derivative_lane(W, C, e, B, n, TMP, U, UJ, EXT, MAT, K, AX, SC)
+                        _derivative_lane(W, C, e, B, n, offset, TMP, U, UJ, EXT, MAT, K, AX, SC)
                     for e in range(B):  # the stage cost xᵀQx + u_cᵀRu_c
-                        state_cost = _state_cost_lane(W, C, e, B, n, include_h, TMP, TGT, X, CQ, SC)
+                        state_cost = _state_cost_lane(W, C, e, B, n, include_h, diagonal_q, TMP, TGT, X, CQ, SC)
                         W[(K + SIZE - 1) * B + e] = state_cost + W[RU * B + e]
                     # acc = k1 + 2 k2 + 2 k3 + k4, summed in that order
                     if stage == 0:
@@ -446,26 +503,31 @@ def step_kernel(n_wheels: int, lanes: int, include_h: bool, body_input: bool):
                 w0, w1, w2 = abs(W[(AUG + 4) * B + e]), abs(W[(AUG + 5) * B + e]), abs(W[(AUG + 6) * B + e])
                 w0 = w1 if w1 > w0 else w0
                 W[RATE * B + e] = w2 if w2 > w0 else w0
-            for e in range(count):
+                qx, qy = W[AUG * B + e], W[(AUG + 1) * B + e]
+                qz, qw = W[(AUG + 2) * B + e], W[(AUG + 3) * B + e]
+                W[TILT * B + e] = 1.0 if _tilt_lane(qx, qy, qz, qw, tilt_sin, tilt_cos) else 0.0
+            for e in range(count):  # scalars per env (SIMD: no branches)
                 g = e0 + e
+                stepped = not skip[g]
+                c = W[(AUG + SIZE - 1) * B + e]
+                cost[g] = c if stepped else 0.0
+                reward[g] = -c if stepped else 0.0
+                w = W[QEW * B + e]
+                qe_w[g] = w if w < 1.0 else 1.0
+                k = steps[g] + stepped
+                steps[g] = k
+                time_s[g] = k * dt
+                term = stepped & ((W[FIN * B + e] != 0.0) | (W[RATE * B + e] > max_rate) | (W[TILT * B + e] != 0.0))
+                trunc = stepped & (not term) & (k * dt >= duration - 1e-9 * dt)
+                terminated[g] = term
+                truncated[g] = trunc
+                n_done += term + trunc
+            for e in range(count):  # rows of the (E, N) and (E, n_obs) outputs
+                g = e0 + e
+                stepped = not skip[g]
                 finite = W[FIN * B + e] == 0.0
-                qe_w[g] = W[QEW * B + e]
-                if skip[g]:
-                    cost[g] = reward[g] = 0.0
-                    terminated[g] = truncated[g] = False
-                    for i in range(n):
-                        applied[g, i] = 0.0
-                else:
-                    term = not finite or W[RATE * B + e] > max_rate
-                    cost[g] = W[(AUG + SIZE - 1) * B + e]
-                    reward[g] = -W[(AUG + SIZE - 1) * B + e]
-                    steps[g] += 1
-                    trunc = steps[g] * dt >= duration - 1e-9 * dt and not term
-                    terminated[g] = term
-                    truncated[g] = trunc
-                    n_done += term or trunc
-                    for i in range(n):
-                        applied[g, i] = W[(APP + i) * B + e]
+                for i in range(n):
+                    applied[g, i] = W[(APP + i) * B + e] if stepped else 0.0
                 for r in range(n_state):
                     obs[g, r] = np.float32(W[(X + r) * B + e]) if finite else np.float32(0.0)
                 if observe_wheels:
@@ -500,7 +562,7 @@ def derivative_columns(Y, U, EXT, M, constants, out):
         W[uj : uj + n] = U[:, e] / constants[sc + _JS]
         W[ext : ext + 3] = EXT[:, e]
         W[mat : mat + MAT_ROWS] = M[:, e]
-        _derivative_lane(W, constants, 0, 1, n, y, u, uj, ext, mat, o, 0, sc)
+        _derivative_lane(W, constants, 0, 1, n, True, y, u, uj, ext, mat, o, 0, sc)
         out[:, e] = W[o : o + 7 + n]
 
 
