@@ -129,6 +129,8 @@ def test_batched_rk4_global_error_is_fourth_order():
     options = {"rate_rad_s": [0.4, -0.3, 0.5], "wheel_speed_rad_s": [50.0, -40.0, 20.0, 0.0]}
     kwargs = {"max_wheel_speed_rad_s": np.inf, "episode_duration_s": 1e6, "max_rate_rad_s": 100.0}
     kwargs |= {"inertia_uncertainty": None, "control_dt_s": 0.2}
+    params = make_vec(1, **kwargs).unwrapped.model.params
+    u = u_cmd * params.max_wheel_torque_nm
     errors = []
     for h in (0.2, 0.1, 0.05):
         vec = make_vec(2, integrator_dt_s=h, **kwargs)
@@ -137,9 +139,8 @@ def test_batched_rk4_global_error_is_fourth_order():
         for _ in range(50):
             vec.step(np.tile(u_cmd, (2, 1)))
         if not errors:
-            p = vec.unwrapped.model.params
             sol = solve_ivp(
-                lambda t, y: gyrostat.derivative(p, y, u_cmd * p.max_wheel_torque_nm, np.zeros(3)),
+                lambda t, y: gyrostat.derivative(params, y, u, np.zeros(3)),
                 (0.0, 10.0),
                 y0,
                 method="DOP853",
