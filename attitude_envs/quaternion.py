@@ -74,7 +74,10 @@ def from_axis_angle(axis: np.ndarray, angle_rad: float) -> np.ndarray:
     """Unit quaternion of a rotation by ``angle_rad`` about the unit ``axis``."""
     axis = np.asarray(axis, dtype=float)
     half = 0.5 * angle_rad
-    return np.concatenate([np.sin(half) * axis / _norm(axis), [np.cos(half)]])
+    q = np.empty(4)
+    q[:3] = np.sin(half) * axis / _norm(axis)
+    q[3] = np.cos(half)
+    return q
 
 
 def from_euler_321_deg(roll_deg: float, pitch_deg: float, yaw_deg: float) -> np.ndarray:

@@ -2,18 +2,18 @@
 the error state, the stage cost and the RK4 control step, used by the single env, the batched
 vector env and (through thin wrappers in :mod:`attitude_envs.plants.gyrostat`) by the tests.
 
-Layout: struct of arrays. A batch of ``E`` envs keeps its state as ``Y`` (7+N, E) (rows
-``q`` (4, scalar last), ``ω`` (3, rad/s), ``Ω`` (N, rad/s); one column per env). The step
-works on blocks of ``lanes`` envs copied into a scratch buffer whose rows are ``lanes``
-long, so every inner loop runs over the env index with unit stride and LLVM turns it into
-SIMD instructions (each env is one SIMD lane; nothing mixes lanes, so a lane computes
-exactly the same IEEE operations in the same order whatever the vector width: the single
-env, compiled with ``lanes=1``, and the batched env agree bitwise). No fastmath: no
+Layout: blocked struct of arrays. The step works on blocks of ``lanes`` envs: per-env
+inputs are (n_blocks, rows, lanes) arrays (:func:`blocks`) and each block is copied into a
+scratch buffer whose rows are ``lanes`` floats long, so every inner loop runs over the env
+index with unit stride and constant row offsets, and LLVM turns it into SIMD instructions.
+Each env is one SIMD lane and nothing mixes lanes, so a lane computes the same IEEE
+operations in the same order whatever the vector width: the single env (``lanes=1``) and
+the batched env (``lanes=``:data:`BATCH_LANES`) agree bit for bit. No fastmath: no
 reassociation, no fused multiply-add contraction.
 
-The step kernels are specialized by :func:`step_kernel` on the wheel count, the block width
-and the cost layout (compile-time constants, so the wheel and cost loops unroll and the row
-offsets are constants); any wheel count works. Equations: see
+:func:`step_kernel` compiles one kernel per wheel count, block width and cost/offset layout
+(compile-time constants: the wheel and cost loops unroll); any wheel count works, and numba
+caches each on disk (the first use of a new layout compiles for ~5–25 s). Equations: see
 :mod:`attitude_envs.plants.gyrostat`.
 """
 
@@ -54,7 +54,8 @@ def pack_constants(
     ``Q``, ``R`` (row-major), then ``J_s`` (kg·m²), torque limit (N·m), speed limit (rad/s),
     ``h`` (s), offset torque ``p`` (3, N·m), tumble limit (rad/s), control period (s),
     episode duration (s), and the sine and cosine of the roll/pitch stop ``tilt_limit_rad``
-    (in (0, π/2); infinite: none) of :func:`tilt_exceeded`."""
+    (in (0, π/2); infinite: none) of :func:`tilt_exceeded`. Kept apart from the scratch
+    buffer (see :class:`_Rows`)."""
     if np.isfinite(tilt_limit_rad):
         tilt_sin, tilt_cos = float(np.sin(tilt_limit_rad)), float(np.cos(tilt_limit_rad))
     else:
@@ -80,9 +81,9 @@ def pack_matrices(inertia: np.ndarray, inertia_eff_inv: np.ndarray) -> np.ndarra
 
 
 # ---------------------------------------------------------------------------- lane math
-# Each function computes one env (lane ``e``) of a block whose scratch rows are ``B``
-# floats long: row ``r`` of the block is ``W[base + r * B + e]``. Inlined into the step
-# loops (numba IR inlining), so the loops over ``e`` vectorize.
+# Each function computes one env (lane ``e``) of a block: row ``r`` of the scratch buffer
+# ``W`` is ``W[r * B + e]``, the shared constants are ``C`` (:func:`pack_constants`).
+# Inlined into the step's loops over ``e`` (numba IR inlining), so those loops vectorize.
 
 
 @njit(inline="always", error_model="numpy")
@@ -295,7 +296,7 @@ class _Rows:
         self.uj = self.uc + max(3, n)  # u / J_s
         self.ru = self.uj + n  # input cost u_cᵀRu_c
         self.ext = self.ru + 1  # external torque at the current stage's time
-        self.qe_w = self.ext + 3  # outputs: q_e,w, 0 if finite (else NaN), max |ω|
+        self.qe_w = self.ext + 3  # outputs: q_e,w, 0 if finite (else NaN), max |ω|, tilt
         self.finite = self.qe_w + 1
         self.rate = self.finite + 1
         self.tilt = self.rate + 1  # 1 if beyond the roll/pitch stop, else 0
