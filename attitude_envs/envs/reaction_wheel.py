@@ -214,13 +214,11 @@ class ReactionWheelEnv(gym.Env):
         self._y = np.zeros(7 + n_w)
         self._y[3] = 1.0
         self._target = np.array([0.0, 0.0, 0.0, 1.0])
-        self._y_col, self._target_col = self._y.reshape(-1, 1), self._target.reshape(-1, 1)
-        self._y_block, self._target_block = self._y.reshape(1, -1, 1), self._target.reshape(1, -1, 1)
         self._t = 0.0
         self._steps = 0
         self._renderer = None
         self._ext_stages = np.zeros((self._substeps, 3, 3))
-        self._ext_rows = self._ext_stages.reshape(1, -1, 1) if self._disturbance is not None else np.zeros((1, 0, 1))
+        self._bind_views()
         self._pack_kernel_arguments()
         self._work = np.zeros(kernels.work_size(n_w, 1, include_h, self.model.cost_input == "body"))
         self._step_count = np.zeros(1, dtype=np.int64)
@@ -235,6 +233,17 @@ class ReactionWheelEnv(gym.Env):
         self._out_truncated = np.zeros(1, dtype=bool)
         self._x_col = np.empty((n_x, 1))
         self._qe_w = 1.0
+
+    def _bind_views(self) -> None:
+        """The kernel's views of the state, target and disturbance arrays (rebuilt after
+        unpickling, which would turn views into copies)."""
+        self._y_col, self._target_col = self._y.reshape(-1, 1), self._target.reshape(-1, 1)
+        self._y_block, self._target_block = self._y.reshape(1, -1, 1), self._target.reshape(1, -1, 1)
+        self._ext_rows = self._ext_stages.reshape(1, -1, 1) if self._disturbance is not None else np.zeros((1, 0, 1))
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._bind_views()
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
