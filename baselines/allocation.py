@@ -32,11 +32,14 @@ class WheelAllocator:
     """Maps a body torque demand (N·m, body axes) to the env's normalized wheel action.
 
     Built from the *nominal* model only (``env.unwrapped.model``): ``wheel_axes`` and
-    ``max_wheel_torque_nm``.
+    ``max_wheel_torque_nm``. With ``action_frame="body"`` (an env whose action is a body
+    torque demand, which the env allocates itself) :meth:`action` returns the demand
+    normalized by ``max_wheel_torque_nm``.
     """
 
-    def __init__(self, model, saturation: str = "scale") -> None:
+    def __init__(self, model, saturation: str = "scale", action_frame: str = "wheel") -> None:
         self.saturation = validation.choice("saturation", saturation, SATURATION_MODES)
+        self.action_frame = validation.choice("action_frame", action_frame, {"wheel", "body"})
         axes = model.params.wheel_axes
         self.max_torque_nm = float(model.params.max_wheel_torque_nm)
         self.matrix = -np.linalg.pinv(axes)  # N×3, u = matrix @ T
@@ -59,8 +62,16 @@ class WheelAllocator:
             peak = float(np.max(np.abs(u)))
         return u if peak <= limit else u * (limit / peak)
 
+    @classmethod
+    def for_env(cls, env, saturation: str = "scale") -> WheelAllocator:
+        """The allocator for ``env``'s nominal model and action frame."""
+        base = env.unwrapped
+        return cls(base.model, saturation, getattr(base, "action_frame", "wheel"))
+
     def action(self, body_torque_nm: np.ndarray) -> np.ndarray:
         """Normalized action in [-1, 1] (float32) for the env."""
+        if self.action_frame == "body":
+            return np.clip(np.asarray(body_torque_nm, dtype=float) / self.max_torque_nm, -1.0, 1.0).astype(np.float32)
         u = self.motor_torque_nm(body_torque_nm) / self.max_torque_nm
         return np.clip(u, -1.0, 1.0).astype(np.float32)
 

@@ -160,7 +160,7 @@ class PIDPolicy:
             axes = base.model.params.wheel_axes
             orthogonal = axes.shape[1] == 3 and np.allclose(np.abs(axes), np.eye(3))
             saturation = "clip" if orthogonal else "scale"
-        self.allocator = WheelAllocator(base.model, saturation=saturation)
+        self.allocator = WheelAllocator.for_env(env, saturation=saturation)
         self.name = name or ("pid-fixed" if isinstance(gains, PIDGains) else f"pid-scheduled-{gains.units}")
         self._integral = np.zeros(3)
         self.last_torque_nm = np.zeros(3)
