@@ -43,10 +43,13 @@ ORBIT_SIZE = 18
 OS_POS, OS_VEL, OS_R, OS_U, OS_RATE, OS_RATE_DOT, OS_FRAME = 0, 3, 6, 7, 8, 9, 10
 ORBIT_STATE_SIZE = 19
 # ---- reference profile (pack_reference): constant flag, t_f, θ0 (3), K (3), final ∫f and
-# ∫∫f, 3 pieces × [start, end, f (6), ∫f (6), ∫∫f (6)] (Horner order, zero padded)
+# ∫∫f, 3 pieces × [start, end, f (6), ∫f (6), ∫∫f (6)] (Horner order, zero padded), then the
+# held values [q_d, ω_d, q̇_d] before 0 and after t_f (evaluated once)
 REF_CONST, REF_TF, REF_START, REF_GAIN, REF_FINAL_V, REF_FINAL_P, REF_PIECES = 0, 1, 2, 5, 8, 9, 10
 REF_PIECE_SIZE, REF_COEFS = 20, 6
-REF_SIZE = REF_PIECES + 3 * REF_PIECE_SIZE
+REF_HELD_START = REF_PIECES + 3 * REF_PIECE_SIZE
+REF_HELD_END = REF_HELD_START + 11
+REF_SIZE = REF_HELD_END + 11
 # ---- shared configuration (pack_shared); the reference follows at SH_REF
 SH_JW, SH_HMAX, SH_H, SH_NSUB = 0, 1, 2, 3
 SH_FIELD, SH_STRENGTH, SH_INCL, SH_TABLE_STEP = 4, 5, 6, 7
@@ -210,9 +213,19 @@ def reference_into(ref, t_s, out):
     """Desired quaternion (scalar last, w ≥ 0), body rate ω_d (rad/s) and q̇_d (1/s) at
     ``t_s``: ``out = [q_d (4), ω_d (3), q̇_d (4)]``; held at t ≤ 0 and t ≥ t_f."""
     if ref[REF_CONST] != 0.0 or t_s <= 0.0:
-        t_s = 0.0
-    elif t_s >= ref[REF_TF]:
-        t_s = ref[REF_TF]
+        for i in range(11):
+            out[i] = ref[REF_HELD_START + i]
+        return
+    if t_s >= ref[REF_TF]:
+        for i in range(11):
+            out[i] = ref[REF_HELD_END + i]
+        return
+    _reference_at(ref, t_s, out)
+
+
+@njit(cache=True, error_model="numpy")
+def _reference_at(ref, t_s, out):
+    """:func:`reference_into` evaluated from the profile (no held values)."""
     p, v, _ = profile(ref, t_s)
     g0, g1, g2 = ref[REF_GAIN], ref[REF_GAIN + 1], ref[REF_GAIN + 2]
     phi = ref[REF_START] + g0 * p
@@ -251,8 +264,10 @@ def paper_disturbance_into(t_s, orbital_rate_rad_s, scale, k, out):
     a = orbital_rate_rad_s * t_s
     b = k * orbital_rate_rad_s * t_s
     q = math.pi / 4
-    out[0] = scale * (1e-7 + 1e-5 * math.sin(a + q) + 1e-5 * math.sin(b - q))
-    out[1] = scale * (1e-7 + 1e-5 * math.sin(a - q) + 1e-5 * math.sin(b + q))
+    sa_p, sa_m = math.sin(a + q), math.sin(a - q)
+    sb_m, sb_p = (sa_m, sa_p) if b == a else (math.sin(b - q), math.sin(b + q))  # k = 1: same arguments
+    out[0] = scale * (1e-7 + 1e-5 * sa_p + 1e-5 * sb_m)
+    out[1] = scale * (1e-7 + 1e-5 * sa_m + 1e-5 * sb_p)
     out[2] = scale * (1e-7 + 1e-5 * math.sin(a) + 1e-5 * math.sin(b + 2 * q))
 
 
@@ -630,6 +645,8 @@ def pack_reference(constant: bool, t_final_s: float, start_rad, gain, final, pie
                 raise ValueError(f"reference polynomials have at most {REF_COEFS} coefficients, got {len(coefs)}")
             start = base + 2 + j * REF_COEFS + REF_COEFS - len(coefs)  # leading zeros: Horner unchanged
             out[start : start + len(coefs)] = coefs
+    _reference_at(out, 0.0, out[REF_HELD_START : REF_HELD_START + 11])
+    _reference_at(out, float(t_final_s), out[REF_HELD_END : REF_HELD_END + 11])
     return out
 
 
