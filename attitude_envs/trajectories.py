@@ -61,7 +61,7 @@ class SmoothBangBang:
 
     def profile(self, t_s: float) -> tuple[float, float, float]:
         """(∫∫f, ∫f, f) at ``t_s`` (s², s, 1)."""
-        return kernels.profile(self.packed, float(t_s))
+        return kernels.profile(self.packed, 0, float(t_s))
 
     def euler(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
         """Angles (rad) and angle rates (rad/s) [φ, θ, ψ]."""
@@ -73,5 +73,5 @@ class SmoothBangBang:
         relative to the orbital frame) and its time derivative q̇_d (1/s); held before 0 and
         after t_f. Quaternion by eq. (38) (3-2-1, as :func:`attitude_envs.quaternion.from_euler_321_deg`)."""
         out = np.empty(11)
-        kernels.reference_into(self.packed, float(t_s), out)
+        kernels.reference_into(self.packed, 0, float(t_s), out, 0)
         return out[:4], out[4:7], out[7:]

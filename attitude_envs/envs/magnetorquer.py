@@ -425,9 +425,11 @@ class MagnetorquerEnv(gym.Env):
         y[:4] = q
         return self._snapshot(t_s, y)[kernels.SN_EXT : kernels.SN_EXT + 3]
 
-    def _error_state(self, q: np.ndarray, rate: np.ndarray, q_d: np.ndarray, w_d: np.ndarray) -> np.ndarray:
+    def _error_state(self, q: np.ndarray, rate: np.ndarray) -> np.ndarray:
+        """``[q_e,vec, ω_e]`` of ``q``, ``rate`` against the reference of the last snapshot."""
         x, y, z, w = (float(v) for v in q)
-        return np.array(kernels.error_state(x, y, z, w, float(rate[0]), float(rate[1]), float(rate[2]), q_d, w_d)[:6])
+        r0, r1, r2 = (float(v) for v in rate)
+        return np.array(kernels.error_state(x, y, z, w, r0, r1, r2, self._snap, kernels.SN_QD)[:6])
 
     def error_state(self) -> np.ndarray:
         """The true error state ``x = [q_e,vec, ω_e]`` (float64) now."""
@@ -450,9 +452,7 @@ class MagnetorquerEnv(gym.Env):
             self._meas = self._sensors.measure(truth, self._t)
             q, wheel, field = self._meas["star_tracker"], self._meas["tachometer"], self._meas["magnetometer"]
             rate = self._meas["gyro"] - mt.inertial_rate(q, np.zeros(3), n)  # ω_bo from the measured attitude
-            q_d = snap[kernels.SN_QD : kernels.SN_QD + 4]
-            w_d = snap[kernels.SN_WD : kernels.SN_WD + 3]
-            parts = [self._error_state(q, rate, q_d, w_d), wheel / WHEEL_SPEED_SCALE_RAD_S]
+            parts = [self._error_state(q, rate), wheel / WHEEL_SPEED_SCALE_RAD_S]
             if self.observe_field:
                 parts.append(field / FIELD_SCALE_T)
         if self.fault_hint:

@@ -153,12 +153,14 @@ class FieldModel:
         kernels.field_orbital_into(
             float(t_s),
             orbit_vector,
+            0,
             self.code,
             self.strength,
             float(inclination_rad),
             self.table,
             self.igrf_step_s,
             out,
+            0,
         )
         return out
 

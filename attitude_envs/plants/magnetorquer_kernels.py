@@ -30,8 +30,6 @@ import math
 import numpy as np
 from numba import njit
 
-from attitude_envs.plants.kernel_math import quad_form
-
 GRAVITY_MU_M3_S2 = 3.986004418e14
 
 # ---- orbit elements (pack_orbit)
@@ -55,7 +53,7 @@ SH_JW, SH_HMAX, SH_H, SH_NSUB = 0, 1, 2, 3
 SH_FIELD, SH_STRENGTH, SH_INCL, SH_TABLE_STEP = 4, 5, 6, 7
 SH_DIST, SH_DIST_SCALE, SH_DIST_RATE, SH_DIST_K, SH_DIST_AMP, SH_DIST_PERIOD = 8, 9, 10, 11, 12, 15
 SH_GG, SH_DJ, SH_DJ_AMP, SH_DJ_FREQ, SH_DJ_PHASE = 16, 17, 18, 21, 24
-SH_Q, SH_R, SH_REF = 27, 63, 72
+SH_Q, SH_R, SH_DIAG, SH_REF = 27, 63, 72, 73  # SH_DIAG: 1.0 when Q and R are diagonal
 SHARED_SIZE = SH_REF + REF_SIZE
 FIELD_CODES = {"dipole": 0, "dipole-printed": 1, "igrf": 2}
 DIST_NONE, DIST_PAPER, DIST_HELD, DIST_SINUSOIDAL = 0, 1, 2, 3
@@ -81,21 +79,25 @@ STEP_OUT_SIZE = 12
 WHEEL_SPEED_SCALE_RAD_S = 1e3  # observation scale of the wheel speed
 FIELD_SCALE_T = 5e-5  # observation scale of the body-frame field
 AUG = 9  # [q (4), ω_bo (3), Ω, cost]
-# work buffer: aug, stage input, 4 slopes, 3 contexts (sub-step start, middle, end), x, u,
-# and the time of the end context (NaN: none; it is reused when the next sub-step or the
-# snapshot falls on exactly that time; callers write NaN when the episode's draws change)
+# work buffer: aug, stage input, 4 slopes, 3 contexts (sub-step start, middle, end) and the
+# time of the end context (NaN: none; it is reused when the next sub-step or the snapshot
+# falls on exactly that time; callers write NaN when the episode's draws change)
+WK_AUG, WK_TMP, WK_K = 0, AUG, 2 * AUG
 WK_C0 = 6 * AUG
 WK_C1, WK_C2 = WK_C0 + CONTEXT_SIZE, WK_C0 + 2 * CONTEXT_SIZE
-WK_X, WK_U, WK_TAG = WK_C0 + 3 * CONTEXT_SIZE, WK_C0 + 3 * CONTEXT_SIZE + 6, WK_C0 + 3 * CONTEXT_SIZE + 9
+WK_TAG = WK_C0 + 3 * CONTEXT_SIZE
 WORK_SIZE = WK_TAG + 1
 
 
 # ----------------------------------------------------------------------------- orbit
+# Functions take (array, base) pairs rather than slices: a slice costs a reference-count
+# round trip in compiled code, which the per-stage functions would pay many times a step.
 @njit(cache=True, error_model="numpy")
-def true_anomaly(orbit, t_s):
-    """ν(t) from Kepler's equation M = E − e sin E (Newton, |ΔE| < 1e-13), rad."""
-    mean = orbit[ORB_M0] + orbit[ORB_N] * t_s
-    e = orbit[ORB_E]
+def true_anomaly(orbit, ob, t_s):
+    """ν(t) from Kepler's equation M = E − e sin E (Newton, |ΔE| < 1e-13), rad; the
+    elements at ``orbit[ob:]``."""
+    mean = orbit[ob + ORB_M0] + orbit[ob + ORB_N] * t_s
+    e = orbit[ob + ORB_E]
     if e == 0.0:
         return mean
     ecc = mean + e * math.sin(mean)
@@ -108,36 +110,37 @@ def true_anomaly(orbit, t_s):
 
 
 @njit(cache=True, error_model="numpy")
-def orbit_state_into(orbit, t_s, out):
+def orbit_state_into(orbit, ob, t_s, out, sb):
     """Position, velocity, radius, argument of latitude, ν̇, ν̈ and the LVLH frame at ``t_s``
-    (layout ``OS_*``); ``orbit[ORB_MODEL]`` 1: the circular approximation."""
-    if orbit[ORB_MODEL] == 1.0:
-        u = orbit[ORB_ARGP] + orbit[ORB_M0] + orbit[ORB_N] * t_s
-        r, r_dot = orbit[ORB_A], 0.0
-        nu_dot, nu_ddot = orbit[ORB_N], 0.0
+    into ``out[sb:]`` (layout ``OS_*``); elements at ``orbit[ob:]``, model 1: the circular
+    approximation."""
+    if orbit[ob + ORB_MODEL] == 1.0:
+        u = orbit[ob + ORB_ARGP] + orbit[ob + ORB_M0] + orbit[ob + ORB_N] * t_s
+        r, r_dot = orbit[ob + ORB_A], 0.0
+        nu_dot, nu_ddot = orbit[ob + ORB_N], 0.0
     else:
-        nu = true_anomaly(orbit, t_s)
-        u = orbit[ORB_ARGP] + nu
-        e, h = orbit[ORB_E], orbit[ORB_H]
-        r = orbit[ORB_P] / (1.0 + e * math.cos(nu))
+        nu = true_anomaly(orbit, ob, t_s)
+        u = orbit[ob + ORB_ARGP] + nu
+        e, h = orbit[ob + ORB_E], orbit[ob + ORB_H]
+        r = orbit[ob + ORB_P] / (1.0 + e * math.cos(nu))
         nu_dot = h / r**2
-        r_dot = orbit[ORB_MU] / h * e * math.sin(nu)
+        r_dot = orbit[ob + ORB_MU] / h * e * math.sin(nu)
         nu_ddot = -2.0 * nu_dot * r_dot / r
     cu, su = math.cos(u), math.sin(u)
     for i in range(3):
-        node, in_plane = orbit[ORB_NODE + i], orbit[ORB_IN_PLANE + i]
+        node, in_plane = orbit[ob + ORB_NODE + i], orbit[ob + ORB_IN_PLANE + i]
         r_hat = node * cu + in_plane * su
         t_hat = -node * su + in_plane * cu
-        out[OS_POS + i] = r * r_hat
-        out[OS_VEL + i] = r_dot * r_hat + r * nu_dot * t_hat
+        out[sb + OS_POS + i] = r * r_hat
+        out[sb + OS_VEL + i] = r_dot * r_hat + r * nu_dot * t_hat
         # LVLH: x = t̂, y = −ĥ (anti-normal), z = −r̂ (nadir)
-        out[OS_FRAME + 3 * i] = t_hat
-        out[OS_FRAME + 3 * i + 1] = -orbit[ORB_NORMAL + i]
-        out[OS_FRAME + 3 * i + 2] = -r_hat
-    out[OS_R] = r
-    out[OS_U] = u
-    out[OS_RATE] = nu_dot
-    out[OS_RATE_DOT] = nu_ddot
+        out[sb + OS_FRAME + 3 * i] = t_hat
+        out[sb + OS_FRAME + 3 * i + 1] = -orbit[ob + ORB_NORMAL + i]
+        out[sb + OS_FRAME + 3 * i + 2] = -r_hat
+    out[sb + OS_R] = r
+    out[sb + OS_U] = u
+    out[sb + OS_RATE] = nu_dot
+    out[sb + OS_RATE_DOT] = nu_ddot
 
 
 # ----------------------------------------------------------------------------- field
@@ -154,16 +157,17 @@ def dipole_eci_into(px, py, pz, strength_t_m3, out):
 
 
 @njit(cache=True, error_model="numpy")
-def field_orbital_into(t_s, orb_state, model, strength_t_m3, inclination_rad, table, table_step_s, out):
-    """Field in the orbital (LVLH) frame at ``t_s`` (tesla): ``model`` 0 dipole, 1 the
-    as-printed eq. (9), 2 the IGRF table (ECI, linear interpolation between nodes)."""
+def field_orbital_into(t_s, orb, sb, model, strength_t_m3, inclination_rad, table, table_step_s, out, fb):
+    """Field in the orbital (LVLH) frame at ``t_s`` (tesla) into ``out[fb:fb + 3]``, the orbit
+    state at ``orb[sb:]``: ``model`` 0 dipole, 1 the as-printed eq. (9), 2 the IGRF table
+    (ECI, linear interpolation between nodes)."""
     if model == 1:
         si = math.sin(inclination_rad)
-        k = strength_t_m3 / orb_state[OS_R] ** 3
-        u = orb_state[OS_U]
-        out[0] = k * (math.cos(u) * si)
-        out[1] = k * math.cos(inclination_rad)
-        out[2] = k * (-2.0 * math.sin(u) * si)
+        k = strength_t_m3 / orb[sb + OS_R] ** 3
+        u = orb[sb + OS_U]
+        out[fb] = k * (math.cos(u) * si)
+        out[fb + 1] = k * math.cos(inclination_rad)
+        out[fb + 2] = k * (-2.0 * math.sin(u) * si)
         return
     if model == 2:
         k = min(int(t_s / table_step_s), table.shape[0] - 2)
@@ -172,14 +176,15 @@ def field_orbital_into(t_s, orb_state, model, strength_t_m3, inclination_rad, ta
         b1 = (1.0 - w) * table[k, 1] + w * table[k + 1, 1]
         b2 = (1.0 - w) * table[k, 2] + w * table[k + 1, 2]
     else:
-        r = math.sqrt(orb_state[OS_POS] ** 2 + orb_state[OS_POS + 1] ** 2 + orb_state[OS_POS + 2] ** 2)
-        rx, ry, rz = orb_state[OS_POS] / r, orb_state[OS_POS + 1] / r, orb_state[OS_POS + 2] / r
+        px, py, pz = orb[sb + OS_POS], orb[sb + OS_POS + 1], orb[sb + OS_POS + 2]
+        r = math.sqrt(px * px + py * py + pz * pz)
+        rx, ry, rz = px / r, py / r, pz / r
         k = strength_t_m3 / r**3
         s = 3.0 * (-rz)
         b0, b1, b2 = k * (s * rx), k * (s * ry), k * (s * rz + 1.0)
-    f = OS_FRAME
+    f = sb + OS_FRAME
     for j in range(3):  # eci_from_orbitalᵀ b
-        out[j] = orb_state[f + j] * b0 + orb_state[f + 3 + j] * b1 + orb_state[f + 6 + j] * b2
+        out[fb + j] = orb[f + j] * b0 + orb[f + 3 + j] * b1 + orb[f + 6 + j] * b2
 
 
 # ----------------------------------------------------------------------------- reference
@@ -192,45 +197,45 @@ def _horner(ref, start, x):
 
 
 @njit(cache=True, error_model="numpy")
-def profile(ref, t_s):
-    """``(∫∫f, ∫f, f)`` of the smooth sign function at ``t_s`` (s², s, 1)."""
+def profile(ref, rb, t_s):
+    """``(∫∫f, ∫f, f)`` of the smooth sign function at ``t_s`` (s², s, 1); profile at ``ref[rb:]``."""
     if t_s <= 0.0:
         return 0.0, 0.0, 0.0
     for k in range(3):
-        base = REF_PIECES + k * REF_PIECE_SIZE
+        base = rb + REF_PIECES + k * REF_PIECE_SIZE
         if t_s <= ref[base + 1]:
             return (
                 _horner(ref, base + 2 + 2 * REF_COEFS, t_s),
                 _horner(ref, base + 2 + REF_COEFS, t_s),
                 _horner(ref, base + 2, t_s),
             )
-    v0, p0 = ref[REF_FINAL_V], ref[REF_FINAL_P]
-    return p0 + v0 * (t_s - ref[REF_TF]), v0, 0.0
+    v0, p0 = ref[rb + REF_FINAL_V], ref[rb + REF_FINAL_P]
+    return p0 + v0 * (t_s - ref[rb + REF_TF]), v0, 0.0
 
 
 @njit(cache=True, error_model="numpy")
-def reference_into(ref, t_s, out):
+def reference_into(ref, rb, t_s, out, qb):
     """Desired quaternion (scalar last, w ≥ 0), body rate ω_d (rad/s) and q̇_d (1/s) at
-    ``t_s``: ``out = [q_d (4), ω_d (3), q̇_d (4)]``; held at t ≤ 0 and t ≥ t_f."""
-    if ref[REF_CONST] != 0.0 or t_s <= 0.0:
+    ``t_s``: ``out[qb:qb + 11] = [q_d (4), ω_d (3), q̇_d (4)]``; held at t ≤ 0 and t ≥ t_f."""
+    if ref[rb + REF_CONST] != 0.0 or t_s <= 0.0:
         for i in range(11):
-            out[i] = ref[REF_HELD_START + i]
+            out[qb + i] = ref[rb + REF_HELD_START + i]
         return
-    if t_s >= ref[REF_TF]:
+    if t_s >= ref[rb + REF_TF]:
         for i in range(11):
-            out[i] = ref[REF_HELD_END + i]
+            out[qb + i] = ref[rb + REF_HELD_END + i]
         return
-    _reference_at(ref, t_s, out)
+    _reference_at(ref, rb, t_s, out, qb)
 
 
 @njit(cache=True, error_model="numpy")
-def _reference_at(ref, t_s, out):
+def _reference_at(ref, rb, t_s, out, qb):
     """:func:`reference_into` evaluated from the profile (no held values)."""
-    p, v, _ = profile(ref, t_s)
-    g0, g1, g2 = ref[REF_GAIN], ref[REF_GAIN + 1], ref[REF_GAIN + 2]
-    phi = ref[REF_START] + g0 * p
-    theta = ref[REF_START + 1] + g1 * p
-    psi = ref[REF_START + 2] + g2 * p
+    p, v, _ = profile(ref, rb, t_s)
+    g0, g1, g2 = ref[rb + REF_GAIN], ref[rb + REF_GAIN + 1], ref[rb + REF_GAIN + 2]
+    phi = ref[rb + REF_START] + g0 * p
+    theta = ref[rb + REF_START + 1] + g1 * p
+    psi = ref[rb + REF_START + 2] + g2 * p
     dphi, dtheta, dpsi = g0 * v, g1 * v, g2 * v
     # quaternion of the 3-2-1 angles through degrees, as quaternion.from_euler_321_deg
     deg, rad = 180.0 / math.pi, math.pi / 180.0
@@ -247,33 +252,35 @@ def _reference_at(ref, t_s, out):
     wx = dphi - dpsi * st
     wy = dtheta * cf + dpsi * sf * ct
     wz = -dtheta * sf + dpsi * cf * ct
-    out[0], out[1], out[2], out[3] = qx, qy, qz, qw
-    out[4], out[5], out[6] = wx, wy, wz
+    out[qb], out[qb + 1], out[qb + 2], out[qb + 3] = qx, qy, qz, qw
+    out[qb + 4], out[qb + 5], out[qb + 6] = wx, wy, wz
     # q̇_d = ½ q_d ⊗ [ω_d, 0]
-    out[7] = 0.5 * (qw * wx + qx * 0.0 + qy * wz - qz * wy)
-    out[8] = 0.5 * (qw * wy - qx * wz + qy * 0.0 + qz * wx)
-    out[9] = 0.5 * (qw * wz + qx * wy - qy * wx + qz * 0.0)
-    out[10] = 0.5 * (qw * 0.0 - qx * wx - qy * wy - qz * wz)
+    out[qb + 7] = 0.5 * (qw * wx + qx * 0.0 + qy * wz - qz * wy)
+    out[qb + 8] = 0.5 * (qw * wy - qx * wz + qy * 0.0 + qz * wx)
+    out[qb + 9] = 0.5 * (qw * wz + qx * wy - qy * wx + qz * 0.0)
+    out[qb + 10] = 0.5 * (qw * 0.0 - qx * wx - qy * wy - qz * wz)
 
 
 # ----------------------------------------------------------------------------- plant
 @njit(cache=True, error_model="numpy")
-def paper_disturbance_into(t_s, orbital_rate_rad_s, scale, k, out):
+def paper_disturbance_into(t_s, orbital_rate_rad_s, scale, k, out, db):
     """Spec 002 eq. (39): ``d_j = d0 + d1 sin(ω0 t + φ_j1) + d2 sin(k ω0 t + φ_j2)``, N·m
-    (d0 = 1e-7, d1 = d2 = 1e-5; φ_x = ±π/4, φ_y = ∓π/4, φ_z = (0, π/2)), times ``scale``."""
+    (d0 = 1e-7, d1 = d2 = 1e-5; φ_x = ±π/4, φ_y = ∓π/4, φ_z = (0, π/2)), times ``scale``,
+    into ``out[db:db + 3]``."""
     a = orbital_rate_rad_s * t_s
     b = k * orbital_rate_rad_s * t_s
     q = math.pi / 4
     sa_p, sa_m = math.sin(a + q), math.sin(a - q)
     sb_m, sb_p = (sa_m, sa_p) if b == a else (math.sin(b - q), math.sin(b + q))  # k = 1: same arguments
-    out[0] = scale * (1e-7 + 1e-5 * sa_p + 1e-5 * sb_m)
-    out[1] = scale * (1e-7 + 1e-5 * sa_m + 1e-5 * sb_p)
-    out[2] = scale * (1e-7 + 1e-5 * math.sin(a) + 1e-5 * math.sin(b + 2 * q))
+    out[db] = scale * (1e-7 + 1e-5 * sa_p + 1e-5 * sb_m)
+    out[db + 1] = scale * (1e-7 + 1e-5 * sa_m + 1e-5 * sb_p)
+    out[db + 2] = scale * (1e-7 + 1e-5 * math.sin(a) + 1e-5 * math.sin(b + 2 * q))
 
 
 @njit(cache=True, error_model="numpy")
 def inverse3_into(m, base, out, out_base):
-    """``out[out_base:+9] = inv(m[base:+9])`` for a 3×3 row-major matrix (adjugate / det)."""
+    """``out[out_base:+9] = inv(m[base:+9])`` for a 3×3 row-major matrix (adjugate / det);
+    reads every entry before writing, so it may work in place."""
     a, b, c = m[base], m[base + 1], m[base + 2]
     d, e, f = m[base + 3], m[base + 4], m[base + 5]
     g, h, i = m[base + 6], m[base + 7], m[base + 8]
@@ -291,59 +298,62 @@ def inverse3_into(m, base, out, out_base):
 
 
 @njit(cache=True, error_model="numpy")
-def context_into(t_s, shared, env, table, ctx):
-    """Everything that depends on time only (layout ``CX_*``): orbit, field, reference,
-    true inertia ``I + ΔJ(t)`` (spec 002 eq. 35) and its ``(I − J_w e_y e_yᵀ)⁻¹``, disturbance."""
-    orb = ctx[CX_ORB : CX_ORB + ORBIT_STATE_SIZE]
-    orbit_state_into(env[EN_ORBIT : EN_ORBIT + ORBIT_SIZE], t_s, orb)
+def context_into(t_s, shared, env, table, ctx, cb):
+    """Everything that depends on time only into ``ctx[cb:]`` (layout ``CX_*``): orbit, field,
+    reference, true inertia ``I + ΔJ(t)`` (spec 002 eq. 35) and its ``(I − J_w e_y e_yᵀ)⁻¹``,
+    disturbance."""
+    orbit_state_into(env, EN_ORBIT, t_s, ctx, cb + CX_ORB)
     field_orbital_into(
         t_s,
-        orb,
+        ctx,
+        cb + CX_ORB,
         int(shared[SH_FIELD]),
         shared[SH_STRENGTH],
         shared[SH_INCL],
         table,
         shared[SH_TABLE_STEP],
-        ctx[CX_B : CX_B + 3],
+        ctx,
+        cb + CX_B,
     )
-    reference_into(shared[SH_REF:], t_s, ctx[CX_QD : CX_QD + 11])
+    reference_into(shared, SH_REF, t_s, ctx, cb + CX_QD)
     for i in range(9):
-        ctx[CX_I + i] = env[EN_INERTIA + i]
+        ctx[cb + CX_I + i] = env[EN_INERTIA + i]
     if shared[SH_DJ] != 0.0:
         for j in range(3):
             amp = shared[SH_DJ_AMP + j]
-            ctx[CX_I + 4 * j] = env[EN_INERTIA + 4 * j] + amp * math.sin(
+            ctx[cb + CX_I + 4 * j] = env[EN_INERTIA + 4 * j] + amp * math.sin(
                 shared[SH_DJ_FREQ + j] * t_s + shared[SH_DJ_PHASE + j]
             )
         for i in range(9):
-            ctx[CX_EINV + i] = ctx[CX_I + i]
-        ctx[CX_EINV + 4] -= shared[SH_JW]
-        inverse3_into(ctx, CX_EINV, ctx, CX_EINV)  # reads all entries before writing
+            ctx[cb + CX_EINV + i] = ctx[cb + CX_I + i]
+        ctx[cb + CX_EINV + 4] -= shared[SH_JW]
+        inverse3_into(ctx, cb + CX_EINV, ctx, cb + CX_EINV)
     else:
         for i in range(9):
-            ctx[CX_EINV + i] = env[EN_EFF_INV + i]
-    disturbance_into(t_s, shared, env, ctx)
+            ctx[cb + CX_EINV + i] = env[EN_EFF_INV + i]
+    disturbance_into(t_s, shared, env, ctx, cb)
 
 
 @njit(cache=True, error_model="numpy")
-def disturbance_into(t_s, shared, env, ctx):
+def disturbance_into(t_s, shared, env, ctx, cb):
     """The disturbance torque at ``t_s`` (N·m, body axes, without gravity gradient) into
-    ``ctx``: spec 002 eq. (39), a torque held over the control step (constant, random walk:
-    ``env[EN_DIST:]``) or a sinusoid with the phases ``env[EN_DIST:]``; times the scale."""
+    ``ctx[cb:]``: spec 002 eq. (39), a torque held over the control step (constant, random
+    walk: ``env[EN_DIST:]``) or a sinusoid with the phases ``env[EN_DIST:]``; times the scale."""
     kind = shared[SH_DIST]
     scale = shared[SH_DIST_SCALE]
+    d = cb + CX_DIST
     if kind == DIST_PAPER:
-        paper_disturbance_into(t_s, shared[SH_DIST_RATE], scale, shared[SH_DIST_K], ctx[CX_DIST : CX_DIST + 3])
+        paper_disturbance_into(t_s, shared[SH_DIST_RATE], scale, shared[SH_DIST_K], ctx, d)
     elif kind == DIST_HELD:
         for j in range(3):
-            ctx[CX_DIST + j] = scale * env[EN_DIST + j]
+            ctx[d + j] = scale * env[EN_DIST + j]
     elif kind == DIST_SINUSOIDAL:
         arg = 2 * math.pi * t_s / shared[SH_DIST_PERIOD]
         for j in range(3):
-            ctx[CX_DIST + j] = scale * (shared[SH_DIST_AMP + j] * math.sin(arg + env[EN_DIST + j]))
+            ctx[d + j] = scale * (shared[SH_DIST_AMP + j] * math.sin(arg + env[EN_DIST + j]))
     else:
         for j in range(3):
-            ctx[CX_DIST + j] = 0.0
+            ctx[d + j] = 0.0
 
 
 @njit(cache=True, error_model="numpy")
@@ -357,83 +367,102 @@ def _body_vector(x, y, z, w, v0, v1, v2):
 
 
 @njit(cache=True, error_model="numpy")
-def gravity_gradient(x, y, z, w, ctx):
-    """``3μ/r³ ô × (I ô)``, ô the nadir (orbital z) in body axes, I the true inertia, N·m."""
+def gravity_gradient(x, y, z, w, ctx, cb):
+    """``3μ/r³ ô × (I ô)``, ô the nadir (orbital z) in body axes, I the true inertia of the
+    context ``ctx[cb:]``, N·m."""
     o0, o1, o2 = 2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)
-    i = CX_I
+    i = cb + CX_I
     p0 = ctx[i] * o0 + ctx[i + 1] * o1 + ctx[i + 2] * o2
     p1 = ctx[i + 3] * o0 + ctx[i + 4] * o1 + ctx[i + 5] * o2
     p2 = ctx[i + 6] * o0 + ctx[i + 7] * o1 + ctx[i + 8] * o2
-    k = 3.0 * GRAVITY_MU_M3_S2 / ctx[CX_ORB + OS_R] ** 3
+    k = 3.0 * GRAVITY_MU_M3_S2 / ctx[cb + CX_ORB + OS_R] ** 3
     return k * (o1 * p2 - o2 * p1), k * (o2 * p0 - o0 * p2), k * (o0 * p1 - o1 * p0)
 
 
 @njit(cache=True, error_model="numpy")
-def error_state(x, y, z, w, w0, w1, w2, q_d, w_d):
-    """``q_e = q_d* ⊗ q`` (w ≥ 0) and ``ω_e = ω − C(q_e)ᵀ ω_d``: returns the 7 numbers
-    ``(q_e,x, q_e,y, q_e,z, ω_e (3), q_e,w)``."""
-    dx, dy, dz, dw = q_d[0], q_d[1], q_d[2], q_d[3]
+def error_state(x, y, z, w, w0, w1, w2, ref, base):
+    """``q_e = q_d* ⊗ q`` (w ≥ 0) and ``ω_e = ω − C(q_e)ᵀ ω_d`` with ``[q_d, ω_d] =
+    ref[base : base + 7]``: returns the 7 numbers ``(q_e,x, q_e,y, q_e,z, ω_e (3), q_e,w)``."""
+    dx, dy, dz, dw = ref[base], ref[base + 1], ref[base + 2], ref[base + 3]
     ex = dw * x - dx * w - dy * z + dz * y
     ey = dw * y - dy * w - dz * x + dx * z
     ez = dw * z - dz * w - dx * y + dy * x
     ew = dw * w + dx * x + dy * y + dz * z
     if ew < 0:
         ex, ey, ez, ew = -ex, -ey, -ez, -ew
-    v0, v1, v2 = w_d[0], w_d[1], w_d[2]
-    r0, r1, r2 = _body_vector(ex, ey, ez, ew, v0, v1, v2)
+    r0, r1, r2 = _body_vector(ex, ey, ez, ew, ref[base + 4], ref[base + 5], ref[base + 6])
     return ex, ey, ez, w0 - r0, w1 - r1, w2 - r2, ew
 
 
 @njit(cache=True, error_model="numpy")
-def augmented_derivative(aug, m, t_w, shared, ctx, xbuf, ubuf, out):
-    """``out = d/dt [q, ω_bo, Ω, cost]`` (spec 002 eqs. 1–8 with the consistent wheel
-    bookkeeping, see :mod:`attitude_envs.plants.magnetorquer`): dipole moments ``m`` (A·m²)
-    against the field, wheel torque ``t_w`` on the body about +y (N·m), the disturbance and
-    optional gravity gradient; cost ``xᵀQx + uᵀRu`` with ``x = [q_e,vec, ω_e]`` and the
-    body control torque ``u = m × b + e_y T_w``."""
-    x, y, z, w, w0, w1, w2, om = aug[0], aug[1], aug[2], aug[3], aug[4], aug[5], aug[6], aug[7]
-    n = (x * x + y * y + z * z + w * w) ** -0.5
+def stage_cost(shared, x, u):
+    """``xᵀQx + uᵀRu`` for the tuples ``x`` (6) and ``u`` (3), weights from ``shared``."""
+    total = 0.0
+    if shared[SH_DIAG] != 0.0:  # the common case, without the zero products
+        for i in range(6):
+            total += shared[SH_Q + 7 * i] * x[i] * x[i]
+        for i in range(3):
+            total += shared[SH_R + 4 * i] * u[i] * u[i]
+        return total
+    for i in range(6):
+        acc = 0.0
+        for j in range(6):
+            acc += shared[SH_Q + 6 * i + j] * x[j]
+        total += x[i] * acc
+    for i in range(3):
+        acc = 0.0
+        for j in range(3):
+            acc += shared[SH_R + 3 * i + j] * u[j]
+        total += u[i] * acc
+    return total
+
+
+@njit(cache=True, error_model="numpy")
+def augmented_derivative(buf, ib, m, t_w, shared, cb, ob):
+    """``buf[ob:ob + 9] = d/dt [q, ω_bo, Ω, cost]`` at ``buf[ib:ib + 9]`` with the time context
+    ``buf[cb:]`` (spec 002 eqs. 1–8 with the consistent wheel bookkeeping, see
+    :mod:`attitude_envs.plants.magnetorquer`): dipole moments ``m`` (A·m²) against the field,
+    wheel torque ``t_w`` on the body about +y (N·m), the disturbance and optional gravity
+    gradient; cost ``xᵀQx + uᵀRu`` with ``x = [q_e,vec, ω_e]`` and the body control torque
+    ``u = m × b + e_y T_w``."""
+    x, y, z, w = buf[ib], buf[ib + 1], buf[ib + 2], buf[ib + 3]
+    w0, w1, w2, om = buf[ib + 4], buf[ib + 5], buf[ib + 6], buf[ib + 7]
+    n = 1.0 / math.sqrt(x * x + y * y + z * z + w * w)
     qx, qy, qz, qw = x * n, y * n, z * n, w * n
-    b0, b1, b2 = _body_vector(qx, qy, qz, qw, ctx[CX_B], ctx[CX_B + 1], ctx[CX_B + 2])
+    b0, b1, b2 = _body_vector(qx, qy, qz, qw, buf[cb + CX_B], buf[cb + CX_B + 1], buf[cb + CX_B + 2])
     tau0, tau1, tau2 = m[1] * b2 - m[2] * b1, m[2] * b0 - m[0] * b2, m[0] * b1 - m[1] * b0  # m × b (eq. 8)
-    e0, e1, e2 = ctx[CX_DIST], ctx[CX_DIST + 1], ctx[CX_DIST + 2]
+    e0, e1, e2 = buf[cb + CX_DIST], buf[cb + CX_DIST + 1], buf[cb + CX_DIST + 2]
     if shared[SH_GG] != 0.0:
-        g0, g1, g2 = gravity_gradient(qx, qy, qz, qw, ctx)
+        g0, g1, g2 = gravity_gradient(qx, qy, qz, qw, buf, cb)
         e0, e1, e2 = e0 + g0, e1 + g1, e2 + g2
     j_w = shared[SH_JW]
     # gyrostat equations (the raw quaternion, as integrated); R e_y is row 1 of to_matrix(q)
     r0, r1, r2 = 2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)
-    nd = ctx[CX_ORB + OS_RATE]
+    nd = buf[cb + CX_ORB + OS_RATE]
     a0, a1, a2 = -nd * r0, -nd * r1, -nd * r2  # R ω_oi
     c0, c1, c2 = w0 + a0, w1 + a1, w2 + a2  # ω_bi
-    i = CX_I
-    h0 = ctx[i] * c0 + ctx[i + 1] * c1 + ctx[i + 2] * c2
-    h1 = ctx[i + 3] * c0 + ctx[i + 4] * c1 + ctx[i + 5] * c2 + j_w * om
-    h2 = ctx[i + 6] * c0 + ctx[i + 7] * c1 + ctx[i + 8] * c2
+    i = cb + CX_I
+    h0 = buf[i] * c0 + buf[i + 1] * c1 + buf[i + 2] * c2
+    h1 = buf[i + 3] * c0 + buf[i + 4] * c1 + buf[i + 5] * c2 + j_w * om
+    h2 = buf[i + 6] * c0 + buf[i + 7] * c1 + buf[i + 8] * c2
     s0 = -(c1 * h2 - c2 * h1) + (tau0 + e0)
     s1 = -(c2 * h0 - c0 * h2) + (tau1 + e1) + t_w
     s2 = -(c0 * h1 - c1 * h0) + (tau2 + e2)
-    i = CX_EINV
-    d0 = ctx[i] * s0 + ctx[i + 1] * s1 + ctx[i + 2] * s2
-    d1 = ctx[i + 3] * s0 + ctx[i + 4] * s1 + ctx[i + 5] * s2
-    d2 = ctx[i + 6] * s0 + ctx[i + 7] * s1 + ctx[i + 8] * s2
-    ndd = ctx[CX_ORB + OS_RATE_DOT]
-    out[0] = 0.5 * (w * w0 + y * w2 - z * w1)
-    out[1] = 0.5 * (w * w1 + z * w0 - x * w2)
-    out[2] = 0.5 * (w * w2 + x * w1 - y * w0)
-    out[3] = -0.5 * (x * w0 + y * w1 + z * w2)
-    out[4] = d0 + (w1 * a2 - w2 * a1) + ndd * r0
-    out[5] = d1 + (w2 * a0 - w0 * a2) + ndd * r1
-    out[6] = d2 + (w0 * a1 - w1 * a0) + ndd * r2
-    out[7] = -t_w / j_w - d1
-    ex, ey, ez, we0, we1, we2, _ = error_state(
-        qx, qy, qz, qw, w0, w1, w2, ctx[CX_QD : CX_QD + 4], ctx[CX_WD : CX_WD + 3]
-    )
-    xbuf[0], xbuf[1], xbuf[2], xbuf[3], xbuf[4], xbuf[5] = ex, ey, ez, we0, we1, we2
-    ubuf[0], ubuf[1], ubuf[2] = tau0, tau1 + t_w, tau2
-    out[8] = quad_form(shared[SH_Q : SH_Q + 36].reshape((6, 6)), xbuf, 6) + quad_form(
-        shared[SH_R : SH_R + 9].reshape((3, 3)), ubuf, 3
-    )
+    i = cb + CX_EINV
+    d0 = buf[i] * s0 + buf[i + 1] * s1 + buf[i + 2] * s2
+    d1 = buf[i + 3] * s0 + buf[i + 4] * s1 + buf[i + 5] * s2
+    d2 = buf[i + 6] * s0 + buf[i + 7] * s1 + buf[i + 8] * s2
+    ndd = buf[cb + CX_ORB + OS_RATE_DOT]
+    buf[ob] = 0.5 * (w * w0 + y * w2 - z * w1)
+    buf[ob + 1] = 0.5 * (w * w1 + z * w0 - x * w2)
+    buf[ob + 2] = 0.5 * (w * w2 + x * w1 - y * w0)
+    buf[ob + 3] = -0.5 * (x * w0 + y * w1 + z * w2)
+    buf[ob + 4] = d0 + (w1 * a2 - w2 * a1) + ndd * r0
+    buf[ob + 5] = d1 + (w2 * a0 - w0 * a2) + ndd * r1
+    buf[ob + 6] = d2 + (w0 * a1 - w1 * a0) + ndd * r2
+    buf[ob + 7] = -t_w / j_w - d1
+    ex, ey, ez, we0, we1, we2, _ = error_state(qx, qy, qz, qw, w0, w1, w2, buf, cb + CX_QD)
+    buf[ob + 8] = stage_cost(shared, (ex, ey, ez, we0, we1, we2), (tau0, tau1 + t_w, tau2))
 
 
 @njit(cache=True, error_model="numpy")
@@ -442,63 +471,62 @@ def control_step(state, cmd, t0_s, shared, env, table, step_out, work):
     with the delivered command ``cmd = [m (3, A·m²), T_w (N·m)]`` held; returns the step cost
     ``∫ (xᵀQx + uᵀRu) dt``. Per sub-step the wheel torque is zeroed when it would grow
     ``|h_w| ≥ h_max`` (spec 002 §6 item 10); the quaternion is renormalized after each.
-    ``step_out``: mean applied command (4) and mean magnetic torque ``m × b`` (3, N·m, body
-    axes, at the sub-step starts). ``work``: :data:`WORK_SIZE` floats."""
+    ``step_out``: mean applied command (4), mean magnetic torque ``m × b`` and mean control
+    torque (3 each, N·m, body axes, at the sub-step starts). ``work``: :data:`WORK_SIZE` floats."""
     n_sub = int(shared[SH_NSUB])
     h = shared[SH_H]
-    aug = work[0:AUG]
-    tmp = work[AUG : 2 * AUG]
-    ks = work[2 * AUG : 6 * AUG].reshape((4, AUG))
-    c0 = work[WK_C0 : WK_C0 + CONTEXT_SIZE]
-    c1 = work[WK_C1 : WK_C1 + CONTEXT_SIZE]
-    c2 = work[WK_C2 : WK_C2 + CONTEXT_SIZE]
-    xbuf = work[WK_X : WK_X + 6]
-    ubuf = work[WK_U : WK_U + 3]
     for i in range(AUG - 1):
-        aug[i] = state[i]
-    aug[AUG - 1] = 0.0
+        work[WK_AUG + i] = state[i]
+    work[WK_AUG + AUG - 1] = 0.0
     j_w, h_max = shared[SH_JW], shared[SH_HMAX]
     wheel_sum, tau0, tau1, tau2 = 0.0, 0.0, 0.0, 0.0
     for j in range(n_sub):
         ts = t0_s + j * h
         if work[WK_TAG] == ts:  # the previous end context: time-only parts are the same
             for i in range(CONTEXT_SIZE):
-                c0[i] = c2[i]
-            disturbance_into(ts, shared, env, c0)  # a held torque may have changed since
+                work[WK_C0 + i] = work[WK_C2 + i]
+            disturbance_into(ts, shared, env, work, WK_C0)  # a held torque may have changed since
         else:
-            context_into(ts, shared, env, table, c0)
-        context_into(ts + 0.5 * h, shared, env, table, c1)
-        context_into(ts + h, shared, env, table, c2)
+            context_into(ts, shared, env, table, work, WK_C0)
+        context_into(ts + 0.5 * h, shared, env, table, work, WK_C1)
+        context_into(ts + h, shared, env, table, work, WK_C2)
         work[WK_TAG] = ts + h
-        x, y, z, w = aug[0], aug[1], aug[2], aug[3]
+        x, y, z, w = work[WK_AUG], work[WK_AUG + 1], work[WK_AUG + 2], work[WK_AUG + 3]
         # wheel momentum h_w = J_w (Ω + ω_bi,y), ω_bi = ω_bo − ν̇ R e_y
-        w_bi_y = aug[5] + (1 - 2 * (x * x + z * z)) * (-c0[CX_ORB + OS_RATE])
-        h_w = j_w * (aug[7] + w_bi_y)
+        w_bi_y = work[WK_AUG + 5] + (1 - 2 * (x * x + z * z)) * (-work[WK_C0 + CX_ORB + OS_RATE])
+        h_w = j_w * (work[WK_AUG + 7] + w_bi_y)
         t_w = cmd[3]
         if abs(h_w) >= h_max and -t_w * h_w > 0:
             t_w = 0.0
         wheel_sum += t_w
-        b0, b1, b2 = _body_vector(x, y, z, w, c0[CX_B], c0[CX_B + 1], c0[CX_B + 2])
+        b = WK_C0 + CX_B
+        b0, b1, b2 = _body_vector(x, y, z, w, work[b], work[b + 1], work[b + 2])
         tau0 += cmd[1] * b2 - cmd[2] * b1
         tau1 += cmd[2] * b0 - cmd[0] * b2
         tau2 += cmd[0] * b1 - cmd[1] * b0
         for stage in range(4):  # classical RK4: stages at t, t + h/2, t + h/2, t + h
             if stage == 0:
                 for i in range(AUG):
-                    tmp[i] = aug[i]
+                    work[WK_TMP + i] = work[WK_AUG + i]
             else:
                 c = h if stage == 3 else 0.5 * h
+                k = WK_K + (stage - 1) * AUG
                 for i in range(AUG):
-                    tmp[i] = aug[i] + c * ks[stage - 1, i]
-            ctx = c0 if stage == 0 else (c2 if stage == 3 else c1)
-            augmented_derivative(tmp, cmd, t_w, shared, ctx, xbuf, ubuf, ks[stage])
+                    work[WK_TMP + i] = work[WK_AUG + i] + c * work[k + i]
+            cb = WK_C0 if stage == 0 else (WK_C2 if stage == 3 else WK_C1)
+            augmented_derivative(work, WK_TMP, cmd, t_w, shared, cb, WK_K + stage * AUG)
         for i in range(AUG):
-            aug[i] = aug[i] + (h / 6.0) * (ks[0, i] + 2.0 * ks[1, i] + 2.0 * ks[2, i] + ks[3, i])
-        norm = math.sqrt(aug[0] * aug[0] + aug[1] * aug[1] + aug[2] * aug[2] + aug[3] * aug[3])
+            k1, k2 = work[WK_K + i], work[WK_K + AUG + i]
+            k3, k4 = work[WK_K + 2 * AUG + i], work[WK_K + 3 * AUG + i]
+            work[WK_AUG + i] = work[WK_AUG + i] + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        a = WK_AUG
+        norm = math.sqrt(
+            work[a] * work[a] + work[a + 1] * work[a + 1] + work[a + 2] * work[a + 2] + work[a + 3] * work[a + 3]
+        )
         for i in range(4):
-            aug[i] /= norm
+            work[a + i] /= norm
     for i in range(AUG - 1):
-        state[i] = aug[i]
+        state[i] = work[WK_AUG + i]
     step_out[ST_APPLIED] = cmd[0]
     step_out[ST_APPLIED + 1] = cmd[1]
     step_out[ST_APPLIED + 2] = cmd[2]
@@ -509,7 +537,7 @@ def control_step(state, cmd, t0_s, shared, env, table, step_out, work):
     step_out[ST_CONTROL] = step_out[ST_TAU]
     step_out[ST_CONTROL + 1] = step_out[ST_TAU + 1] + step_out[ST_APPLIED + 3]
     step_out[ST_CONTROL + 2] = step_out[ST_TAU + 2]
-    return aug[AUG - 1]
+    return work[WK_AUG + AUG - 1]
 
 
 @njit(cache=True, error_model="numpy")
@@ -519,60 +547,56 @@ def snapshot_into(state, t_s, shared, env, table, ctx, out):
     (rad/s), wheel momentum (N·m·s), reference, orbit radius / argument of latitude / rate,
     external torque (disturbance + gravity gradient, N·m), true inertia, error angle (deg).
     ``ctx``: a :data:`CONTEXT_SIZE` scratch buffer."""
-    context_into(t_s, shared, env, table, ctx)
-    snapshot_from_context(state, shared, ctx, out)
+    context_into(t_s, shared, env, table, ctx, 0)
+    snapshot_from_context(state, shared, ctx, 0, out)
 
 
 @njit(cache=True, error_model="numpy")
-def snapshot_from_context(state, shared, ctx, out):
-    """:func:`snapshot_into` with the time context ``ctx`` of the snapshot's time given."""
+def snapshot_from_context(state, shared, ctx, cb, out):
+    """:func:`snapshot_into` with the time context of the snapshot's time at ``ctx[cb:]``."""
     x, y, z, w = state[0], state[1], state[2], state[3]
-    ex, ey, ez, we0, we1, we2, ew = error_state(
-        x, y, z, w, state[4], state[5], state[6], ctx[CX_QD : CX_QD + 4], ctx[CX_WD : CX_WD + 3]
-    )
+    ex, ey, ez, we0, we1, we2, ew = error_state(x, y, z, w, state[4], state[5], state[6], ctx, cb + CX_QD)
     out[SN_X], out[SN_X + 1], out[SN_X + 2] = ex, ey, ez
     out[SN_X + 3], out[SN_X + 4], out[SN_X + 5] = we0, we1, we2
     out[SN_WHEEL] = state[7] / WHEEL_SPEED_SCALE_RAD_S
-    b0, b1, b2 = _body_vector(x, y, z, w, ctx[CX_B], ctx[CX_B + 1], ctx[CX_B + 2])
+    b0, b1, b2 = _body_vector(x, y, z, w, ctx[cb + CX_B], ctx[cb + CX_B + 1], ctx[cb + CX_B + 2])
     out[SN_BBODY], out[SN_BBODY + 1], out[SN_BBODY + 2] = b0, b1, b2
-    out[SN_BSCALED], out[SN_BSCALED + 1], out[SN_BSCALED + 2] = (
-        b0 / FIELD_SCALE_T,
-        b1 / FIELD_SCALE_T,
-        b2 / FIELD_SCALE_T,
-    )
-    nd = ctx[CX_ORB + OS_RATE]
+    out[SN_BSCALED] = b0 / FIELD_SCALE_T
+    out[SN_BSCALED + 1] = b1 / FIELD_SCALE_T
+    out[SN_BSCALED + 2] = b2 / FIELD_SCALE_T
+    nd = ctx[cb + CX_ORB + OS_RATE]
     r0, r1, r2 = 2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)
     out[SN_WBI] = state[4] + r0 * (-nd)
     out[SN_WBI + 1] = state[5] + r1 * (-nd)
     out[SN_WBI + 2] = state[6] + r2 * (-nd)
     out[SN_HW] = shared[SH_JW] * (state[7] + out[SN_WBI + 1])
     for i in range(11):
-        out[SN_QD + i] = ctx[CX_QD + i]
+        out[SN_QD + i] = ctx[cb + CX_QD + i]
     for i in range(3):
-        out[SN_BORB + i] = ctx[CX_B + i]
-    out[SN_R] = ctx[CX_ORB + OS_R]
-    out[SN_U] = ctx[CX_ORB + OS_U]
+        out[SN_BORB + i] = ctx[cb + CX_B + i]
+    out[SN_R] = ctx[cb + CX_ORB + OS_R]
+    out[SN_U] = ctx[cb + CX_ORB + OS_U]
     out[SN_RATE] = nd
-    e0, e1, e2 = ctx[CX_DIST], ctx[CX_DIST + 1], ctx[CX_DIST + 2]
+    e0, e1, e2 = ctx[cb + CX_DIST], ctx[cb + CX_DIST + 1], ctx[cb + CX_DIST + 2]
     if shared[SH_GG] != 0.0:
-        g0, g1, g2 = gravity_gradient(x, y, z, w, ctx)
+        g0, g1, g2 = gravity_gradient(x, y, z, w, ctx, cb)
         e0, e1, e2 = e0 + g0, e1 + g1, e2 + g2
     out[SN_EXT], out[SN_EXT + 1], out[SN_EXT + 2] = e0, e1, e2
     for i in range(9):
-        out[SN_I + i] = ctx[CX_I + i]
+        out[SN_I + i] = ctx[cb + CX_I + i]
     out[SN_ANGLE] = math.degrees(2.0 * math.acos(min(1.0, abs(ew))))
 
 
 @njit(cache=True, error_model="numpy")
 def advance(state, cmd, t0_s, t1_s, shared, env, table, step_out, snap, work):
     """:func:`control_step` from ``t0_s``, then :func:`snapshot_into` at ``t1_s`` (the end of
-    the control step, computed by the caller from the step count); returns the step cost."""
+    the control step, computed by the caller from the step count), then ``step_out``'s
+    finiteness flag and ``max |ω_bo|``; returns the step cost."""
     cost = control_step(state, cmd, t0_s, shared, env, table, step_out, work)
-    c2 = work[WK_C2 : WK_C2 + CONTEXT_SIZE]
     if work[WK_TAG] != t1_s:
-        context_into(t1_s, shared, env, table, c2)
+        context_into(t1_s, shared, env, table, work, WK_C2)
         work[WK_TAG] = t1_s
-    snapshot_from_context(state, shared, c2, snap)
+    snapshot_from_context(state, shared, work, WK_C2, snap)
     finite = math.isfinite(cost)
     for i in range(AUG - 1):
         finite = finite and math.isfinite(state[i])
@@ -590,13 +614,6 @@ def advance_batch(states, cmds, t0s, t1s, shared, envs, tables, step_out, snaps,
         costs[e] = advance(
             states[e], cmds[e], t0s[e], t1s[e], shared, envs[e], tables[e], step_out[e], snaps[e], work[e]
         )
-
-
-@njit(cache=True, error_model="numpy")
-def snapshot_batch(states, ts, shared, envs, tables, work, snaps):
-    """:func:`snapshot_into` for every row."""
-    for e in range(states.shape[0]):
-        snapshot_into(states[e], ts[e], shared, envs[e], tables[e], work[e, WK_C0 : WK_C0 + CONTEXT_SIZE], snaps[e])
 
 
 # ----------------------------------------------------------------------------- packing
@@ -645,8 +662,8 @@ def pack_reference(constant: bool, t_final_s: float, start_rad, gain, final, pie
                 raise ValueError(f"reference polynomials have at most {REF_COEFS} coefficients, got {len(coefs)}")
             start = base + 2 + j * REF_COEFS + REF_COEFS - len(coefs)  # leading zeros: Horner unchanged
             out[start : start + len(coefs)] = coefs
-    _reference_at(out, 0.0, out[REF_HELD_START : REF_HELD_START + 11])
-    _reference_at(out, float(t_final_s), out[REF_HELD_END : REF_HELD_END + 11])
+    _reference_at(out, 0, 0.0, out, REF_HELD_START)
+    _reference_at(out, 0, float(t_final_s), out, REF_HELD_END)
     return out
 
 
@@ -691,8 +708,12 @@ def pack_shared(
     if delta_j is not None:
         out[SH_DJ] = 1.0
         out[SH_DJ_AMP : SH_DJ_AMP + 3], out[SH_DJ_FREQ : SH_DJ_FREQ + 3], out[SH_DJ_PHASE : SH_DJ_PHASE + 3] = delta_j
-    out[SH_Q : SH_Q + 36] = np.asarray(Q, dtype=float).reshape(36)
-    out[SH_R : SH_R + 9] = np.asarray(R, dtype=float).reshape(9)
+    q_mat, r_mat = np.asarray(Q, dtype=float), np.asarray(R, dtype=float)
+    out[SH_Q : SH_Q + 36] = q_mat.reshape(36)
+    out[SH_R : SH_R + 9] = r_mat.reshape(9)
+    out[SH_DIAG] = float(
+        np.array_equal(q_mat, np.diag(np.diag(q_mat))) and np.array_equal(r_mat, np.diag(np.diag(r_mat)))
+    )
     out[SH_REF:] = reference
     return out
 

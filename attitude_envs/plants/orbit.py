@@ -128,12 +128,12 @@ class KeplerOrbit:
 
     def true_anomaly_rad(self, t_s: float) -> float:
         """ν(t) from Kepler's equation M = E − e sin E (Newton, |ΔE| < 1e-13)."""
-        return float(kernels.true_anomaly(self.packed, float(t_s)))
+        return float(kernels.true_anomaly(self.packed, 0, float(t_s)))
 
     def state_at(self, t_s: float) -> OrbitState:
         """Position, velocity, frame and rates at ``t_s`` seconds after epoch."""
         out = np.empty(kernels.ORBIT_STATE_SIZE)
-        kernels.orbit_state_into(self.packed, float(t_s), out)
+        kernels.orbit_state_into(self.packed, 0, float(t_s), out, 0)
         return OrbitState(
             out[kernels.OS_POS : kernels.OS_POS + 3],
             out[kernels.OS_VEL : kernels.OS_VEL + 3],
