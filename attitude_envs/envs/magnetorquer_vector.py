@@ -77,8 +77,9 @@ class MagnetorquerVectorEnv(BatchedEnv):
         # sub-envs about to be reset (next-step autoreset) take no draws: their RNG streams
         # stay those of the single env, whose next episode starts from the same state
         live = ~self._needs_reset
-        for i in np.flatnonzero(self._faulty & live):
-            commanded[i] = self.envs[i]._faults.apply(commanded[i], float(t0[i]))
+        if self._faulty.any():
+            for i in np.flatnonzero(self._faulty & live):
+                commanded[i] = self.envs[i]._faults.apply(commanded[i], float(t0[i]))
         if self._walks:
             for i in np.flatnonzero(live):
                 env = self.envs[i]

@@ -466,10 +466,12 @@ def augmented_derivative(buf, ib, m, t_w, shared, cb, ob):
 
 
 @njit(cache=True, error_model="numpy")
-def control_step(state, cmd, t0_s, shared, env, table, step_out, work):
-    """Advance ``state = [q, ω_bo, Ω]`` (in place) from ``t0_s`` over ``n_sub`` RK4 sub-steps
-    with the delivered command ``cmd = [m (3, A·m²), T_w (N·m)]`` held; returns the step cost
-    ``∫ (xᵀQx + uᵀRu) dt``. Per sub-step the wheel torque is zeroed when it would grow
+def control_step(state, cmd, t0_s, t1_s, shared, env, table, step_out, work):
+    """Advance ``state = [q, ω_bo, Ω]`` (in place) from ``t0_s`` to ``t1_s`` over ``n_sub`` RK4
+    sub-steps of ``h`` with the delivered command ``cmd = [m (3, A·m²), T_w (N·m)]`` held;
+    returns the step cost ``∫ (xᵀQx + uᵀRu) dt``. Sub-step ``j`` starts at ``t0 + j h``; the
+    last one's end stage is evaluated at ``t1_s`` (the caller's step end, equal to ``t0 + n h``
+    up to rounding), so that its time context serves the snapshot and the next step. Per sub-step the wheel torque is zeroed when it would grow
     ``|h_w| ≥ h_max`` (spec 002 §6 item 10); the quaternion is renormalized after each.
     ``step_out``: mean applied command (4), mean magnetic torque ``m × b`` and mean control
     torque (3 each, N·m, body axes, at the sub-step starts). ``work``: :data:`WORK_SIZE` floats."""
@@ -482,6 +484,7 @@ def control_step(state, cmd, t0_s, shared, env, table, step_out, work):
     wheel_sum, tau0, tau1, tau2 = 0.0, 0.0, 0.0, 0.0
     for j in range(n_sub):
         ts = t0_s + j * h
+        te = t1_s if j == n_sub - 1 else t0_s + (j + 1) * h
         if work[WK_TAG] == ts:  # the previous end context: time-only parts are the same
             for i in range(CONTEXT_SIZE):
                 work[WK_C0 + i] = work[WK_C2 + i]
@@ -489,8 +492,8 @@ def control_step(state, cmd, t0_s, shared, env, table, step_out, work):
         else:
             context_into(ts, shared, env, table, work, WK_C0)
         context_into(ts + 0.5 * h, shared, env, table, work, WK_C1)
-        context_into(ts + h, shared, env, table, work, WK_C2)
-        work[WK_TAG] = ts + h
+        context_into(te, shared, env, table, work, WK_C2)
+        work[WK_TAG] = te
         x, y, z, w = work[WK_AUG], work[WK_AUG + 1], work[WK_AUG + 2], work[WK_AUG + 3]
         # wheel momentum h_w = J_w (Ω + ω_bi,y), ω_bi = ω_bo − ν̇ R e_y
         w_bi_y = work[WK_AUG + 5] + (1 - 2 * (x * x + z * z)) * (-work[WK_C0 + CX_ORB + OS_RATE])
@@ -513,7 +516,7 @@ def control_step(state, cmd, t0_s, shared, env, table, step_out, work):
                 k = WK_K + (stage - 1) * AUG
                 for i in range(AUG):
                     work[WK_TMP + i] = work[WK_AUG + i] + c * work[k + i]
-            cb = WK_C0 if stage == 0 else (WK_C2 if stage == 3 else WK_C1)
+            cb = WK_C0 if stage == 0 else (WK_C2 if stage == 3 else WK_C1)  # t, t + h/2, t + h/2, end
             augmented_derivative(work, WK_TMP, cmd, t_w, shared, cb, WK_K + stage * AUG)
         for i in range(AUG):
             k1, k2 = work[WK_K + i], work[WK_K + AUG + i]
@@ -592,7 +595,7 @@ def advance(state, cmd, t0_s, t1_s, shared, env, table, step_out, snap, work):
     """:func:`control_step` from ``t0_s``, then :func:`snapshot_into` at ``t1_s`` (the end of
     the control step, computed by the caller from the step count), then ``step_out``'s
     finiteness flag and ``max |ω_bo|``; returns the step cost."""
-    cost = control_step(state, cmd, t0_s, shared, env, table, step_out, work)
+    cost = control_step(state, cmd, t0_s, t1_s, shared, env, table, step_out, work)
     if work[WK_TAG] != t1_s:
         context_into(t1_s, shared, env, table, work, WK_C2)
         work[WK_TAG] = t1_s
