@@ -11,6 +11,8 @@ sub-envs that have them pay.
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from attitude_envs.envs.magnetorquer import MagnetorquerEnv
@@ -25,7 +27,17 @@ class MagnetorquerVectorEnv(BatchedEnv):
     ``time_s``, ``error_angle_deg``."""
 
     def __init__(self, num_envs: int = 1, autoreset_mode: str = "next_step", render_mode: str | None = None, **kwargs):
-        super().__init__(lambda: MagnetorquerEnv(**kwargs), num_envs, autoreset_mode, render_mode)
+        prototype = MagnetorquerEnv(**kwargs)
+        made: list[MagnetorquerEnv] = []
+
+        def factory() -> MagnetorquerEnv:
+            # construction is deterministic (no draws before reset) and ~5x dearer than a
+            # copy (the reference's polynomials): the sub-envs are copies of one fresh env
+            env = copy.deepcopy(prototype) if made else prototype
+            made.append(env)
+            return env
+
+        super().__init__(factory, num_envs, autoreset_mode, render_mode)
         first = self.envs[0]
         self.model = first.model
         self._shared = first._shared
