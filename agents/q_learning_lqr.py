@@ -243,16 +243,15 @@ class QLearningLQR:
         """Policy interface: nothing to reset (the gain is fixed after learning)."""
 
     def act(self, obs: np.ndarray, info: dict[str, Any] | None = None) -> np.ndarray:
-        """Policy interface: normalized action for ``u = −gain·x`` (clipped)."""
-        x = np.asarray(obs, dtype=float).reshape(self.n)
-        return self.adapter.action(-self.gain @ x)
+        """Policy interface: normalized action for ``u = −gain·x`` (clipped); one observation
+        (n,) → (m,) or a batch (E, n) → (E, m), row by row."""
+        x = np.asarray(obs, dtype=float)
+        x = x.reshape(self.n) if x.ndim <= 1 else x.reshape(len(x), self.n)
+        return self.adapter.action(-(x @ self.gain.T))
 
     def predict(self, observation, state=None, episode_start=None, deterministic: bool = True):
         """Stable-Baselines3-style ``(action, state)``; accepts one observation or a batch."""
-        obs = np.asarray(observation, dtype=float)
-        if obs.ndim == 1:
-            return self.act(obs), None
-        return self.adapter.action(-obs.reshape(len(obs), self.n) @ self.gain.T), None
+        return self.act(observation), None
 
     def certainty_equivalence_gain(self, data: Transitions | None = None) -> np.ndarray:
         """Reference gain of a least-squares model + Riccati on the same data

@@ -48,13 +48,32 @@ class WheelAllocator:
         self.saturated_calls = 0
 
     def motor_torque_nm(self, body_torque_nm: np.ndarray) -> np.ndarray:
-        """Wheel motor torques (N·m) that deliver ``body_torque_nm`` within the torque limit."""
-        u = self.matrix @ np.asarray(body_torque_nm, dtype=float)
+        """Wheel motor torques (N·m) that deliver ``body_torque_nm`` within the torque limit;
+        one demand (3,) or a batch (E, 3) → (E, N), row by row."""
+        demand = np.asarray(body_torque_nm, dtype=float)
         limit = self.max_torque_nm
-        peak = float(np.max(np.abs(u)))
-        if peak <= limit:
+        if demand.ndim == 2:
+            u = demand @ self.matrix.T
+            peaks = np.max(np.abs(u), axis=1)
+            for i in np.flatnonzero(peaks > limit):
+                u[i] = self._saturated(u[i], float(peaks[i]))
             return u
+        u = self.matrix @ demand
+        peak = float(np.max(np.abs(u)))
+        return u if peak <= limit else self._saturated(u, peak)
+
+    def action(self, body_torque_nm: np.ndarray) -> np.ndarray:
+        """Normalized action in [-1, 1] (float32) for the env; (3,) → (N,), (E, 3) → (E, N)
+        (the normalized demand itself, (3,) or (E, 3), for a body-frame env)."""
+        if self.action_frame == "body":
+            return np.clip(np.asarray(body_torque_nm, dtype=float) / self.max_torque_nm, -1.0, 1.0).astype(np.float32)
+        u = self.motor_torque_nm(body_torque_nm) / self.max_torque_nm
+        return np.clip(u, -1.0, 1.0).astype(np.float32)
+
+    def _saturated(self, u: np.ndarray, peak: float) -> np.ndarray:
+        """Motor torques ``u`` whose largest magnitude ``peak`` exceeds the limit, brought within it."""
         self.saturated_calls += 1
+        limit = self.max_torque_nm
         if self.saturation == "clip":
             return np.clip(u, -limit, limit)
         if self._null.shape[1] > 0:
@@ -67,13 +86,6 @@ class WheelAllocator:
         """The allocator for ``env``'s nominal model and action frame."""
         base = env.unwrapped
         return cls(base.model, saturation, getattr(base, "action_frame", "wheel"))
-
-    def action(self, body_torque_nm: np.ndarray) -> np.ndarray:
-        """Normalized action in [-1, 1] (float32) for the env."""
-        if self.action_frame == "body":
-            return np.clip(np.asarray(body_torque_nm, dtype=float) / self.max_torque_nm, -1.0, 1.0).astype(np.float32)
-        u = self.motor_torque_nm(body_torque_nm) / self.max_torque_nm
-        return np.clip(u, -1.0, 1.0).astype(np.float32)
 
     def _min_peak(self, u0: np.ndarray) -> np.ndarray:
         """``u0 + Z c`` minimizing ``max|u|`` over the null-space coordinates ``c`` (LP)."""

@@ -88,7 +88,12 @@ def batched(sizes=(1, 64, 1024, 4096), seconds: float = 1.0) -> list[dict]:
             "steps_per_s": cart_rate,
         }
     )
-    for env_id in ("attitude_envs/ReactionWheel-v0", "attitude_envs/LinearSystem-v0", "attitude_envs/FuelSlosh-v0"):
+    for env_id in (
+        "attitude_envs/ReactionWheel-v0",
+        "attitude_envs/LinearSystem-v0",
+        "attitude_envs/FuelSlosh-v0",
+        "attitude_envs/Magnetorquer-v0",
+    ):
         for n in sizes:
             env = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
             rate = _time_vector(env, np.zeros((n, *env.single_action_space.shape)), seconds)

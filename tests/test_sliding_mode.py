@@ -84,7 +84,7 @@ def _nominal_env():
     return gym.make(
         MT,
         orbit={"model": "circular", "mean_anomaly_deg": 0.0},
-        disturbance=None,
+        disturbance={"kind": "constant", "torque_nm": [0.0, 0.0, 0.0]},  # set per step below
         time_varying_inertia=None,
         control_dt_s=0.01,
         episode_duration_s=2.0,
@@ -101,13 +101,9 @@ def _sliding_history(apply_equivalent: bool) -> np.ndarray:
         u_c, s, _ = pol.demand(info)
         s_values.append(s)
         if apply_equivalent:  # an ideal actuator: u_c enters as an external body torque
-            env._disturbance_at = _constant(u_c.copy())
+            env._disturbance.torque_nm = u_c.copy()
         _, _, _, _, info = env.step(np.zeros(4, dtype=np.float32))
     return np.array(s_values)
-
-
-def _constant(torque_nm):
-    return lambda t: torque_nm
 
 
 def test_equivalent_control_cancels_the_nominal_dynamics():
