@@ -33,7 +33,7 @@ model is used for one diagnostic (closed-loop spectral radius), never for learni
 from __future__ import annotations
 
 import warnings
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import scipy.linalg
@@ -43,11 +43,12 @@ from agents.qlqr import estimators as est
 from agents.qlqr.certainty_equivalence import ce_gain
 from agents.qlqr.data import EnvAdapter, Transitions, collect
 from agents.qlqr.features import n_features, quadratic_features, smat, svec
+from agents.qlqr.truth import dare_gain, relative_error
 from attitude_envs import validation
 
 METHODS = {"policy_iteration", "lspi", "value_iteration"}
 ESTIMATORS = {"batch", "rls"}
-TD_ESTIMATORS = {"lstd", "ols", "matrix_bellman"}
+TD_ESTIMATORS = {"lstd", "lstd_gls", "ols", "matrix_bellman"}
 SAMPLING = {"reset", "trajectory"}
 
 
@@ -72,7 +73,10 @@ class QLearningLQR:
     * ``td_estimator`` — ``"lstd"`` (LSTD-Q), legacy ``"ols"`` (Bellman-residual OLS,
       biased under noise) or ``"matrix_bellman"`` (Lopez, Alsalti & Müller 2023, eq. 29: all
       pairwise products of the data, ``H = Λ + γ Mᵀ H M`` with the data matrix
-      ``M = Y Z⁺``; algebraically certainty equivalence, note §3.5); ``constant_feature`` —
+      ``M = Y Z⁺``; algebraically certainty equivalence, note §3.5) or ``"lstd_gls"``
+      (feasible GLS LSTD-Q: a second LSTD-Q pass with every TD equation weighted by the
+      inverse of its noise variance, fitted as a quadratic in z from the first pass's
+      residuals; :func:`agents.qlqr.estimators.variance_weights`); ``constant_feature`` —
       the constant regressor of the noisy Bellman equation (default: on when a batch has
       more than p samples); ``row_normalize`` — divide each equation by ``‖z_k‖²``
       (default: when ‖z‖² spans more than 10⁴ in the batch, note §9.2).
@@ -90,7 +94,9 @@ class QLearningLQR:
     ``spectral_radius`` (ρ(A − BK) of the env's nominal model, reporting only; ``None``
     without a model, and in VI between every 100th iteration after the first 100), ``huu_eig_ratio``,
     ``input_signal_ratio``,
-    ``constant`` (λ̂), ``gain``), ``stop_reason``, ``data`` (last batch).
+    ``constant`` (λ̂), ``gain``), ``stop_reason``, ``data`` (last batch), ``reference``
+    (certainty equivalence on the same data, :meth:`compare_with_certainty_equivalence`;
+    with the env's nominal model also the gap of the learned gain to it).
     """
 
     def __init__(
@@ -183,6 +189,7 @@ class QLearningLQR:
         self.gain = np.zeros((m, n)) if self.initial_gain is None else self.initial_gain.copy()
         self.kernel: np.ndarray | None = None
         self.history: list[dict[str, Any]] = []
+        self.reference: dict[str, Any] | None = None
         self.stop_reason: str | None = None
         self.data: Transitions | None = None
         self.samples_used = 0
@@ -218,6 +225,7 @@ class QLearningLQR:
         self._N = N
         self.history = []
         self.stop_reason = None
+        self.reference = None
         # The linear algebra here is small (p ≲ 150 columns): BLAS threads only add
         # synchronization cost, which is severe on a loaded machine.
         with threadpool_limits(1, user_api="blas"):
@@ -225,22 +233,25 @@ class QLearningLQR:
                 self._value_iteration(int(max_iterations))
             else:
                 self._policy_iteration(int(max_iterations))
+            try:  # reported beside the learned gain; never part of learning
+                self.reference = self.compare_with_certainty_equivalence()
+            except (ValueError, np.linalg.LinAlgError) as err:
+                self.reference = {"ce_gain": None, "ce_failed": f"{type(err).__name__}: {err}"}
         return self
 
     def reset(self, seed: int | None = None) -> None:
         """Policy interface: nothing to reset (the gain is fixed after learning)."""
 
     def act(self, obs: np.ndarray, info: dict[str, Any] | None = None) -> np.ndarray:
-        """Policy interface: normalized action for ``u = −gain·x`` (clipped)."""
-        x = np.asarray(obs, dtype=float).reshape(self.n)
-        return self.adapter.action(-self.gain @ x)
+        """Policy interface: normalized action for ``u = −gain·x`` (clipped); one observation
+        (n,) → (m,) or a batch (E, n) → (E, m), row by row."""
+        x = np.asarray(obs, dtype=float)
+        x = x.reshape(self.n) if x.ndim <= 1 else x.reshape(len(x), self.n)
+        return self.adapter.action(-(x @ self.gain.T))
 
     def predict(self, observation, state=None, episode_start=None, deterministic: bool = True):
         """Stable-Baselines3-style ``(action, state)``; accepts one observation or a batch."""
-        obs = np.asarray(observation, dtype=float)
-        if obs.ndim == 1:
-            return self.act(obs), None
-        return self.adapter.action(-obs.reshape(len(obs), self.n) @ self.gain.T), None
+        return self.act(observation), None
 
     def certainty_equivalence_gain(self, data: Transitions | None = None) -> np.ndarray:
         """Reference gain of a least-squares model + Riccati on the same data
@@ -250,6 +261,37 @@ class QLearningLQR:
             raise ValueError("certainty_equivalence_gain needs data: call learn() first")
         with threadpool_limits(1, user_api="blas"):
             return ce_gain(data, self.discount)
+
+    def compare_with_certainty_equivalence(self, optimal_gain=None) -> dict[str, Any]:
+        """The Q-learner beside certainty equivalence (CE) on the same data (:attr:`data`, the
+        last batch: all the data of LSPI and VI, the last of on-policy PI's fresh batches).
+
+        Returns ``ce_gain`` (least-squares model + Riccati, the costs fitted from the data) and
+        ``difference`` = ‖K − K_CE‖/‖K_CE‖. With a reference optimum — ``optimal_gain``
+        (m×n, u = −Kx), else the DARE gain of the env's nominal linear model when it has one
+        (reporting only, as for ``spectral_radius``) — also ``optimal_gain``, ``error`` and
+        ``ce_error`` (relative gain errors ‖·−K*‖/‖K*‖) and ``gap`` = error/ce_error (the
+        Q-learner's sample-efficiency gap to CE; 1 for ``td_estimator="matrix_bellman"``)."""
+        K_ce = self.certainty_equivalence_gain()
+        out: dict[str, Any] = {"ce_gain": K_ce, "difference": relative_error(self.gain, K_ce)}
+        K_star = (
+            self._optimal_gain() if optimal_gain is None else _matrix("optimal_gain", optimal_gain, (self.m, self.n))
+        )
+        if K_star is not None:
+            e, e_ce = relative_error(self.gain, K_star), relative_error(K_ce, K_star)
+            gap = e / e_ce if e_ce > 0 else (1.0 if e == 0 else float("inf"))
+            out.update(optimal_gain=K_star, error=e, ce_error=e_ce, gap=gap)
+        return out
+
+    def _optimal_gain(self) -> np.ndarray | None:
+        """DARE gain of the env's nominal model (reporting only); ``None`` without a model."""
+        if self._report is None or self._report.Q is None or self._report.R is None:
+            return None
+        A, B, Q, R, N = self._report
+        try:
+            return dare_gain(A, B, Q, R, self.discount, N)[0]
+        except (ValueError, np.linalg.LinAlgError):
+            return None
 
     # ------------------------------------------------------------------ data and features
     def _collect(self, n_samples: int, gain: np.ndarray) -> Transitions:
@@ -365,13 +407,30 @@ class QLearningLQR:
             return self._matrix_bellman(data, design, K)
         if self.td_estimator == "ols":
             theta, exc = est.ordinary_least_squares(Psi, data.r, w, self.cond_limit, self.cond_warn)
-        elif self.estimator == "rls":
-            exc = design.excitation
-            theta = est.recursive_least_squares(F, Psi, data.r, w, self.rls_initial_covariance, self.rls_forgetting)
         else:
-            theta, exc = design.instrumental(Psi, data.r)
+            theta, exc = self._lstd(F, Psi, data.r, w, design)
+            if self.td_estimator == "lstd_gls":
+                theta, exc = self._lstd_gls(F, Psi, data.r, theta, exc)
         H, c = self._kernel(theta)
         return H, c, exc
+
+    def _lstd(self, F, Psi, r, w, design) -> tuple[np.ndarray, est.Excitation]:
+        """LSTD-Q (instrument ``F``, regressor ``Psi``, row weights ``w``): batch or RLS."""
+        if self.estimator == "rls":
+            theta = est.recursive_least_squares(F, Psi, r, w, self.rls_initial_covariance, self.rls_forgetting)
+            return theta, design.excitation
+        return design.instrumental(Psi, r)
+
+    def _lstd_gls(self, F, Psi, r, theta, exc) -> tuple[np.ndarray, est.Excitation]:
+        """Second stage of feasible-GLS LSTD-Q: reweight every TD equation by the inverse of
+        its conditional noise variance, fitted from the first stage's residuals
+        (:func:`agents.qlqr.estimators.variance_weights`); no model is used."""
+        F1 = F if self._const else np.hstack([F, np.ones((len(F), 1))])
+        # residuals within 1e-10 of the largest cost are round-off of exact (noise-free) data
+        w = est.variance_weights(F1, r - Psi @ theta, noise_free=1e-10 * float(np.max(np.abs(r), initial=0.0)))
+        if w is None:  # noise-free data: the first stage is exact
+            return theta, exc
+        return self._lstd(F, Psi, r, w, self._design(F, w, "GLS policy evaluation"))
 
     def _matrix_bellman(self, data, design, K) -> tuple[np.ndarray, float | None, est.Excitation]:
         """Policy evaluation by the matrix Bellman equation (Lopez et al. 2023, eq. 29; note
@@ -564,7 +623,7 @@ class QLearningLQR:
     def _spectral_radius(self, K: np.ndarray) -> float | None:
         if self._report is None:
             return None
-        A, B = self._report
+        A, B = self._report.A, self._report.B
         return float(np.max(np.abs(np.linalg.eigvals(A - B @ K))))
 
     def _record(self, j, phase, exc, dH, dK, K, ratio, c, rho: bool = True) -> None:
@@ -612,20 +671,37 @@ def _vi_converged(d: list[float], tol: float, window: int = 10) -> bool:
     return r < 1.0 and dk * r / (1.0 - r) < tol
 
 
-def _reporting_model(env, input_map) -> tuple[np.ndarray, np.ndarray] | None:
-    """Discrete (A, B) of the env's nominal model (in the learner's input coordinates), for
-    the spectral-radius diagnostic only."""
+class _NominalModel(NamedTuple):
+    """Discrete nominal model in the learner's input coordinates (reporting only)."""
+
+    A: np.ndarray
+    B: np.ndarray
+    Q: np.ndarray | None
+    R: np.ndarray | None
+    N: np.ndarray | None
+
+
+def _reporting_model(env, input_map) -> _NominalModel | None:
+    """Discrete (A, B) and stage-cost weights (Q, R, N) of the env's nominal model, in the
+    learner's input coordinates ``v`` (actuators ``u = M v``: ``B M``, ``MᵀRM``, ``N M``), for
+    the spectral-radius diagnostic and the reference optimum of
+    :meth:`QLearningLQR.compare_with_certainty_equivalence` only."""
     model = getattr(env.unwrapped, "model", None)
     try:
         if model is not None and hasattr(model, "A") and getattr(model, "dt_s", None) is not None:
-            B = np.asarray(model.B)
-            return np.asarray(model.A), B if input_map is None else B @ input_map
-        if model is not None and hasattr(model, "discrete"):
+            lin = model
+        elif model is not None and hasattr(model, "discrete"):
             lin = model.discrete(input="wheel")
-            return lin.A, lin.B if input_map is None else lin.B @ input_map
-    except (ValueError, TypeError, np.linalg.LinAlgError):
+        else:
+            return None
+        A, B = np.asarray(lin.A, float), np.asarray(lin.B, float)
+        Q, R, N = (getattr(lin, key, None) for key in ("Q", "R", "N"))
+        M = np.eye(B.shape[1]) if input_map is None else input_map
+        R = None if R is None else M.T @ np.asarray(R, float) @ M
+        N = None if N is None else np.asarray(N, float) @ M
+        return _NominalModel(A, B @ M, None if Q is None else np.asarray(Q, float), R, N)
+    except (ValueError, TypeError, AttributeError, np.linalg.LinAlgError):
         return None
-    return None
 
 
 def _vector(name: str, value, size: int, positive: bool) -> np.ndarray:

@@ -121,9 +121,7 @@ def validate_fault(config: dict, n_actuators: int, where: str = "faults") -> Non
     kind = validation.choice(f"{where}.kind", config.get("kind"), ACTUATOR_KINDS)
     target = config.get("target", "actuator")
     validation.choice(f"{where}.target", target, {"actuator"})
-    unknown = set(config) - _COMMON_KEYS - _EXTRA_KEYS.get(kind, set())
-    if unknown:
-        raise ValueError(f"{where} ({kind}) has unknown keys {sorted(unknown)}")
+    validation.known_keys(f"{where} ({kind})", config, _COMMON_KEYS | _EXTRA_KEYS.get(kind, set()))
     index = config.get("index", "random")
     if isinstance(index, str):
         validation.choice(f"{where}.index", index, {"random", "all"})

@@ -8,6 +8,8 @@ VECTOR_ENTRY_POINTS = {
     "attitude_envs/ReactionWheel-v0": "attitude_envs.envs.reaction_wheel_vector:ReactionWheelVectorEnv",
     "attitude_envs/LinearSystem-v0": "attitude_envs.envs.linear_system_vector:LinearSystemVectorEnv",
     "attitude_envs/AirBearing-v0": "attitude_envs.envs.reaction_wheel_vector:AirBearingVectorEnv",
+    "attitude_envs/FuelSlosh-v0": "attitude_envs.envs.fuel_slosh_vector:FuelSloshVectorEnv",
+    "attitude_envs/Magnetorquer-v0": "attitude_envs.envs.magnetorquer_vector:MagnetorquerVectorEnv",
 }
 
 ENV_IDS = {

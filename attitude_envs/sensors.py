@@ -138,11 +138,7 @@ class SensorSuite:
             validation.choice("sensors", name, set(self.channels))
             if not isinstance(params, dict):
                 raise ValueError(f"sensors[{name!r}] must be a dict with keys {sorted(_CHANNEL_KEYS)}, got {params!r}")
-            unknown = set(params) - _CHANNEL_KEYS
-            if unknown:
-                raise ValueError(
-                    f"sensors[{name!r}] has unknown keys {sorted(unknown)}; accepted: {sorted(_CHANNEL_KEYS)}"
-                )
+            validation.known_keys(f"sensors[{name!r}]", params, _CHANNEL_KEYS)
             axes = self.channels[name].axes
             p = {}
             for key in ("noise_std", "bias_walk_std", "initial_bias_std"):
@@ -166,9 +162,7 @@ class SensorSuite:
         kind = validation.choice(f"{where}.kind", c.get("kind"), SENSOR_KINDS)
         name = validation.choice(f"{where}.sensor", c.get("sensor"), set(self.channels))
         extra = {"mode"} if kind == "dropout" else set()
-        unknown = set(c) - _FAULT_KEYS - extra
-        if unknown:
-            raise ValueError(f"{where} ({kind}) has unknown keys {sorted(unknown)}")
+        validation.known_keys(f"{where} ({kind})", c, _FAULT_KEYS | extra)
         channel = self.channels[name]
         index = c.get("index", "random")
         if isinstance(index, str):

@@ -14,7 +14,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.polynomial import Polynomial as P
 
-from attitude_envs import quaternion, validation
+from attitude_envs import validation
+from attitude_envs.plants import magnetorquer_kernels as kernels
 
 SLEW_FACTOR = 21.0 / 160.0  # ∫0^tf ∫0^τ f = 0.13125 t_f² (spec 002 §5.1)
 
@@ -30,13 +31,6 @@ def _segments(t_final_s: float) -> list[tuple[float, float, P]]:
     ret_arg = (s - t3) / dt
     back = -1.0 + ret_arg**2 * (3.0 - 2.0 * ret_arg)
     return [(0.0, t1, rise), (t1, t3, fall), (t3, t_final_s, back)]
-
-
-def _horner(coefs: list[float], x: float) -> float:
-    acc = 0.0
-    for c in coefs:
-        acc = acc * x + c
-    return acc
 
 
 class SmoothBangBang:
@@ -59,19 +53,15 @@ class SmoothBangBang:
             self._pieces.append((a, b, f.coef[::-1].tolist(), v.coef[::-1].tolist(), p.coef[::-1].tolist()))
             v0, p0 = float(v(b)), float(p(b))
         self._constant = bool(np.all(self.delta_rad == 0.0))
-        self._start = self._attitude(0.0)
-        self._end = self._attitude(self.t_final_s)
         self._final = (v0, p0)
+        #: the profile in the layout of the compiled evaluator (one implementation)
+        self.packed = kernels.pack_reference(
+            self._constant, self.t_final_s, self.start_rad, self.gain, self._final, self._pieces
+        )
 
     def profile(self, t_s: float) -> tuple[float, float, float]:
         """(∫∫f, ∫f, f) at ``t_s`` (s², s, 1)."""
-        if t_s <= 0.0:
-            return 0.0, 0.0, 0.0
-        for _a, b, f, v, p in self._pieces:
-            if t_s <= b:
-                return _horner(p, t_s), _horner(v, t_s), _horner(f, t_s)
-        v0, p0 = self._final
-        return p0 + v0 * (t_s - self.t_final_s), v0, 0.0
+        return kernels.profile(self.packed, 0, float(t_s))
 
     def euler(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
         """Angles (rad) and angle rates (rad/s) [φ, θ, ψ]."""
@@ -80,21 +70,8 @@ class SmoothBangBang:
 
     def attitude(self, t_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Desired quaternion (scalar last, w ≥ 0), its body rate ω_d (rad/s, desired axes,
-        relative to the orbital frame) and its time derivative q̇_d (1/s)."""
-        if self._constant or t_s <= 0.0:
-            return self._start
-        if t_s >= self.t_final_s:
-            return self._end
-        return self._attitude(t_s)
-
-    def _attitude(self, t_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        ang, rate = self.euler(t_s)
-        q_d = quaternion.from_euler_321_deg(*np.degrees(ang))
-        if q_d[3] < 0:
-            q_d = -q_d
-        phi, theta, _ = ang
-        dphi, dtheta, dpsi = rate
-        sf, cf, st, ct = np.sin(phi), np.cos(phi), np.sin(theta), np.cos(theta)
-        w_d = np.array([dphi - dpsi * st, dtheta * cf + dpsi * sf * ct, -dtheta * sf + dpsi * cf * ct])
-        q_dot = 0.5 * quaternion.multiply(q_d, np.array([w_d[0], w_d[1], w_d[2], 0.0]))
-        return q_d, w_d, q_dot
+        relative to the orbital frame) and its time derivative q̇_d (1/s); held before 0 and
+        after t_f. Quaternion by eq. (38) (3-2-1, as :func:`attitude_envs.quaternion.from_euler_321_deg`)."""
+        out = np.empty(11)
+        kernels.reference_into(self.packed, 0, float(t_s), out, 0)
+        return out[:4], out[4:7], out[7:]

@@ -109,10 +109,15 @@ def action(value, n: int) -> np.ndarray:
     return arr
 
 
+def known_keys(where: str, mapping, accepted) -> None:
+    """Raise a ``ValueError`` naming ``where``, the unknown keys and the accepted ones."""
+    unknown = set(mapping) - set(accepted)
+    if unknown:
+        raise ValueError(f"{where} has unknown keys {sorted(unknown)}; accepted: {sorted(accepted)}")
+
+
 def reset_options(options, accepted: set[str]) -> dict:
     """``reset(options=...)`` as a dict, rejecting unknown keys."""
     options = {} if options is None else dict(options)
-    unknown = set(options) - accepted
-    if unknown:
-        raise ValueError(f"reset options has unknown keys {sorted(unknown)}; accepted: {sorted(accepted)}")
+    known_keys("reset options", options, accepted)
     return options

@@ -32,11 +32,14 @@ class WheelAllocator:
     """Maps a body torque demand (N·m, body axes) to the env's normalized wheel action.
 
     Built from the *nominal* model only (``env.unwrapped.model``): ``wheel_axes`` and
-    ``max_wheel_torque_nm``.
+    ``max_wheel_torque_nm``. With ``action_frame="body"`` (an env whose action is a body
+    torque demand, which the env allocates itself) :meth:`action` returns the demand
+    normalized by ``max_wheel_torque_nm``.
     """
 
-    def __init__(self, model, saturation: str = "scale") -> None:
+    def __init__(self, model, saturation: str = "scale", action_frame: str = "wheel") -> None:
         self.saturation = validation.choice("saturation", saturation, SATURATION_MODES)
+        self.action_frame = validation.choice("action_frame", action_frame, {"wheel", "body"})
         axes = model.params.wheel_axes
         self.max_torque_nm = float(model.params.max_wheel_torque_nm)
         self.matrix = -np.linalg.pinv(axes)  # N×3, u = matrix @ T
@@ -45,13 +48,32 @@ class WheelAllocator:
         self.saturated_calls = 0
 
     def motor_torque_nm(self, body_torque_nm: np.ndarray) -> np.ndarray:
-        """Wheel motor torques (N·m) that deliver ``body_torque_nm`` within the torque limit."""
-        u = self.matrix @ np.asarray(body_torque_nm, dtype=float)
+        """Wheel motor torques (N·m) that deliver ``body_torque_nm`` within the torque limit;
+        one demand (3,) or a batch (E, 3) → (E, N), row by row."""
+        demand = np.asarray(body_torque_nm, dtype=float)
         limit = self.max_torque_nm
-        peak = float(np.max(np.abs(u)))
-        if peak <= limit:
+        if demand.ndim == 2:
+            u = demand @ self.matrix.T
+            peaks = np.max(np.abs(u), axis=1)
+            for i in np.flatnonzero(peaks > limit):
+                u[i] = self._saturated(u[i], float(peaks[i]))
             return u
+        u = self.matrix @ demand
+        peak = float(np.max(np.abs(u)))
+        return u if peak <= limit else self._saturated(u, peak)
+
+    def action(self, body_torque_nm: np.ndarray) -> np.ndarray:
+        """Normalized action in [-1, 1] (float32) for the env; (3,) → (N,), (E, 3) → (E, N)
+        (the normalized demand itself, (3,) or (E, 3), for a body-frame env)."""
+        if self.action_frame == "body":
+            return np.clip(np.asarray(body_torque_nm, dtype=float) / self.max_torque_nm, -1.0, 1.0).astype(np.float32)
+        u = self.motor_torque_nm(body_torque_nm) / self.max_torque_nm
+        return np.clip(u, -1.0, 1.0).astype(np.float32)
+
+    def _saturated(self, u: np.ndarray, peak: float) -> np.ndarray:
+        """Motor torques ``u`` whose largest magnitude ``peak`` exceeds the limit, brought within it."""
         self.saturated_calls += 1
+        limit = self.max_torque_nm
         if self.saturation == "clip":
             return np.clip(u, -limit, limit)
         if self._null.shape[1] > 0:
@@ -59,10 +81,11 @@ class WheelAllocator:
             peak = float(np.max(np.abs(u)))
         return u if peak <= limit else u * (limit / peak)
 
-    def action(self, body_torque_nm: np.ndarray) -> np.ndarray:
-        """Normalized action in [-1, 1] (float32) for the env."""
-        u = self.motor_torque_nm(body_torque_nm) / self.max_torque_nm
-        return np.clip(u, -1.0, 1.0).astype(np.float32)
+    @classmethod
+    def for_env(cls, env, saturation: str = "scale") -> WheelAllocator:
+        """The allocator for ``env``'s nominal model and action frame."""
+        base = env.unwrapped
+        return cls(base.model, saturation, getattr(base, "action_frame", "wheel"))
 
     def _min_peak(self, u0: np.ndarray) -> np.ndarray:
         """``u0 + Z c`` minimizing ``max|u|`` over the null-space coordinates ``c`` (LP)."""

@@ -93,7 +93,7 @@ class FeedbackLinearizationPolicy:
         self._inertia = p.inertia_kg_m2
         self._inertia_eff_inv = p.inertia_eff_inv
         self._wheel_momentum = p.wheel_inertia_kg_m2 * p.wheel_axes  # h_w = J_s A Ω
-        self.allocator = WheelAllocator(model, saturation)
+        self.allocator = WheelAllocator.for_env(env, saturation)
         self._fallback = QuaternionLQRPolicy(env, saturation=saturation)
         self.name = name
         self.singular_steps = 0

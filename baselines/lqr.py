@@ -31,7 +31,10 @@ class LQRPolicy:
         self.linear_model = lin if discretization == "continuous" else lin.discretize(model.control_dt_s)
         self.gain = self.linear_model.lqr_gain()
         self._n = lin.n
-        self._to_motor = model.allocation if model.cost_input == "body" else np.eye(lin.m)
+        body_action = getattr(env.unwrapped, "action_frame", "wheel") == "body"
+        if body_action and model.cost_input != "body":
+            raise ValueError("action_frame='body' needs cost_input='body' for the LQR (its input is the body torque)")
+        self._to_motor = model.allocation if model.cost_input == "body" and not body_action else np.eye(lin.m)
         self._max_torque = model.params.max_wheel_torque_nm
 
     def reset(self, seed: int | None = None) -> None:

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from attitude_envs import validation
-from attitude_envs.euler import euler_321_rad, euler_321_rates
+from attitude_envs.euler import euler_321_rad, euler_321_rad_batch, euler_321_rates, euler_321_rates_batch
 from baselines.allocation import WheelAllocator
 
 UNITS = ("rad", "deg")
@@ -85,13 +85,14 @@ class GainSchedule:
         return GainSchedule(self.coefficients, units)
 
     def at(self, angle_rad, rate_rad_s) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(Kp, Kd, KI)`` (3 each) at the channels' angles (rad) and angle rates (rad/s), eq. 23."""
+        """``(Kp, Kd, KI)`` (3 each) at the channels' angles (rad) and angle rates (rad/s), eq. 23;
+        for a batch (E, 3) of angles and rates, each gain is E × 3."""
         scale = 1.0 if self.units == "rad" else 180.0 / math.pi
-        y = np.asarray(angle_rad, dtype=float) * scale
-        y_dot = np.asarray(rate_rad_s, dtype=float) * scale
+        y = np.asarray(angle_rad, dtype=float)[..., None, :] * scale
+        y_dot = np.asarray(rate_rad_s, dtype=float)[..., None, :] * scale
         c = self.coefficients
         k = c[:, :, 0] + c[:, :, 1] * y + c[:, :, 2] * y_dot
-        return k[0], k[1], k[2]
+        return k[..., 0, :], k[..., 1, :], k[..., 2, :]
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -160,7 +161,7 @@ class PIDPolicy:
             axes = base.model.params.wheel_axes
             orthogonal = axes.shape[1] == 3 and np.allclose(np.abs(axes), np.eye(3))
             saturation = "clip" if orthogonal else "scale"
-        self.allocator = WheelAllocator(base.model, saturation=saturation)
+        self.allocator = WheelAllocator.for_env(env, saturation=saturation)
         self.name = name or ("pid-fixed" if isinstance(gains, PIDGains) else f"pid-scheduled-{gains.units}")
         self._integral = np.zeros(3)
         self.last_torque_nm = np.zeros(3)
@@ -172,15 +173,69 @@ class PIDPolicy:
     def reset(self, seed: int | None = None) -> None:
         self._integral = np.zeros(3)
 
+    def reset_rows(self, mask) -> None:
+        """Batched use: zero the integral of the rows in ``mask`` (E booleans; the sub-envs
+        that started a new episode)."""
+        if self._integral.ndim == 2:
+            self._integral[np.asarray(mask, dtype=bool)] = 0.0
+
     def act(self, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
+        """Normalized wheel action for one step (obs (n,), ``info["state"]`` read) or a batch
+        (obs (E, n) → (E, N wheels)): see :meth:`act_batch`."""
+        if np.ndim(obs) == 2:
+            return self.act_batch(obs, info)
         state = info["state"]
         angle, rate = euler_error(state["attitude"], state["rate_rad_s"], state["target_attitude"])
+        return self._control(angle, rate)
+
+    def act_batch(self, obs: np.ndarray, info: dict[str, Any] | None = None) -> np.ndarray:
+        """Each row as :meth:`act` on its own (own integral, reset with :meth:`reset` or
+        :meth:`reset_rows`). The rows' states come from ``info["state"]`` when it holds (E, ·)
+        arrays, else from the observation's error state ``[q_e,vec, ω]`` (ReactionWheel-v0,
+        AirBearing-v0; float32, so the angles carry its rounding): ``q_e = [v, √(1 − |v|²)]``
+        relative to the target, ``ω`` the body rate."""
+        obs = np.asarray(obs, dtype=float)
+        state = (info or {}).get("state")
+        if state is not None:
+            q_e = quaternion_error_batch(
+                np.asarray(state["attitude"], dtype=float), np.asarray(state["target_attitude"], dtype=float)
+            )
+            rate = np.asarray(state["rate_rad_s"], dtype=float)
+        else:
+            v = obs[:, :3]
+            q_e = np.concatenate([v, np.sqrt(np.maximum(0.0, 1.0 - np.sum(v * v, axis=1)))[:, None]], axis=1)
+            rate = obs[:, 3:6]
+        if self._integral.ndim == 1:  # first batched call after reset: one integral per row
+            self._integral = np.zeros((len(obs), 3)) + self._integral
+        if self._integral.shape != (len(obs), 3):
+            raise ValueError(f"obs has {len(obs)} rows but the PID integrates {len(self._integral)}; call reset()")
+        angle = euler_321_rad_batch(q_e)
+        return self._control(angle, euler_321_rates_batch(angle, rate))
+
+    def _control(self, angle: np.ndarray, rate: np.ndarray) -> np.ndarray:
+        """Eq. 18 on the Euler errors (rad) and rates (rad/s), one (3,) or a batch (E, 3)."""
         kp, kd, ki = self.gains.at(angle, rate)
         e = -angle
         torque = kp * e + kd * (-rate) + ki * self._integral
         self._integral = self._integral + e * self.dt_s
         self.last_torque_nm = torque
         return self.allocator.action(torque)
+
+
+def quaternion_error_batch(q: np.ndarray, q_target: np.ndarray) -> np.ndarray:
+    """``q_e = q_T* ⊗ q`` for the rows of ``q`` and ``q_target`` (E × 4, scalar last), the same
+    products as :func:`euler_error`."""
+    tx, ty, tz, tw = -q_target[:, 0], -q_target[:, 1], -q_target[:, 2], q_target[:, 3]
+    qx, qy, qz, qw = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    return np.stack(
+        [
+            tw * qx + tx * qw + ty * qz - tz * qy,
+            tw * qy - tx * qz + ty * qw + tz * qx,
+            tw * qz + tx * qy - ty * qx + tz * qw,
+            tw * qw - tx * qx - ty * qy - tz * qz,
+        ],
+        axis=1,
+    )
 
 
 def euler_error(q, rate_rad_s, q_target) -> tuple[np.ndarray, np.ndarray]:

@@ -71,7 +71,7 @@ class QuaternionLQRPolicy:
         inertia_eff = np.linalg.inv(model.params.inertia_eff_inv)
         self.attitude_gain, self.rate_gain = quaternion_lqr_gains(0.5 * (inertia_eff + inertia_eff.T), Q, R)
         self._stiffness = 2.0 if stiffness == "paper" else 1.0
-        self.allocator = WheelAllocator(model, saturation)
+        self.allocator = WheelAllocator.for_env(env, saturation)
         self.name = name
 
     def reset(self, seed: int | None = None) -> None:

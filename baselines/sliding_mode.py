@@ -6,7 +6,8 @@
 * :class:`FTSMCStandInPolicy` — **a stand-in, not the paper's FTSMC [13]** (whose reference
   list is missing): the same law with the unmodified terminal term ``sig^r(q_e)`` (spec §4.7);
 * :func:`allocate_paper` — eqs. (16)–(17): ``m = b × u_c/|b|²`` (the component of the demand
-  perpendicular to b), saturated, then ``T_w = [u_c − m × b]_y`` clipped.
+  perpendicular to b), saturated, then ``T_w = [u_c − m × b]_y`` clipped; variants "xz" and
+  "exact" (the wheel first takes the along-b part, so the whole demand is realized).
 
 Sliding variable, eq. (18): ``S = ω_bo + γ1 q_e + γ2 s_c(q_e)`` with the additive error
 ``q_e = q − q_d`` (vector parts, scalar-first sign w ≥ 0). Every parameter the paper omits
@@ -25,6 +26,8 @@ import numpy as np
 from attitude_envs import quaternion, validation
 from attitude_envs.plants.magnetorquer import E_Y, cross, orbital_to_body
 
+ALLOCATIONS = ("paper", "xz", "exact")
+
 
 @dataclass(frozen=True)
 class SlidingModeGains:
@@ -37,8 +40,10 @@ class SlidingModeGains:
       rate) [ASSUME 0.1], ``p`` = ``q`` = 2 in φ (eq. 21) [ASSUME], φ fed by ω_bi [ASSUME];
     * ``boundary_layer`` δ (rad/s): None = ``sign(S)`` as printed; a number uses ``sat(S/δ)``
       (spec §6 item 2, off by default);
-    * ``allocation``: ``"paper"`` (eq. 16 on the whole demand) or ``"xz"`` (only the x/z
-      demand goes to the magnetorquers, spec §6 item 9); ``dipole_saturation``: ``"scale"``
+    * ``allocation``: ``"paper"`` (eq. 16 on the whole demand), ``"xz"`` (only the x/z
+      demand goes to the magnetorquers, spec §6 item 9) or ``"exact"`` (eq. 16 on the demand
+      less the wheel torque that makes it perpendicular to b: realizes any demand within the
+      limits, see :func:`allocate_paper`); ``dipole_saturation``: ``"scale"``
       (direction-preserving, default) or ``"clip"`` (per axis).
     """
 
@@ -66,7 +71,7 @@ class SlidingModeGains:
             raise ValueError(f"r must be in (0, 1), got {self.r!r}")
         if self.boundary_layer is not None:
             validation.positive("boundary_layer", self.boundary_layer)
-        validation.choice("allocation", self.allocation, {"paper", "xz"})
+        validation.choice("allocation", self.allocation, ALLOCATIONS)
         validation.choice("dipole_saturation", self.dipole_saturation, {"scale", "clip"})
         if self.kappa1 is None:
             object.__setattr__(self, "kappa1", (2.0 - self.r) * self.epsilon ** (self.r - 1.0))
@@ -102,15 +107,33 @@ def allocate_paper(
 ) -> tuple[np.ndarray, float]:
     """Spec 002 eqs. (16)–(17): dipole (A·m²) and wheel body torque (N·m) for a demand ``u_c``.
 
-    ``m = b × u/|b|²`` makes ``m × b`` the component of ``u`` perpendicular to ``b``
-    (``u = u_c``, or ``[u_cx, 0, u_cz]`` for ``variant="xz"``). The dipole is saturated
-    (direction-preserving ``"scale"`` or per-axis ``"clip"``) and the wheel takes the y
-    component of what is left, ``T_w = [u_c − m × b]_y``, clipped to ±max_wheel_torque_nm.
+    ``m = b × u/|b|²`` makes ``m × b`` the component of ``u`` perpendicular to ``b``. The
+    dipole is saturated (direction-preserving ``"scale"`` or per-axis ``"clip"``) and the
+    wheel takes the y component of what is left, ``T_w = [u_c − m × b]_y`` (eq. 17), clipped
+    to ±max_wheel_torque_nm. ``u`` depends on ``variant``:
+
+    * ``"paper"``: ``u = u_c`` (eq. 16). The x/z part of ``u_c``'s component along b is lost.
+    * ``"xz"``: ``u = [u_cx, 0, u_cz]`` (spec §6 item 9); the wheel alone takes the y demand.
+      About the x/z axis ``ê ∥ [b_x, 0, b_z]`` only the fraction ``b_y²/|b|²`` is realized.
+    * ``"exact"``: ``u = u_c − k T* e_y`` with ``T* = (u_c·b)/b_y``, the wheel torque that
+      leaves a demand perpendicular to b. With ``k = 1``, ``m × b + T_w e_y = u_c`` exactly
+      (the one solution with ``m ⊥ b``; a dipole along b makes no torque) and eq. (17)
+      returns ``T_w = T*``. ``k ∈ [0, 1]`` is the largest value that keeps the dipole and
+      ``k T*`` within their limits (``b_y → 0`` needs an unbounded T*): the perpendicular
+      part ``u_⊥`` is realized first (``k = 0`` is eq. 16) and then as much of the along-b
+      part as the limits allow; the realized x/z torque is ``u_⊥ + k u_∥`` and y is exact.
+      When ``u_⊥`` alone exceeds the dipole limits, ``k = 0`` and ``m`` is saturated as above.
     """
+    validation.choice("variant", variant, ALLOCATIONS)
     b2 = float(b_body_t @ b_body_t)
     if b2 <= 0.0:
         raise ValueError("b_body_t must be non-zero to allocate magnetic torque")
-    u = u_c if variant == "paper" else np.array([u_c[0], 0.0, u_c[2]])
+    if variant == "xz":
+        u = np.array([u_c[0], 0.0, u_c[2]])
+    elif variant == "exact":
+        u = u_c - _along_b_wheel_share(u_c, b_body_t, b2, max_dipole_am2, max_wheel_torque_nm) * E_Y
+    else:
+        u = u_c
     m = cross(b_body_t, u) / b2
     peak = float(np.max(np.abs(m)))
     if saturation == "scale":
@@ -120,6 +143,29 @@ def allocate_paper(
         m = np.clip(m, -max_dipole_am2, max_dipole_am2)
     t_w = float(np.clip((u_c - cross(m, b_body_t))[1], -max_wheel_torque_nm, max_wheel_torque_nm))
     return m, t_w
+
+
+def _along_b_wheel_share(u_c: np.ndarray, b: np.ndarray, b2: float, max_dipole: float, max_wheel: float) -> float:
+    """``k T*`` of the "exact" allocation (N·m): ``T* = (u_c·b)/b_y``, ``k`` the largest value in
+    [0, 1] with ``|m_i(k T*)| ≤ max_dipole`` and ``|k T*| ≤ max_wheel``, where
+    ``m(T) = b × (u_c − T e_y)/|b|²`` (0 when ``m(0)`` is already outside the limits)."""
+    along = float(u_c @ b)
+    if along == 0.0:
+        return 0.0
+    m0 = cross(b, u_c) / b2
+    if np.max(np.abs(m0)) > max_dipole:
+        return 0.0
+    if b[1] == 0.0:
+        return 0.0  # no wheel torque makes torque along b
+    t_star = along / b[1]
+    dm = -t_star * cross(b, E_Y) / b2  # m(k T*) = m0 + k dm
+    k = min(1.0, max_wheel / abs(t_star))
+    for a, c in zip(m0.tolist(), dm.tolist(), strict=True):
+        if c > 0.0:
+            k = min(k, (max_dipole - a) / c)
+        elif c < 0.0:
+            k = min(k, (-max_dipole - a) / c)
+    return k * t_star
 
 
 @dataclass

@@ -76,7 +76,13 @@ def single_env(seconds: float = 1.0, rounds: int = 5) -> list[dict]:
     return [dict(ref, ratio_to_reference=1.0), *rows]
 
 
-BATCHED_ENV_IDS = ("attitude_envs/ReactionWheel-v0", "attitude_envs/AirBearing-v0", "attitude_envs/LinearSystem-v0")
+BATCHED_ENV_IDS = (
+    "attitude_envs/ReactionWheel-v0",
+    "attitude_envs/AirBearing-v0",
+    "attitude_envs/LinearSystem-v0",
+    "attitude_envs/FuelSlosh-v0",
+    "attitude_envs/Magnetorquer-v0",
+)
 
 
 def batched(sizes=(1, 64, 1024, 4096), seconds: float = 1.0, rounds: int = 3) -> list[dict]:

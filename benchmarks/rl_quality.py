@@ -1,7 +1,8 @@
 """Quality of the RL results (issue 9 item 5): SB3 agents vs the LQR baseline on the shared cost J.
 
-    PYTHONPATH=. python benchmarks/rl_quality.py --algo sac --timesteps 300000 --out results/quality
-    PYTHONPATH=. python benchmarks/rl_quality.py --algo sac --timesteps 300000 --fault-randomized --out results/quality
+    PYTHONPATH=. python benchmarks/rl_quality.py --algo ppo --timesteps 3000000 --env-kwargs '{"action_frame": "body"}'
+    PYTHONPATH=. python benchmarks/rl_quality.py --algo ppo --timesteps 3000000 --env-kwargs '{"action_frame": "body"}' \
+        --fault-randomized --override '{"gamma": 0.998}'
 
 Trains (or with ``--resume`` continues) one agent on ReactionWheel-v0 (spec-000, random
 targets within 60°) with the shipped hyperparameters, then evaluates the best snapshot and
@@ -13,6 +14,7 @@ wheel outage at a random onset in every episode. A long run (hours on 2 cores): 
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
 from agents.sb3.training import train
@@ -30,11 +32,16 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--fault-randomized", action="store_true")
     parser.add_argument("--resume", action="store_true")
+    parser.add_argument("--env-kwargs", default="{}", help="JSON dict added to the training and evaluation env kwargs")
+    parser.add_argument("--override", default="{}", help="JSON dict of hyperparameter overrides")
+    parser.add_argument("--tag", default=None, help="run name (default: algo-nominal|faults-seedN)")
     parser.add_argument("--out", default="results/quality")
     args = parser.parse_args()
-    tag = f"{args.algo}-{'faults' if args.fault_randomized else 'nominal'}-seed{args.seed}"
+    tag = args.tag or f"{args.algo}-{'faults' if args.fault_randomized else 'nominal'}-seed{args.seed}"
     run = Path(args.out) / tag
-    env_kwargs = {"preset": "spec-000", **({"faults": RANDOM_OUTAGE} if args.fault_randomized else {})}
+    extra = json.loads(args.env_kwargs)
+    eval_kwargs = {"preset": "spec-000", **extra}
+    env_kwargs = {**eval_kwargs, **({"faults": RANDOM_OUTAGE} if args.fault_randomized else {})}
     if not (run / "final" / "model.zip").is_file() or args.resume:
         result = train(
             args.algo,
@@ -43,7 +50,8 @@ def main() -> None:
             env_kwargs=env_kwargs,
             seed=args.seed,
             total_timesteps=args.timesteps,
-            eval_env_kwargs={"preset": "spec-000"},
+            overrides=json.loads(args.override) or None,
+            eval_env_kwargs=eval_kwargs,
             resume=args.resume,
         )
         print(f"trained {result.timesteps} steps in {result.wall_time_s:.0f} s")
@@ -54,7 +62,7 @@ def main() -> None:
             {
                 "name": "rw",
                 "id": ENV,
-                "kwargs": {"preset": "spec-000"},
+                "kwargs": eval_kwargs,
                 "faults": {"none": [], "wheel0-outage-10s": OUTAGE},
             }
         ],

@@ -60,3 +60,42 @@ def test_clip_mode_and_bad_mode():
     assert np.all(np.abs(WheelAllocator(m).action(np.array([1.0, 2.0, 3.0]))) <= 1.0)
     with pytest.raises(ValueError, match="saturation"):
         WheelAllocator(m, "ignore")
+
+
+def test_body_action_frame_allocates_minimum_norm_and_keeps_the_null_space_at_rest():
+    env = gym.make("attitude_envs/ReactionWheel-v0", action_frame="body")
+    assert env.action_space.shape == (3,)
+    env.reset(seed=0)
+    rng = np.random.default_rng(1)
+    axes = env.unwrapped.model.params.wheel_axes
+    null = np.linalg.svd(axes)[2][3:]  # rows spanning the wheels' null space
+    for _ in range(50):
+        a = rng.uniform(-0.3, 0.3, 3)  # unsaturated: every wheel within its limit
+        _, _, _, _, info = env.step(a)
+        assert np.allclose(-axes @ info["applied"], a * 0.5, atol=1e-12)
+        assert np.allclose(null @ info["applied"], 0.0, atol=1e-12)
+    # wheel momentum stays in the row space of A: nothing accumulates in the null space
+    assert np.allclose(null @ info["state"]["wheel_speed_rad_s"], 0.0, atol=1e-9)
+
+
+def test_lqr_cost_is_the_same_in_both_action_frames():
+    from baselines.lqr import LQRPolicy
+
+    costs = {}
+    for frame in ("wheel", "body"):
+        env = gym.make("attitude_envs/ReactionWheel-v0", action_frame=frame, episode_duration_s=20.0)
+        policy, (obs, info), J, done = LQRPolicy(env), env.reset(seed=3), 0.0, False
+        while not done:
+            obs, r, term, trunc, info = env.step(policy.act(obs, info))
+            J, done = J - r, term or trunc
+        costs[frame] = J
+    # the same torques up to the float32 rounding of the two actions (4 vs 3 numbers)
+    assert costs["body"] == pytest.approx(costs["wheel"], rel=1e-6)
+
+
+def test_allocator_returns_body_demand_for_body_frame_envs():
+    env = gym.make("attitude_envs/ReactionWheel-v0", action_frame="body")
+    alloc = WheelAllocator.for_env(env)
+    assert np.allclose(alloc.action(np.array([0.1, -0.2, 0.7])), [0.2, -0.4, 1.0])
+    with pytest.raises(ValueError, match="action_frame"):
+        gym.make("attitude_envs/ReactionWheel-v0", action_frame="motor")

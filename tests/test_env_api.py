@@ -24,6 +24,7 @@ CONFIGS = [
             "disturbance": {"kind": "random_walk", "std_nm_per_sqrt_s": 1e-4},
         },
     ),
+    ("attitude_envs/ReactionWheel-v0", {"action_frame": "body", "fault_hint": True}),
     ("attitude_envs/LinearSystem-v0", {}),
     ("attitude_envs/AirBearing-v0", {"disturbance": {"kind": "constant", "torque_nm": [0.01, 0.01, 0.01]}}),
     ("attitude_envs/Magnetorquer-v0", {"episode_duration_s": 20.0, "observe_field": True}),

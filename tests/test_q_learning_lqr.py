@@ -213,6 +213,24 @@ def test_bad_arguments_raise_value_error():
         QLearningLQR(env).learn(samples_per_iteration=0)
 
 
+def test_feasible_gls_lstdq_is_exact_on_noise_free_data():
+    """``td_estimator="lstd_gls"`` keeps the first pass on exact data (no noise to weight)."""
+    A, B, Q, R = CASES["krauth3x2"]
+    K_star, _ = dare_gain(A, B, Q, R)
+    for n_samples in (15, 60):  # exactly p, and enough for the constant feature and a variance fit
+        agent = QLearningLQR(
+            linear_env(A, B, Q, R),
+            method="lspi",
+            seed=0,
+            exploration_std=1.0,
+            initial_gain=np.zeros((2, 3)),
+            td_estimator="lstd_gls",
+        )
+        agent.learn(samples_per_iteration=n_samples)
+        assert relative_error(agent.gain, K_star) <= 1e-8
+        assert agent.reference["ce_error"] <= 1e-10
+
+
 def test_discounted_gain_matches_scaled_dare():
     A, B, Q, R = CASES["kiumarsi2x1"]
     gamma = 0.1  # √γ ρ(A) = 0.9 < 1: K = 0 is stabilizing for the discounted problem

@@ -55,6 +55,49 @@ def test_allocation_parallel_part_goes_to_the_wheel_y_only(rng):
     assert np.allclose(m_xz, 0.0) and t_xz == pytest.approx(1e-6)
 
 
+def test_exact_allocation_realizes_any_demand_within_the_limits(rng):
+    """m × b + T_w e_y = u_c for any u_c (not only ⊥ b) when b_y ≠ 0; the dipole is ⊥ b."""
+    for _ in range(50):
+        b = rng.normal(size=3) * 3e-5
+        u = rng.normal(size=3) * 1e-6
+        m, t_w = allocate_paper(u, b, max_dipole_am2=1e3, max_wheel_torque_nm=1.0, variant="exact")
+        assert np.allclose(np.cross(m, b) + [0, t_w, 0], u, rtol=0, atol=1e-12 * np.linalg.norm(u))
+        assert abs(m @ b) <= 1e-12 * np.linalg.norm(m) * np.linalg.norm(b)
+        assert t_w == pytest.approx(u @ b / b[1])
+        # the paper's allocation loses the x/z part of the component along b
+        m_p, t_p = allocate_paper(u, b, max_dipole_am2=1e3, max_wheel_torque_nm=1.0)
+        par = (u @ b) / (b @ b) * b
+        assert np.allclose(np.cross(m_p, b) + [0, t_p, 0], u - par + [0, par[1], 0], atol=1e-12 * np.linalg.norm(u))
+    # b ⊥ e_y: no wheel torque can make the along-b demand; the perpendicular part is still made
+    b = np.array([3e-5, 0.0, 1e-5])
+    u = np.array([1e-6, 0.0, 0.0])
+    m, t_w = allocate_paper(u, b, 0.5, 2.3e-4, variant="exact")
+    assert t_w == 0.0 and np.allclose(np.cross(m, b), u - (u @ b) / (b @ b) * b, rtol=0, atol=1e-18)
+
+
+def test_exact_allocation_under_limits_is_never_worse_than_the_papers(rng):
+    """Near b_y = 0 the exact wheel share is unbounded: the perpendicular part comes first, then
+    as much of the along-b part as the limits allow (x/z: u_⊥ + k u_∥, y exact)."""
+    for _ in range(200):
+        b = np.array([rng.normal(), 0.05 * rng.normal(), rng.normal()]) * 3e-5
+        u = rng.normal(size=3) * 3e-6
+        made = {}
+        for variant in ("paper", "exact"):
+            m, t_w = allocate_paper(u, b, 0.5, 2.3e-4, variant=variant)
+            assert np.all(np.abs(m) <= 0.5 + 1e-12) and abs(t_w) <= 2.3e-4
+            made[variant] = np.cross(m, b) + [0, t_w, 0]
+        perp = np.cross(b, u) / (b @ b)
+        if np.max(np.abs(perp)) <= 0.5 and abs((u - np.cross(perp, b))[1]) <= 2.3e-4:
+            par = (u @ b) / (b @ b) * b
+            k = (made["exact"] - (u - par))[[0, 2]] @ par[[0, 2]] / (par[[0, 2]] @ par[[0, 2]])
+            assert -1e-9 <= k <= 1 + 1e-9
+            assert np.allclose(made["exact"][[0, 2]], (u - par)[[0, 2]] + k * par[[0, 2]], atol=1e-15)
+            assert made["exact"][1] == pytest.approx(u[1], abs=1e-15)
+            assert np.linalg.norm(made["exact"] - u) <= np.linalg.norm(made["paper"] - u) + 1e-15
+    with pytest.raises(ValueError, match="variant must be one of"):
+        allocate_paper(np.ones(3), np.ones(3), 0.5, 1.0, variant="least-squares")
+
+
 def test_terminal_term_is_c1_at_epsilon_and_kappa_defaults_follow_spec():
     g = SlidingModeGains()
     assert g.kappa1 == pytest.approx((2 - 0.6) * 0.01 ** (-0.4)) and g.kappa1 == pytest.approx(8.834, abs=1e-3)
@@ -84,7 +127,7 @@ def _nominal_env():
     return gym.make(
         MT,
         orbit={"model": "circular", "mean_anomaly_deg": 0.0},
-        disturbance=None,
+        disturbance={"kind": "constant", "torque_nm": [0.0, 0.0, 0.0]},  # set per step below
         time_varying_inertia=None,
         control_dt_s=0.01,
         episode_duration_s=2.0,
@@ -101,13 +144,9 @@ def _sliding_history(apply_equivalent: bool) -> np.ndarray:
         u_c, s, _ = pol.demand(info)
         s_values.append(s)
         if apply_equivalent:  # an ideal actuator: u_c enters as an external body torque
-            env._disturbance_at = _constant(u_c.copy())
+            env._disturbance.torque_nm = u_c.copy()
         _, _, _, _, info = env.step(np.zeros(4, dtype=np.float32))
     return np.array(s_values)
-
-
-def _constant(torque_nm):
-    return lambda t: torque_nm
 
 
 def test_equivalent_control_cancels_the_nominal_dynamics():

@@ -77,8 +77,9 @@ def _step_singles_with_autoreset(singles, actions, done_before):
             "initial_rate_max_rad_s": 0.08,
         },
         {"observe_wheel_speeds": True, "wheel_momentum_weight": 10.0, "cost_input": "wheel", "R": np.eye(4)},
+        {"action_frame": "body", "faults": [{"kind": "stuck", "index": 1, "value": 0.2, "onset_s": 0.5}]},
     ],
-    ids=["partial-block-disturbance-faults-limits", "wheel-cost-and-momentum"],
+    ids=["partial-block-disturbance-faults-limits", "wheel-cost-and-momentum", "body-frame-actions"],
 )
 def test_sub_envs_match_single_envs_bitwise_in_every_kernel_path(kwargs):
     n, seed = 67 if "disturbance" in kwargs else 3, 7
@@ -90,7 +91,7 @@ def test_sub_envs_match_single_envs_bitwise_in_every_kernel_path(kwargs):
     done = np.zeros(n, dtype=bool)
     ended = 0
     for _ in range(45):  # past the 2 s episodes: next-step autoreset of every sub-env
-        actions = rng.uniform(-1.2, 1.2, (n, 4))
+        actions = rng.uniform(-1.2, 1.2, (n, *vec.single_action_space.shape))
         obs, rewards, term, trunc, infos = vec.step(actions)
         for i, (o, r, te, tr, info) in enumerate(_step_singles_with_autoreset(singles, actions, done)):
             assert np.array_equal(obs[i], o) and rewards[i] == r and te == term[i] and tr == trunc[i], i

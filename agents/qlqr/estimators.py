@@ -14,6 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
+from agents.qlqr.features import smat, svec
+
 
 class InsufficientExcitationError(ValueError):
     """The regressors do not span the p unknowns (rank) or are too ill-conditioned to
@@ -204,3 +206,40 @@ def greedy_gain(H: np.ndarray, n: int, rel_tol: float = 1e-6, cond_limit: float 
     Vk = V[:, keep]
     K = Vk @ ((Vk.T @ H[n:, :n]) / lam[keep, None])
     return K, float(lam[0] / top)
+
+
+def variance_weights(
+    F: np.ndarray, residuals: np.ndarray, noise_free: float = 0.0, iterations: int = 3, floor: float = 1e-3
+) -> np.ndarray | None:
+    """Row weights ``1/√v̂(z_k)`` of feasible generalized least squares for a TD equation
+    (q-learning-lqr note §3.3: weights that depend on ``z_k`` only keep LSTD-Q consistent).
+
+    Under Gaussian process noise the TD error of the Q-function of gain K,
+    ``ε_k = γ(x⁺ᵀP_K x⁺ − E[x⁺ᵀP_K x⁺ | z_k])``, has the conditional variance
+    ``v(z) = γ²(4 μᵀP_K W P_K μ + 2 tr((P_K W)²))`` with ``μ = A x + B u``: ``zᵀSz + c`` with
+    S ⪰ 0, c ≥ 0. It is fitted model-free from the squared first-stage residuals on the
+    instrument rows ``F = [φ(z_k); 1]`` (svec quadratic features then the constant column):
+    least squares, S projected onto the PSD cone and c onto [0, ∞), refitted ``iterations``
+    times with weights ``1/v̂²`` (Var(ε²) ∝ v²: iterated variance-function estimation,
+    Carroll & Ruppert 1988). Fitted values are floored at ``floor`` × the mean squared
+    residual. Weighting each TD equation by ``1/v(z_k)`` makes ``φ(z_k)/v(z_k)`` the efficient
+    instrument for ``E[ε_k | z_k] = 0`` (Chamberlain 1987), since ``E[ψ_k | z_k]`` lies in the
+    span of F. Returns ``None`` when no residual exceeds ``noise_free`` in magnitude (noise-free
+    data: residuals at round-off level carry no variance information)."""
+    e2 = np.asarray(residuals, dtype=float) ** 2
+    if not np.max(e2, initial=0.0) > noise_free**2:
+        return None
+    p = F.shape[1] - 1
+    d = int(round((np.sqrt(8 * p + 1) - 1) / 2))
+    col = np.linalg.norm(F, axis=0)
+    col[col == 0] = 1.0
+    Fn = F / col
+    lower = floor * float(np.mean(e2))
+    rw = np.ones(len(e2))
+    for _ in range(max(1, int(iterations))):
+        beta = lstsq_tall(Fn * rw[:, None], e2 * rw) / col
+        lam, V = np.linalg.eigh(smat(beta[:p], d))
+        beta = np.concatenate([svec((V * np.maximum(lam, 0.0)) @ V.T), [max(beta[p], 0.0)]])
+        v = np.maximum(F @ beta, lower)
+        rw = 1.0 / v
+    return 1.0 / np.sqrt(v)

@@ -12,9 +12,10 @@ from gymnasium import spaces
 from attitude_envs import validation
 from attitude_envs.cost import QuadraticCost
 from attitude_envs.faults import ActuatorFaults
-from attitude_envs.integrators import rk4_step, substeps
+from attitude_envs.integrators import substeps
 from attitude_envs.plants import slosh
-from attitude_envs.plants.slosh_model import PAPER_Q, PAPER_R, FuelSloshModel, reduced_state
+from attitude_envs.plants import slosh_kernels as kernels
+from attitude_envs.plants.slosh_model import PAPER_Q, PAPER_R, REDUCED_INDEX, FuelSloshModel, reduced_state
 from attitude_envs.sensors import Channel, SensorSuite
 
 # Spec 004 Table 4 (READ): [v_x, v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2] in m/s, rad, rad/s.
@@ -23,6 +24,9 @@ PAPER_INITIAL_STATE = np.array(
 )
 _INITIAL_ORDER = (slosh.IVX, slosh.IVZ, slosh.ITH, slosh.IOM, slosh.IPSI1, slosh.IDPSI1, slosh.IPSI2, slosh.IDPSI2)
 _OPTION_KEYS = {"state", "faults"}
+# full-state indices of the observation [v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2, v_x], or [v_z, θ, Ω, v_x]
+OBS_INDEX = np.append(REDUCED_INDEX, slosh.IVX)
+OBS_INDEX_NO_SLOSH = OBS_INDEX[[0, 1, 2, 7]]
 
 
 class FuelSloshEnv(gym.Env):
@@ -30,7 +34,8 @@ class FuelSloshEnv(gym.Env):
 
     Plant: the full 5-DOF nonlinear model of :mod:`attitude_envs.plants.slosh` (body
     translation v_x, v_z, pitch θ, two damped slosh pendulums ψ1, ψ2; spec 004 §2.5) in
-    mass-matrix form, integrated by fixed-step RK4 with ``integrator_dt_s`` sub-steps.
+    mass-matrix form, integrated by fixed-step RK4 with ``integrator_dt_s`` sub-steps in
+    one compiled call per step (:func:`attitude_envs.plants.slosh_kernels.control_step`).
     Step-size choice: with the input held over a control period the plant is *not* stiff
     (its fastest modes are the slosh pendulums at ≈ 1–1.5 rad/s; RK4 at 0.05 s has
     |λh| ≤ 0.08, per-step error ~1e-8). The stiffness the spec warns about (§3.2: LQR
@@ -158,6 +163,17 @@ class FuelSloshEnv(gym.Env):
         self._y = np.zeros(slosh.N_STATE)
         self._t = 0.0
         self._steps = 0
+        self._limits = np.array([self.model.max_gimbal_rad, self.model.max_moment_nm])
+        self._obs_index = OBS_INDEX if self.observe_slosh else OBS_INDEX_NO_SLOSH
+        self._work = np.empty(kernels.WORK_SIZE)
+        self._constants = kernels.step_constants(
+            self.model.params.packed,
+            self.integrator_dt_s,
+            self._substeps,
+            self.control_dt_s,
+            self.model.cost.Q,
+            self.model.cost.R,
+        )
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
@@ -180,44 +196,42 @@ class FuelSloshEnv(gym.Env):
         return self._observation(), self._info(zero, zero, zero, 0.0)
 
     def step(self, action):
-        a = validation.action(action, 2)
-        m = self.model
-        commanded = np.array([a[0] * m.max_gimbal_rad, a[1] * m.max_moment_nm])
-        applied = np.array([np.clip(a[0], -1, 1) * m.max_gimbal_rad, np.clip(a[1], -1, 1) * m.max_moment_nm])
+        a0, a1 = validation.action(action, 2).tolist()  # Python floats: cheaper than tiny arrays
+        gimbal, moment = self.model.max_gimbal_rad, self.model.max_moment_nm
+        commanded = np.array([a0 * gimbal, a1 * moment])
+        applied = np.array([min(max(a0, -1.0), 1.0) * gimbal, min(max(a1, -1.0), 1.0) * moment])
         applied = self._faults.apply(applied, self._t)
-        delta, moment = float(applied[0]), float(applied[1])
-        aug = np.concatenate([self._y, np.zeros(3)])  # + cost, ∫a_z, ∫Ω̇
-        h = self.integrator_dt_s
-        for j in range(self._substeps):
-            aug = rk4_step(lambda t, z: self._augmented_derivative(z, delta, moment), self._t + j * h, aug, h)
+        new_inputs = np.empty(2)  # step-mean [a_z, Ω̇]
+        cost = kernels.control_step(self._y, applied, self._constants, new_inputs, self._work)
         self._steps += 1
         self._t = self._steps * self.control_dt_s  # from the step count: no drift of onsets/time limit
-        self._y = aug[: slosh.N_STATE]
-        cost = float(aug[slosh.N_STATE])
-        new_inputs = aug[slosh.N_STATE + 1 :] / self.control_dt_s
-        finite = bool(np.all(np.isfinite(aug)))
-        terminated = not finite or bool(
-            np.max(np.abs(self._y[slosh.IPSI1 : slosh.IPSI2 + 1])) > self.max_slosh_angle_rad
-            or abs(self._y[slosh.IOM]) > self.max_pitch_rate_rad_s
-            or abs(self._y[slosh.ITH]) > self.max_pitch_angle_rad
+        y = self._y.tolist()
+        # a finite sum proves every entry finite; only a non-finite one needs the exact check
+        finite = math.isfinite(cost + sum(y) + float(new_inputs.sum())) or (
+            math.isfinite(cost) and all(map(math.isfinite, y)) and bool(np.isfinite(new_inputs).all())
+        )
+        terminated = not finite or (
+            max(abs(y[slosh.IPSI1]), abs(y[slosh.IPSI2])) > self.max_slosh_angle_rad
+            or abs(y[slosh.IOM]) > self.max_pitch_rate_rad_s
+            or abs(y[slosh.ITH]) > self.max_pitch_angle_rad
         )
         truncated = bool(self._t >= self.episode_duration_s - 1e-9 * self.control_dt_s) and not terminated
         obs = self._observation() if finite else np.zeros(self.observation_space.shape, np.float32)
         return obs, -cost, terminated, truncated, self._info(applied, commanded, new_inputs, cost)
 
-    # ------------------------------------------------------------------ internals
-    def _augmented_derivative(self, aug: np.ndarray, delta: float, moment: float) -> np.ndarray:
-        y = aug[: slosh.N_STATE]
-        dy = slosh.derivative(self.model.params, y, delta, moment)
-        _, a_z, dom = slosh.tank_accelerations(y, dy)
-        u_c = np.array([a_z, dom])
-        stage = self.model.cost.stage(reduced_state(y), u_c)
-        return np.concatenate([dy, [stage], u_c])
+    def batch_termination(self, states: np.ndarray) -> np.ndarray:
+        """The limits :meth:`step` terminates on (slosh angle, pitch rate, pitch angle) for
+        rows of full states ``y`` (E × 10); the batched env's hook (it checks finiteness)."""
+        slosh_angle = np.maximum(np.abs(states[:, slosh.IPSI1]), np.abs(states[:, slosh.IPSI2]))
+        return (
+            (slosh_angle > self.max_slosh_angle_rad)
+            | (np.abs(states[:, slosh.IOM]) > self.max_pitch_rate_rad_s)
+            | (np.abs(states[:, slosh.ITH]) > self.max_pitch_angle_rad)
+        )
 
+    # ------------------------------------------------------------------ internals
     def _observation(self) -> np.ndarray:
-        x = reduced_state(self._y)
-        vx = self._y[slosh.IVX]
-        obs = np.append(x, vx) if self.observe_slosh else np.array([x[0], x[1], x[2], vx])
+        obs = self._y[self._obs_index]
         if self._sensors.enabled:
             obs = self._sensors.measure({"state": obs}, self._t)["state"]
         if self.fault_hint:
@@ -230,22 +244,25 @@ class FuelSloshEnv(gym.Env):
         return self._y.copy()
 
     def _info(self, applied, commanded, new_inputs, cost: float) -> dict:
-        y = self._y
+        # New arrays every call (gymnasium's checker): one copy of the state, whose slices
+        # are views of it.
+        y = self._y.copy()
+        th, vx, vz, om = y[[slosh.ITH, slosh.IVX, slosh.IVZ, slosh.IOM]].tolist()
         return {
             "state": {
-                "position_m": y[slosh.IX : slosh.IZ + 1].copy(),
-                "theta_rad": float(y[slosh.ITH]),
-                "slosh_angle_rad": y[slosh.IPSI1 : slosh.IPSI2 + 1].copy(),
-                "v_x_m_s": float(y[slosh.IVX]),
-                "v_z_m_s": float(y[slosh.IVZ]),
-                "pitch_rate_rad_s": float(y[slosh.IOM]),
-                "slosh_rate_rad_s": y[slosh.IDPSI1 :].copy(),
+                "position_m": y[slosh.IX : slosh.IZ + 1],
+                "theta_rad": th,
+                "slosh_angle_rad": y[slosh.IPSI1 : slosh.IPSI2 + 1],
+                "v_x_m_s": vx,
+                "v_z_m_s": vz,
+                "pitch_rate_rad_s": om,
+                "slosh_rate_rad_s": y[slosh.IDPSI1 :],
             },
-            "full_state": y.copy(),
+            "full_state": y,
             "x": reduced_state(y),
-            "applied": np.asarray(applied, float),
-            "commanded": np.asarray(commanded, float),
-            "new_inputs": np.asarray(new_inputs, float),
+            "applied": applied,
+            "commanded": commanded,
+            "new_inputs": new_inputs,
             "cost": cost,
             "time_s": self._t,
             "faults": self._faults.info(self._t) + self._sensors.info(self._t),

@@ -35,30 +35,24 @@ class LinearSystemVectorEnv(BatchedEnv):
     def _observations(self, indices=None) -> np.ndarray:
         return (self._x if indices is None else self._x[indices]).astype(np.float32)
 
-    def _advance(self, actions, skipped):
+    def _advance(self, actions):
         first = self.envs[0]
         a = self._check_actions(actions, self._m)
         u = first.action_scale * np.minimum(np.maximum(a, -1.0), 1.0)
-        for i in np.flatnonzero(self._faulty):
+        # sub-envs about to be reset (next-step autoreset) take no draws: their generators
+        # go on as the single env's, whose next episode starts with the reset
+        live = ~self._needs_reset
+        for i in np.flatnonzero(self._faulty & live):
             u[i] = self.envs[i]._faults.apply(u[i], self._steps[i] * self.model.dt_s)
-        if skipped is not None:
-            held = self._x[skipped].copy()
         linear_kernels.linear_step_batch(
             self._x, u, self.model.A, self.model.B, first.cost.Q, first.cost.R, self._next, self._costs
         )
         if first._noise_std > 0:
-            for i, env in enumerate(self.envs):
-                if skipped is None or not skipped[i]:
-                    self._next[i] += first._noise_std * env.np_random.normal(size=self.model.n)
+            for i in np.flatnonzero(live):
+                self._next[i] += first._noise_std * self.envs[i].np_random.normal(size=self.model.n)
         self._x, self._next = self._next, self._x
         self._steps += 1
         bad = ~np.isfinite(self._x).all(axis=1) | (np.abs(self._x).max(axis=1) > first.divergence_threshold)
         truncated = (self._steps >= first.episode_steps) & ~bad
-        if skipped is not None:
-            self._x[skipped] = held
-            self._steps[skipped] = 0
-            self._costs[skipped] = 0.0
-            bad[skipped] = truncated[skipped] = False
-        infos = self._infos({"cost": self._costs.copy(), "applied": u})
-        n_done = np.count_nonzero(bad) + np.count_nonzero(truncated)
-        return self._observations(), -self._costs, bad, truncated, infos, n_done
+        infos = self._with_masks({"cost": self._costs.copy(), "applied": u})
+        return self._observations(), -self._costs, bad, truncated, infos

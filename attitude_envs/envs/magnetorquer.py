@@ -13,10 +13,11 @@ from attitude_envs import quaternion, validation
 from attitude_envs.cost import QuadraticCost
 from attitude_envs.disturbances import Disturbance
 from attitude_envs.faults import ActuatorFaults
-from attitude_envs.integrators import rk4_step, substeps
+from attitude_envs.integrators import substeps
 from attitude_envs.plants import magnetorquer as mt
+from attitude_envs.plants import magnetorquer_kernels as kernels
 from attitude_envs.plants.magnetic_field import DIPOLE_STRENGTH_T_M3, FieldModel
-from attitude_envs.plants.orbit import KeplerOrbit, OrbitState
+from attitude_envs.plants.orbit import KeplerOrbit
 from attitude_envs.sensors import Channel, SensorSuite
 from attitude_envs.trajectories import SmoothBangBang
 from attitude_envs.uncertainty import InertiaUncertainty
@@ -33,8 +34,8 @@ PAPER_ORBIT = {
     "mean_anomaly_deg": "random",
 }
 PAPER_REFERENCE = {"delta_deg": [10.0, 20.0, 10.0], "t_final_s": 1200.0, "start_deg": [0.0, 0.0, 0.0]}
-FIELD_SCALE_T = 5e-5  # observation scale of the body-frame field
-WHEEL_SPEED_SCALE_RAD_S = 1e3  # observation scale of the wheel speed
+FIELD_SCALE_T = kernels.FIELD_SCALE_T  # observation scale of the body-frame field
+WHEEL_SPEED_SCALE_RAD_S = kernels.WHEEL_SPEED_SCALE_RAD_S  # observation scale of the wheel speed
 
 
 @dataclass(frozen=True)
@@ -62,7 +63,9 @@ class MagnetorquerEnv(gym.Env):
     :mod:`attitude_envs.plants.magnetorquer` (exact gyrostat equations with one wheel,
     attitude relative to the orbital LVLH frame), orbit :mod:`attitude_envs.plants.orbit`,
     field :mod:`attitude_envs.plants.magnetic_field`; fixed-step RK4 with the stage cost as
-    an extra state, quaternion renormalized after every sub-step.
+    an extra state, quaternion renormalized after every sub-step. Each step is one compiled
+    call (:func:`attitude_envs.plants.magnetorquer_kernels.advance`): integration, then the
+    observation and ``info`` quantities at the step's end.
 
     ================  ==========================================================  ===========
     Quantity          Meaning                                                     Units
@@ -217,8 +220,6 @@ class MagnetorquerEnv(gym.Env):
         ]
         self._sensors = SensorSuite(sensors, channels, faults)
         self.fault_hint = bool(fault_hint)
-        diagonal = np.count_nonzero(q_mat - np.diag(np.diag(q_mat))) + np.count_nonzero(r_mat - np.diag(np.diag(r_mat)))
-        self._diag_weights = (np.diag(q_mat).tolist(), np.diag(r_mat).tolist()) if diagonal == 0 else None
         self.max_rate_rad_s = validation.positive("max_rate_rad_s", max_rate_rad_s)
         if render_mode is not None:
             raise ValueError(f"render_mode must be None (no renderer for Magnetorquer-v0), got {render_mode!r}")
@@ -238,9 +239,13 @@ class MagnetorquerEnv(gym.Env):
         self._t = 0.0
         self._meas: dict[str, np.ndarray] = {}
         self._steps = 0
-        self._orbit_cache: dict[float, OrbitState] = {}
-        self._ctx_cache: dict[float, tuple] = {}
-        self._eff_inv: np.ndarray | None = None
+        self._shared = self._pack_shared(q_mat, r_mat)
+        self._env_vec = self._pack_env()
+        self._work = np.zeros(kernels.WORK_SIZE)
+        self._step_out = np.zeros(kernels.STEP_OUT_SIZE)
+        self._snap = np.zeros(kernels.SNAPSHOT_SIZE)
+        self._n_obs = 10 if self.observe_field else 7
+        self._limits = params.limits
 
     # ------------------------------------------------------------------ construction helpers
     def _orbit(self, config: dict | None) -> KeplerOrbit:
@@ -270,6 +275,58 @@ class MagnetorquerEnv(gym.Env):
             model=c["model"],
         )
 
+    def _pack_shared(self, q_mat: np.ndarray, r_mat: np.ndarray) -> np.ndarray:
+        """The configuration in the compiled step's layout (:func:`kernels.pack_shared`)."""
+        p = self.model.params
+        dist = self._disturbance
+        amplitude, period = np.zeros(3), 1.0
+        if dist == "paper":
+            kind = kernels.DIST_PAPER
+        elif dist is None:
+            kind = kernels.DIST_NONE
+        elif dist.kind == "sinusoidal":
+            kind, amplitude, period = kernels.DIST_SINUSOIDAL, dist.amplitude_nm, dist.period_s
+        else:  # constant, random walk: a torque held over the control step
+            kind = kernels.DIST_HELD
+        dj = self._delta_j
+        return kernels.pack_shared(
+            wheel_inertia_kg_m2=p.wheel_inertia_kg_m2,
+            max_wheel_momentum_nms=p.max_wheel_momentum_nms,
+            integrator_dt_s=self.integrator_dt_s,
+            substeps=self._substeps,
+            field_model=self.field.model,
+            dipole_strength_t_m3=self.field.strength,
+            inclination_rad=self.orbit.inclination_rad,
+            table_step_s=self.field.igrf_step_s,
+            disturbance_kind=kind,
+            disturbance_scale=self.disturbance_scale,
+            orbital_rate_rad_s=self.model.orbital_rate_rad_s,
+            second_harmonic=self.disturbance_second_harmonic,
+            disturbance_amplitude_nm=amplitude,
+            disturbance_period_s=period,
+            gravity_gradient=self.gravity_gradient,
+            delta_j=None if dj is None else (dj.amplitude_kg_m2, dj.frequency_rad_s, dj.phase_rad),
+            Q=q_mat,
+            R=r_mat,
+            reference=self.model.reference.packed,
+        )
+
+    def _disturbance_vector(self) -> np.ndarray:
+        """The per-episode disturbance entry of the compiled step: the held torque (constant,
+        random walk) or the sinusoid's phases."""
+        dist = self._disturbance
+        if isinstance(dist, Disturbance):
+            if dist.kind == "sinusoidal":
+                return dist._phase
+            return dist.torque_nm if dist.kind == "constant" else dist._walk
+        return np.zeros(3)
+
+    def _pack_env(self) -> np.ndarray:
+        """This episode's draws in the compiled step's layout (:func:`kernels.pack_env`)."""
+        eff = self._inertia.copy()
+        eff[1, 1] -= self.model.params.wheel_inertia_kg_m2
+        return kernels.pack_env(self._inertia, np.linalg.inv(eff), self.orbit.packed, self._disturbance_vector())
+
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
@@ -286,9 +343,6 @@ class MagnetorquerEnv(gym.Env):
                 float(rng.uniform(0.0, 360.0)) if self._random_anomaly else float(self._orbit_cfg["mean_anomaly_deg"])
             )
         self.orbit = self._make_orbit(anomaly)
-        self._orbit_cache = {}
-        self._ctx_cache = {}
-        self._eff_inv = None
         self.field.prepare(self.orbit, self.episode_duration_s + self.control_dt_s)
         q_d, _, _ = self.model.reference.attitude(0.0)
         if self.task == "tracking":
@@ -310,221 +364,141 @@ class MagnetorquerEnv(gym.Env):
             self._disturbance.reset(rng)
         self._sensors.reset(rng, options.get("faults"))  # own spawned generator
         self._faults.reset(rng, options.get("faults"))
-        zeros = np.zeros(4)
-        return self._observation(), self._info(zeros, zeros, np.zeros(3), np.zeros(3), 0.0)
+        self._env_vec = self._pack_env()
+        self._work[kernels.WK_TAG] = np.nan  # new draws: no context to reuse
+        kernels.snapshot_into(
+            self._y,
+            0.0,
+            self._shared,
+            self._env_vec,
+            self.field.table,
+            self._work[kernels.WK_C0 : kernels.WK_C0 + kernels.CONTEXT_SIZE],
+            self._snap,
+        )
+        self._step_out[:] = 0.0
+        return self._observation(), self._info(np.zeros(4), 0.0)
 
     def step(self, action):
-        p = self.model.params
-        a = np.clip(validation.action(action, 4), -1.0, 1.0)
-        commanded = a * p.limits
+        a = validation.action(action, 4)
+        commanded = np.minimum(np.maximum(a, -1.0), 1.0) * self._limits
         delivered = self._faults.apply(commanded, self._t)
-        m = delivered[:3]
-        if isinstance(self._disturbance, Disturbance):
-            self._disturbance.advance(self.np_random, self.control_dt_s)
-        h = self.integrator_dt_s
-        aug = np.concatenate([self._y, [0.0]])
-        wheel_sum, tau_m_sum = 0.0, np.zeros(3)
+        dist = self._disturbance
+        if isinstance(dist, Disturbance):  # the held torque may change between steps
+            dist.advance(self.np_random, self.control_dt_s)
+            self._env_vec[kernels.EN_DIST : kernels.EN_DIST + 3] = self._disturbance_vector()
         t0 = self._t
-        for j in range(self._substeps):
-            ts = t0 + j * h
-            w_bi = mt.inertial_rate(aug[:4], aug[4:7], self._orbit_state(ts).rate_rad_s)
-            h_w = p.wheel_inertia_kg_m2 * (aug[7] + w_bi[1])
-            t_w = mt.wheel_momentum_limited(float(delivered[3]), h_w, p.max_wheel_momentum_nms)
-            wheel_sum += t_w
-            tau_m_sum += mt.cross(m, mt.orbital_to_body(aug[:4]) @ self._context(ts)[1])
-            aug = rk4_step(lambda t, y, t_w=t_w: self._augmented_derivative(t, y, m, t_w), ts, aug, h)
-            aug[:4] /= np.linalg.norm(aug[:4])
         self._steps += 1
-        self._t = self._steps * self.control_dt_s
-        self._orbit_cache = {k: v for k, v in self._orbit_cache.items() if k >= self._t - 1e-12}
-        self._ctx_cache = {k: v for k, v in self._ctx_cache.items() if k >= self._t - 1e-12}
-        self._y = aug[:-1]
-        cost = float(aug[-1])
-        applied = np.concatenate([m, [wheel_sum / self._substeps]])
-        tau_m = tau_m_sum / self._substeps
-        control = tau_m + mt.E_Y * applied[3]
-        finite = bool(np.all(np.isfinite(aug)))
-        terminated = (not finite) or bool(np.max(np.abs(self._y[4:7])) > self.max_rate_rad_s)
+        self._t = self._steps * self.control_dt_s  # from the step count: onsets and the time limit do not drift
+        cost = kernels.advance(
+            self._y,
+            delivered,
+            t0,
+            self._t,
+            self._shared,
+            self._env_vec,
+            self.field.table,
+            self._step_out,
+            self._snap,
+            self._work,
+        )
+        finite = self._step_out[kernels.ST_FINITE] == 1.0
+        terminated = not finite or bool(self._step_out[kernels.ST_MAX_RATE] > self.max_rate_rad_s)
         truncated = bool(self._t >= self.episode_duration_s - 1e-9 * self.control_dt_s) and not terminated
         obs = self._observation() if finite else np.zeros(self.observation_space.shape, np.float32)
-        return obs, -cost, terminated, truncated, self._info(applied, commanded, tau_m, control, cost)
+        return obs, -cost, terminated, truncated, self._info(commanded, cost)
 
     # ------------------------------------------------------------------ internals
-    def _orbit_state(self, t_s: float) -> OrbitState:
-        state = self._orbit_cache.get(t_s)
-        if state is None:
-            state = self.orbit.state_at(t_s)
-            self._orbit_cache[t_s] = state
-        return state
-
-    def _field_orbital(self, t_s: float) -> np.ndarray:
-        return self.field.orbital_t(t_s, self._orbit_state(t_s), self.orbit.inclination_rad)
+    def _snapshot(self, t_s: float, y: np.ndarray) -> np.ndarray:
+        """A fresh :func:`kernels.snapshot_into` of state ``y`` at ``t_s`` (layout ``SN_*``)."""
+        out = np.empty(kernels.SNAPSHOT_SIZE)
+        ctx = np.empty(kernels.CONTEXT_SIZE)
+        kernels.snapshot_into(y, float(t_s), self._shared, self._env_vec, self.field.table, ctx, out)
+        return out
 
     def true_inertia_at(self, t_s: float) -> np.ndarray:
         """The true inertia ``I + ΔJ(t)`` of the plant at ``t_s``, kg·m² (evaluation truth)."""
-        return self._inertia if self._delta_j is None else self._inertia + self._delta_j.delta_at(t_s)
-
-    def _disturbance_at(self, t_s: float) -> np.ndarray:
-        if self._disturbance == "paper":
-            return mt.paper_disturbance_nm(
-                t_s, self.model.orbital_rate_rad_s, self.disturbance_scale, self.disturbance_second_harmonic
-            )
-        if self._disturbance is None:
-            return np.zeros(3)
-        return self.disturbance_scale * self._disturbance.torque_nm_at(t_s)
+        return self._snapshot(t_s, self._y)[kernels.SN_I : kernels.SN_I + 9].reshape(3, 3)
 
     def external_torque_at(self, t_s: float, q: np.ndarray) -> np.ndarray:
-        """Disturbance (+ gravity gradient when enabled) on the body, N·m."""
-        d = self._disturbance_at(t_s)
-        if self.gravity_gradient:
-            d = d + mt.gravity_gradient_nm(q, self.true_inertia_at(t_s), self._orbit_state(t_s).radius_m)
-        return d
+        """Disturbance (+ gravity gradient when enabled) on the body at attitude ``q``, N·m."""
+        y = self._y.copy()
+        y[:4] = q
+        return self._snapshot(t_s, y)[kernels.SN_EXT : kernels.SN_EXT + 3]
 
-    def _context(self, t_s: float) -> tuple:
-        """Everything that depends on time only, cached for the RK4 stages that share ``t_s``:
-        orbit state, orbital-frame field, reference, true inertia and I_eff⁻¹, disturbance."""
-        ctx = self._ctx_cache.get(t_s)
-        if ctx is None:
-            orb = self._orbit_state(t_s)
-            b_orb = self.field.orbital_t(t_s, orb, self.orbit.inclination_rad)
-            q_d, w_d, _ = self.model.reference.attitude(t_s)
-            inertia = self.true_inertia_at(t_s)
-            if self._delta_j is None and self._eff_inv is not None:
-                eff_inv = self._eff_inv
-            else:
-                eff = inertia.copy()
-                eff[1, 1] -= self.model.params.wheel_inertia_kg_m2
-                eff_inv = np.linalg.inv(eff)
-                if self._delta_j is None:
-                    self._eff_inv = eff_inv
-            ctx = (orb, b_orb, q_d, w_d, inertia, eff_inv, self._disturbance_at(t_s))
-            self._ctx_cache[t_s] = ctx
-        return ctx
-
-    def _augmented_derivative(self, t: float, aug: np.ndarray, m: np.ndarray, t_w: float) -> np.ndarray:
-        x, y, z, w, w0, w1, w2 = aug[:7].tolist()
-        n = (x * x + y * y + z * z + w * w) ** -0.5
-        x, y, z, w = x * n, y * n, z * n, w * n
-        orb, b_orb, q_d, w_d, inertia, eff_inv, dist = self._context(t)
-        # b = R b_orb with R = to_matrix(q)ᵀ (eq. 4)
-        o0, o1, o2 = b_orb.tolist()
-        b0 = (1 - 2 * (y * y + z * z)) * o0 + 2 * (x * y + z * w) * o1 + 2 * (x * z - y * w) * o2
-        b1 = 2 * (x * y - z * w) * o0 + (1 - 2 * (x * x + z * z)) * o1 + 2 * (y * z + x * w) * o2
-        b2 = 2 * (x * z + y * w) * o0 + 2 * (y * z - x * w) * o1 + (1 - 2 * (x * x + y * y)) * o2
-        m0, m1, m2 = m.tolist()
-        tau = (m1 * b2 - m2 * b1, m2 * b0 - m0 * b2, m0 * b1 - m1 * b0)  # m × b (eq. 8)
-        ext = dist
-        if self.gravity_gradient:
-            ext = ext + mt.gravity_gradient_nm(np.array([x, y, z, w]), inertia, orb.radius_m)
-        e0, e1, e2 = ext.tolist()
-        j_w = self.model.params.wheel_inertia_kg_m2
-        dy = mt.derivative(
-            aug,
-            inertia,
-            eff_inv,
-            j_w,
-            t_w,
-            (tau[0] + e0, tau[1] + e1, tau[2] + e2),
-            orb.rate_rad_s,
-            orb.rate_dot_rad_s2,
-        )
-        # error quaternion q_e = q_d* ⊗ q (w ≥ 0) and ω_e = ω − C(q_e)ᵀ ω_d
-        dx, dy_, dz, dw = q_d.tolist()
-        ex = dw * x - dx * w - dy_ * z + dz * y
-        ey = dw * y - dy_ * w - dz * x + dx * z
-        ez = dw * z - dz * w - dx * y + dy_ * x
-        ew = dw * w + dx * x + dy_ * y + dz * z
-        if ew < 0:
-            ex, ey, ez, ew = -ex, -ey, -ez, -ew
-        v0, v1, v2 = w_d.tolist()
-        we0 = w0 - ((1 - 2 * (ey * ey + ez * ez)) * v0 + 2 * (ex * ey + ez * ew) * v1 + 2 * (ex * ez - ey * ew) * v2)
-        we1 = w1 - (2 * (ex * ey - ez * ew) * v0 + (1 - 2 * (ex * ex + ez * ez)) * v1 + 2 * (ey * ez + ex * ew) * v2)
-        we2 = w2 - (2 * (ex * ez + ey * ew) * v0 + 2 * (ey * ez - ex * ew) * v1 + (1 - 2 * (ex * ex + ey * ey)) * v2)
-        u = (tau[0], tau[1] + t_w, tau[2])
-        if self._diag_weights is not None:
-            qw, rw = self._diag_weights
-            stage = (
-                qw[0] * ex * ex
-                + qw[1] * ey * ey
-                + qw[2] * ez * ez
-                + qw[3] * we0 * we0
-                + qw[4] * we1 * we1
-                + qw[5] * we2 * we2
-                + rw[0] * u[0] * u[0]
-                + rw[1] * u[1] * u[1]
-                + rw[2] * u[2] * u[2]
-            )
-        else:
-            stage = self.model.cost.stage(np.array([ex, ey, ez, we0, we1, we2]), np.array(u))
-        out = np.empty(9)
-        out[:8] = dy
-        out[8] = stage
-        return out
-
-    def _error_state(self, q: np.ndarray, rate: np.ndarray, t_s: float) -> np.ndarray:
-        q_d, w_d, _ = self.model.reference.attitude(t_s)
-        q_e = quaternion.error(q, q_d)
-        w_e = rate - quaternion.to_matrix(q_e).T @ w_d
-        return np.concatenate([q_e[:3], w_e])
+    def _error_state(self, q: np.ndarray, rate: np.ndarray) -> np.ndarray:
+        """``[q_e,vec, ω_e]`` of ``q``, ``rate`` against the reference of the last snapshot."""
+        x, y, z, w = (float(v) for v in q)
+        r0, r1, r2 = (float(v) for v in rate)
+        return np.array(kernels.error_state(x, y, z, w, r0, r1, r2, self._snap, kernels.SN_QD)[:6])
 
     def error_state(self) -> np.ndarray:
         """The true error state ``x = [q_e,vec, ω_e]`` (float64) now."""
-        return self._error_state(self._y[:4], self._y[4:7], self._t)
+        return self._snapshot(self._t, self._y)[kernels.SN_X : kernels.SN_X + 6]
 
     def _observation(self) -> np.ndarray:
-        q, rate, wheel = self._y[:4], self._y[4:7], self._y[7:]
-        field = mt.orbital_to_body(q) @ self._field_orbital(self._t)
+        snap = self._snap
+        if not self._sensors.enabled and not self.fault_hint:
+            return snap[: self._n_obs].astype(np.float32)
+        parts = [snap[: self._n_obs]]
         if self._sensors.enabled:
-            n = self._orbit_state(self._t).rate_rad_s
+            q, rate, wheel = self._y[:4], self._y[4:7], self._y[7:]
+            n = float(snap[kernels.SN_RATE])
             truth = {
-                "gyro": mt.inertial_rate(q, rate, n),
+                "gyro": snap[kernels.SN_WBI : kernels.SN_WBI + 3].copy(),
                 "star_tracker": q,
                 "tachometer": wheel,
-                "magnetometer": field,
+                "magnetometer": snap[kernels.SN_BBODY : kernels.SN_BBODY + 3].copy(),
             }
             self._meas = self._sensors.measure(truth, self._t)
             q, wheel, field = self._meas["star_tracker"], self._meas["tachometer"], self._meas["magnetometer"]
             rate = self._meas["gyro"] - mt.inertial_rate(q, np.zeros(3), n)  # ω_bo from the measured attitude
-        parts = [self._error_state(q, rate, self._t), wheel / WHEEL_SPEED_SCALE_RAD_S]
-        if self.observe_field:
-            parts.append(field / FIELD_SCALE_T)
+            parts = [self._error_state(q, rate), wheel / WHEEL_SPEED_SCALE_RAD_S]
+            if self.observe_field:
+                parts.append(field / FIELD_SCALE_T)
         if self.fault_hint:
             parts += [self._faults.active_flags(self._t), self._sensors.active_flags(self._t)]
         return np.concatenate(parts).astype(np.float32)
 
-    def _info(self, applied, commanded, tau_m, control, cost: float) -> dict:
-        q, rate = self._y[:4], self._y[4:7]
-        orb = self._orbit_state(self._t)
-        b_orb = self._field_orbital(self._t)
-        w_bi = mt.inertial_rate(q, rate, orb.rate_rad_s)
-        q_d, w_d, q_dot = self.model.reference.attitude(self._t)
-        return {
+    def _info(self, commanded, cost: float) -> dict:
+        # one fresh array (state, step outputs, snapshot) whose slices the info hands out
+        v = np.concatenate([self._y, self._step_out, self._snap])
+        k = kernels
+        st, sn = 8, 8 + k.STEP_OUT_SIZE
+        snap = self._snap
+        info = {
             "state": {
-                "attitude": q.copy(),
-                "rate_rad_s": rate.copy(),
-                "inertial_rate_rad_s": w_bi,
-                "wheel_speed_rad_s": self._y[7:].copy(),
-                "wheel_momentum_nms": float(self.model.params.wheel_inertia_kg_m2 * (self._y[7] + w_bi[1])),
+                "attitude": v[:4],
+                "rate_rad_s": v[4:7],
+                "inertial_rate_rad_s": v[sn + k.SN_WBI : sn + k.SN_WBI + 3],
+                "wheel_speed_rad_s": v[7:8],
+                "wheel_momentum_nms": float(snap[k.SN_HW]),
             },
-            "reference": {"attitude": q_d.copy(), "rate_rad_s": w_d.copy(), "attitude_rate": q_dot.copy()},
+            "reference": {
+                "attitude": v[sn + k.SN_QD : sn + k.SN_QD + 4],
+                "rate_rad_s": v[sn + k.SN_WD : sn + k.SN_WD + 3],
+                "attitude_rate": v[sn + k.SN_QDOT : sn + k.SN_QDOT + 4],
+            },
             "time_s": self._t,
-            "magnetic_field_body_t": mt.orbital_to_body(q) @ b_orb,
-            "magnetic_field_orbital_t": b_orb.copy(),
+            "magnetic_field_body_t": v[sn + k.SN_BBODY : sn + k.SN_BBODY + 3],
+            "magnetic_field_orbital_t": v[sn + k.SN_BORB : sn + k.SN_BORB + 3],
             "orbit": {
-                "radius_m": orb.radius_m,
-                "argument_of_latitude_rad": orb.argument_of_latitude_rad,
-                "rate_rad_s": orb.rate_rad_s,
+                "radius_m": float(snap[k.SN_R]),
+                "argument_of_latitude_rad": float(snap[k.SN_U]),
+                "rate_rad_s": float(snap[k.SN_RATE]),
             },
-            "commanded": np.asarray(commanded, dtype=float),
-            "applied": np.asarray(applied, dtype=float),
-            "magnetic_torque_nm": tau_m,
-            "control_torque_nm": control,
-            "disturbance_torque_nm": np.array(self.external_torque_at(self._t, q)),
-            "true_inertia_kg_m2": self.true_inertia_at(self._t).copy(),
+            "commanded": commanded,
+            "applied": v[st + k.ST_APPLIED : st + k.ST_APPLIED + 4],
+            "magnetic_torque_nm": v[st + k.ST_TAU : st + k.ST_TAU + 3],
+            "control_torque_nm": v[st + k.ST_CONTROL : st + k.ST_CONTROL + 3],
+            "disturbance_torque_nm": v[sn + k.SN_EXT : sn + k.SN_EXT + 3],
+            "true_inertia_kg_m2": v[sn + k.SN_I : sn + k.SN_I + 9].reshape(3, 3),
             "cost": cost,
-            "error_angle_deg": float(np.degrees(quaternion.error_angle_rad(q, q_d))),
+            "error_angle_deg": float(snap[k.SN_ANGLE]),
             "faults": self._faults.info(self._t) + self._sensors.info(self._t),
-        } | ({"sensors": {k: v.copy() for k, v in self._meas.items()}} if self._sensors.enabled else {})
+        }
+        if self._sensors.enabled:
+            info["sensors"] = {key: val.copy() for key, val in self._meas.items()}
+        return info
 
 
 # Spec 002 eq. (40): magnetorquer effectiveness E = diag(0.9, 0.7, 0.6) for t > 50 s, through

@@ -41,7 +41,10 @@ class ReactionWheelEnv(gym.Env):
                       weighted; ``+ Ω / Ω_max (N)`` if ``observe_wheel_speeds``   -
     Action            N normalized motor torques in [-1, 1] (clipped: actuator    -
                       saturation); physical ``u = a · max_wheel_torque_nm``;      N·m
-                      positive spins wheel i up about a_i, body gets −a_i u_i
+                      positive spins wheel i up about a_i, body gets −a_i u_i.
+                      ``action_frame="body"``: 3 normalized body torques        -
+                      ``T = a · max_wheel_torque_nm``, allocated ``u = −A⁺T``    N·m
+                      (minimum norm), each wheel clipped at its limit
     Reward            −∫ (xᵀQx + u_cᵀRu_c) dt over the step (RK4, augmented        (cost)
                       state); u_c = body torque −A u or wheel torques u
     Start state       q within ``initial_angle_deg`` of identity, ω uniform in    deg, rad/s
@@ -61,7 +64,9 @@ class ReactionWheelEnv(gym.Env):
     ``target_angle_deg``, ``initial_attitude``, ``initial_angle_deg``, ``initial_rate_rad_s``,
     ``initial_rate_max_rad_s``, ``inertia_uncertainty`` (see :mod:`attitude_envs.uncertainty`),
     ``disturbance`` (see :mod:`attitude_envs.disturbances`), ``max_rate_rad_s``,
-    ``observe_wheel_speeds``, ``faults`` (list of fault dicts, see :mod:`attitude_envs.faults`;
+    ``observe_wheel_speeds``, ``action_frame`` (``"wheel"``: one action per wheel;
+    ``"body"``: a body-torque demand through the minimum-norm allocation — no action
+    reaches the wheels' null space, whose momentum the cost does not see), ``faults`` (list of fault dicts, see :mod:`attitude_envs.faults`;
     also per episode as ``reset(options={"faults": [...]})``; ``"target": "sensor"`` entries
     are sensor faults), ``sensors`` (dict, see :mod:`attitude_envs.sensors`: channels
     ``gyro`` (rad/s), ``star_tracker`` (rad), ``tachometer`` (rad/s); default None: the truth
@@ -110,6 +115,7 @@ class ReactionWheelEnv(gym.Env):
         disturbance: dict | None = None,
         max_rate_rad_s: float = 2.0 * np.pi,
         observe_wheel_speeds: bool = False,
+        action_frame: str = "wheel",
         faults: list[dict] | None = None,
         sensors: dict | None = None,
         fault_hint: bool = False,
@@ -205,7 +211,11 @@ class ReactionWheelEnv(gym.Env):
             obs_high = np.concatenate([obs_high, np.ones(n_w + 3)])
             obs_low = np.concatenate([obs_low, np.zeros(n_w + 3)])
         self.observation_space = spaces.Box(obs_low.astype(np.float32), obs_high.astype(np.float32), dtype=np.float32)
-        self.action_space = spaces.Box(-1.0, 1.0, shape=(n_w,), dtype=np.float32)
+        self.action_frame = validation.choice("action_frame", action_frame, {"wheel", "body"})
+        # body frame: a normalized body-torque demand, allocated like the analytic baselines do
+        # (minimum-norm u = −A⁺T, then each wheel clipped at its limit)
+        self._action_map = self.model.allocation * params.max_wheel_torque_nm if self.action_frame == "body" else None
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(3 if self._action_map is not None else n_w,), dtype=np.float32)
 
         self._plant = params
         self._tilt_limit_rad = np.inf  # no roll/pitch stop (AirBearing-v0 has one)
@@ -222,7 +232,6 @@ class ReactionWheelEnv(gym.Env):
         self._pack_kernel_arguments()
         self._work = np.zeros(kernels.work_size(n_w, 1, include_h, self.model.cost_input == "body"))
         self._step_count = np.zeros(1, dtype=np.int64)
-        self._no_skip = np.zeros(1, dtype=bool)
         self._out_time = np.zeros(1)
         self._out_applied = np.zeros((1, n_w))
         self._out_cost = np.zeros(1)
@@ -289,9 +298,7 @@ class ReactionWheelEnv(gym.Env):
         self._faults.reset(rng, options.get("faults"))
 
     def step(self, action):
-        p = self._plant
-        a = validation.action(action, p.n_wheels)
-        commanded = np.minimum(np.maximum(a, -1.0), 1.0) * p.max_wheel_torque_nm
+        commanded = self.commanded_torques(validation.action(action, self.action_space.shape[0]))
         delivered = self._faults.apply(commanded, self._t)
         if self._disturbance is not None:
             self._disturbance.advance(self.np_random, self.control_dt_s)
@@ -300,7 +307,6 @@ class ReactionWheelEnv(gym.Env):
             self._y_block,
             delivered.reshape(1, -1),
             False,
-            self._no_skip,
             self._ext_rows,
             self._mats,
             self._target_block,
@@ -339,6 +345,19 @@ class ReactionWheelEnv(gym.Env):
         if self.render_mode == "human":
             self.render()
         return obs, -cost, terminated, truncated, info
+
+    def commanded_torques(self, actions: np.ndarray) -> np.ndarray:
+        """Motor torques (N·m) commanded by normalized ``actions`` (one, or rows of a batch):
+        clipped to [-1, 1] and scaled; in the body frame the minimum-norm allocation of the
+        body torque, each wheel clipped at its limit. Sums in a fixed order (no BLAS), so the
+        batched env's rows are bitwise the single env's."""
+        a = np.minimum(np.maximum(actions, -1.0), 1.0)
+        limit = self._plant.max_wheel_torque_nm
+        if self._action_map is None:
+            return a * limit
+        m = self._action_map
+        torque = a[..., 0:1] * m[:, 0] + a[..., 1:2] * m[:, 1] + a[..., 2:3] * m[:, 2]
+        return np.minimum(np.maximum(torque, -limit), limit)
 
     def _pack_kernel_arguments(self) -> None:
         """The compiled step, its constants and the plant's matrices (after a parameter change)."""

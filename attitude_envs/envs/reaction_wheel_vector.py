@@ -57,7 +57,7 @@ class ReactionWheelVectorEnv(BatchedEnv):
         self._steps = np.zeros(e, dtype=np.int64)
         self._faulty = np.zeros(e, dtype=bool)
         self._n_faulty = 0
-        self._no_skip = np.zeros(e, dtype=bool)
+        self._n_actions = self.single_action_space.shape[0]
 
     def _reset_sub(self, i: int, seed: int | None, options: dict | None) -> None:
         self.envs[i]._reset_state(seed, options)
@@ -91,23 +91,23 @@ class ReactionWheelVectorEnv(BatchedEnv):
             obs = np.concatenate([obs, y[7:].T / self._max_speed], axis=1)
         return obs.astype(np.float32)
 
-    def _advance(self, actions, skipped):
+    def _advance(self, actions):
+        first = self.envs[0]
         a = np.asarray(actions, dtype=np.float64)
         e, n = self.num_envs, self._n_wheels
-        if a.shape != (e, n):
-            raise ValueError(f"actions must have shape ({e}, {n}), got {a.shape}")
-        scale = True  # the kernel clips and scales the normalized actions ...
-        skip = self._no_skip if skipped is None else skipped
-        if self._n_faulty:  # ... unless faults act on the commanded torques first
-            a = self._check_actions(a, n)
-            scale = False
-            a = np.minimum(np.maximum(a, -1.0), 1.0) * self._max_torque
-            for i in np.flatnonzero(self._faulty & ~skip):
+        if a.shape != (e, self._n_actions):
+            raise ValueError(f"actions must have shape ({e}, {self._n_actions}), got {a.shape}")
+        # sub-envs about to be reset (next-step autoreset) take no draws: their generators
+        # go on as the single env's, whose next episode starts with the reset
+        live = ~self._needs_reset if self._n_needs_reset else self._all_envs
+        scale = self._n_faulty == 0 and first._action_map is None  # the kernel clips and scales
+        if not scale:  # faults act on, or the body frame allocates, the commanded torques first
+            a = first.commanded_torques(self._check_actions(a, self._n_actions))
+            for i in np.flatnonzero(self._faulty & live):
                 a[i] = self.envs[i]._faults.apply(a[i], self._steps[i] * self._dt)
         if self._has_disturbance:
-            for i, env in enumerate(self.envs):
-                if skip[i]:
-                    continue
+            for i in np.flatnonzero(live):
+                env = self.envs[i]
                 env._t = self._steps[i] * self._dt
                 env._disturbance.advance(env.np_random, self._dt)
                 env._fill_disturbance_stages()
@@ -124,7 +124,6 @@ class ReactionWheelVectorEnv(BatchedEnv):
             self._Y,
             a,
             scale,
-            skip,
             self._ext,
             self._M,
             self._T,
@@ -146,8 +145,8 @@ class ReactionWheelVectorEnv(BatchedEnv):
             raise ValueError("actions must be finite (no NaN or inf)")
         np.arccos(angle, out=angle)  # min(1, q_e,w) → error angle, deg: the single env's
         angle *= _TWO_RAD_TO_DEG  # np.degrees(2 arccos(.)), bit for bit
-        infos = self._infos({"cost": cost, "applied": applied, "time_s": time_s, "error_angle_deg": angle})
-        return obs, reward, terminated, truncated, infos, n_done
+        infos = self._with_masks({"cost": cost, "applied": applied, "time_s": time_s, "error_angle_deg": angle})
+        return obs, reward, terminated, truncated, infos
 
     @property
     def states(self) -> np.ndarray:

@@ -19,12 +19,11 @@ from attitude_envs import validation
 
 class BatchedEnv(VectorEnv):
     """Subclasses implement ``_load(i)`` (copy sub-env ``i``'s fresh state into the batch
-    arrays), ``_advance(actions, skipped)`` (one batched step → new arrays of observations,
-    rewards, terminated, truncated, an info dict of arrays (see :meth:`_infos`), and the
-    number of sub-envs that ended; sub-envs in the mask ``skipped`` (or none) were just
-    reset and do not step: their observation is the reset one, reward and cost 0, not
-    ended, no random draws) and ``_observations(indices)`` (of the given sub-envs, all
-    when None).
+    arrays), ``_advance(actions)`` (one batched step → new arrays of observations, rewards,
+    terminated, truncated and an info dict of arrays with a ``cost`` entry, see
+    :meth:`_with_masks`; sub-envs in ``_needs_reset`` are reset right after it, so it
+    takes no random draws for them) and ``_observations(indices)`` (of the given sub-envs,
+    all when None).
 
     ``autoreset_mode``: ``"next_step"`` (gymnasium's default: the step after an episode
     ends resets that sub-env, ignores its action, reward 0, and its infos are masked out)
@@ -93,17 +92,22 @@ class BatchedEnv(VectorEnv):
         return a
 
     def step(self, actions):
-        skipped = None
+        obs, rewards, terminated, truncated, infos = self._advance(actions)
         if self._n_needs_reset:  # next-step autoreset: these sub-envs ended last step
             skipped = self._needs_reset
-            for i in np.flatnonzero(skipped):
+            idx = np.flatnonzero(skipped)
+            for i in idx:
                 self._reset_one(i, None, None)
-        obs, rewards, terminated, truncated, infos, n_done = self._advance(actions, skipped)
-        if skipped is not None:
+            obs[idx] = self._observations(idx)
+            rewards[idx] = 0.0
+            terminated[idx] = False
+            truncated[idx] = False
+            infos["cost"][idx] = 0.0
             stepped = ~skipped
             stepped.setflags(write=False)
             for key in [k for k in infos if not k.startswith("_")]:
                 infos["_" + key] = stepped
+        n_done = int(np.count_nonzero(terminated)) + int(np.count_nonzero(truncated))
         if self.autoreset_mode == AutoresetMode.NEXT_STEP:
             if n_done:
                 self._needs_reset = terminated | truncated
@@ -122,8 +126,9 @@ class BatchedEnv(VectorEnv):
             infos["_final_obs"] = done
         return obs, rewards, terminated, truncated, infos
 
-    def _infos(self, arrays: dict[str, np.ndarray]) -> dict:
-        """Per-sub-env info arrays with gymnasium's ``_key`` masks (all sub-envs)."""
+    def _with_masks(self, arrays: dict[str, np.ndarray], n: int | None = None) -> dict:
+        """Per-sub-env info arrays with gymnasium's ``_key`` masks (all sub-envs: one shared
+        read-only array)."""
         infos: dict[str, Any] = {}
         for key, value in arrays.items():
             infos[key] = value

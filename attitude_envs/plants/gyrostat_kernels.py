@@ -300,8 +300,7 @@ class _Rows:
         self.finite = self.qe_w + 1
         self.rate = self.finite + 1
         self.tilt = self.rate + 1  # 1 if beyond the roll/pitch stop, else 0
-        self.save = self.tilt + 1  # the loaded states of envs that skip the step
-        self.n_rows = self.save + size - 1
+        self.n_rows = self.tilt + 1
 
 
 def work_size(n_wheels: int, lanes: int, include_h: bool, body_input: bool) -> int:
@@ -331,7 +330,7 @@ def step_kernel(n_wheels: int, lanes: int, include_h: bool, body_input: bool, di
     offset torque (``offset``: ``p ≠ 0``, else left out), memoized (numba also caches it
     on disk)::
 
-        kernel(Y, cmd, scale, skip, ext, M, T, constants, n_sub, steps, time_s,
+        kernel(Y, cmd, scale, ext, M, T, constants, n_sub, steps, time_s,
                applied, cost, reward, obs, qe_w, terminated, truncated, observe_wheels, W)
 
     Per-env inputs are blocked struct-of-arrays (see :func:`blocks`): ``Y`` (nb, 7+N,
@@ -344,9 +343,7 @@ def step_kernel(n_wheels: int, lanes: int, include_h: bool, body_input: bool, di
     Advances ``Y`` in place over ``n_sub`` RK4 sub-steps of ``h`` with the motor command
     held, the stage cost integrated as an extra state and the quaternion renormalized
     after each sub-step. ``cmd`` (E, N): normalized actions (``scale``: clipped to [−1, 1]
-    and times the torque limit, as the env does) or motor torques (N·m). ``skip`` (E,
-    bool): envs that keep their state (just reset: their observation is computed, their
-    cost, reward and flags are zero, their step counter stays). ``constants``:
+    and times the torque limit, as the env does) or motor torques (N·m). ``constants``:
     :func:`pack_constants`; ``steps`` (E, int): step counters, incremented; ``time_s``
     (E): output, ``steps · control_dt_s``.
 
@@ -370,14 +367,13 @@ def step_kernel(n_wheels: int, lanes: int, include_h: bool, body_input: bool, di
     AX, CQ, CR, SC, SIZE = lay.ax, lay.cq, lay.cr, lay.sc, lay.size
     AUG, K, ACC, TMP, U, CMD, APP = lay.aug, lay.k, lay.acc, lay.tmp, lay.u, lay.cmd, lay.app
     MAT, TGT, X, UC, UJ, RU, EXT = lay.mat, lay.target, lay.x, lay.uc, lay.uj, lay.ru, lay.ext
-    QEW, FIN, RATE, TILT, SAVE = lay.qe_w, lay.finite, lay.rate, lay.tilt, lay.save
+    QEW, FIN, RATE, TILT = lay.qe_w, lay.finite, lay.rate, lay.tilt
 
     @njit(cache=True, error_model="numpy")
     def kernel(
         Y,
         cmd,
         scale,
-        skip,
         ext,
         M,
         T,
@@ -422,17 +418,10 @@ def step_kernel(n_wheels: int, lanes: int, include_h: bool, body_input: bool, di
             for r in range(4):
                 for e in range(B):
                     W[(TGT + r) * B + e] = T[b, r, e]
-            n_skip = 0
             for e in range(B):
                 W[(AUG + SIZE - 1) * B + e] = 0.0
                 for c in range(3):
                     W[(EXT + c) * B + e] = 0.0
-            for e in range(count):
-                n_skip += skip[e0 + e]
-            if n_skip:  # keep the just-reset states
-                for r in range(SIZE - 1):
-                    for e in range(B):
-                        W[(SAVE + r) * B + e] = W[(AUG + r) * B + e]
             for i in range(n):
                 for e in range(B):
                     W[(APP + i) * B + e] = 0.0
@@ -486,11 +475,6 @@ def step_kernel(n_wheels: int, lanes: int, include_h: bool, body_input: bool, di
                     norm = np.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
                     for r in range(4):
                         W[(AUG + r) * B + e] /= norm
-            if n_skip:
-                for e in range(count):
-                    if skip[e0 + e]:
-                        for r in range(SIZE - 1):
-                            W[(AUG + r) * B + e] = W[(SAVE + r) * B + e]
             for r in range(SIZE - 1):
                 for e in range(B):
                     Y[b, r, e] = W[(AUG + r) * B + e]
@@ -509,26 +493,24 @@ def step_kernel(n_wheels: int, lanes: int, include_h: bool, body_input: bool, di
                 W[TILT * B + e] = 1.0 if _tilt_lane(qx, qy, qz, qw, tilt_sin, tilt_cos) else 0.0
             for e in range(count):  # scalars per env (SIMD: no branches)
                 g = e0 + e
-                stepped = not skip[g]
                 c = W[(AUG + SIZE - 1) * B + e]
-                cost[g] = c if stepped else 0.0
-                reward[g] = -c if stepped else 0.0
+                cost[g] = c
+                reward[g] = -c
                 w = W[QEW * B + e]
                 qe_w[g] = w if w < 1.0 else 1.0
-                k = steps[g] + stepped
+                k = steps[g] + 1
                 steps[g] = k
                 time_s[g] = k * dt
-                term = stepped & ((W[FIN * B + e] != 0.0) | (W[RATE * B + e] > max_rate) | (W[TILT * B + e] != 0.0))
-                trunc = stepped & (not term) & (k * dt >= duration - 1e-9 * dt)
+                term = (W[FIN * B + e] != 0.0) | (W[RATE * B + e] > max_rate) | (W[TILT * B + e] != 0.0)
+                trunc = (not term) & (k * dt >= duration - 1e-9 * dt)
                 terminated[g] = term
                 truncated[g] = trunc
                 n_done += term + trunc
             for e in range(count):  # rows of the (E, N) and (E, n_obs) outputs
                 g = e0 + e
-                stepped = not skip[g]
                 finite = W[FIN * B + e] == 0.0
                 for i in range(n):
-                    applied[g, i] = W[(APP + i) * B + e] if stepped else 0.0
+                    applied[g, i] = W[(APP + i) * B + e]
                 for r in range(n_state):
                     obs[g, r] = np.float32(W[(X + r) * B + e]) if finite else np.float32(0.0)
                 if observe_wheels:

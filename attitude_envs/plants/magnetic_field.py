@@ -27,6 +27,7 @@ import datetime as _dt
 import numpy as np
 
 from attitude_envs import validation
+from attitude_envs.plants import magnetorquer_kernels as kernels
 from attitude_envs.plants.orbit import KeplerOrbit, OrbitState
 
 DIPOLE_STRENGTH_T_M3 = 7.96e15  # spec 002 §2.6 [ASSUME]
@@ -36,28 +37,10 @@ MODELS = ("dipole", "dipole-printed", "igrf")
 
 def dipole_eci_t(position_m: np.ndarray, strength_t_m3: float = DIPOLE_STRENGTH_T_M3) -> np.ndarray:
     """Axial dipole field at an ECI position (m), tesla; ``m̂ = −z``."""
-    r = float(np.linalg.norm(position_m))
-    r_hat = position_m / r
-    m_hat = np.array([0.0, 0.0, -1.0])
-    return strength_t_m3 / r**3 * (3.0 * float(m_hat @ r_hat) * r_hat - m_hat)
-
-
-def dipole_printed_orbital_t(
-    radius_m: float, argument_of_latitude_rad: float, inclination_rad: float, strength_t_m3: float
-) -> np.ndarray:
-    """Spec 002 eq. (9) as printed, in the paper's orbital frame, tesla."""
-    si = np.sin(inclination_rad)
-    return (
-        strength_t_m3
-        / radius_m**3
-        * np.array(
-            [
-                np.cos(argument_of_latitude_rad) * si,
-                np.cos(inclination_rad),
-                -2.0 * np.sin(argument_of_latitude_rad) * si,
-            ]
-        )
-    )
+    out = np.empty(3)
+    p = np.asarray(position_m, dtype=float)
+    kernels.dipole_eci_into(float(p[0]), float(p[1]), float(p[2]), float(strength_t_m3), out)
+    return out
 
 
 def greenwich_sidereal_angle_rad(epoch: _dt.datetime) -> float:
@@ -117,8 +100,18 @@ class FieldModel:
             raise ValueError(f"field_epoch must be in [1900-01-01, 2030-01-01] (IGRF-14 validity), got {epoch}")
         self.epoch = epoch
         self.igrf_step_s = validation.positive("igrf_step_s", igrf_step_s)
-        self._table_t: np.ndarray | None = None
         self._table_b: np.ndarray | None = None
+
+    @property
+    def code(self) -> int:
+        """The model's code in the compiled field evaluator."""
+        return kernels.FIELD_CODES[self.model]
+
+    @property
+    def table(self) -> np.ndarray:
+        """The tabulated IGRF field (k × 3, ECI, T) at multiples of ``igrf_step_s`` since the
+        episode start; a 2 × 3 dummy for the dipole models."""
+        return self._table_b if self._table_b is not None else np.zeros((2, 3))
 
     def prepare(self, orbit: KeplerOrbit, duration_s: float) -> None:
         """Tabulate the IGRF field along the orbit for one episode (no-op for the dipoles)."""
@@ -138,22 +131,48 @@ class FieldModel:
         b_eci = np.column_stack(
             [c * b_ecef[:, 0] - s * b_ecef[:, 1], s * b_ecef[:, 0] + c * b_ecef[:, 1], b_ecef[:, 2]]
         )
-        self._table_t, self._table_b = times, b_eci
+        self._table_b = np.ascontiguousarray(b_eci)
 
     def eci_t(self, t_s: float, state: OrbitState) -> np.ndarray:
         """Field in ECI axes, tesla (physical models only)."""
-        if self.model == "igrf":
-            if self._table_t is None:
-                raise RuntimeError("FieldModel.prepare(orbit, duration) must run before igrf lookups")
-            k = min(int(t_s / self.igrf_step_s), len(self._table_t) - 2)
-            w = (t_s - self._table_t[k]) / self.igrf_step_s
-            return (1.0 - w) * self._table_b[k] + w * self._table_b[k + 1]
-        return dipole_eci_t(state.position_m, self.strength)
+        if self.model == "igrf" and self._table_b is None:
+            raise RuntimeError("FieldModel.prepare(orbit, duration) must run before igrf lookups")
+        if self.model == "dipole-printed":
+            raise ValueError("field_model 'dipole-printed' is defined in the orbital frame only")
+        identity = _orbit_vector(state, np.eye(3))
+        return self._evaluate(t_s, identity, 0.0)
 
     def orbital_t(self, t_s: float, state: OrbitState, inclination_rad: float) -> np.ndarray:
         """Field in the orbital (LVLH) frame, tesla."""
-        if self.model == "dipole-printed":
-            return dipole_printed_orbital_t(
-                state.radius_m, state.argument_of_latitude_rad, inclination_rad, self.strength
-            )
-        return state.eci_from_orbital.T @ self.eci_t(t_s, state)
+        if self.model == "igrf" and self._table_b is None:
+            raise RuntimeError("FieldModel.prepare(orbit, duration) must run before igrf lookups")
+        return self._evaluate(t_s, _orbit_vector(state, state.eci_from_orbital), inclination_rad)
+
+    def _evaluate(self, t_s: float, orbit_vector: np.ndarray, inclination_rad: float) -> np.ndarray:
+        out = np.empty(3)
+        kernels.field_orbital_into(
+            float(t_s),
+            orbit_vector,
+            0,
+            self.code,
+            self.strength,
+            float(inclination_rad),
+            self.table,
+            self.igrf_step_s,
+            out,
+            0,
+        )
+        return out
+
+
+def _orbit_vector(state: OrbitState, frame: np.ndarray) -> np.ndarray:
+    """``state`` in the compiled layout (``kernels.OS_*``) with ``frame`` as eci_from_orbital."""
+    v = np.empty(kernels.ORBIT_STATE_SIZE)
+    v[kernels.OS_POS : kernels.OS_POS + 3] = state.position_m
+    v[kernels.OS_VEL : kernels.OS_VEL + 3] = state.velocity_m_s
+    v[kernels.OS_R] = state.radius_m
+    v[kernels.OS_U] = state.argument_of_latitude_rad
+    v[kernels.OS_RATE] = state.rate_rad_s
+    v[kernels.OS_RATE_DOT] = state.rate_dot_rad_s2
+    v[kernels.OS_FRAME :] = np.asarray(frame, dtype=float).reshape(9)
+    return v

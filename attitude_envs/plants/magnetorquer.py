@@ -18,6 +18,11 @@ motor applies −T_w to the wheel, eq. 6). ``τ`` holds the magnetic torque ``m 
 (eqs. 7–8: ``B m = m × b``), the external disturbance and, optionally, gravity gradient.
 With a time-varying inertia ``I(t)`` the equation is used as printed (eq. 5, no ``İω``
 term, spec §6 item 16). ``R`` (orbital → body) is ``to_matrix(q)ᵀ``, the paper's eq. (4).
+
+The equations, the momentum limit of the wheel (§6 item 10), the disturbance of eq. (39),
+the gravity gradient, ΔJ(t) of eq. (35) and the RK4 step are compiled in
+:mod:`attitude_envs.plants.magnetorquer_kernels` (the one implementation); this module holds
+the parameters and the small helpers the controllers use.
 """
 
 from __future__ import annotations
@@ -103,55 +108,6 @@ def inertial_rate(q: np.ndarray, rate_bo: np.ndarray, orbital_rate_rad_s: float)
     return rate_bo + orbital_to_body(q)[:, 1] * (-orbital_rate_rad_s)
 
 
-def derivative(
-    y,
-    inertia_kg_m2: np.ndarray,
-    inertia_eff_inv: np.ndarray,
-    wheel_inertia_kg_m2: float,
-    wheel_torque_nm: float,
-    torque_nm,
-    orbital_rate_rad_s: float,
-    orbital_rate_dot_rad_s2: float = 0.0,
-) -> np.ndarray:
-    """Time derivative of ``y = [q (4), ω_bo (3), Ω (1)]`` (see the module docstring).
-
-    Written with Python floats (3-vectors are cheaper that way than as numpy arrays: this
-    is the hot path of every env step).
-    """
-    x, yq, z, s, w0, w1, w2, om = (float(v) for v in y[:8])
-    # R e_y: the orbital y axis in body axes (row 1 of to_matrix(q))
-    r0, r1, r2 = 2 * (x * yq + z * s), 1 - 2 * (x * x + z * z), 2 * (yq * z - x * s)
-    nd = orbital_rate_rad_s
-    a0, a1, a2 = -nd * r0, -nd * r1, -nd * r2  # R ω_oi
-    b0, b1, b2 = w0 + a0, w1 + a1, w2 + a2  # ω_bi
-    (i00, i01, i02), (i10, i11, i12), (i20, i21, i22) = inertia_kg_m2.tolist()
-    h0 = i00 * b0 + i01 * b1 + i02 * b2
-    h1 = i10 * b0 + i11 * b1 + i12 * b2 + wheel_inertia_kg_m2 * om
-    h2 = i20 * b0 + i21 * b1 + i22 * b2
-    t0, t1, t2 = (float(v) for v in torque_nm)
-    c0 = -(b1 * h2 - b2 * h1) + t0
-    c1 = -(b2 * h0 - b0 * h2) + t1 + wheel_torque_nm
-    c2 = -(b0 * h1 - b1 * h0) + t2
-    (e00, e01, e02), (e10, e11, e12), (e20, e21, e22) = inertia_eff_inv.tolist()
-    d0 = e00 * c0 + e01 * c1 + e02 * c2
-    d1 = e10 * c0 + e11 * c1 + e12 * c2
-    d2 = e20 * c0 + e21 * c1 + e22 * c2
-    om_dot = -wheel_torque_nm / wheel_inertia_kg_m2 - d1
-    ndd = orbital_rate_dot_rad_s2
-    return np.array(
-        [
-            0.5 * (s * w0 + yq * w2 - z * w1),
-            0.5 * (s * w1 + z * w0 - x * w2),
-            0.5 * (s * w2 + x * w1 - yq * w0),
-            -0.5 * (x * w0 + yq * w1 + z * w2),
-            d0 + (w1 * a2 - w2 * a1) + ndd * r0,
-            d1 + (w2 * a0 - w0 * a2) + ndd * r1,
-            d2 + (w0 * a1 - w1 * a0) + ndd * r2,
-            om_dot,
-        ]
-    )
-
-
 def angular_momentum_inertial(
     q_bo: np.ndarray,
     w_bi: np.ndarray,
@@ -165,49 +121,10 @@ def angular_momentum_inertial(
     return eci_from_orbital @ (orbital_to_body(q_bo).T @ h_b)
 
 
-def wheel_momentum_limited(wheel_torque_nm: float, wheel_momentum_nms: float, max_momentum_nms: float) -> float:
-    """Spec 002 §6 item 10: at ``|h_w| ≥ h_max`` a torque that would grow ``|h_w|`` is zeroed.
-
-    ``h_w = J_w(Ω + ω_bi,y)``; the body torque ``T_w`` changes it by ``−T_w``.
-    """
-    if abs(wheel_momentum_nms) >= max_momentum_nms and -wheel_torque_nm * wheel_momentum_nms > 0:
-        return 0.0
-    return wheel_torque_nm
-
-
-def paper_disturbance_nm(t_s: float, orbital_rate_rad_s: float, scale: float = 1.0, second_harmonic: bool = False):
-    """Spec 002 eq. (39): ``d_j = d0 + d1 sin(ω0 t + φ_j1) + d2 sin(k ω0 t + φ_j2)``, N·m.
-
-    d0 = 1e-7, d1 = d2 = 1e-5 on every axis; φ_x = ±π/4, φ_y = ∓π/4, φ_z = (0, π/2) (the
-    spec's reading of the garbled z phases); ``k = 1`` as printed, 2 with
-    ``second_harmonic``; the whole torque is multiplied by ``scale``.
-    """
-    w0 = orbital_rate_rad_s
-    k = 2.0 if second_harmonic else 1.0
-    a = w0 * t_s
-    b = k * w0 * t_s
-    q = np.pi / 4
-    d = np.array(
-        [
-            1e-7 + 1e-5 * np.sin(a + q) + 1e-5 * np.sin(b - q),
-            1e-7 + 1e-5 * np.sin(a - q) + 1e-5 * np.sin(b + q),
-            1e-7 + 1e-5 * np.sin(a) + 1e-5 * np.sin(b + 2 * q),
-        ]
-    )
-    return scale * d
-
-
-def gravity_gradient_nm(
-    q_bo: np.ndarray, inertia_kg_m2: np.ndarray, radius_m: float, mu_m3_s2: float = 3.986004418e14
-) -> np.ndarray:
-    """Gravity-gradient torque ``3μ/r³ ô × (I ô)``, ô the nadir (orbital z) in body axes, N·m."""
-    o = orbital_to_body(q_bo)[:, 2]
-    return 3.0 * mu_m3_s2 / radius_m**3 * cross(o, inertia_kg_m2 @ o)
-
-
 @dataclass(frozen=True)
 class TimeVaryingInertia:
-    """Spec 002 eq. (35): ``ΔJ(t) = diag(a_j sin(f_j t + φ_j))`` added to the true inertia, kg·m²."""
+    """Spec 002 eq. (35): ``ΔJ(t) = diag(a_j sin(f_j t + φ_j))`` added to the true inertia, kg·m²
+    (evaluated by the compiled step, :func:`attitude_envs.plants.magnetorquer_kernels.context_into`)."""
 
     amplitude_kg_m2: np.ndarray
     frequency_rad_s: np.ndarray
@@ -238,6 +155,3 @@ class TimeVaryingInertia:
                 f"time_varying_inertia.amplitude_kg_m2 (max {np.max(self.amplitude_kg_m2)}) must stay below the "
                 f"smallest principal moment {low:.4g} kg·m² so that the inertia stays positive definite"
             )
-
-    def delta_at(self, t_s: float) -> np.ndarray:
-        return np.diag(self.amplitude_kg_m2 * np.sin(self.frequency_rad_s * t_s + self.phase_rad))

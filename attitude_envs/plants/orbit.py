@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from attitude_envs import validation
+from attitude_envs.plants import magnetorquer_kernels as kernels
 
 MU_EARTH_M3_S2 = 3.986004418e14
 EARTH_RADIUS_M = 6371.0e3  # spec 002 §2.6: the radius that reproduces the printed ω0
@@ -86,6 +87,21 @@ class KeplerOrbit:
         self._node = np.array([co, so, 0.0])
         self._in_plane = np.array([-so * ci, co * ci, si])
         self._normal = np.array([so * si, -co * si, ci])
+        #: the elements in the layout of the compiled propagator (one implementation)
+        self.packed = kernels.pack_orbit(
+            self.model == "circular",
+            self.a,
+            self.e,
+            float(self.mean_anomaly0_rad),
+            self.mean_motion_rad_s,
+            self._p,
+            self._h,
+            self.mu,
+            self._node,
+            self._in_plane,
+            self._normal,
+            float(self.arg_perigee_rad),
+        )
 
     @classmethod
     def from_altitudes(
@@ -112,34 +128,18 @@ class KeplerOrbit:
 
     def true_anomaly_rad(self, t_s: float) -> float:
         """ν(t) from Kepler's equation M = E − e sin E (Newton, |ΔE| < 1e-13)."""
-        mean = self.mean_anomaly0_rad + self.mean_motion_rad_s * t_s
-        if self.e == 0.0:
-            return float(mean)
-        ecc = mean + self.e * np.sin(mean)
-        for _ in range(30):
-            step = (ecc - self.e * np.sin(ecc) - mean) / (1.0 - self.e * np.cos(ecc))
-            ecc -= step
-            if abs(step) < 1e-13:
-                break
-        return float(2.0 * np.arctan2(np.sqrt(1 + self.e) * np.sin(ecc / 2), np.sqrt(1 - self.e) * np.cos(ecc / 2)))
+        return float(kernels.true_anomaly(self.packed, 0, float(t_s)))
 
     def state_at(self, t_s: float) -> OrbitState:
         """Position, velocity, frame and rates at ``t_s`` seconds after epoch."""
-        if self.model == "circular":
-            u = float(self.arg_perigee_rad + self.mean_anomaly0_rad + self.mean_motion_rad_s * t_s)
-            r, r_dot = self.a, 0.0
-            nu_dot, nu_ddot = self.mean_motion_rad_s, 0.0
-        else:
-            nu = self.true_anomaly_rad(t_s)
-            u = float(self.arg_perigee_rad + nu)
-            r = self._p / (1.0 + self.e * np.cos(nu))
-            nu_dot = self._h / r**2
-            r_dot = self.mu / self._h * self.e * np.sin(nu)
-            nu_ddot = -2.0 * nu_dot * r_dot / r
-        r_hat = self._node * np.cos(u) + self._in_plane * np.sin(u)
-        t_hat = -self._node * np.sin(u) + self._in_plane * np.cos(u)
-        position = r * r_hat
-        velocity = r_dot * r_hat + r * nu_dot * t_hat
-        # LVLH: z nadir, y anti-normal, x = y × z (= t̂)
-        frame = np.column_stack([t_hat, -self._normal, -r_hat])
-        return OrbitState(position, velocity, float(r), u, float(nu_dot), float(nu_ddot), frame)
+        out = np.empty(kernels.ORBIT_STATE_SIZE)
+        kernels.orbit_state_into(self.packed, 0, float(t_s), out, 0)
+        return OrbitState(
+            out[kernels.OS_POS : kernels.OS_POS + 3],
+            out[kernels.OS_VEL : kernels.OS_VEL + 3],
+            float(out[kernels.OS_R]),
+            float(out[kernels.OS_U]),
+            float(out[kernels.OS_RATE]),
+            float(out[kernels.OS_RATE_DOT]),
+            out[kernels.OS_FRAME :].reshape(3, 3),
+        )

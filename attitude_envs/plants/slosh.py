@@ -10,9 +10,11 @@ Equations of motion in mass-matrix form (spec 004 §2.5, eqs. 11–14)::
 
     M(ψ) ṡ = f(s, ψ) + G(δ, M_c),   s = [v_x, v_z, Ω, ψ̇1, ψ̇2]
 
-The closed forms below were derived once with sympy from the inertial Lagrangian
-(``tools/derive_slosh.py``); ``tests/test_slosh_plant.py`` re-derives them and checks
-the residual, plus energy/momentum conservation and the mass matrix's definiteness.
+The closed forms were derived once with sympy from the inertial Lagrangian
+(``tools/derive_slosh.py``) and are implemented once, compiled, in
+:mod:`attitude_envs.plants.slosh_kernels` (the functions below are thin wrappers);
+``tests/test_slosh_plant.py`` re-derives them and checks the residual, plus
+energy/momentum conservation and the mass matrix's definiteness.
 
 Full state vector ``y`` (10 entries, SI units):
 ``[X_m, Z_m, θ_rad, ψ1_rad, ψ2_rad, v_x_m_s, v_z_m_s, Ω_rad_s, ψ̇1_rad_s, ψ̇2_rad_s]``;
@@ -27,6 +29,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from attitude_envs import validation
+from attitude_envs.plants import slosh_kernels as kernels
 
 N_STATE = 10
 IX, IZ, ITH, IPSI1, IPSI2, IVX, IVZ, IOM, IDPSI1, IDPSI2 = range(N_STATE)
@@ -69,6 +72,7 @@ class SloshParams:
     J: np.ndarray = field(init=False, repr=False, compare=False)
     S_z: float = field(init=False, compare=False)
     I_rigid: float = field(init=False, compare=False)
+    packed: np.ndarray = field(init=False, repr=False, compare=False)  # compiled kernels' constants
 
     def __post_init__(self) -> None:
         validation.positive("mass_kg", self.mass_kg)
@@ -106,6 +110,19 @@ class SloshParams:
             + self.fuel_mass_kg * self.fuel_offset_m**2
             + float(m_i @ (a_i**2 + l_i**2)),
         )
+        packed = kernels.pack(
+            self.total_mass_kg,
+            self.S_z,
+            self.I_rigid,
+            self.ml,
+            self.J,
+            a_i,
+            self.damping_kg_m2_s,
+            self.thrust_n,
+            self.lever_arm_m,
+        )
+        packed.setflags(write=False)
+        set_(self, "packed", packed)
 
     @classmethod
     def from_fill_preset(cls, fill_preset: str = "i", **overrides) -> SloshParams:
@@ -132,62 +149,36 @@ class SloshParams:
 
     def pitch_inertia(self, psi: np.ndarray) -> float:
         """I_θθ(ψ) about O (spec §2.3), kg·m²."""
-        a_i = np.asarray(self.hinge_m)
-        return self.I_rigid - 2.0 * float(np.sum(self.ml * a_i * np.cos(psi)))
+        return float(mass_matrix(self, psi)[2, 2])
+
+
+def _state(y) -> np.ndarray:
+    y = np.ascontiguousarray(y, dtype=float)
+    if y.shape != (N_STATE,):
+        raise ValueError(f"y must have shape ({N_STATE},), got {y.shape}")
+    return y
 
 
 def mass_matrix(p: SloshParams, psi: np.ndarray) -> np.ndarray:
-    """The symmetric 5×5 mass matrix M(ψ) of ``s = [v_x, v_z, Ω, ψ̇1, ψ̇2]`` (spec §2.5)."""
-    sp, cp = np.sin(psi), np.cos(psi)
-    mls, mlc = p.ml * sp, p.ml * cp
-    a_i = np.asarray(p.hinge_m)
-    M = np.zeros((5, 5))
-    M[0, 0] = M[1, 1] = p.total_mass_kg
-    M[0, 2] = M[2, 0] = mls.sum()
-    M[1, 2] = M[2, 1] = p.S_z + mlc.sum()
-    M[2, 2] = p.pitch_inertia(psi)
-    for i in range(2):
-        M[0, 3 + i] = M[3 + i, 0] = mls[i]
-        M[1, 3 + i] = M[3 + i, 1] = mlc[i]
-        M[2, 3 + i] = M[3 + i, 2] = p.J[i] - mlc[i] * a_i[i]
-        M[3 + i, 3 + i] = p.J[i]
+    """The symmetric 5×5 mass matrix M(ψ) of ``s = [v_x, v_z, Ω, ψ̇1, ψ̇2]`` (spec §2.5);
+    ``psi`` = [ψ1, ψ2] in rad."""
+    M = np.empty((5, 5))
+    kernels.mass_matrix_into(p.packed, float(psi[0]), float(psi[1]), M)
     return M
 
 
 def forces(p: SloshParams, y: np.ndarray, delta_rad: float, moment_nm: float) -> np.ndarray:
     """Right-hand side f(s, ψ) + G(δ, M_c) of the mass-matrix form (spec §2.5), SI units."""
-    psi = y[IPSI1 : IPSI2 + 1]
-    dpsi = y[IDPSI1 : IDPSI2 + 1]
-    vx, vz, om = y[IVX], y[IVZ], y[IOM]
-    sp, cp = np.sin(psi), np.cos(psi)
-    a_i = np.asarray(p.hinge_m)
-    w2 = (om + dpsi) ** 2
-    fs, fc = p.thrust_n * math.sin(delta_rad), p.thrust_n * math.cos(delta_rad)
-    mls, mlc = p.ml * sp, p.ml * cp
     out = np.empty(5)
-    out[0] = fc - p.total_mass_kg * om * vz - p.S_z * om**2 - float(mlc @ w2)
-    out[1] = fs + p.total_mass_kg * om * vx + float(mls @ w2)
-    out[2] = (
-        moment_nm
-        + p.lever_arm_m * fs
-        + om * vx * (p.S_z + mlc.sum())
-        - om * vz * mls.sum()
-        - float(np.sum(mls * a_i * (2.0 * om * dpsi + dpsi**2)))
-    )
-    out[3:] = mls * a_i * om**2 + p.ml * om * (vx * cp - vz * sp) - np.asarray(p.damping_kg_m2_s) * dpsi
+    kernels.forces_into(p.packed, _state(y), float(delta_rad), float(moment_nm), out)
     return out
 
 
 def derivative(p: SloshParams, y: np.ndarray, delta_rad: float, moment_nm: float) -> np.ndarray:
     """ẏ of the full state (10 entries) under gimbal angle δ (rad) and pitch moment (N·m)."""
     dy = np.empty(N_STATE)
-    th, vx, vz = y[ITH], y[IVX], y[IVZ]
-    c, s = math.cos(th), math.sin(th)
-    dy[IX] = vx * c + vz * s
-    dy[IZ] = -vx * s + vz * c
-    dy[ITH] = y[IOM]
-    dy[IPSI1 : IPSI2 + 1] = y[IDPSI1 : IDPSI2 + 1]
-    dy[IVX:] = np.linalg.solve(mass_matrix(p, y[IPSI1 : IPSI2 + 1]), forces(p, y, delta_rad, moment_nm))
+    d = float(delta_rad)
+    kernels.derivative_into(p.packed, _state(y), math.sin(d), math.cos(d), float(moment_nm), dy)
     return dy
 
 

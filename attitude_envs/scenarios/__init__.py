@@ -21,6 +21,8 @@ from pathlib import Path
 import gymnasium as gym
 import yaml
 
+from attitude_envs import validation
+
 _KEYS = {"name", "description", "env", "env_kwargs", "faults", "campaign"}
 
 
@@ -43,9 +45,7 @@ def load_scenario(name: str) -> dict:
     data = yaml.safe_load(text)
     if not isinstance(data, dict):
         raise ValueError(f"scenario {name!r} must be a YAML mapping")
-    unknown = set(data) - _KEYS
-    if unknown:
-        raise ValueError(f"scenario {name!r} has unknown keys {sorted(unknown)}; accepted: {sorted(_KEYS)}")
+    validation.known_keys(f"scenario {name!r}", data, _KEYS)
     data.setdefault("env", None)
     data["env_kwargs"] = dict(data.get("env_kwargs") or {})
     data["faults"] = list(data.get("faults") or [])
