@@ -110,6 +110,10 @@ def test_campaign_validation_names_the_problem():
         load_campaign({**SMALL, "agent": []})
     with pytest.raises(ValueError, match="needs model: PATH or train"):
         load_campaign({**SMALL, "agents": [{"name": "x", "policy": "sb3"}]})
+    with pytest.raises(ValueError, match=r"train.select must be one of \['best', 'final'\], got 'worst'"):
+        load_campaign(
+            {**SMALL, "agents": [{"name": "x", "policy": "sb3", "train": {"algo": "ppo", "select": "worst"}}]}
+        )
     assert load_campaign("quick").name == "quick" and load_campaign("full").name == "full"
 
 

@@ -1,5 +1,6 @@
 """train.py train / evaluate / benchmark: end to end on tiny budgets, and one-line errors (exit 2)."""
 
+import json
 import subprocess
 import sys
 
@@ -57,7 +58,12 @@ def test_benchmark_trains_evaluates_and_reports(benchmark_run, capsys):
     assert "### rw · default · fault: w0-out" in report and "| lqr | 5 |" in report and "| ppo | 5 |" in report
     for name in ("leaderboard.png", "faults-rw.png"):
         assert (out / "figures" / name).stat().st_size > 1000
-    assert "training budget: ppo | ppo, 128 steps" in report
+    # the campaign evaluates the best eval snapshot (eval seeds 10000+), not the final one
+    best = json.loads((out / "models" / "rw" / "ppo" / "seed0" / "best" / "best.json").read_text())
+    assert (
+        f"training budget: ppo | ppo, 128 steps × seeds [0], evaluated: best snapshot at {best['timesteps']} steps"
+        in report
+    )
     # Rerun: nothing to train or evaluate again, same leaderboard printed.
     assert train.main(["benchmark", "--config", str(root / "tiny.yml"), "--out", str(out), "--workers", "1"]) == 0
     printed = capsys.readouterr().out

@@ -75,16 +75,6 @@ def test_sub_envs_match_single_envs_bitwise_across_autoreset(extra):
     assert np.allclose(vec.states[:, 7], 0.0)  # wheels back at rest after the reset
 
 
-def test_same_step_autoreset_reports_final_observation():
-    vec = make_vec(2, autoreset_mode="same_step")
-    vec.reset(seed=0)
-    for _ in range(19):
-        vec.step(np.zeros((2, 4)))
-    obs, _, _, trunc, infos = vec.step(np.ones((2, 4)))
-    assert trunc.all() and infos["_final_obs"].all()
-    assert not np.array_equal(infos["final_obs"][0], obs[0])  # obs is already the new episode's
-
-
 def test_batched_path_conserves_inertial_momentum_with_the_wheel_working():
     """No field torque (zero dipoles), no disturbance, constant inertia: the wheel only
     exchanges momentum, so each sub-env's total angular momentum in ECI stays put."""
@@ -151,15 +141,6 @@ def test_sb3_adapter_matches_dummy_vec_env():
         assert np.array_equal(obs, ref_obs) and np.allclose(rewards, ref_rewards) and np.array_equal(dones, ref_dones)
     assert dones.all() and infos[0]["TimeLimit.truncated"]
     assert np.array_equal(infos[2]["terminal_observation"], ref_infos[2]["terminal_observation"])
-
-
-def test_batched_env_refuses_what_it_does_not_model():
-    with pytest.raises(ValueError, match="sensors and fault_hint are not supported by the batched env"):
-        make_vec(2, sensors={"gyro": {"noise_std": 1e-4}})
-    vec = make_vec(2)
-    vec.reset(seed=0)
-    with pytest.raises(ValueError, match=r"actions must have shape \(2, 4\)"):
-        vec.step(np.zeros((2, 3)))
 
 
 def test_batched_path_is_fourth_order_in_the_integrator_step():

@@ -170,16 +170,6 @@ def test_returned_arrays_are_not_reused_by_the_env():
         assert np.array_equal(first[4][k], v)
 
 
-def test_same_step_autoreset_reports_final_observation():
-    vec = make_vec(2, autoreset_mode="same_step")
-    vec.reset(seed=0)
-    for _ in range(19):
-        vec.step(np.zeros((2, 4)))
-    obs, _, _, trunc, infos = vec.step(np.zeros((2, 4)))
-    assert trunc.all() and infos["_final_obs"].all()
-    assert not np.array_equal(infos["final_obs"][0], obs[0])  # obs is already the new episode's
-
-
 def test_batched_path_conserves_momentum():
     vec = make_vec(
         4,
@@ -204,17 +194,6 @@ def test_batched_path_conserves_momentum():
     for _ in range(200):
         vec.step(rng.uniform(-1, 1, (4, 4)))
     assert np.allclose(inertial_momentum(), h0, rtol=1e-9, atol=1e-12)
-
-
-def test_bad_batched_actions_are_rejected():
-    vec = make_vec(2)
-    vec.reset(seed=0)
-    with pytest.raises(ValueError, match=r"actions must have shape \(2, 4\)"):
-        vec.step(np.zeros((3, 4)))
-    with pytest.raises(ValueError, match="actions must be finite"):
-        vec.step(np.full((2, 4), np.nan))
-    with pytest.raises(ValueError, match="num_envs must be >= 1"):
-        gym.make_vec(RW, num_envs=0, vectorization_mode="vector_entry_point")
 
 
 def test_sb3_trains_directly_on_the_batched_env():
@@ -269,11 +248,6 @@ def test_lqr_policy_acts_on_a_batch():
     batch = policy.act(obs, {})
     assert batch.shape == (5, 4)
     assert np.allclose(batch, np.stack([policy.act(o, {}) for o in obs]), atol=1e-7)
-
-
-def test_batched_env_refuses_what_it_does_not_model():
-    with pytest.raises(ValueError, match="sensors and fault_hint are not supported by the batched env"):
-        make_vec(2, fault_hint=True)
 
 
 def test_air_bearing_batch_matches_single_envs_including_the_tilt_stop():

@@ -21,6 +21,7 @@ A campaign file (shipped presets: ``quick``, ``full`` in ``attitude_envs/evaluat
       - name: ppo
         policy: sb3
         train: {algo: ppo, timesteps: 8000, seeds: [0], overrides: {n_envs: 2}}
+        # evaluated with its best eval snapshot (train.select: best, the default) or final
       - {name: sac-pretrained, policy: sb3, model: path/to/model.zip}
 
 Execution: SB3 agents with ``train`` are trained first (one job per agent × env × training
@@ -50,6 +51,7 @@ import numpy as np
 
 KEY_COLUMNS = ("env", "scenario", "fault", "agent", "train_seed", "seed")
 PRESETS = ("quick", "full")
+SELECT = ("best", "final")  # which snapshot of a trained agent is evaluated
 
 
 # --------------------------------------------------------------------------- configuration
@@ -177,6 +179,11 @@ def load_campaign(config: str | Path | dict) -> Campaign:
                 isinstance(tseeds, list) and tseeds and all(isinstance(s, int) and s >= 0 for s in tseeds),
                 f"agents[{i}].train.seeds must be a non-empty list of integers >= 0, got {tseeds!r}",
             )
+            select = train.get("select", "best")
+            _require(
+                select in SELECT,
+                f"agents[{i}].train.select must be one of {list(SELECT)}, got {select!r}",
+            )
         elif a["policy"] == "sb3":
             _require("model" in a, f"agents[{i}] ({name}): policy sb3 needs model: PATH or train: {{algo: ...}}")
         only = a.get("envs")
@@ -208,6 +215,13 @@ def load_campaign(config: str | Path | dict) -> Campaign:
 
 def _train_dir(out_dir: Path, env: str, agent: str, seed: int) -> Path:
     return out_dir / "models" / env / agent / f"seed{seed}"
+
+
+def _trained_model(train_dir: Path, select: str) -> Path:
+    """The snapshot a trained agent is evaluated with: ``best`` (lowest J on the training's
+    own eval env, seeds 10000+, disjoint from the campaign's) when one was saved, else ``final``."""
+    best = train_dir / "best" / "model.zip"
+    return best if select == "best" and best.is_file() else train_dir / "final" / "model.zip"
 
 
 def training_jobs(campaign: Campaign, out_dir: Path, skip_agents: Iterable[str] = ()) -> list[dict[str, Any]]:
@@ -255,9 +269,8 @@ def episode_jobs(campaign: Campaign, out_dir: Path, skip_agents: Iterable[str] =
                     for tseed in train_seeds:
                         spec = dict(agent.spec)
                         if tseed is not None:
-                            spec["model"] = str(
-                                _train_dir(out_dir, env.name, agent.name, tseed) / "final" / "model.zip"
-                            )
+                            train_dir = _train_dir(out_dir, env.name, agent.name, tseed)
+                            spec["model"] = str(_trained_model(train_dir, agent.train.get("select", "best")))
                         for seed in campaign.seeds:
                             key = {
                                 "env": env.name,

@@ -314,6 +314,23 @@ def _record_video(result, env_spec, agent: str, path_dir: Path) -> Path | None:
     return videos[0] if videos else None
 
 
+def _evaluated_snapshots(result, agent: str) -> str:
+    """Which snapshot of a trained agent its episodes ran: ``best snapshot at N steps`` (per
+    training run, from ``best/best.json``) or ``final snapshot``."""
+    from attitude_envs.evaluation.campaign import episode_jobs
+
+    models = sorted(
+        {j["policy"]["model"] for j in episode_jobs(result.campaign, result.out_dir) if j["key"]["agent"] == agent}
+    )
+    steps = []
+    for model in map(Path, models):
+        best = model.parent / "best.json"
+        if model.parent.name != "best" or not best.is_file():
+            return "final snapshot"
+        steps.append(str(json.loads(best.read_text())["timesteps"]))
+    return f"best snapshot at {', '.join(steps)} steps" if steps else "no episodes"
+
+
 def write_campaign_report(result, video: bool | None = None) -> Path:
     """The full report of a :class:`~attitude_envs.evaluation.campaign.CampaignResult`:
     leaderboards, J-with-CI plot, fault heatmaps, example time histories and (with moviepy)
@@ -368,7 +385,8 @@ def write_campaign_report(result, video: bool | None = None) -> Path:
         if agent.train is not None:
             t = agent.train
             budget[agent.name] = (
-                f"{t['algo']}, {t.get('timesteps', 'file default')} steps × seeds {t.get('seeds', [0])}"
+                f"{t['algo']}, {t.get('timesteps', 'file default')} steps × seeds {t.get('seeds', [0])}, "
+                f"evaluated: {_evaluated_snapshots(result, agent.name)}"
             )
     metadata = {
         "campaign": result.campaign.name,
