@@ -19,21 +19,30 @@ SINGLE_ENV_IDS = (
 )
 
 
+def _seconds_per_call(call, seconds: float, batch: int = 1) -> float:
+    """Mean wall seconds per ``call()``, timed in batches of ``batch`` calls for at least ``seconds``."""
+    n, start = 0, time.perf_counter()
+    while True:
+        for _ in range(batch):
+            call()
+        n += batch
+        elapsed = time.perf_counter() - start
+        if elapsed > seconds:
+            return elapsed / n
+
+
 def _time_single(env, action, seconds: float) -> float:
     """Mean seconds per step of a single env (wrapped as gym.make returns it)."""
     env.reset(seed=0)
     for _ in range(100):
         env.step(action)
-    n, start = 0, time.perf_counter()
-    while True:
-        for _ in range(500):
-            _, _, term, trunc, _ = env.step(action)
-            if term or trunc:
-                env.reset()
-        n += 500
-        elapsed = time.perf_counter() - start
-        if elapsed > seconds:
-            return elapsed / n
+
+    def step() -> None:
+        _, _, term, trunc, _ = env.step(action)
+        if term or trunc:
+            env.reset()
+
+    return _seconds_per_call(step, seconds, batch=500)
 
 
 def _time_vector(env, actions, seconds: float) -> float:
@@ -41,13 +50,7 @@ def _time_vector(env, actions, seconds: float) -> float:
     env.reset(seed=0)
     for _ in range(3):
         env.step(actions)
-    n, start = 0, time.perf_counter()
-    while True:
-        env.step(actions)
-        n += 1
-        elapsed = time.perf_counter() - start
-        if elapsed > seconds:
-            return n * actions.shape[0] / elapsed
+    return actions.shape[0] / _seconds_per_call(lambda: env.step(actions), seconds)
 
 
 def single_env(seconds: float = 1.0, rounds: int = 5) -> list[dict]:
