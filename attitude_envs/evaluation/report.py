@@ -314,21 +314,25 @@ def _record_video(result, env_spec, agent: str, path_dir: Path) -> Path | None:
     return videos[0] if videos else None
 
 
-def _evaluated_snapshots(result, agent: str) -> str:
-    """Which snapshot of a trained agent its episodes ran: ``best snapshot at N steps`` (per
-    training run, from ``best/best.json``) or ``final snapshot``."""
+def _training_summary(result, agent) -> str:
+    """A trained agent's budget (``config.json`` of each run) and the snapshot its episodes
+    ran: ``best snapshot at N steps`` (per run, from ``best/best.json``) or ``final snapshot``."""
     from attitude_envs.evaluation.campaign import episode_jobs
 
-    models = sorted(
-        {j["policy"]["model"] for j in episode_jobs(result.campaign, result.out_dir) if j["key"]["agent"] == agent}
-    )
-    steps = []
-    for model in map(Path, models):
+    jobs = episode_jobs(result.campaign, result.out_dir)
+    runs = sorted({Path(j["policy"]["model"]) for j in jobs if j["key"]["agent"] == agent.name})
+    budgets, best_steps = set(), []
+    for model in runs:
+        config = model.parent.parent / "config.json"
+        if config.is_file():
+            budgets.add(json.loads(config.read_text())["total_timesteps"])
         best = model.parent / "best.json"
-        if model.parent.name != "best" or not best.is_file():
-            return "final snapshot"
-        steps.append(str(json.loads(best.read_text())["timesteps"]))
-    return f"best snapshot at {', '.join(steps)} steps" if steps else "no episodes"
+        if model.parent.name == "best" and best.is_file():
+            best_steps.append(str(json.loads(best.read_text())["timesteps"]))
+    t = agent.train
+    steps = ", ".join(map(str, sorted(budgets))) or t.get("timesteps", "file default")
+    snapshot = f"best snapshot at {', '.join(best_steps)} steps" if best_steps else "final snapshot"
+    return f"{t['algo']}, {steps} steps × seeds {t.get('seeds', [0])}, evaluated: {snapshot}"
 
 
 def write_campaign_report(result, video: bool | None = None) -> Path:
@@ -380,14 +384,7 @@ def write_campaign_report(result, video: bool | None = None) -> Path:
                 notes.append(
                     "episode videos off for this campaign (video: false; rendering a 60 s episode takes minutes)"
                 )
-    budget = {}
-    for agent in result.campaign.agents:
-        if agent.train is not None:
-            t = agent.train
-            budget[agent.name] = (
-                f"{t['algo']}, {t.get('timesteps', 'file default')} steps × seeds {t.get('seeds', [0])}, "
-                f"evaluated: {_evaluated_snapshots(result, agent.name)}"
-            )
+    budget = {a.name: _training_summary(result, a) for a in result.campaign.agents if a.train is not None}
     metadata = {
         "campaign": result.campaign.name,
         "source": result.campaign.source,
