@@ -53,10 +53,14 @@ def test_rerun_after_a_crash_skips_completed_episodes_and_gives_the_same_table(t
     assert (b / "episodes.csv").read_text() == table
     rerun = run_campaign(SMALL, b, workers=1)
     assert rerun.episodes_run == 0 and rerun.episodes_skipped == 20
+    assert rerun.runs == 2 and rerun.total_wall_time_s == pytest.approx(
+        again.total_wall_time_s + rerun.wall_time_s, abs=2e-3
+    )
     assert (b / "episodes.csv").read_text() == table
     report_a = write_campaign_report(full).read_text()
     report_b = write_campaign_report(rerun).read_text()
     assert report_a.split("## Leaderboards")[1] == report_b.split("## Leaderboards")[1]
+    assert "| wall_time_all_runs_s | " in report_b and " over 2 run(s)" in report_b
     assert "agent q-lqr skipped" in report_b or "q-lqr" not in report_b
 
 
@@ -77,6 +81,8 @@ def test_partial_csv_is_readable_mid_campaign(tmp_path, monkeypatch):
         run_campaign(SMALL, tmp_path, workers=1)
     rows = _csv(tmp_path / "episodes.csv")
     assert len(rows) == 5 and all(np.isfinite(float(r["J"])) for r in rows)
+    (run,) = [json.loads(line) for line in (tmp_path / "runs.jsonl").read_text().splitlines()]
+    assert run["completed"] is False and run["episodes_run"] == 5 and run["wall_time_s"] > 0
 
 
 def test_different_campaign_in_the_same_directory_is_refused(tmp_path):

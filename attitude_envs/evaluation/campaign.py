@@ -30,7 +30,8 @@ then every episode is one job. Jobs run on a local process pool (default) or on 
 (``ray_address``: ``"local"`` starts a local instance; else a cluster address). Results are
 appended episode by episode to ``episodes.jsonl`` (one fsynced line each) and ``episodes.csv``
 is rewritten atomically, sorted by key, after every episode: a crash leaves a readable
-partial table, and a rerun skips the episodes already done. Episodes are deterministic
+partial table, and a rerun skips the episodes already done. Each run (finished or
+interrupted) appends its wall time to ``runs.jsonl``; the report sums them. Episodes are deterministic
 functions of their key, so the table does not depend on the executor or the worker count.
 """
 
@@ -516,6 +517,27 @@ def make_executor(ray_address: str | None = None, workers: int | None = None):
 # --------------------------------------------------------------------------- results store
 
 
+def _append_line(path: Path, record: dict[str, Any]) -> None:
+    """Append one JSON line and fsync it (a crash can cut at most this line)."""
+    with path.open("a", encoding="utf-8") as fh:
+        fh.write(json.dumps(record, allow_nan=True) + "\n")
+        fh.flush()
+        os.fsync(fh.fileno())
+
+
+def _read_lines(path: Path) -> list[dict[str, Any]]:
+    """The JSON lines of an append log, skipping a line cut by a crash."""
+    if not path.is_file():
+        return []
+    records = []
+    for line in path.read_text(encoding="utf-8").splitlines():
+        try:
+            records.append(json.loads(line))
+        except json.JSONDecodeError:
+            continue
+    return records
+
+
 class ResultStore:
     """``episodes.jsonl`` (append log, one fsynced line per episode) + ``episodes.csv`` (sorted, atomic)."""
 
@@ -543,11 +565,7 @@ class ResultStore:
 
     def append(self, row: dict[str, Any]) -> None:
         self.out_dir.mkdir(parents=True, exist_ok=True)
-        line = json.dumps(row, allow_nan=True)
-        with self.log.open("a", encoding="utf-8") as fh:
-            fh.write(line + "\n")
-            fh.flush()
-            os.fsync(fh.fileno())
+        _append_line(self.log, row)
         self.rows[key_of(row)] = row
         self.write_csv()
 
@@ -581,6 +599,8 @@ class CampaignResult:
     episodes_skipped: int
     wall_time_s: float
     executor: str
+    total_wall_time_s: float = 0.0  # this run and every earlier one logged in runs.jsonl
+    runs: int = 1
 
 
 def available(agent: AgentSpec) -> str | None:
@@ -662,6 +682,8 @@ def run_campaign(
     start = time.perf_counter()
     executor = make_executor(ray_address, workers)
     trained: list[dict[str, Any]] = []
+    todo: list[dict[str, Any]] = []
+    ran, completed = 0, False
     try:
         train_jobs = training_jobs(campaign, out_dir, skip_agents=skipped)
         if train_jobs:
@@ -675,15 +697,22 @@ def run_campaign(
         say(f"{len(jobs)} episodes, {len(jobs) - len(todo)} already done, running {len(todo)} on {executor.name}")
         for row in executor.map_unordered(run_job, todo):
             store.append(row)
+            ran += 1
         if not todo:
             store.write_csv()
+        completed = True
     finally:
         executor.close()
+        elapsed = time.perf_counter() - start
+        run = {"wall_time_s": round(elapsed, 3), "executor": executor.name}
+        run |= {"trained": sum(r["status"] == "trained" for r in trained), "episodes_run": ran, "completed": completed}
+        _append_line(out_dir / "runs.jsonl", run)  # also when interrupted: the report sums all runs
     wanted = {key_of(j["key"]) for j in jobs}
     rows = [r for r in store.sorted_rows() if key_of(r) in wanted]
     from attitude_envs.evaluation.runner import write_json
 
     write_json([_for_table(r) for r in rows], out_dir / "episodes.json")
+    past_runs = _read_lines(out_dir / "runs.jsonl")
     return CampaignResult(
         campaign=campaign,
         out_dir=out_dir,
@@ -692,6 +721,8 @@ def run_campaign(
         skipped_agents=skipped,
         episodes_run=len(todo),
         episodes_skipped=len(jobs) - len(todo),
-        wall_time_s=time.perf_counter() - start,
+        wall_time_s=elapsed,
         executor=executor.name,
+        total_wall_time_s=sum(r["wall_time_s"] for r in past_runs),
+        runs=len(past_runs),
     )

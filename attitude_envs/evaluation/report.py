@@ -224,6 +224,7 @@ def write_report(
         "executor",
         "episodes",
         "wall_time_s",
+        "wall_time_all_runs_s",
     ):
         if key in metadata:
             lines.append(f"| {key} | {metadata[key]} |")
@@ -394,6 +395,7 @@ def write_campaign_report(result, video: bool | None = None) -> Path:
         "executor": result.executor,
         "episodes": len(rows),
         "wall_time_s": round(result.wall_time_s, 1),
+        "wall_time_all_runs_s": f"{result.total_wall_time_s:.1f} over {result.runs} run(s) (runs.jsonl)",
         "training_budget": budget,
         "trained": result.trained,
     }
