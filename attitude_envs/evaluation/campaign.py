@@ -547,17 +547,11 @@ class ResultStore:
         self.csv = self.out_dir / "episodes.csv"
         self.rows: dict[tuple, dict[str, Any]] = {}
         if self.log.is_file():
-            good = []
-            for line in self.log.read_text(encoding="utf-8").splitlines():
-                try:
-                    row = json.loads(line)
-                except json.JSONDecodeError:
-                    continue  # a line cut by a crash: that episode is simply run again
-                self.rows[key_of(row)] = row
-                good.append(line)
+            good = _read_lines(self.log)  # an episode whose line a crash cut is simply run again
+            self.rows = {key_of(row): row for row in good}
             # Drop the cut line so the next append starts on a fresh line.
             tmp = self.log.with_name(self.log.name + ".tmp")
-            tmp.write_text("".join(g + "\n" for g in good), encoding="utf-8")
+            tmp.write_text("".join(json.dumps(row, allow_nan=True) + "\n" for row in good), encoding="utf-8")
             os.replace(tmp, self.log)
 
     def done(self, key: dict[str, Any]) -> bool:
