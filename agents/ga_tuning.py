@@ -1,29 +1,31 @@
-"""Genetic-algorithm PID tuning and the meta-model of spec 003 (§3.3–3.4), for any attitude env.
+"""Genetic-algorithm PID tuning and the meta-model of the air-bearing GA-tuned PID paper
+(Ahangarani Farahani, Adami & Arefkhani; year unknown), for any attitude env.
 
-Pipeline (spec 003 §3.3, the five steps):
+Pipeline (the paper's five steps):
 
 1. :func:`tune_gains` — a GA (``pygad``) finds constant gains ``[Kp, Kd, KI] × (roll, pitch,
    yaw)`` (9 real genes) that minimize an objective summed over a set of maneuvers: the
    paper's IAE ``Σ_i ∫|e_i| dt`` over the 3-2-1 Euler-angle errors (deg·s, eq. 20/26) or the
    env's shared cost ``J = Σ info["cost"]``. Defaults are Table 2: population 20, 50
    generations, mutation probability 0.4 per gene, two-point crossover, roulette selection;
-   the rest follows §5 A8: crossover probability 0.8, elitism 1, fitness ``1/(1 + objective)``
+   the rest is assumed: crossover probability 0.8, elitism 1, fitness ``1/(1 + objective)``
    for the roulette wheel, bounds Kp ∈ [0, 10], Kd ∈ [0, 20], KI ∈ [0, 1]. Mutation draws
-   the gene anew, uniformly within its bounds (pygad's gene-space mutation) — A8's Gaussian
+   the gene anew, uniformly within its bounds (pygad's gene-space mutation) — a Gaussian
    σ = 10 % is not what pygad offers; bounded uniform replacement keeps the genes in range.
 2. :func:`build_schedule` — one GA per maneuver ("different initial values"); the optimal
    gains and the maneuver's states go to the data bank.
 3.–4. :func:`fit_schedule` — ordinary least squares of each channel's optimal gains on
    ``[1, y_i, ẏ_i]`` (eq. 23): the Euler angle and rate of the maneuver's *initial* state by
-   default (A6 REC), or the *final* state of the optimal run (``regressor="final"``, the
-   paper's literal eq. 22 — nearly unidentifiable for regulation, see A6).
+   default (assumed), or the *final* state of the optimal run (``regressor="final"``, the
+   paper's literal eq. 22 — nearly unidentifiable for regulation: the final states are all
+   near zero).
 5. :class:`baselines.pid.PIDPolicy` runs the fitted :class:`~baselines.pid.GainSchedule`.
 
 Evaluations of a generation run in parallel in a process pool (``workers``); every worker
 builds its env once. Episodes that end early (the air bearing's tilt stop, tumbling) are
 charged the remaining time at the last error (IAE) or last step cost (J), so the GA avoids them.
 
-Command line: :func:`tune_pid_main` (``train.py tune-pid``): tunes, shows a tqdm progress bar
+Command line: :func:`tune_pid_main` (``attitude-envs tune-pid``): tunes, shows a tqdm progress bar
 and writes a JSON gains file that :func:`baselines.pid.load_gains` / ``PIDPolicy.from_file`` read.
 """
 
@@ -40,19 +42,23 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+import pygad
+from tqdm import tqdm
 
+import attitude_envs  # noqa: F401  (registers the env ids, also in the pool's workers)
 from attitude_envs import validation
+from attitude_envs.info import TRUTH, policy_view
 from baselines.pid import GAIN_NAMES, UNITS, GainSchedule, PIDGains, PIDPolicy, euler_error
 
 OBJECTIVES = ("iae", "cost")
 REGRESSORS = ("initial", "final")
-#: spec 003 §4.2 eq. 25: the laboratory test, [φ, θ, ψ] = [10, −10, 10]° and ω = [1, 1, 0] °/s
+#: the paper's eq. 25: the laboratory test, [φ, θ, ψ] = [10, −10, 10]° and ω = [1, 1, 0] °/s
 LAB_MANEUVER = {"euler_321_deg": [10.0, -10.0, 10.0], "rate_rad_s": np.radians([1.0, 1.0, 0.0]).tolist()}
 
 
 @dataclass(frozen=True)
 class GAConfig:
-    """GA settings (defaults: spec 003 Table 2 and §5 A8). Bounds are (min, max) per gain type."""
+    """GA settings (defaults: the paper's Table 2, the rest assumed). Bounds are (min, max) per gain type."""
 
     population: int = 20
     generations: int = 50
@@ -119,12 +125,15 @@ class ScheduleResult:
 # ---------------------------------------------------------------------------- episodes
 def pid_episode(env, policy, seed: int | None = None, options: dict[str, Any] | None = None) -> dict[str, Any]:
     """One episode of ``policy``; IAE of the Euler-angle errors per axis (deg·s, trapezoid over
-    the control samples), shared cost ``J``, and the charge for an early end."""
+    the control samples), shared cost ``J``, and the charge for an early end.
+
+    The policy acts on :func:`attitude_envs.info.policy_view` of each info (the measured state,
+    as in flight); the IAE, effort and the initial/final states are scores from the truth."""
     obs, info = env.reset(seed=seed, options=None if options is None else dict(options))
     policy.reset(seed)
     base = env.unwrapped
     dt = float(base.control_dt_s)
-    state = info["state"]
+    state = info[TRUTH]["state"]
     angle0, rate0 = euler_error(state["attitude"], state["rate_rad_s"], state["target_attitude"])
     prev = np.abs(angle0)
     iae = np.zeros(3)
@@ -134,13 +143,14 @@ def pid_episode(env, policy, seed: int | None = None, options: dict[str, Any] | 
     terminated = truncated = False
     cost = 0.0
     while not (terminated or truncated):
-        obs, _, terminated, truncated, info = env.step(policy.act(obs, info))
+        obs, _, terminated, truncated, info = env.step(policy.act(obs, policy_view(info)))
         cost = float(info["cost"])
         total += cost
-        torque = np.abs(info["applied"])
+        truth = info[TRUTH]
+        torque = np.abs(truth["applied"])
         peak = max(peak, float(torque.max()))
         effort += float(torque.sum()) * dt
-        state = info["state"]
+        state = truth["state"]
         angle, rate = euler_error(state["attitude"], state["rate_rad_s"], state["target_attitude"])
         cur = np.abs(angle)
         iae += 0.5 * (prev + cur) * dt
@@ -178,8 +188,6 @@ _WORKER: dict[str, Any] = {}
 
 
 def _worker_init(env_id: str, env_kwargs: dict[str, Any]) -> None:
-    import attitude_envs  # noqa: F401  (registers the ids in the worker)
-
     _WORKER["env"] = gym.make(env_id, **env_kwargs).unwrapped
     _WORKER["key"] = (env_id, repr(sorted(env_kwargs.items())))
 
@@ -240,8 +248,6 @@ def tune_gains(
 
     ``progress(generation, best_objective)`` is called after every generation.
     """
-    import pygad
-
     config = config or GAConfig()
     objective = validation.choice("objective", objective, set(OBJECTIVES))
     maneuvers = [dict(m) for m in maneuvers]
@@ -323,13 +329,14 @@ def fit_schedule(genes: np.ndarray, angles_rad: np.ndarray, rates_rad_s: np.ndar
 
 def sample_maneuvers(env, n: int, seed: int = 0) -> list[dict]:
     """``n`` maneuvers from the env's own start distribution (reset seeds ``seed .. seed+n−1``),
-    pinned as explicit reset options (attitude, rate, target) so that every worker replays them."""
+    pinned as explicit reset options (the true attitude, rate, target) so that every worker
+    replays them."""
     if int(n) != n or n < 1:
         raise ValueError(f"n must be an integer >= 1, got {n!r}")
     out = []
     for j in range(int(n)):
         _, info = env.reset(seed=int(seed) + j)
-        s = info["state"]
+        s = info[TRUTH]["state"]
         out.append(
             {
                 "seed": int(seed) + j,
@@ -352,7 +359,7 @@ def build_schedule(
     units: str = "rad",
     progress: Callable[[int, int, float], None] | None = None,
 ) -> ScheduleResult:
-    """Steps 2–4 of §3.3: a GA per maneuver, then the least-squares meta-model.
+    """Steps 2–4 of the paper's pipeline: a GA per maneuver, then the least-squares meta-model.
 
     ``progress(maneuver_index, generation, best)`` after every generation."""
     regressor = validation.choice("regressor", regressor, set(REGRESSORS))
@@ -387,14 +394,14 @@ def _json_ready(value: Any) -> Any:
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog="train.py tune-pid",
-        description="GA-tune per-axis PID gains (spec 003) on an attitude env; writes a JSON gains file",
+        prog="attitude-envs tune-pid",
+        description="GA-tune per-axis PID gains (air-bearing PID paper) on an attitude env; writes a JSON gains file",
     )
-    p.add_argument("--env", default="attitude_envs/AirBearing-v0", help="env id (any env with info['state'])")
+    p.add_argument("--env", default="attitude_envs/AirBearing-v0", help="env id (any env with info['measured'])")
     p.add_argument("--env-kwargs", default="{}", help="JSON dict of env keyword arguments")
     p.add_argument("--mode", choices=["fixed", "schedule"], default="fixed", help="constant gains or meta-model")
     p.add_argument("--objective", choices=OBJECTIVES, default="iae", help="IAE (deg·s) or the shared cost J")
-    p.add_argument("--maneuvers", type=int, default=0, help="random maneuvers from the env (0: the spec 003 lab test)")
+    p.add_argument("--maneuvers", type=int, default=0, help="random maneuvers from the env (0: the paper's lab test)")
     p.add_argument("--maneuver-seed", type=int, default=0, help="first reset seed of the random maneuvers")
     p.add_argument("--population", type=int, default=GAConfig.population)
     p.add_argument("--generations", type=int, default=GAConfig.generations)
@@ -411,11 +418,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def tune_pid_main(argv: list[str] | None = None) -> int:
-    """``train.py tune-pid``: run the GA (and the meta-model with ``--mode schedule``), save the gains.
+    """``attitude-envs tune-pid``: run the GA (and the meta-model with ``--mode schedule``), save the gains.
 
     Returns 0, or 2 after printing ``error: ...`` for bad input (``ValueError``)."""
-    import attitude_envs  # noqa: F401  (registers the ids)
-
     args = build_parser().parse_args(argv)
     try:
         return _tune_pid(args)
@@ -425,8 +430,6 @@ def tune_pid_main(argv: list[str] | None = None) -> int:
 
 
 def _tune_pid(args: argparse.Namespace) -> int:
-    from tqdm import tqdm
-
     try:
         env_kwargs = json.loads(args.env_kwargs)
     except json.JSONDecodeError as exc:

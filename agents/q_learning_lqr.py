@@ -1,24 +1,23 @@
 """Model-free Q-learning LQR: learns the optimal linear state feedback from data only.
 
-Implements the quadratic Q-function ``Q(x, u) = [x; u]ᵀH[x; u]`` learners of
-``../shared/spec/q-learning-lqr.md`` (the "note") and the seed paper
-``../shared/spec/001-model-free-q-lqr.md`` (spec 001):
+Implements quadratic Q-function ``Q(x, u) = [x; u]ᵀH[x; u]`` learners (Bradtke, Ydstie & Barto
+1994; Lewis & Vrabie 2009) and the method of the Q-learning LQR paper (Heravi & Novinzadeh 2017, 1000 kg·m²
+satellite):
 
-* ``method="value_iteration"`` — the paper's method (spec 001 §3.3–3.5, eqs. 17–30):
+* ``method="value_iteration"`` — the paper's method (eqs. 17–30):
   ``H_{j+1} = argmin Σ (φ(z_k)ᵀθ − r_k − γ x_{k+1}ᵀ P_j x_{k+1})²`` from ``H₀ = 0``, with
   ``P_j = H_xx − H_xu K_j`` (eq. 16) and the greedy gain ``K_j = H_uu⁻¹H_ux`` (eq. 13, u = −Kx).
-  By default one batch is reused for every iteration (fitted-Q iteration, note §3.4): each
+  By default one batch is reused for every iteration (fitted-Q iteration): each
   iteration is then a p-dimensional affine map, so 10⁵ iterations cost seconds.
   ``reuse_data=False`` collects a fresh batch per iteration, as the paper does.
-* ``method="policy_iteration"`` — Bradtke/Lewis PI (note §3.2): evaluate the current gain
+* ``method="policy_iteration"`` — Bradtke/Lewis PI: evaluate the current gain
   from on-policy data (fresh batch per iteration, behaviour ``u = −K_j x + η``), improve
   greedily. ``reuse_data=True`` (or ``method="lspi"``) is off-policy LSPI on one batch
-  (note §3.3). Evaluation is LSTD-Q (instrument ``φ(z_k)``, consistent under process
+  (Lagoudakis & Parr 2003). Evaluation is LSTD-Q (instrument ``φ(z_k)``, consistent under process
   noise) with an optional constant feature, or the legacy OLS Bellman-residual fit
   (``td_estimator="ols"``, biased under noise). PI needs a stabilizing initial gain:
   ``initial_gain`` or, if ``None``, discount annealing (policy iteration from K = 0 at a
-  small discount, raised while the data Lyapunov test ``T_Kᵀ Ĥ_K T_K ≻ 0`` passes, note
-  §3.9) or, with ``stabilize="value_iteration"``, value iteration on the first batch until
+  small discount, raised while the data Lyapunov test ``T_Kᵀ Ĥ_K T_K ≻ 0`` passes) or, with ``stabilize="value_iteration"``, value iteration on the first batch until
   the greedy gain passes that test.
 
 Estimators: ``"batch"`` (QR of row-normalized, column-scaled features) or ``"rls"``
@@ -26,8 +25,10 @@ Estimators: ``"batch"`` (QR of row-normalized, column-scaled features) or ``"rls
 Features are orthonormal svec monomials of the *scaled* ``z = [x/s_x; u/s_u]`` (scales
 from the first batch's RMS); kernels and gains are reported in physical units.
 
-The agent reads only observations, ``info["applied"]`` and ``info["cost"]``; the env's
-model is used for one diagnostic (closed-loop spectral radius), never for learning.
+The agent reads only what a flight computer has: its measured state (``info["measured"]``,
+or the observation), the input it commanded (``info["commanded"]``) and ``info["cost"]``
+(:mod:`agents.qlqr.data`), never the ground truth ``info["truth"]``; the env's model is used
+for one diagnostic (closed-loop spectral radius), never for learning.
 """
 
 from __future__ import annotations
@@ -55,7 +56,7 @@ SAMPLING = {"reset", "trajectory"}
 class QLearningLQR:
     """Model-free Q-learning LQR agent; also a :class:`baselines.base.Policy`.
 
-    Parameters (units are the env's physical ones: state as observed, input as applied):
+    Parameters (units are the env's physical ones: state as measured, input as commanded):
 
     * ``env`` — observation = error state x (n), action = the m inputs (normalized).
     * ``method`` — ``"value_iteration"`` (default, the paper), ``"policy_iteration"``, ``"lspi"``.
@@ -64,7 +65,7 @@ class QLearningLQR:
     * ``initial_gain`` (m×n, u = −Kx) — PI start/behaviour gain; default: obtained from data
       by ``stabilize`` = ``"discount_annealing"`` (default; from ``initial_discount``) or
       ``"value_iteration"``, within ``max_warmup_iterations``. Annealing gives gains with a
-      stability margin: on the spec-001 plant the first PI evaluation has cond ≈ 60 after it,
+      stability margin: on the Heravi & Novinzadeh 2017 plant the first PI evaluation has cond ≈ 60 after it,
       ≈ 1e13 after the value-iteration warm-up (whose first accepted gain is barely stable).
     * ``discount`` γ ∈ (0, 1]; ``exploration_std`` σ_η (scalar or m, input units; default
       ``0.5·action_scale``); ``state_std`` (scalar or n) — spread of sampled start states.
@@ -73,13 +74,13 @@ class QLearningLQR:
     * ``td_estimator`` — ``"lstd"`` (LSTD-Q), legacy ``"ols"`` (Bellman-residual OLS,
       biased under noise) or ``"matrix_bellman"`` (Lopez, Alsalti & Müller 2023, eq. 29: all
       pairwise products of the data, ``H = Λ + γ Mᵀ H M`` with the data matrix
-      ``M = Y Z⁺``; algebraically certainty equivalence, note §3.5) or ``"lstd_gls"``
+      ``M = Y Z⁺``; algebraically certainty equivalence) or ``"lstd_gls"``
       (feasible GLS LSTD-Q: a second LSTD-Q pass with every TD equation weighted by the
       inverse of its noise variance, fitted as a quadratic in z from the first pass's
       residuals; :func:`agents.qlqr.estimators.variance_weights`); ``constant_feature`` —
       the constant regressor of the noisy Bellman equation (default: on when a batch has
       more than p samples); ``row_normalize`` — divide each equation by ``‖z_k‖²``
-      (default: when ‖z‖² spans more than 10⁴ in the batch, note §9.2).
+      (default: when ‖z‖² spans more than 10⁴ in the batch).
     * ``tol`` — stopping tolerance on the (estimated) relative gain change/error;
       ``cond_limit``/``cond_warn`` — excitation guard thresholds.
     * ``rls_initial_covariance`` (``None`` = exact init, else β of ``P₀ = βI``),
@@ -315,7 +316,7 @@ class QLearningLQR:
         if self._scale is None:
             # RMS of the *directions* z_k/‖z_k‖: the typical proportions of the coordinates,
             # not dominated by the largest rows when the data span many orders of magnitude
-            # (unstable trajectories, note §6.6)
+            # (unstable trajectories)
             Z = np.hstack([data.X, data.U])
             norms = np.linalg.norm(Z, axis=1)
             Z = Z[norms > 0] / norms[norms > 0, None]
@@ -339,7 +340,7 @@ class QLearningLQR:
         return self.state_std * min(1.0, shrink)
 
     def _check_input_signal(self, data: Transitions) -> float:
-        """Excitation guard that feature scaling cannot hide (note §4: a probe too small
+        """Excitation guard that feature scaling cannot hide (a probe too small
         relative to the state). Per sample, the next-state change the probe of each input
         causes, ``‖b̂_j‖·|u_kj|`` (``B̂`` from a row-normalized least-squares fit
         ``x⁺ ≈ Âx + B̂u``, a diagnostic only), relative to ``‖x⁺_k‖``; the p-th largest over the
@@ -378,7 +379,7 @@ class QLearningLQR:
             F = np.hstack([F, np.ones((len(F), 1))])
         sq = np.sum(Zs**2, axis=1)
         normalize = self.row_normalize
-        if normalize is None:  # note §9.2: when ‖z‖² spans more than 10⁴ (1st to 99th percentile)
+        if normalize is None:  # when ‖z‖² spans more than 10⁴ (1st to 99th percentile)
             lo, hi = np.percentile(sq, [1.0, 99.0])
             normalize = bool(hi > 1e4 * max(float(lo), 1e-300))
         if normalize:  # an all-zero z_k gives the equation 0 = 0: weight 0
@@ -397,12 +398,12 @@ class QLearningLQR:
 
     # ------------------------------------------------------------------ policy evaluation
     def _evaluate(self, data, F, w, design, K) -> tuple[np.ndarray, float | None, est.Excitation]:
-        """Q-function of gain ``K`` from data (note §3.1, first bullet): LSTD-Q or OLS."""
+        """Q-function of gain ``K`` from data: LSTD-Q or OLS."""
         Xn_s = data.Xn / self._scale[: self.n]
         Un_s = (-data.Xn @ K.T) / self._scale[self.n :]
         Phi_next = quadratic_features(np.hstack([Xn_s, Un_s]))
         Psi = F.copy()
-        Psi[:, : self.p] -= self.discount * Phi_next  # the constant column is not differenced (§7 item 2)
+        Psi[:, : self.p] -= self.discount * Phi_next  # the constant column is not differenced
         if self.td_estimator == "matrix_bellman":
             return self._matrix_bellman(data, design, K)
         if self.td_estimator == "ols":
@@ -433,8 +434,7 @@ class QLearningLQR:
         return self._lstd(F, Psi, r, w, self._design(F, w, "GLS policy evaluation"))
 
     def _matrix_bellman(self, data, design, K) -> tuple[np.ndarray, float | None, est.Excitation]:
-        """Policy evaluation by the matrix Bellman equation (Lopez et al. 2023, eq. 29; note
-        §3.5): ``ZᵀHZ = ZᵀΛZ + γ YᵀHY`` for all sample pairs; with ``M = Y Z⁺`` it reduces to
+        """Policy evaluation by the matrix Bellman equation (Lopez et al. 2023, eq. 29): ``ZᵀHZ = ZᵀΛZ + γ YᵀHY`` for all sample pairs; with ``M = Y Z⁺`` it reduces to
         the Stein equation ``H = Λ + γ MᵀHM``. The stage-cost kernel Λ is fitted from the
         observed costs (the agent is not told Q and R)."""
         n, s = self.n, self._scale
@@ -447,7 +447,7 @@ class QLearningLQR:
         return 0.5 * (Hs + Hs.T) / np.outer(s, s), None, design.excitation
 
     def _lyapunov_ok(self, data, F, w, design, K) -> bool:
-        """Data Lyapunov test (note §3.9): ``T_Kᵀ Ĥ_K T_K ≻ 0`` ⇒ K stabilizing (exact data)."""
+        """Data Lyapunov test: ``T_Kᵀ Ĥ_K T_K ≻ 0`` ⇒ K stabilizing (exact data)."""
         try:
             with warnings.catch_warnings():  # probing near the stability boundary is ill-conditioned by design
                 warnings.simplefilter("ignore")
@@ -461,7 +461,7 @@ class QLearningLQR:
 
     # ------------------------------------------------------------------ value iteration
     def _vi_maps(self, data: Transitions, design: est.Design, F: np.ndarray, w: np.ndarray):
-        """``θ_{j+1} = a + G·svec(P_j in scaled x)`` for the batch (note §3.4): the target
+        """``θ_{j+1} = a + G·svec(P_j in scaled x)`` for the batch (fitted-Q iteration): the target
         ``r_k + γ x⁺ᵀP_j x⁺`` is linear in svec(P_j), so one solve with n(n+1)/2 + 1
         right-hand sides serves every iteration."""
         Phi_x = quadratic_features(data.Xn / self._scale[: self.n])
@@ -524,7 +524,7 @@ class QLearningLQR:
         self._vi_run(data, max_iterations, "value_iteration")
 
     def _anneal(self, data, F, w, design) -> np.ndarray | None:
-        """Discount annealing (note §3.9 item 3; Lamperski 2020): K = 0 is stabilizing for a
+        """Discount annealing (Lamperski 2020): K = 0 is stabilizing for a
         small enough discount γ₀; policy iteration at γ, then raise γ towards the target
         while the data Lyapunov test at the new γ accepts the current gain (bisection for
         the largest such γ, 90 % of the way). Phase ``"annealing"`` in the history."""

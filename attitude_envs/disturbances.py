@@ -54,6 +54,22 @@ class Disturbance:
         self._phase = np.zeros(3)
         self._walk = np.zeros(3)
 
+    @property
+    def episode_phase_rad(self) -> np.ndarray:
+        """The sinusoid's phases this episode (drawn at :meth:`reset` when ``"random"``),
+        rad; a read-only view (zeros for the other kinds)."""
+        view = self._phase.view()
+        view.setflags(write=False)
+        return view
+
+    @property
+    def walk_nm(self) -> np.ndarray:
+        """The random walk's current value, the torque held over this control step, N·m; a
+        read-only view (zeros for the other kinds)."""
+        view = self._walk.view()
+        view.setflags(write=False)
+        return view
+
     def reset(self, rng: np.random.Generator) -> None:
         if self.kind == "sinusoidal":
             self._phase = rng.uniform(0.0, 2 * np.pi, size=3) if self._random_phase else self.phase_rad

@@ -24,7 +24,7 @@ def euler_321_rad(q) -> tuple[float, float, float]:
 
 
 def euler_321_rates(roll_rad: float, pitch_rad: float, rate_rad_s) -> tuple[float, float, float]:
-    """``(φ̇, θ̇, ψ̇)`` in rad/s from the body rate ``ω`` (rad/s), spec 003 eq. 14.
+    """``(φ̇, θ̇, ψ̇)`` in rad/s from the body rate ``ω`` (rad/s), Ahangarani Farahani et al. eq. 14.
 
     Singular at θ = ±90° (out of reach of the air bearing's ±40° travel); raises
     ``ValueError`` within 1e-9 of it.

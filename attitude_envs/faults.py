@@ -17,7 +17,7 @@ kind                       effect on the physical command ``u`` of actuator i  v
 =========================  ==================================================  =============
 loss_of_effectiveness      ``(1 − value) · u``                                 loss in [0, 1]
 effectiveness              ``e(t) · u``; ``schedule`` ``[[t_s, e], ...]``      e in [0, 1]
-                           piecewise-linear in absolute time (spec 002's E(t)),
+                           piecewise-linear in absolute time (Sadigh et al. 2022's E(t)),
                            or a constant ``value``
 bias                       ``u + value``                                       actuator units
 drift                      ``u + value · (t − onset)``                         units per s
@@ -98,9 +98,11 @@ class RealizedFault:
     schedule: np.ndarray | None = None
     mean_on_s: float = 1.0
     mean_off_s: float = 1.0
-    _held: float | None = field(default=None, repr=False)
-    _on: bool = field(default=True, repr=False)
-    _next_switch_s: float | None = field(default=None, repr=False)
+    # Runtime state, kept by the fault layer as the episode runs: the stuck value once
+    # latched, and an intermittent fault's on/off phase and next switch time (s).
+    held: float | None = field(default=None, repr=False)
+    on: bool = field(default=True, repr=False)
+    next_switch_s: float | None = field(default=None, repr=False)
 
     def active(self, t_s: float) -> bool:
         end = np.inf if self.duration_s is None else self.onset_s + self.duration_s
@@ -237,7 +239,7 @@ class ActuatorFaults:
             if f.kind == "intermittent":
                 self._advance_intermittent(f, t_s)
             if not f.active(t_s):
-                f._held = None
+                f.held = None
                 continue
             if f.kind == "loss_of_effectiveness":
                 out[i] *= 1.0 - f.value
@@ -251,24 +253,24 @@ class ActuatorFaults:
             elif f.kind == "drift":
                 out[i] += f.value * (t_s - f.onset_s)
             elif f.kind == "stuck":
-                if f._held is None:
-                    f._held = float(out[i]) if f.value is None else f.value
-                out[i] = f._held
+                if f.held is None:
+                    f.held = float(out[i]) if f.value is None else f.value
+                out[i] = f.held
             elif f.kind == "outage":
                 out[i] = 0.0
             elif f.kind == "saturation":
                 limit[i] = min(limit[i], f.value * self.limits[i])
-            elif f.kind == "intermittent" and not f._on:
+            elif f.kind == "intermittent" and not f.on:
                 out[i] = 0.0
         return np.clip(out, -limit, limit)
 
     def _advance_intermittent(self, f: RealizedFault, t_s: float) -> None:
-        if f._next_switch_s is None:
-            f._on = False
-            f._next_switch_s = f.onset_s + self._rng.exponential(f.mean_off_s)
-        while t_s >= f._next_switch_s:
-            f._on = not f._on
-            f._next_switch_s += self._rng.exponential(f.mean_on_s if f._on else f.mean_off_s)
+        if f.next_switch_s is None:
+            f.on = False
+            f.next_switch_s = f.onset_s + self._rng.exponential(f.mean_off_s)
+        while t_s >= f.next_switch_s:
+            f.on = not f.on
+            f.next_switch_s += self._rng.exponential(f.mean_on_s if f.on else f.mean_off_s)
 
     def active_flags(self, t_s: float) -> np.ndarray:
         """1.0 per actuator with an active fault at ``t_s``, else 0.0 (the ``fault_hint``)."""

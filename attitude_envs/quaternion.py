@@ -2,7 +2,7 @@
 
 The convention matches :class:`scipy.spatial.transform.Rotation`: a quaternion ``q``
 maps body-frame vectors to the inertial frame, ``v_I = R(q) v_B``. Kinematics are
-``q̇ = ½ q ⊗ [ω, 0]`` with ``ω`` the body rate in body axes (spec 000 §2.2, eq. 3).
+``q̇ = ½ q ⊗ [ω, 0]`` with ``ω`` the body rate in body axes (the feedback-linearization paper, eq. 3).
 """
 
 from __future__ import annotations
@@ -35,15 +35,16 @@ def error(q: np.ndarray, q_target: np.ndarray) -> np.ndarray:
     """Attitude of the body relative to the target, ``q_e = q_T* ⊗ q``, sign with w ≥ 0.
 
     ``q_e = [0, 0, 0, 1]`` at the target; its vector part obeys ``d/dt q_e,vec = ½ ω``
-    near the target, which is the linear model of spec 001 eq. 58. Spec 000's
-    ``q_E = q_S* ⊗ q_T`` (eq. 61) is the conjugate: ``q_E,vec = -q_e,vec``.
+    near the target, which is the linear model of Heravi & Novinzadeh 2017, eq. 58. The
+    feedback-linearization paper's ``q_E = q_S* ⊗ q_T`` (its eq. 61) is the conjugate:
+    ``q_E,vec = -q_e,vec``.
     """
     qe = multiply(conjugate(q_target), q)
     return -qe if qe[3] < 0.0 else qe
 
 
 def error_angle_rad(q: np.ndarray, q_target: np.ndarray) -> float:
-    """Eigen-axis angle between attitude and target, rad, in [0, π] (spec 000 eq. 13)."""
+    """Eigen-axis angle between attitude and target, rad, in [0, π] (the feedback-linearization paper, eq. 13)."""
     qe = multiply(conjugate(q_target), q)
     return float(2.0 * np.arccos(min(1.0, abs(qe[3]))))
 
@@ -83,7 +84,7 @@ def from_axis_angle(axis: np.ndarray, angle_rad: float) -> np.ndarray:
 def from_euler_321_deg(roll_deg: float, pitch_deg: float, yaw_deg: float) -> np.ndarray:
     """Quaternion of 3-2-1 Euler angles (yaw ψ about z, then pitch θ, then roll φ), degrees.
 
-    Equals ``Rotation.from_euler('ZYX', [ψ, θ, φ], degrees=True).as_quat()`` (spec 000 §4.1).
+    Equals ``Rotation.from_euler('ZYX', [ψ, θ, φ], degrees=True).as_quat()`` (as for the targets of the feedback-linearization paper's Table 1).
     """
     phi, theta, psi = np.radians([roll_deg, pitch_deg, yaw_deg]) * 0.5
     sf, cf, st, ct, sp, cp = np.sin(phi), np.cos(phi), np.sin(theta), np.cos(theta), np.sin(psi), np.cos(psi)

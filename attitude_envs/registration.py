@@ -1,4 +1,5 @@
-"""Gymnasium ids of the suite (``attitude_envs/<Name>-v0``)."""
+"""Gymnasium ids of the suite (``attitude_envs/<Name>-v0``): all five envs, each with its
+natively batched vector entry point."""
 
 from __future__ import annotations
 

@@ -7,6 +7,8 @@ frame. Right: wheel speeds as bars, as a fraction of the speed limit.
 from __future__ import annotations
 
 import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
 
 from attitude_envs import quaternion
 
@@ -17,13 +19,10 @@ class AttitudeRenderer:
     """Draws frames of width × height pixels; one figure reused for every frame."""
 
     def __init__(self, width: int = 480, height: int = 320, human: bool = False) -> None:
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
-
         dpi = 80
         self.human = human
         if human:
-            import matplotlib.pyplot as plt
+            import matplotlib.pyplot as plt  # heavy, and it picks a GUI backend: only for render_mode="human"
 
             self._plt = plt
             self.fig = plt.figure(figsize=(width / dpi, height / dpi), dpi=dpi)

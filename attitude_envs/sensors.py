@@ -86,7 +86,7 @@ class RealizedSensorFault:
     onset_s: float
     duration_s: float | None
     mode: str = "nan"
-    _held: np.ndarray | None = field(default=None, repr=False)
+    held: np.ndarray | None = field(default=None, repr=False)  # the stuck reading once latched (runtime state)
 
     def active(self, t_s: float) -> bool:
         end = np.inf if self.duration_s is None else self.onset_s + self.duration_s
@@ -250,7 +250,7 @@ class SensorSuite:
             faults = [f for f in self.realized if f.sensor == name and f.active(t_s)]
             for f in self.realized:
                 if f.sensor == name and not f.active(t_s):
-                    f._held = None
+                    f.held = None
             for f in faults:
                 if f.kind == "bias":
                     err[f.index] += f.value
@@ -269,9 +269,9 @@ class SensorSuite:
                     continue
                 sel = slice(None) if f.index == "all" else f.index
                 if f.kind == "stuck":
-                    if f._held is None:
-                        f._held = np.array(m[sel], dtype=float) if f.value is None else np.array(f.value)
-                    m[sel] = f._held
+                    if f.held is None:
+                        f.held = np.array(m[sel], dtype=float) if f.value is None else np.array(f.value)
+                    m[sel] = f.held
                 elif f.mode == "nan":
                     m[sel] = np.nan
                 else:  # hold the last delivered sample (the current one if there is none yet)

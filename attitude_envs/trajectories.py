@@ -1,10 +1,11 @@
-"""Reference attitude trajectories: the smooth bang-bang Euler profile of spec 002 §5.1.
+"""Reference attitude trajectories: the smooth bang-bang Euler profile of Sadigh et al. 2022.
 
 Per 3-2-1 Euler angle j (roll φ, pitch θ, yaw ψ), eq. (36):
 ``θ_j(t) = θ_j0 + K_j ∫∫ f``, with ``K_j = T_max/J_jj`` and the smooth sign function
 ``f`` of eq. (37) (Δt = t_f/4, so f rises 0→1 on [0, t_f/4], falls 1→−1 on
-[t_f/4, 3t_f/4], returns −1→0 on [3t_f/4, t_f], and is 0 afterwards — spec [ASSUME]).
-The third branch is the spec's reconstruction (``t − t1``, §5.1). The slew is
+[t_f/4, 3t_f/4], returns −1→0 on [3t_f/4, t_f], and is 0 afterwards — assumed: the paper
+does not say what follows t_f). The third branch uses ``t − t1``: the printed ``t − t2``
+would give f(t2) = −5, so it is read as a misprint. The slew is
 parameterized by its increment: ``K_j = Δθ_j / (0.13125 t_f²)`` (∫∫f over [0, t_f] =
 21/160 t_f²). Quaternion by eq. (38) (3-2-1, :func:`attitude_envs.quaternion.from_euler_321_deg`).
 """
@@ -17,7 +18,7 @@ from numpy.polynomial import Polynomial as P
 from attitude_envs import validation
 from attitude_envs.plants import magnetorquer_kernels as kernels
 
-SLEW_FACTOR = 21.0 / 160.0  # ∫0^tf ∫0^τ f = 0.13125 t_f² (spec 002 §5.1)
+SLEW_FACTOR = 21.0 / 160.0  # ∫0^tf ∫0^τ f = 0.13125 t_f² (eq. 37)
 
 
 def _segments(t_final_s: float) -> list[tuple[float, float, P]]:
@@ -34,10 +35,11 @@ def _segments(t_final_s: float) -> list[tuple[float, float, P]]:
 
 
 class SmoothBangBang:
-    """Euler-angle reference of spec 002 eqs. (36)–(38); angles deg, time s.
+    """Euler-angle reference of Sadigh et al. 2022, eqs. (36)–(38); angles deg, time s.
 
     ``delta_deg``: slew increment [Δφ, Δθ, Δψ]; ``start_deg``: θ0; ``t_final_s``: t_f;
-    the rates at t0 = 0 are zero and the angles are held after t_f (spec §5.1 defaults).
+    the rates at t0 = 0 are zero and the angles are held after t_f (assumed: the paper
+    gives none of θ0, θ̇0, t0, t_f or T_max; the default slew is ours).
     """
 
     def __init__(self, delta_deg=(10.0, 20.0, 10.0), t_final_s: float = 1200.0, start_deg=(0.0, 0.0, 0.0)) -> None:

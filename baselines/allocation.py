@@ -1,9 +1,10 @@
-"""Wheel-torque allocation: body torque demand → normalized wheel actions (spec 000 eqs. 9–12).
+"""Wheel-torque allocation: body torque demand → normalized wheel actions (the feedback-linearization
+paper, Modares Mech. Eng., eqs. 9–12).
 
 The nominal distribution matrix is the env's wheel-axis matrix ``A`` (3×N); the body receives
 ``T = −A u`` from motor torques ``u`` (see :mod:`attitude_envs.plants.gyrostat`), so the
-minimum-norm allocation is ``u = −A⁺ T`` (spec 000 eq. 11: the right pseudo-inverse). For the
-spec-000 pyramid ``A⁺ = (√3/4)·[[1,1,1],[−1,1,1],[−1,−1,1],[1,−1,1]]`` (eq. 12).
+minimum-norm allocation is ``u = −A⁺ T`` (the paper's eq. 11: the right pseudo-inverse). For the
+paper's pyramid ``A⁺ = (√3/4)·[[1,1,1],[−1,1,1],[−1,−1,1],[1,−1,1]]`` (eq. 12).
 
 Saturation awareness (``saturation=``):
 

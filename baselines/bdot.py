@@ -1,7 +1,8 @@
 """B-dot magnetic detumbling, the standard magnetorquer baseline (Magnetorquer-v0).
 
 ``m = −(k/|b|) d(b̂)/dt`` with the body-frame field direction differentiated by finite
-differences between control steps (a magnetometer-only law: no rate measurement), the
+differences between control steps (a magnetometer-only law: the measured field
+``info["measured"]["magnetic_field_body_t"]``, no rate measurement), the
 dipole saturated direction-preservingly, the wheel torque zero. Default gain
 ``k = 2 n (1 + sin ξ_m) J_min`` (Avanzini & Giulietti, "Magnetic detumbling of a rigid
 spacecraft", JGCD 35(4), 2012), n the orbital mean motion, ξ_m the inclination of the orbit
@@ -16,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from attitude_envs import validation
+from attitude_envs.info import MEASURED
 
 
 class BDotPolicy:
@@ -36,7 +38,7 @@ class BDotPolicy:
         self._previous = None
 
     def act(self, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
-        b = np.asarray(info["magnetic_field_body_t"], dtype=float)
+        b = np.asarray(info[MEASURED]["magnetic_field_body_t"], dtype=float)
         norm = float(np.linalg.norm(b))
         direction = b / norm
         if self._previous is None:

@@ -1,6 +1,7 @@
-"""Spec 000's input–output feedback linearization on the quaternion vector part + LQR outer loop.
+"""Input–output feedback linearization on the quaternion vector part + LQR outer loop, from the
+feedback-linearization paper (Modares Mech. Eng.; authors not in our copy).
 
-Outputs ``y = q_vec`` (spec 000 §3.1, eqs. 15–16), relative degree {2, 2, 2}:
+Outputs ``y = q_vec`` (the paper's eqs. 15–16), relative degree {2, 2, 2}:
 
     ÿ = D(x) + E(x) T                                                      (eq. 19)
     D = ½ Ω₁:₃(ω) q̇ + ½ Q''(q) ω̇_drift,   E = ½ Q''(q) I⁻¹                 (eqs. 25–26)
@@ -17,12 +18,12 @@ tachometer wheel speeds, and ``E`` uses ``I_eff``, so the closed loop is exactly
 for the nominal plant (up to the zero-order hold of the torque over a control period).
 
 ``output="absolute"`` (default, the paper's choice) uses the absolute attitude ``q`` and
-``y_d = q_T,vec`` (signs chosen so that ``q4 ≥ 0`` and ``q_T4 ≥ 0``, spec 000 §7 item 9);
+``y_d = q_T,vec`` (signs chosen so that ``q4 ≥ 0`` and ``q_T4 ≥ 0``; assumed: the paper does not fix the sign);
 ``"error"`` uses the error quaternion ``q_e = q_T* ⊗ q`` (same kinematics, target fixed) with
 ``y_d = 0``, which works from any start attitude (singular only 180° from the target).
 
 **Singularity** (eq. 29: ``det E = q4 / (8 Ixx Iyy Izz)``): when ``|q4| < q4_min`` the
-linearizing law is not applied. ``on_singular="fallback"`` (default) commands spec 000's
+linearizing law is not applied. ``on_singular="fallback"`` (default) commands the paper's
 quaternion-feedback law (eq. 60, :class:`baselines.quaternion_lqr.QuaternionLQRPolicy`) for
 that step and counts it in ``singular_steps``; ``"raise"`` raises :class:`SingularControlError`.
 """
@@ -36,11 +37,11 @@ import numpy as np
 from attitude_envs import quaternion, validation
 from attitude_envs.linearization import LinearModel
 from baselines.allocation import WheelAllocator
+from baselines.measured import MeasuredState
 from baselines.quaternion_lqr import QuaternionLQRPolicy
-from baselines.state import MeasuredState
 
-PAPER_OUTER_Q = 0.1 * np.eye(6)  # spec 000 eq. 79
-PAPER_OUTER_R = 100.0 * np.eye(3)  # spec 000 eq. 80
+PAPER_OUTER_Q = 0.1 * np.eye(6)  # the paper's eq. 79
+PAPER_OUTER_R = 100.0 * np.eye(3)  # the paper's eq. 80
 
 
 class SingularControlError(RuntimeError):
@@ -63,13 +64,13 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def q_double_prime(q: np.ndarray) -> np.ndarray:
-    """``Q''(q)`` of spec 000 eq. 67: ``q̇_vec = ½ Q''(q) ω`` (scalar-last ``q``)."""
+    """``Q''(q)`` of the paper's eq. 67: ``q̇_vec = ½ Q''(q) ω`` (scalar-last ``q``)."""
     q1, q2, q3, q4 = q
     return np.array([[q4, -q3, q2], [q3, q4, -q1], [-q2, q1, q4]])
 
 
 class FeedbackLinearizationPolicy:
-    """Spec 000's FLC on ReactionWheel-v0 (full-state feedback from ``info["state"]``)."""
+    """The paper's feedback-linearizing controller on ReactionWheel-v0 (state feedback on the measured state ``info["measured"]``)."""
 
     def __init__(
         self,

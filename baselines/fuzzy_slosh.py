@@ -1,17 +1,17 @@
-"""Mamdani fuzzy gain-scheduled P/PD of spec 004 §3.3 (paper eqs. 32–36), on scikit-fuzzy.
+"""Mamdani fuzzy gain-scheduled P/PD of Navabi & Davoodi's fuel-slosh paper (eqs. 32–36), on
+scikit-fuzzy.
 
 Two Mamdani systems built with :mod:`skfuzzy.control`:
 
 * attitude block, inputs e = −θ and ė = −Ω (normalized by 2° and 1.5e-4 rad/s and
   saturated to [−1, 1]), outputs K'_2 (P gain, paper Table 1) and K'_3 (D gain, Table 2);
 * v_z block, inputs e = −v_z and ė = −v̇_z (100 m/s, 0.6 m/s²), output K'_1 from the
-  two-rule base "e ZO and ė ZO → S, otherwise → B" (spec default; the paper's names are lost).
+  two-rule base "e ZO and ė ZO → S, otherwise → B" (assumed: the paper's names are lost).
 
 Inputs have 7 sets NB…PB (trapezoidal shoulders, triangles centred at ±1/3, ±2/3, 0,
 half-width 1/3); outputs S and B are Gaussians at 0 and 1 (σ = 0.4247); min/max
-inference, centroid defuzzification (all spec §3.3 defaults, [OURS] where the paper is
-silent). Gains: k_j = (k_j,max − k_j,min) K'_j + k_j,min with Table 6 as printed (row 3
-has min > max; spec §3.3). v̇_z = u1(previous step) + v_x Ω.
+inference, centroid defuzzification (assumed where the paper is silent). Gains:
+k_j = (k_j,max − k_j,min) K'_j + k_j,min with Table 6 as printed (row 3 has min > max). v̇_z = u1(previous step) + v_x Ω.
 
 ``schedule_period_s``: the fuzzy systems are re-evaluated at most this often (default
 1 s, ≈ 1/100 of the loop time constants) and the gains held in between; the PD law itself
@@ -30,10 +30,10 @@ from attitude_envs import validation
 from baselines.slosh import NewInputPolicy
 
 LABELS = ("NB", "NM", "NS", "ZO", "PS", "PM", "PB")
-# Paper Table 1 (P-type K') and Table 2 (D-type K'); rows e, columns ė, both NB…PB (READ).
+# Paper Table 1 (P-type K') and Table 2 (D-type K'); rows e, columns ė, both NB…PB, as printed.
 TABLE_P = ("BBBBBBB", "SBBBBBS", "SSBBBSS", "SSSBSSS", "SSBBBSS", "SBBBBBS", "BBBBBBB")
 TABLE_D = ("SSSSSSS", "BBSSSBB", "BBBSBBB", "BBBBBBB", "BBBSBBB", "BBSSSBB", "SSSSSSS")
-# Paper Table 6 gain ranges (k_min, k_max), as printed (spec §3.3).
+# Paper Table 6 gain ranges (k_min, k_max), as printed.
 GAIN_RANGES = {"k1": (3.84e-3, 7.2e-3), "k2": (2.65e-5, 5.0e-5), "k3": (1.2e-2, 6e-3)}
 SCALES = {"vz": 100.0, "dvz": 0.6, "theta": math.radians(2.0), "dtheta": 1.5e-4}
 SIGMA = 0.4247
@@ -90,7 +90,7 @@ def attitude_system() -> ctrl.ControlSystem:
 
 
 def velocity_system() -> ctrl.ControlSystem:
-    """Mamdani system (e, ė) → K'_1 with the two-rule base (spec §3.3 default)."""
+    """Mamdani system (e, ė) → K'_1 with the two-rule base (assumed, see the module docstring)."""
     e, de = _input("e"), _input("de")
     k = _output("k")
     zo = e["ZO"] & de["ZO"]

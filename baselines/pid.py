@@ -1,4 +1,5 @@
-"""Per-axis PID on 3-2-1 Euler-angle errors, fixed or state-dependent gains (spec 003 §3).
+"""Per-axis PID on 3-2-1 Euler-angle errors, fixed or state-dependent gains, from the air-bearing
+GA-tuned PID paper (Ahangarani Farahani, Adami & Arefkhani; year unknown).
 
 Control law (eq. 18), one channel per Euler angle ``i ∈ (φ, θ, ψ)``::
 
@@ -7,12 +8,13 @@ Control law (eq. 18), one channel per Euler angle ``i ∈ (φ, θ, ψ)``::
 with ``y`` the 3-2-1 Euler angles of the attitude *relative to the target* (``q_e = q_T* ⊗ q``,
 so ``r = 0``; equal to the paper's angles for its target 0), ``ẏ`` their rates from the body
 rate by eq. 14 (target at rest), errors in **rad** and gains in SI (N·m/rad, N·m·s/rad,
-N·m/(rad·s)) — spec 003 §5 A1. ``T_c`` is the body-torque command (§3.1 REC), mapped to the
+N·m/(rad·s)) — assumed: the paper gives no units. ``T_c`` is the body-torque command
+(assumed), mapped to the
 env's wheels by :class:`baselines.allocation.WheelAllocator` (default ``saturation="clip"``
 for one wheel per body axis: each of the air bearing's three orthogonal wheels saturates on its
 own axis, as in the paper; ``"scale"`` for other wheel sets, e.g. ReactionWheel-v0's pyramid). The
-integral is a forward-Euler sum over control periods, without anti-windup (A12), and the yaw
-error is wrapped to (−180°, 180°] by the Euler extraction (A13).
+integral is a forward-Euler sum over control periods, without anti-windup (assumed), and the
+yaw error is wrapped to (−180°, 180°] by the Euler extraction (assumed).
 
 State-dependent gains (eq. 23–24): ``K = k1 + k2·y_i + k3·ẏ_i`` per gain and channel, with
 ``y_i, ẏ_i`` in rad and rad/s (``units="rad"``, default) or deg and deg/s (``units="deg"``).
@@ -30,6 +32,7 @@ import numpy as np
 
 from attitude_envs import validation
 from attitude_envs.euler import euler_321_rad, euler_321_rad_batch, euler_321_rates, euler_321_rates_batch
+from attitude_envs.info import MEASURED
 from baselines.allocation import WheelAllocator
 
 UNITS = ("rad", "deg")
@@ -81,7 +84,7 @@ class GainSchedule:
         object.__setattr__(self, "units", validation.choice("units", self.units, set(UNITS)))
 
     def with_units(self, units: str) -> GainSchedule:
-        """The same coefficients read in other units (spec 003 §5 A1: the paper does not say)."""
+        """The same coefficients read in other units (assumed: the paper does not say)."""
         return GainSchedule(self.coefficients, units)
 
     def at(self, angle_rad, rate_rad_s) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -105,11 +108,12 @@ class GainSchedule:
         }
 
 
-#: Spec 003 Table 3: the GA-tuned fixed gains (a PD: KI = 0).
+#: The air-bearing PID paper's Table 3: the GA-tuned fixed gains (a PD: KI = 0).
 PAPER_FIXED = PIDGains(kp=[2.625, 3.812, 2.2378], kd=[4.14, 12.38, 10.124], ki=[0.0, 0.0, 0.0])
 
-#: Spec 003 eq. 24 as printed: [gain][axis] = (k1, k2, k3); Kp_ψ's k3 sign is lost in the
-#: source, +0.03 per §5 A2 (``paper_schedule(kp_yaw_rate_sign=-1)`` for the other reading).
+#: The air-bearing PID paper's eq. 24 as printed: [gain][axis] = (k1, k2, k3); Kp_ψ's k3 sign
+#: is lost in the source, assumed +0.03 (``paper_schedule(kp_yaw_rate_sign=-1)`` for the other
+#: reading).
 _EQ24 = np.array(
     [
         [[4.07, 0.023, 0.13], [3.32, 0.12, 0.074], [1.83, -0.03, 0.03]],  # Kp
@@ -146,8 +150,9 @@ def load_gains(path: str | Path) -> PIDGains | GainSchedule:
 
 class PIDPolicy:
     """Per-axis Euler-angle PID (fixed or scheduled gains) on any attitude env whose ``info``
-    carries ``state`` (attitude, rate, target) and whose model has wheel axes and a torque
-    limit (ReactionWheel-v0, AirBearing-v0). Policy interface of :mod:`baselines.base`."""
+    carries the measured state ``measured`` (attitude, rate, target) and whose model has wheel
+    axes and a torque limit (ReactionWheel-v0, AirBearing-v0). Policy interface of
+    :mod:`baselines.base`."""
 
     def __init__(
         self, env, gains: PIDGains | GainSchedule, name: str | None = None, saturation: str | None = None
@@ -180,22 +185,22 @@ class PIDPolicy:
             self._integral[np.asarray(mask, dtype=bool)] = 0.0
 
     def act(self, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
-        """Normalized wheel action for one step (obs (n,), ``info["state"]`` read) or a batch
+        """Normalized wheel action for one step (obs (n,), ``info["measured"]`` read) or a batch
         (obs (E, n) → (E, N wheels)): see :meth:`act_batch`."""
         if np.ndim(obs) == 2:
             return self.act_batch(obs, info)
-        state = info["state"]
+        state = info[MEASURED]
         angle, rate = euler_error(state["attitude"], state["rate_rad_s"], state["target_attitude"])
         return self._control(angle, rate)
 
     def act_batch(self, obs: np.ndarray, info: dict[str, Any] | None = None) -> np.ndarray:
         """Each row as :meth:`act` on its own (own integral, reset with :meth:`reset` or
-        :meth:`reset_rows`). The rows' states come from ``info["state"]`` when it holds (E, ·)
+        :meth:`reset_rows`). The rows' states come from ``info["measured"]`` when it holds (E, ·)
         arrays, else from the observation's error state ``[q_e,vec, ω]`` (ReactionWheel-v0,
         AirBearing-v0; float32, so the angles carry its rounding): ``q_e = [v, √(1 − |v|²)]``
         relative to the target, ``ω`` the body rate."""
         obs = np.asarray(obs, dtype=float)
-        state = (info or {}).get("state")
+        state = (info or {}).get(MEASURED)
         if state is not None:
             q_e = quaternion_error_batch(
                 np.asarray(state["attitude"], dtype=float), np.asarray(state["target_attitude"], dtype=float)
@@ -255,7 +260,7 @@ def euler_error(q, rate_rad_s, q_target) -> tuple[np.ndarray, np.ndarray]:
 def pid_policy(env, gains: str = "paper-fixed", **kwargs: Any) -> PIDPolicy:
     """A :class:`PIDPolicy` by name (the policy registry's ``pid``): ``gains`` is
     ``"paper-fixed"`` (Table 3), ``"paper-schedule-rad"`` / ``"paper-schedule-deg"`` (eq. 24)
-    or the path of a gains JSON written by ``train.py tune-pid``."""
+    or the path of a gains JSON written by ``attitude-envs tune-pid``."""
     named = {
         "paper-fixed": lambda: PAPER_FIXED,
         "paper-schedule-rad": lambda: paper_schedule("rad"),

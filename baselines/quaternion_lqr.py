@@ -1,6 +1,7 @@
-"""Spec 000's stand-alone LQR: the quaternion-feedback law ``T = 2K q_E,vec q_E4 − K_d ω``.
+"""The stand-alone LQR of the feedback-linearization paper (Modares Mech. Eng.; authors not in
+our copy): the quaternion-feedback law ``T = 2K q_E,vec q_E4 − K_d ω``.
 
-Law (spec 000 §3.2, eq. 60) with ``q_E = q_S* ⊗ q_T`` (eq. 61). This package's error
+Law (the paper's eq. 60) with ``q_E = q_S* ⊗ q_T`` (eq. 61). This package's error
 quaternion is its conjugate, ``q_e = q_T* ⊗ q`` (``q_e,vec = −q_E,vec``, same scalar part ≥ 0),
 so the law reads ``T = −2 K_q q_e,vec q_e4 − K_ω ω`` here.
 
@@ -10,12 +11,12 @@ at rest (eqs. 69–74, ``h_w = 0``), weights ``Q = blockdiag(170·I₃ on q_vec,
 ``I = diag(4, 4, 3)`` this gives ``K = 0.2608``, ``K_d = 2.5091/2.5091/2.4566`` (eqs. 77–78).
 The policy designs on the env's *nominal* body inertia as the wheels see it,
 ``I_eff = I − J_s A Aᵀ`` (the exact gyrostat's response to motor torque, see
-:mod:`attitude_envs.plants.gyrostat`): for spec 000 that moves ``K_d`` in the fifth digit
+:mod:`attitude_envs.plants.gyrostat`): for the paper's pyramid that moves ``K_d`` in the fifth digit
 (2.5090/2.4565).
 
 ``stiffness="paper"`` (default) uses eq. 60 as written, i.e. twice the stiffness the LQR
 design implies for small angles (``2 q_e4 q_e,vec ≈ θ`` while the design's state is
-``q_vec ≈ θ/2``; spec 000 §3.2 and §7 item 10); ``"consistent"`` halves it (``K/2``).
+``q_vec ≈ θ/2``; assumed: the paper's eq. 60 is reproduced as printed); ``"consistent"`` halves it (``K/2``).
 """
 
 from __future__ import annotations
@@ -27,14 +28,14 @@ import numpy as np
 from attitude_envs import quaternion, validation
 from attitude_envs.linearization import LinearModel
 from baselines.allocation import WheelAllocator
-from baselines.state import MeasuredState
+from baselines.measured import MeasuredState
 
-PAPER_Q = np.diag([170.0] * 3 + [13131.0] * 3)  # spec 000 eq. 75, order [q_vec, ω]
-PAPER_R = 2500.0 * np.eye(3)  # spec 000 eq. 76
+PAPER_Q = np.diag([170.0] * 3 + [13131.0] * 3)  # the paper's eq. 75, order [q_vec, ω]
+PAPER_R = 2500.0 * np.eye(3)  # the paper's eq. 76
 
 
 def quaternion_lqr_gains(inertia_kg_m2, Q=PAPER_Q, R=PAPER_R) -> tuple[np.ndarray, np.ndarray]:
-    """``(K_q, K_ω)`` (3×3 each) of the LQR on the linearized rigid body (spec 000 eqs. 69–74).
+    """``(K_q, K_ω)`` (3×3 each) of the LQR on the linearized rigid body (the paper's eqs. 69–74).
 
     State ``[q_vec, ω]`` (``q̇_vec = ½ω``, ``I ω̇ = T``), input body torque ``T`` (N·m);
     ``Q`` (6×6, on ``[q_vec, ω]``) and ``R`` (3×3) as in eqs. 75–76 by default. The LQR law is
@@ -51,10 +52,10 @@ def quaternion_lqr_gains(inertia_kg_m2, Q=PAPER_Q, R=PAPER_R) -> tuple[np.ndarra
 
 
 class QuaternionLQRPolicy:
-    """Spec 000 eq. 60 on ReactionWheel-v0, built from the env's nominal model.
+    """The feedback-linearization paper's eq. 60 on ReactionWheel-v0, built from the env's nominal model.
 
-    Full-state feedback: reads ``info["state"]`` (attitude, rate, target). The body torque is
-    allocated to the wheels by :class:`baselines.allocation.WheelAllocator`.
+    State feedback on the measured state ``info["measured"]`` (attitude, rate, target). The
+    body torque is allocated to the wheels by :class:`baselines.allocation.WheelAllocator`.
     """
 
     def __init__(

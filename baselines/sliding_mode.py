@@ -1,19 +1,21 @@
-"""Fault-tolerant sliding-mode attitude tracking of spec 002 (magnetorquers + one y wheel).
+"""Fault-tolerant sliding-mode attitude tracking of Sadigh, Kashaninia & Dehghan 2022 (Journal of
+Control 15(4); magnetorquers + one y wheel).
 
 * :class:`AMNFTSMCPolicy` — adaptive modified nonsingular fast terminal SMC, eqs. (18)–(24):
   ``u_c = u_eq − (ρ1 + 1) Ĥ φ sign(S)``, ``dĤ/dt = μ φ ‖S‖`` (Ĥ never decreases);
 * :class:`MNFTSMCPolicy` — the non-adaptive version, eq. (41): ``u_c = u_eq − ρ2 sign(S)``;
 * :class:`FTSMCStandInPolicy` — **a stand-in, not the paper's FTSMC [13]** (whose reference
-  list is missing): the same law with the unmodified terminal term ``sig^r(q_e)`` (spec §4.7);
+  list is missing): the same law with the unmodified terminal term ``sig^r(q_e)`` (assumed);
 * :func:`allocate_paper` — eqs. (16)–(17): ``m = b × u_c/|b|²`` (the component of the demand
   perpendicular to b), saturated, then ``T_w = [u_c − m × b]_y`` clipped; variants "xz" and
   "exact" (the wheel first takes the along-b part, so the whole demand is realized).
 
 Sliding variable, eq. (18): ``S = ω_bo + γ1 q_e + γ2 s_c(q_e)`` with the additive error
 ``q_e = q − q_d`` (vector parts, scalar-first sign w ≥ 0). Every parameter the paper omits
-is a documented default of :class:`SlidingModeGains` (spec §4.8) that the user can override.
-All controllers use the nominal model (``env.unwrapped.model``) and measure q, ω_bo, Ω
-and the body-frame field ``b`` (``info``; spec assumption 1).
+is a documented default of :class:`SlidingModeGains` that the user can override.
+All controllers use the nominal model (``env.unwrapped.model``) and the measured q, ω_bo, Ω
+and body-frame field ``b`` (``info["measured"]``: the sensor layer's view, never the truth),
+tracking the commanded reference ``info["reference"]``.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from attitude_envs import quaternion, validation
+from attitude_envs.info import MEASURED
 from attitude_envs.plants.magnetorquer import E_Y, cross, orbital_to_body
 
 ALLOCATIONS = ("paper", "xz", "exact")
@@ -31,17 +34,18 @@ ALLOCATIONS = ("paper", "xz", "exact")
 
 @dataclass(frozen=True)
 class SlidingModeGains:
-    """Controller parameters; ``[READ]`` from the paper or ``[ASSUME]`` (spec 002 §4.8).
+    """Controller parameters: from the paper, or "assumed" where the paper omits them.
 
-    * ``gamma1``, ``gamma2`` (1/s) [ASSUME 0.01, 0.001]; ``r`` [ASSUME 0.6]; ``epsilon``
-      [ASSUME 0.01]; ``kappa1``, ``kappa2`` — None: the C¹ construction
-      κ1 = (2−r)ϵ^(r−1), κ2 = (r−1)ϵ^(r−2) (κ2 < 0, unlike the text's "κ2 > 0", spec §6 item 1);
-    * ``rho1`` = ``rho2`` = 0.0015 N·m [READ], ``h0`` = Ĥ(0) = 0.605 [READ], ``mu`` (adaptation
-      rate) [ASSUME 0.1], ``p`` = ``q`` = 2 in φ (eq. 21) [ASSUME], φ fed by ω_bi [ASSUME];
+    * ``gamma1``, ``gamma2`` (1/s) (assumed 0.01, 0.001); ``r`` (assumed 0.6); ``epsilon``
+      (assumed 0.01); ``kappa1``, ``kappa2`` — None: the C¹ construction
+      κ1 = (2−r)ϵ^(r−1), κ2 = (r−1)ϵ^(r−2) (κ2 < 0, unlike the text's "κ2 > 0");
+    * ``rho1`` = ``rho2`` = 0.0015 N·m (paper), ``h0`` = Ĥ(0) = 0.605 (paper), ``mu``
+      (adaptation rate, assumed 0.1), ``p`` = ``q`` = 2 in φ (eq. 21, assumed), φ fed by ω_bi
+      (assumed);
     * ``boundary_layer`` δ (rad/s): None = ``sign(S)`` as printed; a number uses ``sat(S/δ)``
-      (spec §6 item 2, off by default);
+      (off by default);
     * ``allocation``: ``"paper"`` (eq. 16 on the whole demand), ``"xz"`` (only the x/z
-      demand goes to the magnetorquers, spec §6 item 9) or ``"exact"`` (eq. 16 on the demand
+      demand goes to the magnetorquers) or ``"exact"`` (eq. 16 on the demand
       less the wheel torque that makes it perpendicular to b: realizes any demand within the
       limits, see :func:`allocate_paper`); ``dipole_saturation``: ``"scale"``
       (direction-preserving, default) or ``"clip"`` (per axis).
@@ -83,7 +87,7 @@ def terminal_term(q_e: np.ndarray, gains: SlidingModeGains, modified: bool = Tru
     """``s_c`` of eq. (19) and its derivative ``ds_c/dq_e`` of eq. (24), element-wise.
 
     ``modified=False`` is the plain ``sig^r`` term of the FTSMC stand-in, its derivative
-    evaluated at ``max(|q_e|, 1e-6)`` (spec §4.7).
+    evaluated at ``max(|q_e|, 1e-6)`` (assumed).
     """
     a = np.abs(q_e)
     sgn = np.sign(q_e)
@@ -105,7 +109,7 @@ def allocate_paper(
     saturation: str = "scale",
     variant: str = "paper",
 ) -> tuple[np.ndarray, float]:
-    """Spec 002 eqs. (16)–(17): dipole (A·m²) and wheel body torque (N·m) for a demand ``u_c``.
+    """Eqs. (16)–(17) of Sadigh, Kashaninia & Dehghan 2022: dipole (A·m²) and wheel body torque (N·m) for a demand ``u_c``.
 
     ``m = b × u/|b|²`` makes ``m × b`` the component of ``u`` perpendicular to ``b``. The
     dipole is saturated (direction-preserving ``"scale"`` or per-axis ``"clip"``) and the
@@ -113,7 +117,7 @@ def allocate_paper(
     to ±max_wheel_torque_nm. ``u`` depends on ``variant``:
 
     * ``"paper"``: ``u = u_c`` (eq. 16). The x/z part of ``u_c``'s component along b is lost.
-    * ``"xz"``: ``u = [u_cx, 0, u_cz]`` (spec §6 item 9); the wheel alone takes the y demand.
+    * ``"xz"``: ``u = [u_cx, 0, u_cz]``; the wheel alone takes the y demand.
       About the x/z axis ``ê ∥ [b_x, 0, b_z]`` only the fraction ``b_y²/|b|²`` is realized.
     * ``"exact"``: ``u = u_c − k T* e_y`` with ``T* = (u_c·b)/b_y``, the wheel torque that
       leaves a demand perpendicular to b. With ``k = 1``, ``m × b + T_w e_y = u_c`` exactly
@@ -206,7 +210,7 @@ class SlidingModeController:
     def demand(self, info: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, float]:
         """The commanded body torque ``u_c`` (N·m), the sliding variable S and φ."""
         g = self.gains
-        st = info["state"]
+        st = info[MEASURED]
         q = np.asarray(st["attitude"], dtype=float)
         if q[3] < 0:
             q = -q
@@ -242,7 +246,7 @@ class SlidingModeController:
 
     def act(self, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
         u_c, s, phi = self.demand(info)
-        b = np.asarray(info["magnetic_field_body_t"], dtype=float)
+        b = np.asarray(info[MEASURED]["magnetic_field_body_t"], dtype=float)
         m, t_w = allocate_paper(
             u_c, b, self.max_dipole, self.max_wheel_torque, self.gains.dipole_saturation, self.gains.allocation
         )
@@ -271,7 +275,7 @@ class MNFTSMCPolicy(SlidingModeController):
 
 
 class FTSMCStandInPolicy(SlidingModeController):
-    """FTSMC **stand-in** (spec §4.7): plain sig^r terminal term, ``−ρ2 sign(S)``; not ref. [13]."""
+    """FTSMC **stand-in** (assumed: the paper's ref. [13] is missing): plain sig^r terminal term, ``−ρ2 sign(S)``; not ref. [13]."""
 
     law = "ftsmc"
     name = "FTSMC (stand-in)"

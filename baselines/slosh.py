@@ -1,9 +1,10 @@
-"""Spec 004 controllers for FuelSlosh-v0: P/PD, LQR and the Lyapunov reconstruction.
+"""The controllers of Navabi & Davoodi's fuel-slosh paper for FuelSlosh-v0: P/PD, LQR and the
+Lyapunov reconstruction.
 
 Every controller computes the paper's "new inputs" ``u = [u1, u2] = [a_z (m/s²), Ω̇
 (rad/s²)]`` from the reduced state ``x = [v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2]`` and v_x, then the
-nominal model converts them to the physical gimbal angle δ and pitch moment M_c (spec
-§2.9: exact inversion on the full plant by default, or the paper's linear recovery) and
+nominal model converts them to the physical gimbal angle δ and pitch moment M_c
+(exact inversion on the full plant by default, or the paper's linear recovery) and
 normalizes them to the env action (clipped at the actuator limits). With
 ``observe_slosh=False`` the slosh states are unknown and taken as zero.
 """
@@ -18,7 +19,8 @@ import numpy as np
 from attitude_envs import validation
 from attitude_envs.linearization import LinearModel
 from attitude_envs.plants import slosh
-from attitude_envs.plants.slosh_model import PAPER_Q, PAPER_R, REDUCED_INDEX
+from attitude_envs.plants.slosh_model import REDUCED_INDEX
+from attitude_envs.presets.navabi_slosh import PAPER_Q, PAPER_R
 
 
 def split_observation(obs: np.ndarray) -> tuple[np.ndarray, float]:
@@ -32,7 +34,7 @@ def split_observation(obs: np.ndarray) -> tuple[np.ndarray, float]:
 
 
 class NewInputPolicy:
-    """Base of the spec 004 controllers: subclasses implement ``new_inputs(x, v_x)``."""
+    """Base of the fuel-slosh paper's controllers: subclasses implement ``new_inputs(x, v_x)``."""
 
     name = "new-input"
 
@@ -64,7 +66,8 @@ class NewInputPolicy:
 
 class SloshPDPolicy(NewInputPolicy):
     """Paper eqs. 28–29: u1 = −k1 v_z (P), u2 = −k2 θ − k3 Ω (PD); Table 5 gains
-    (k1 = 6e-3 1/s, k2 = 5e-5 1/s², k3 = 6e-3 1/s; assignment spec §3.1, INFERRED)."""
+    (k1 = 6e-3 1/s, k2 = 5e-5 1/s², k3 = 6e-3 1/s; assumed: the table does not name which gain
+    is which, this assignment is inferred from their units)."""
 
     name = "pd"
 
@@ -78,8 +81,8 @@ class SloshPDPolicy(NewInputPolicy):
         return np.array([-self.k1 * x[0], -self.k2 * x[1] - self.k3 * x[2]])
 
 
-# "Feasible" LQR weighting [OURS]. The paper's R = 1e-6·I demands |u1| ≈ 106 m/s² from the
-# paper's initial condition (spec §3.2) against an authority of F/m_t = 2 m/s², and its
+# "Feasible" LQR weighting (assumed: ours, not the paper's). The paper's R = 1e-6·I demands
+# |u1| ≈ 106 m/s² from the paper's initial condition against an authority of F/m_t = 2 m/s², and its
 # θ weight (1e-6) is so small that θ never settles (slowest pole −2.7e-4 1/s); raising R
 # alone makes θ slower still. This weighting raises the θ weight to 10 and R to
 # diag(1e-2, 1e2): on the reduced linear model from the paper's initial condition it needs
@@ -91,11 +94,11 @@ FEASIBLE_R = np.diag([1e-2, 1e2])
 
 
 class SloshLQRPolicy(NewInputPolicy):
-    """LQR on the reduced linear model (spec §2.8, eqs. 30–31) at the design axial speed
+    """LQR on the reduced linear model (the paper's eqs. 30–31) at the design axial speed
     (v_x = 3000 m/s); ``u = −K x``.
 
     ``weights="paper"``: Q = diag(1e-6, 1e-6, 0.1, 1e-6, 0.1, 1e-6, 0.1), R = 1e-6·I
-    (READ); ``"feasible"``: :data:`FEASIBLE_Q`, :data:`FEASIBLE_R` (OURS, respects the
+    (the paper's); ``"feasible"``: :data:`FEASIBLE_Q`, :data:`FEASIBLE_R` (ours, respects the
     transverse authority). ``Q``/``R`` override. ``discretization="zoh"`` (default) designs on the exact ZOH discretization
     at the env's control period (the paper gain has a −448 rad/s pole that a 0.1 s sampled
     loop cannot follow); ``"continuous"`` uses the continuous gain as in the paper.
@@ -128,19 +131,19 @@ class SloshLQRPolicy(NewInputPolicy):
         return -self.gain @ x
 
 
-# Spec 004 §3.4 tuned values of the reconstructed law [OURS].
+# Tuned values of the reconstructed law (assumed: ours, the paper's law is lost).
 LYAPUNOV_TUNED = {"k1": 1e-12, "k2": 4e-4, "k3": 1.0, "gamma": 1e-15, "c1": 1e10, "c2": 0.036}
-# Paper Table 7 values, symbol mapping lost (READ values; kept as documentation only: no
-# assignment of them to the reconstructed law gives physical inputs, spec §3.4).
+# Paper Table 7 values, symbol mapping lost (the paper's values; kept as documentation only:
+# no assignment of them to the reconstructed law gives physical inputs).
 LYAPUNOV_TABLE7_VALUES = (1.25e-6, 400.0, 500.0, 1e-3, 1e-6, 1e-4)
 
 
 class SloshLyapunovPolicy(NewInputPolicy):
-    """RECONSTRUCTED Lyapunov controller (spec §3.4; the paper's exact law is lost).
+    """Reconstructed Lyapunov controller (assumed: the paper's exact law is lost).
 
     ``V = ½k1 v_z² + ½k2 θ² + ½k3 Ω² + γ Σ[½J_i ψ̇_i² + m_i l_i a_x (1 − cos ψ_i)]``,
-    u1 = −c1 f1 (eq. 39), u2 = −(f2 + c2 Ω)/k3 (eq. 40), with f1, f2 of spec §3.4;
-    a_x = F/m_t. Defaults: the spec's tuned values :data:`LYAPUNOV_TUNED`.
+    u1 = −c1 f1 (eq. 39), u2 = −(f2 + c2 Ω)/k3 (eq. 40), with f1, f2 below;
+    a_x = F/m_t. Defaults: our tuned values :data:`LYAPUNOV_TUNED`.
     """
 
     name = "lyapunov"
@@ -173,7 +176,7 @@ class SloshLyapunovPolicy(NewInputPolicy):
         return np.array([-g["c1"] * f1, -(f2 + g["c2"] * x[2]) / g["k3"]])
 
     def lyapunov(self, x: np.ndarray) -> float:
-        """V(x) of spec §3.4 (a_x = F/m_t)."""
+        """V(x) of the reconstructed law (a_x = F/m_t)."""
         p, g = self.params, self.gains
         psi, dpsi = x[[3, 5]], x[[4, 6]]
         ax = p.axial_acceleration_m_s2
@@ -181,7 +184,7 @@ class SloshLyapunovPolicy(NewInputPolicy):
         return 0.5 * (g["k1"] * x[0] ** 2 + g["k2"] * x[1] ** 2 + g["k3"] * x[2] ** 2) + g["gamma"] * pend
 
     def lyapunov_rate(self, x: np.ndarray, v_x: float, u: np.ndarray | None = None) -> float:
-        """V̇ along the reduced nonlinear model (spec eq. 41 general form:
+        """V̇ along the reduced nonlinear model (the paper's eq. 41 general form:
         −γ Σ ε ψ̇² + f1 u1 + Ω f2 + f3 u2) under ``u`` (default: this law)."""
         f1, f2, f3 = self._terms(x, v_x)
         u = self.new_inputs(x, v_x) if u is None else u

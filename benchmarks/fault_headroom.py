@@ -1,8 +1,8 @@
-"""How much better than the LQR can any controller do under a single-wheel outage? (issue 9 item 5)
+"""How much better than the LQR can any controller do under a single-wheel outage?
 
     PYTHONPATH=. python benchmarks/fault_headroom.py [--seeds 20] [--shooting-seeds 5]
 
-ReactionWheel-v0, spec-000, body-torque actions, random targets within 60°, wheel 0 out from
+ReactionWheel-v0, pyramid-4wheel, body-torque actions, random targets within 60°, wheel 0 out from
 ``onset_s`` (2 s: the packaged ``wheel-failure`` scenario's onset; 10 s: the RL-quality test's).
 Measured on the true (nonlinear, RK4) env, J = Σ info["cost"]:
 
@@ -69,9 +69,9 @@ def oracle_remap(env, onset_s: float, failed: int = 0):
     """Body-torque command that makes the *applied* torque equal the demand once ``failed`` is out:
     applied = M T with M = −A H A_alloc (H zeroes the failed wheel), so command M⁻¹ T."""
     u = env.unwrapped
-    health = np.ones(u._plant.wheel_axes.shape[1])
+    health = np.ones(u.model.params.wheel_axes.shape[1])
     health[failed] = 0.0
-    M = -u._plant.wheel_axes @ np.diag(health) @ u.model.allocation
+    M = -u.model.params.wheel_axes @ np.diag(health) @ u.model.allocation
     inverse = np.linalg.inv(M)
     eye = np.eye(3)
     return lambda t: inverse if t >= onset_s else eye

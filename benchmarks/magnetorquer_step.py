@@ -15,7 +15,6 @@ import gymnasium as gym
 import numpy as np
 
 import attitude_envs  # noqa: F401
-from attitude_envs.envs.magnetorquer import PAPER_FAULTS
 from baselines.sliding_mode import AMNFTSMCPolicy
 
 
@@ -23,7 +22,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--steps", type=int, default=5000)
     args = parser.parse_args()
-    env = gym.make("attitude_envs/Magnetorquer-v0", faults=PAPER_FAULTS).unwrapped
+    env = gym.make("attitude_envs/Magnetorquer-v0", preset="sadigh-2022-faults").unwrapped
     obs, info = env.reset(seed=0)
     start = time.perf_counter()
     for _ in range(args.steps):

@@ -1,14 +1,14 @@
-"""Why is spec 000's maneuver 4 EULERINT ~8 % above the paper (FLC) and ~3.5 % (LQR)?
+"""Why is the feedback-linearization paper's maneuver 4 EULERINT ~8 % above the paper (FLC) and ~3.5 % (LQR)?
 
-Re-simulates the paper's model (spec 000 §8 sketch: rigid body, h_w from absolute wheel
-momentum, controls continuous) with scipy's solve_ivp and tests hypotheses:
+Re-simulates the paper's model (rigid body, h_w from absolute wheel momentum, controls
+continuous) with scipy's solve_ivp and tests hypotheses:
 
 1. another Euler sequence for the target [5, 5, 5] deg;
 2. EULERINT summed over a variable-step solver's output points (MATLAB ode45 defaults:
    RelTol 1e-3, AbsTol 1e-6, Refine 4, MaxStep 60/50 s as Simulink "auto"), trapezoid vs
    rectangle rules;
 3. the initial error angle α0 that the paper's FLC value implies (FLC's EULERINT depends on α0
-   only, spec 000 §3.1), and targets that have it.
+   only: from rest, q_v(t) = (1 − φ(t)) q_v^d, an eigen-axis rotation), and targets that have it.
 
 Run: ``PYTHONPATH=. python benchmarks/maneuver4_investigation.py`` (a few minutes).
 """
@@ -42,7 +42,7 @@ def qpp(q):
     return np.array([[q4, -q3, q2], [q3, q4, -q1], [-q2, q1, q4]])
 
 
-def q_err(q_s, q_t):  # spec 000 eq. 61: q_E = q_S* ⊗ q_T
+def q_err(q_s, q_t):  # the paper's eq. 61: q_E = q_S* ⊗ q_T
     t1, t2, t3, t4 = q_t
     m = np.array([[t4, t3, -t2, t1], [-t3, t4, t1, t2], [t2, -t1, t4, t3], [-t1, -t2, -t3, t4]])
     return m @ np.array([-q_s[0], -q_s[1], -q_s[2], q_s[3]])
@@ -84,7 +84,7 @@ def eulerint(ctrl, q_t, **ivp):
 
 
 def flc_closed_form(alpha0_deg):
-    """FLC EULERINT from α0 alone (spec 000 §3.1): q_v(t) = (1 − φ) q_v^d."""
+    """FLC EULERINT from α0 alone: from rest, q_v(t) = (1 − φ) q_v^d (an eigen-axis rotation)."""
     k1, k2 = K_OUT[0, 0], K_OUT[0, 3]
     t = np.linspace(0, 60, 60001)
     sol = solve_ivp(lambda t, y: [y[1], -k1 * y[0] - k2 * y[1]], (0, 60), [1.0, 0.0], t_eval=t, rtol=1e-11, atol=1e-12)
@@ -122,7 +122,7 @@ def main() -> None:
         )
     print("4) the same ode45-like sums for every maneuver (paper, trapezoid / left / right rectangle)")
     from attitude_envs import quaternion
-    from attitude_envs.reproductions.feedback_linearization import MANEUVERS, TABLE_2
+    from experiments.reproductions.feedback_linearization import MANEUVERS, TABLE_2
 
     for name, euler in MANEUVERS.items():
         q_t = quaternion.from_euler_321_deg(*euler)

@@ -3,7 +3,7 @@
     PYTHONPATH=. python benchmarks/q_learning_ce_gap.py [--out benchmarks/q_learning_ce_gap.json]
         [--seeds 8] [--systems krauth3x2 dean3x3 rand10x2] [--sigma 0.1 1] [--T 1000 10000 100000]
 
-Set-up of the q-learning-lqr note §6.3: one trajectory of T steps of ``x⁺ = Ax + Bu + w``,
+Set-up (off-policy, single batch): one trajectory of T steps of ``x⁺ = Ax + Bu + w``,
 ``w ~ N(0, σ_w² I)``, behaviour ``u = −K₀x + η``, σ_η = 1, from x₀ = 0 (K₀ = 0 for stable A,
 pole placement otherwise), stage cost ``xᵀQx + uᵀRu``. Every learner is fitted to the *same*
 batch per seed (``learn(data=...)``): off-policy LSPI with plain LSTD-Q + constant
@@ -41,7 +41,7 @@ LEARNERS = {"lstd": {"td_estimator": "lstd"}, "lstd_gls": {"td_estimator": "lstd
 
 
 def systems() -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
-    """The note's §6.3 instances: krauth3x2, dean3x3 and rand10x2 (ρ(A) = 1.05, seed 0)."""
+    """Test instances krauth3x2 and dean3x3 of ``tests/qlqr_systems.py`` and rand10x2 (ρ(A) = 1.05, seed 0)."""
     out = {k: v for k, v in benchmark_systems().items() if k in ("krauth3x2", "dean3x3")}
     out["rand10x2"] = random_system(0, 10, 2, 1.05)
     return out

@@ -7,7 +7,8 @@ B uniform, m = 2, Q = I, R = I, LinearSystem-v0, noise-free. Learners: on-policy
 (p fresh samples per iteration, K₀ by pole placement), off-policy LSPI (one batch of p),
 value iteration (the paper's method, one batch of p reused), certainty equivalence with
 known Q, R (n+m samples). Literature implementations spend 250 to 10⁵ iterations and
-10³–10⁶ samples on comparable problems (q-learning-lqr note §9.5). Not a test.
+10³–10⁶ samples on comparable problems (Heravi & Novinzadeh 2017: about 10⁵ iterations).
+Not a test.
 """
 
 from __future__ import annotations
@@ -100,7 +101,7 @@ def run(sizes: list[int], m: int = 2, seed: int = 0) -> list[dict]:
 
 
 def spacecraft(seed: int = 0) -> list[dict]:
-    """Spec 001's slow plant (Euler, Δt = 0.01 s, J ≈ 10³ kg·m²): ρ(A − BK*) = 0.99984."""
+    """Heravi & Novinzadeh 2017's slow plant (Euler, Δt = 0.01 s, J ≈ 10³ kg·m²): ρ(A − BK*) = 0.99984."""
     env = LinearSystemEnv(preset="spec-001")
     A, B, Q, R = env.model.A, env.model.B, env.model.Q, env.model.R
     K_star, _ = dare_gain(A, B, Q, R)
@@ -108,9 +109,9 @@ def spacecraft(seed: int = 0) -> list[dict]:
     K0 = np.hstack([0.1 * np.eye(3), 10.0 * np.eye(3)])
     rows = []
     for label, kw in (
-        ("spec-001: PI (on-policy)", dict(method="policy_iteration", initial_gain=K0)),
-        ("spec-001: LSPI (one batch)", dict(method="lspi", initial_gain=K0)),
-        ("spec-001: VI (one batch)", dict(method="value_iteration")),
+        ("heravi-2017: PI (on-policy)", dict(method="policy_iteration", initial_gain=K0)),
+        ("heravi-2017: LSPI (one batch)", dict(method="lspi", initial_gain=K0)),
+        ("heravi-2017: VI (one batch)", dict(method="value_iteration")),
     ):
         start = time.perf_counter()
         agent = QLearningLQR(env, seed=seed, exploration_std=1.0, state_std=std, **kw).learn(samples_per_iteration=90)

@@ -1,10 +1,10 @@
-"""Quality of the RL results (issue 9 item 5): SB3 agents vs the LQR baseline on the shared cost J.
+"""Quality of the RL results: SB3 agents vs the LQR baseline on the shared cost J.
 
     PYTHONPATH=. python benchmarks/rl_quality.py --algo ppo --timesteps 3000000 --env-kwargs '{"action_frame": "body"}'
     PYTHONPATH=. python benchmarks/rl_quality.py --algo ppo --timesteps 3000000 --env-kwargs '{"action_frame": "body"}' \
         --fault-randomized --override '{"gamma": 0.998}'
 
-Trains (or with ``--resume`` continues) one agent on ReactionWheel-v0 (spec-000, random
+Trains (or with ``--resume`` continues) one agent on ReactionWheel-v0 (pyramid-4wheel, random
 targets within 60°) with the shipped hyperparameters, then evaluates the best snapshot and
 the exact-ZOH LQR on the same 20 seeds, nominal and with wheel 0 out from t = 10 s, and
 prints J mean per case and the agent/LQR ratio. ``--fault-randomized`` trains with a random
@@ -17,8 +17,8 @@ import argparse
 import json
 from pathlib import Path
 
-from agents.sb3.training import train
-from attitude_envs.evaluation.campaign import run_campaign
+from experiments.campaign import run_campaign
+from experiments.sb3.training import train
 
 ENV = "attitude_envs/ReactionWheel-v0"
 OUTAGE = [{"kind": "outage", "target": "actuator", "index": 0, "onset_s": 10.0}]

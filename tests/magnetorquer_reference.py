@@ -14,6 +14,7 @@ import numpy as np
 
 from attitude_envs import quaternion
 from attitude_envs.disturbances import Disturbance
+from attitude_envs.plants import magnetorquer_kernels as kernels
 
 E_Y = np.array([0.0, 1.0, 0.0])
 
@@ -82,12 +83,13 @@ class ReferenceStepper:
         self.env = env
         o = env.orbit
         self.orbit = o
-        self.y = env._y.copy()
+        self.y = env.state_row.copy()
         self.steps = 0
         ref = env.model.reference
         self.ref = ref
-        self.inertia = env._inertia.copy()
-        self.delta_j = env._delta_j
+        inertia = env.episode_constants[kernels.EN_INERTIA : kernels.EN_INERTIA + 9]
+        self.inertia = inertia.reshape(3, 3).copy()  # this episode's drawn inertia, without ΔJ(t)
+        self.delta_j = env.time_varying_inertia
         p = env.model.params
         self.j_w, self.h_max = p.wheel_inertia_kg_m2, p.max_wheel_momentum_nms
         eff = self.inertia.copy()
@@ -183,8 +185,8 @@ class ReferenceStepper:
 
     def disturbance(self, t):
         env = self.env
-        dist = env._disturbance
-        if dist == "paper":
+        dist = env.disturbance
+        if env.paper_disturbance:
             w0 = env.model.orbital_rate_rad_s
             k = 2.0 if env.disturbance_second_harmonic else 1.0
             a, b, q = w0 * t, k * w0 * t, np.pi / 4

@@ -1,4 +1,5 @@
-"""AirBearing-v0 (spec 003): offset torque, pendulum energy, tilt stops, Euler angles in info."""
+"""AirBearing-v0 (Ahangarani Farahani et al. air-bearing simulator): offset torque, pendulum
+energy, tilt stops, Euler angles in info."""
 
 import math
 
@@ -6,8 +7,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from attitude_envs import quaternion
-from attitude_envs.envs.air_bearing import OFFSET_TORQUE_NM
+from attitude_envs import presets, quaternion
 from attitude_envs.euler import euler_321_rad, euler_321_rates
 from attitude_envs.plants import gyrostat
 
@@ -21,7 +21,8 @@ def make(**kwargs):
 def test_offset_torque_is_eq_10_and_restoring():
     params = make().model.params
     rng = np.random.default_rng(3)
-    p = OFFSET_TORQUE_NM
+    p = presets.get("AirBearing-v0").values["offset_torque_nm"].value
+    np.testing.assert_array_equal(params.offset_torque_nm, p)
     for _ in range(20):
         phi, theta, psi = rng.uniform([-40, -40, -180], [40, 40, 180])
         t = gyrostat.gravity_torque_nm(params, quaternion.from_euler_321_deg(phi, theta, psi))
@@ -68,7 +69,7 @@ def test_pendulum_energy_is_conserved_with_idle_wheels():
     )
 
     def energy(info):
-        s = info["state"]
+        s = info["truth"]["state"]
         return gyrostat.kinetic_energy(params, s["rate_rad_s"], s["wheel_speed_rad_s"]) + gyrostat.gravity_potential_j(
             params, s["attitude"]
         )
@@ -79,7 +80,7 @@ def test_pendulum_energy_is_conserved_with_idle_wheels():
     while not done:
         _, _, term, trunc, info = env.step(np.zeros(3))
         done = term or trunc
-        rolls.append(info["euler_321_deg"][0])
+        rolls.append(info["truth"]["euler_321_deg"][0])
         assert energy(info) == pytest.approx(e0, rel=1e-10)
     assert not term
     assert min(rolls) < -5.0 < 5.0 < max(rolls)  # it really swung (period ≈ 28 s)
@@ -93,13 +94,13 @@ def test_tilt_stop_terminates_yaw_is_unlimited():
         _, _, term, trunc, info = env.step(np.zeros(3))
         if term:
             break
-    assert term and not trunc and info["tilt_limit_hit"]
-    assert abs(info["euler_321_deg"][0]) > 40.0
+    assert term and not trunc and info["truth"]["tilt_limit_hit"]
+    assert abs(info["truth"]["euler_321_deg"][0]) > 40.0
     env.reset(seed=0, options={"euler_321_deg": [0.0, 0.0, 170.0], "rate_rad_s": [0.0, 0.0, 0.5]})
     yaws = []
     for _ in range(100):
         _, _, term, _, info = env.step(np.zeros(3))
-        yaws.append(info["euler_321_deg"][2])
+        yaws.append(info["truth"]["euler_321_deg"][2])
         assert not term
     assert min(yaws) < -150.0  # wrapped through ±180° without terminating
 
@@ -108,13 +109,13 @@ def test_info_euler_and_random_start():
     env = make()
     for seed in range(5):
         _, info = env.reset(seed=seed)
-        e = info["euler_321_deg"]
-        np.testing.assert_allclose(e, quaternion.to_euler_321_deg(info["state"]["attitude"]), atol=1e-9)
+        e = info["truth"]["euler_321_deg"]
+        np.testing.assert_allclose(e, quaternion.to_euler_321_deg(info["truth"]["state"]["attitude"]), atol=1e-9)
         assert np.all(np.abs(e) <= [20.0 + 1e-9, 20.0 + 1e-9, 45.0 + 1e-9])
-        assert np.all(np.abs(info["state"]["rate_rad_s"]) <= math.radians(2.0))
+        assert np.all(np.abs(info["truth"]["state"]["rate_rad_s"]) <= math.radians(2.0))
     _, a = env.reset(seed=7)
     _, b = env.reset(seed=7)
-    np.testing.assert_array_equal(a["state"]["attitude"], b["state"]["attitude"])
+    np.testing.assert_array_equal(a["truth"]["state"]["attitude"], b["truth"]["state"]["attitude"])
 
 
 def test_euler_rates_match_finite_differences():
@@ -155,3 +156,25 @@ def test_bad_reset_options():
         env.reset(options={"euler_321_deg": [1.0, 2.0]})
     with pytest.raises(ValueError, match="either"):
         env.reset(options={"euler_321_deg": [1.0, 2.0, 3.0], "attitude": [0, 0, 0, 1]})
+
+
+def test_air_bearing_is_a_configuration_of_the_reaction_wheel_env():
+    """ReactionWheel-v0 with the air-bearing preset's values is the same plant, bit for bit."""
+    values = presets.get("AirBearing-v0").params()
+    values.pop("initial_euler_max_deg")  # AirBearing-v0's own keyword (random Euler start)
+    rw = gym.make("attitude_envs/ReactionWheel-v0", **values).unwrapped
+    ab = make()
+    np.testing.assert_array_equal(rw.kernel_constants, ab.kernel_constants)
+    options = {"attitude": quaternion.from_euler_321_deg(30.0, -5.0, 30.0), "rate_rad_s": [0.3, 0.02, -0.01]}
+    rw.reset(seed=3, options=options)
+    ab.reset(seed=3, options=options)
+    rng = np.random.default_rng(0)
+    for _ in range(100):
+        a = rng.uniform(-0.2, 0.2, 3)
+        o1, r1, t1, _, i1 = rw.step(a)
+        o2, r2, t2, _, i2 = ab.step(a)
+        assert np.array_equal(o1, o2) and r1 == r2 and t1 == t2
+        assert i1["truth"]["tilt_limit_hit"] == i2["truth"]["tilt_limit_hit"]
+        if t1:
+            break
+    assert t1 and i1["truth"]["tilt_limit_hit"]  # the stop is a ReactionWheel-v0 keyword too

@@ -1,4 +1,4 @@
-"""Minimum-norm, saturation-aware wheel allocation (spec 000 eqs. 9–12)."""
+"""Minimum-norm, saturation-aware wheel allocation (feedback-linearization paper, eqs. 9–12)."""
 
 import gymnasium as gym
 import numpy as np
@@ -72,10 +72,10 @@ def test_body_action_frame_allocates_minimum_norm_and_keeps_the_null_space_at_re
     for _ in range(50):
         a = rng.uniform(-0.3, 0.3, 3)  # unsaturated: every wheel within its limit
         _, _, _, _, info = env.step(a)
-        assert np.allclose(-axes @ info["applied"], a * 0.5, atol=1e-12)
-        assert np.allclose(null @ info["applied"], 0.0, atol=1e-12)
+        assert np.allclose(-axes @ info["truth"]["applied"], a * 0.5, atol=1e-12)
+        assert np.allclose(null @ info["truth"]["applied"], 0.0, atol=1e-12)
     # wheel momentum stays in the row space of A: nothing accumulates in the null space
-    assert np.allclose(null @ info["state"]["wheel_speed_rad_s"], 0.0, atol=1e-9)
+    assert np.allclose(null @ info["truth"]["state"]["wheel_speed_rad_s"], 0.0, atol=1e-9)
 
 
 def test_lqr_cost_is_the_same_in_both_action_frames():

@@ -13,9 +13,9 @@ AB = "attitude_envs/AirBearing-v0"
 
 
 def batched_state(infos):
-    """The rows' ``info["state"]`` stacked into one batched ``state`` dict."""
+    """The rows' measured states ``info["measured"]`` stacked into one batched ``measured`` dict."""
     keys = ("attitude", "rate_rad_s", "target_attitude")
-    return {"state": {k: np.stack([i["state"][k] for i in infos]) for k in keys}}
+    return {"measured": {k: np.stack([i["measured"][k] for i in infos]) for k in keys}}
 
 
 @pytest.mark.parametrize("env_id,gains", [(RW, PAPER_FIXED), (AB, paper_schedule("deg"))])

@@ -6,8 +6,8 @@ import json
 import numpy as np
 import pytest
 
-from attitude_envs.evaluation.campaign import load_campaign, run_campaign
-from attitude_envs.evaluation.report import bootstrap_ci, iqm, leaderboards, write_campaign_report
+from experiments.campaign import load_campaign, run_campaign
+from experiments.report import bootstrap_ci, iqm, leaderboards, write_campaign_report
 
 SMALL = {
     "name": "small",
@@ -65,7 +65,7 @@ def test_rerun_after_a_crash_skips_completed_episodes_and_gives_the_same_table(t
 
 
 def test_partial_csv_is_readable_mid_campaign(tmp_path, monkeypatch):
-    import attitude_envs.evaluation.campaign as campaign
+    import experiments.campaign as campaign
 
     real = campaign._run_episode
     calls = {"n": 0}

@@ -9,7 +9,7 @@ import yaml
 
 pytest.importorskip("stable_baselines3")
 
-import train  # noqa: E402
+from experiments import cli  # noqa: E402
 
 TINY_CAMPAIGN = {
     "name": "tiny",
@@ -45,7 +45,7 @@ def benchmark_run(tmp_path_factory):
     root = tmp_path_factory.mktemp("bench")
     config = root / "tiny.yml"
     config.write_text(yaml.safe_dump(TINY_CAMPAIGN))
-    code = train.main(["benchmark", "--config", str(config), "--out", str(root / "out"), "--workers", "1"])
+    code = cli.main(["benchmark", "--config", str(config), "--out", str(root / "out"), "--workers", "1"])
     return root, code
 
 
@@ -65,7 +65,7 @@ def test_benchmark_trains_evaluates_and_reports(benchmark_run, capsys):
         in report
     )
     # Rerun: nothing to train or evaluate again, same leaderboard printed.
-    assert train.main(["benchmark", "--config", str(root / "tiny.yml"), "--out", str(out), "--workers", "1"]) == 0
+    assert cli.main(["benchmark", "--config", str(root / "tiny.yml"), "--out", str(out), "--workers", "1"]) == 0
     printed = capsys.readouterr().out
     assert "0 episodes run, 20 already done" in printed and "| lqr | 5 |" in printed
 
@@ -74,16 +74,16 @@ def test_train_and_evaluate_commands(benchmark_run, tmp_path, capsys):
     run = tmp_path / "run"
     argv = ["train", "--algo", "a2c", "--env-kwargs", "{episode_duration_s: 2.0}", "--out", str(run)]
     argv += ["--timesteps", "40", "--params", "n_envs:1", "n_steps:8", "--eval-freq", "20", "--eval-episodes", "1"]
-    assert train.main(argv) == 0
+    assert cli.main(argv) == 0
     assert "trained a2c on attitude_envs/ReactionWheel-v0: 40 steps" in capsys.readouterr().out
     resume = ["train", "--algo", "a2c", "--env-kwargs", "{episode_duration_s: 2.0}", "--out", str(run)]
     resume += ["--timesteps", "60", "--params", "n_envs:1", "n_steps:8", "--eval-freq", "20", "--eval-episodes", "1"]
-    assert train.main([*resume, "--resume"]) == 0  # continues the finished 40-step run to 60 steps
+    assert cli.main([*resume, "--resume"]) == 0  # continues the finished 40-step run to 60 steps
     line = capsys.readouterr().out.splitlines()[0]
     assert "(resumed at 40 steps)" in line
     assert int(line.split(": ")[1].split()[0]) >= 60  # A2C finishes its 8-step rollout: 64
     ev = tmp_path / "ev"
-    code = train.main(
+    code = cli.main(
         ["evaluate", "--env-kwargs", "{episode_duration_s: 2.0}", "--model", str(run), "--policy", "zero"]
         + ["--policy", "lqr:discretization:continuous", "--seeds", "5", "--out", str(ev), "--workers", "1"]
     )
@@ -112,7 +112,7 @@ def test_train_and_evaluate_commands(benchmark_run, tmp_path, capsys):
 )
 def test_bad_input_is_a_one_line_error(argv, message, tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
-    assert train.main(argv) == 2
+    assert cli.main(argv) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and message in err
 
@@ -121,7 +121,7 @@ def test_malformed_yaml_and_model_for_another_env_exit_2_without_traceback(bench
     root, _ = benchmark_run
     bad = tmp_path / "bad.yml"
     bad.write_text("name: x\nenvs: [\n")
-    assert train.main(["benchmark", "--config", str(bad), "--out", str(tmp_path / "o")]) == 2
+    assert cli.main(["benchmark", "--config", str(bad), "--out", str(tmp_path / "o")]) == 2
     model = root / "out" / "models" / "rw" / "ppo" / "seed0"
     for argv, message in (
         (

@@ -107,17 +107,64 @@ def test_reset_options_pin_the_state():
             "target_attitude": target,
         },
     )
-    assert np.allclose(info["state"]["target_attitude"], target)
-    assert np.allclose(info["state"]["wheel_speed_rad_s"], [1, 2, 3, 4])
+    assert np.allclose(info["truth"]["state"]["target_attitude"], target)
+    assert np.allclose(info["truth"]["state"]["wheel_speed_rad_s"], [1, 2, 3, 4])
     assert np.allclose(obs, [0, 0, -np.sin(0.25), 0.01, 0.02, 0.03], atol=1e-7)
-    assert info["error_angle_deg"] == pytest.approx(np.degrees(0.5))
+    assert info["truth"]["error_angle_deg"] == pytest.approx(np.degrees(0.5))
     with pytest.raises(ValueError, match="unknown keys"):
         env.reset(options={"atitude": [0, 0, 0, 1]})
 
 
+def test_reaction_wheel_info_contract():
+    """truth / measured / top level (attitude_envs.info): without sensors the measured state
+    has the truth's values; the policy view holds no truth."""
+    from attitude_envs.info import policy_view
+
+    env = gym.make("attitude_envs/ReactionWheel-v0").unwrapped
+    _, info = env.reset(seed=0)
+    _, _, _, _, info = env.step(np.full(4, 0.2))
+    assert set(info) == {"truth", "measured", "cost", "time_s", "commanded"}
+    truth = info["truth"]
+    assert set(truth) == {
+        "state",
+        "applied",
+        "faults",
+        "error_angle_deg",
+        "disturbance_torque_nm",
+        "true_inertia_kg_m2",
+    }
+    assert set(truth["state"]) == {"attitude", "rate_rad_s", "wheel_speed_rad_s", "target_attitude"}
+    assert set(info["measured"]) == set(truth["state"])
+    for key, value in truth["state"].items():
+        assert np.array_equal(info["measured"][key], value)
+    np.testing.assert_array_equal(info["commanded"], np.full(4, 0.1))
+    assert "truth" not in policy_view(info)
+
+
+@pytest.mark.parametrize("preset", ["spec-000", "pyramid-4wheel", "spec-001", "heravi-2017"])
+def test_old_preset_names_are_aliases(preset):
+    env = gym.make("attitude_envs/ReactionWheel-v0", preset=preset).unwrapped
+    new = {"spec-000": "pyramid-4wheel", "spec-001": "heravi-2017"}.get(preset, preset)
+    ref = gym.make("attitude_envs/ReactionWheel-v0", preset=new).unwrapped
+    np.testing.assert_array_equal(env.kernel_constants, ref.kernel_constants)
+    assert env.preset == preset
+
+
+def test_unknown_keyword_is_a_one_line_error_with_a_suggestion():
+    from attitude_envs.make import make_checked
+
+    with pytest.raises(
+        ValueError, match=r"'attitude_envs/ReactionWheel-v0'.*'control_dt'; did you mean 'control_dt_s'"
+    ) as e:
+        make_checked("attitude_envs/ReactionWheel-v0", control_dt=0.1)
+    assert "\n" not in str(e.value) and "__init__" not in str(e.value)
+    with pytest.raises(ValueError, match="did you mean 'initial_euler_max_deg'"):
+        make_checked("attitude_envs/AirBearing-v0", initial_euler_max=[1.0, 1.0, 1.0])
+
+
 def test_random_targets_respect_the_configured_angle():
     env = gym.make("attitude_envs/ReactionWheel-v0", target_angle_deg=20.0).unwrapped
-    angles = [env.reset(seed=s)[1]["error_angle_deg"] for s in range(50)]
+    angles = [env.reset(seed=s)[1]["truth"]["error_angle_deg"] for s in range(50)]
     assert max(angles) <= 20.0 + 1e-9 and min(angles) < 10.0 < max(angles)
 
 
@@ -129,7 +176,7 @@ def test_inertia_uncertainty_keeps_nominal_model_and_draws_valid_tensors():
     drawn = []
     for seed in range(30):
         _, info = env.reset(seed=seed)
-        inertia = info["true_inertia_kg_m2"]
+        inertia = info["truth"]["true_inertia_kg_m2"]
         moments = np.sort(np.linalg.eigvalsh(inertia))
         assert moments[0] > 0 and moments[0] + moments[1] >= moments[2]
         assert np.allclose(inertia, inertia.T)
@@ -137,10 +184,10 @@ def test_inertia_uncertainty_keeps_nominal_model_and_draws_valid_tensors():
     assert np.array_equal(env.model.params.inertia_kg_m2, nominal)
     assert not np.allclose(drawn[0], nominal) and not np.allclose(drawn[0], drawn[1])
     _, info = env.reset(seed=0)
-    assert np.array_equal(info["true_inertia_kg_m2"], drawn[0])
+    assert np.array_equal(info["truth"]["true_inertia_kg_m2"], drawn[0])
     fixed = np.diag([5.0, 4.0, 3.0])
     env = gym.make("attitude_envs/ReactionWheel-v0", inertia_uncertainty={"kind": "fixed", "inertia_kg_m2": fixed})
-    assert np.array_equal(env.reset(seed=0)[1]["true_inertia_kg_m2"], fixed)
+    assert np.array_equal(env.reset(seed=0)[1]["truth"]["true_inertia_kg_m2"], fixed)
 
 
 def test_episode_cost_does_not_depend_on_control_period():
@@ -176,17 +223,18 @@ def test_truncation_on_time_and_termination_on_tumbling():
 def test_linear_system_step_is_exactly_the_model():
     env = gym.make("attitude_envs/LinearSystem-v0").unwrapped
     A, B = env.model.A, env.model.B
-    # spec 001 §2.3: forward Euler, Δt = 0.01 s, J = diag(1000, 1000, 800)
+    # Heravi & Novinzadeh 2017, eqs. 59, 61–62, 71: forward Euler, Δt = 0.01 s, J = diag(1000, 1000, 800)
     assert A[0, 3] == pytest.approx(0.005) and B[5, 2] == pytest.approx(1.25e-5) and B[3, 0] == pytest.approx(1e-5)
     obs, info = env.reset(seed=0)
     assert np.allclose(obs, [0.372897, -0.433710, 0.665744, 0.01, -0.02, 0.01], atol=1e-6)
-    x = info["state"]
+    x = info["truth"]["state"]
     _, reward, _, _, info = env.step(np.array([0.25, -0.5, 0.1]))
     u = np.array([0.5, -1.0, 0.2])
-    assert np.allclose(info["applied"], u)
-    assert np.allclose(info["next_state"], A @ x + B @ u, rtol=1e-15)
+    assert np.allclose(info["truth"]["applied"], u) and np.array_equal(info["commanded"], info["truth"]["applied"])
+    assert np.array_equal(info["truth"]["state"], x)  # the state the step started from
+    assert np.allclose(info["truth"]["next_state"], A @ x + B @ u, rtol=1e-15)
     assert reward == pytest.approx(-(x @ x + u @ u))
-    # the DARE gain of the preset is spec 001 §4's K*
+    # the DARE gain of the preset (the reference K* of our Heravi & Novinzadeh 2017 reproduction)
     K = env.model.lqr_gain()
     assert np.allclose(np.diag(K[:, :3]), [0.999842, 0.999842, 0.999823], atol=1e-6)
     assert np.allclose(np.diag(K[:, 3:]), [31.638579, 31.638579, 28.301937], atol=1e-5)

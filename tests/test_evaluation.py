@@ -10,11 +10,12 @@ import pytest
 import attitude_envs  # noqa: F401
 from attitude_envs import quaternion
 from attitude_envs.evaluation import EpisodeTrace, Scenario, episode_metrics, evaluate, record_episode
-from attitude_envs.evaluation.plots import plot_episodes, plot_error_overlay, plot_metric_bars
 from attitude_envs.evaluation.runner import write_csv, write_json
-from baselines.base import SB3Policy, ZeroPolicy
+from baselines.base import ZeroPolicy
 from baselines.feedback_linearization import FeedbackLinearizationPolicy
 from baselines.quaternion_lqr import QuaternionLQRPolicy
+from experiments.plots import plot_episodes, plot_error_overlay, plot_metric_bars
+from experiments.sb3.policy import SB3Policy
 
 RPM = 60 / (2 * np.pi)
 

@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 
 from attitude_envs.plants import magnetorquer as mt
-from attitude_envs.reproductions.fault_tolerant_smc import CONSISTENT_ENV, PAPER_EFFECTIVENESS, resolve
-from attitude_envs.reproductions.fault_tolerant_smc_design import (
+from baselines.sliding_mode import SlidingModeGains
+from experiments.reproductions.fault_tolerant_smc import CONSISTENT_ENV, PAPER_EFFECTIVENESS, resolve
+from experiments.reproductions.fault_tolerant_smc_design import (
     axis_authority_nm,
     containment_ratio,
     derive,
     weakest_authority_nm,
 )
-from baselines.sliding_mode import SlidingModeGains
 
 LIMITS = 0.5 * np.array(PAPER_EFFECTIVENESS)
 

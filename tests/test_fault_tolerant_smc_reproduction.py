@@ -5,8 +5,8 @@ import json
 import numpy as np
 import pytest
 
-from attitude_envs.reproductions import REPRODUCTIONS
-from attitude_envs.reproductions.fault_tolerant_smc import CONFIGS, CONTROLLERS, reproduce
+from experiments.reproductions import REPRODUCTIONS
+from experiments.reproductions.fault_tolerant_smc import CONFIGS, CONTROLLERS, reproduce
 
 
 @pytest.fixture(scope="module")
@@ -17,7 +17,7 @@ def quick(tmp_path_factory):
 
 
 def test_registered_under_its_id():
-    assert REPRODUCTIONS["fault-tolerant-smc"] == "attitude_envs.reproductions.fault_tolerant_smc:reproduce"
+    assert REPRODUCTIONS["fault-tolerant-smc"] == "experiments.reproductions.fault_tolerant_smc:reproduce"
 
 
 def test_quick_run_writes_json_markdown_and_plots(quick):

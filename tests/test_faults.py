@@ -16,7 +16,7 @@ def applied_history(fault, steps=30, action=CMD, **kwargs):
     for _ in range(steps):
         t = env._t
         _, _, _, _, info = env.step(action)
-        rows.append((t, info["applied"].copy(), info["faults"]))
+        rows.append((t, info["truth"]["applied"].copy(), info["truth"]["faults"]))
     return rows
 
 
@@ -50,7 +50,7 @@ def test_stuck_without_value_holds_the_command_at_onset():
     env = gym.make(RW, faults=[{"kind": "stuck", "index": 0, "onset_s": 0.5}]).unwrapped
     env.reset(seed=0)
     commands = np.linspace(-1, 1, 12)
-    applied = [env.step(np.array([c, 0, 0, 0]))[4]["applied"][0] for c in commands]
+    applied = [env.step(np.array([c, 0, 0, 0]))[4]["truth"]["applied"][0] for c in commands]
     assert np.allclose(applied[:5], commands[:5] * MAX)
     assert np.allclose(applied[5:], commands[5] * MAX)
 
@@ -90,22 +90,22 @@ def test_random_draws_follow_the_seed_and_the_ranges():
     draws = []
     for seed in range(20):
         _, info = env.reset(seed=seed)
-        f = info["faults"][0]
+        f = info["truth"]["faults"][0]
         assert 0.2 <= f["value"] <= 0.8 and 10 <= f["onset_s"] <= 40 and f["index"] in range(4)
         draws.append((f["index"], f["value"], f["onset_s"]))
     assert len(set(draws)) == 20
     expected = {"kind": "loss_of_effectiveness", "target": "actuator", "duration_s": None, "active": False}
     expected.update(zip(["index", "value", "onset_s"], draws[3], strict=True))
-    assert env.reset(seed=3)[1]["faults"][0] == expected
+    assert env.reset(seed=3)[1]["truth"]["faults"][0] == expected
 
 
 def test_faults_given_per_episode_replace_the_constructed_ones():
     env = gym.make(RW, faults=[{"kind": "outage", "index": 0}]).unwrapped
     _, info = env.reset(seed=0, options={"faults": [{"kind": "bias", "index": 1, "value": 0.01}]})
-    assert [f["kind"] for f in info["faults"]] == ["bias"]
-    assert env.step(np.zeros(4))[4]["applied"][1] == pytest.approx(0.01)
+    assert [f["kind"] for f in info["truth"]["faults"]] == ["bias"]
+    assert env.step(np.zeros(4))[4]["truth"]["applied"][1] == pytest.approx(0.01)
     _, info = env.reset(seed=0)
-    assert [f["kind"] for f in info["faults"]] == ["outage"]
+    assert [f["kind"] for f in info["truth"]["faults"]] == ["outage"]
 
 
 def test_faults_reach_the_linear_system_too():
@@ -114,7 +114,7 @@ def test_faults_reach_the_linear_system_too():
         faults=[{"kind": "loss_of_effectiveness", "index": 0, "value": 0.5, "onset_s": 0.05}],
     )
     env.reset(seed=0)
-    applied = [env.step(np.array([0.5, 0.5, 0.5]))[4]["applied"] for _ in range(10)]
+    applied = [env.step(np.array([0.5, 0.5, 0.5]))[4]["truth"]["applied"] for _ in range(10)]
     assert np.allclose(applied[4], [1.0, 1.0, 1.0]) and np.allclose(applied[5], [0.5, 1.0, 1.0])
 
 
@@ -142,6 +142,6 @@ def test_faults_reach_the_fuel_slosh_actuators():
     fault = {"kind": "stuck", "index": 0, "value": 0.1, "onset_s": 0.2}
     env = gym.make("attitude_envs/FuelSlosh-v0", faults=[fault])
     env.reset(seed=0)
-    applied = [env.step(np.array([0.5, 0.5]))[4]["applied"] for _ in range(4)]
+    applied = [env.step(np.array([0.5, 0.5]))[4]["truth"]["applied"] for _ in range(4)]
     assert applied[1][0] == pytest.approx(0.5 * np.radians(30.0)) and applied[2][0] == pytest.approx(0.1)
     assert applied[3][1] == pytest.approx(1000.0)  # the moment actuator is untouched

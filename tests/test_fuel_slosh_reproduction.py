@@ -1,4 +1,5 @@
-"""Spec 004 reproduction: the paper setup's numbers (spec §4.4 sanity targets), the
+"""Navabi & Davoodi reproduction: the paper setup's numbers (the sanity targets of our
+reconstruction notes' independent prototype), the
 paper's qualitative claims where our reconstruction supports them, and the output files.
 
 The full-plant (env) half of the reproduction takes ≈ 1–2 min and is not run here:
@@ -14,8 +15,8 @@ import warnings
 import numpy as np
 import pytest
 
-from attitude_envs.reproductions import fuel_slosh
-from attitude_envs.reproductions.fuel_slosh_runs import metrics
+from experiments.reproductions import fuel_slosh
+from experiments.reproductions.fuel_slosh_runs import metrics
 
 
 @pytest.fixture(scope="module")
@@ -29,8 +30,8 @@ def _at(tr, t_s: float, row: int) -> float:
     return float(tr.x[row, np.searchsorted(tr.t, t_s)])
 
 
-def test_pd_matches_spec_reference_trajectory(runs):
-    """Spec §4.4 (the spec author's independent prototype): PD on the linear reduced model."""
+def test_pd_matches_the_reconstructed_reference_trajectory(runs):
+    """The reconstruction notes' independent prototype: PD on the linear reduced model."""
     pd = runs["pd"]
     np.testing.assert_allclose([_at(pd, t, 0) for t in (250, 500, 1000)], [-31.1, -28.1, 7.7], atol=0.1)
     np.testing.assert_allclose(
@@ -41,7 +42,7 @@ def test_pd_matches_spec_reference_trajectory(runs):
     assert m["settling psi1 (s)"] == pytest.approx(1435, abs=2)
 
 
-def test_other_controllers_match_spec_reference_numbers(runs):
+def test_other_controllers_match_the_reconstructed_reference_numbers(runs):
     lqr, lyap, fuzzy = (metrics(runs[n]) for n in ("lqr-paper", "lyapunov", "fuzzy"))
     assert lqr["settling v_z (s)"] == pytest.approx(8, abs=1)
     assert lqr["settling psi1 (s)"] == pytest.approx(383, abs=2)
@@ -50,7 +51,7 @@ def test_other_controllers_match_spec_reference_numbers(runs):
     assert lyap["settling v_z (s)"] == pytest.approx(556, abs=2)
     assert lyap["settling theta (s)"] == pytest.approx(270, abs=2)
     assert lyap["min v_z (m/s)"] == pytest.approx(-24.6, abs=0.1)
-    # fuzzy: our scikit-fuzzy build vs the spec prototype (both "§3.3 defaults"; the spec
+    # fuzzy: our scikit-fuzzy build vs the notes' prototype (both the notes' defaults; the
     # prototype's inference details are not given): v_z 1312 s there
     assert fuzzy["settling theta (s)"] == pytest.approx(999, abs=5)
     assert fuzzy["settling psi1 (s)"] == pytest.approx(833, abs=5)

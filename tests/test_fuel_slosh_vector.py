@@ -53,9 +53,10 @@ def test_sub_envs_match_single_envs_bitwise_across_next_step_autoreset(faults):
                 o, r, te, tr = s.reset()[0], 0.0, False, False
             else:
                 o, r, te, tr, info = s.step(actions[i])
-                assert np.array_equal(infos["applied"][i], info["applied"])
+                assert np.array_equal(infos["truth"]["applied"][i], info["truth"]["applied"])
+                assert np.array_equal(infos["commanded"][i], info["commanded"])
                 assert np.array_equal(infos["new_inputs"][i], info["new_inputs"])
-                assert infos["cost"][i] == info["cost"]
+                assert infos["cost"][i] == info["cost"] and infos["time_s"][i] == info["time_s"]
             assert np.array_equal(obs[i], o) and rewards[i] == r and te == term[i] and tr == trunc[i]
         done = term | trunc
         ends += int(done.sum())
@@ -63,7 +64,8 @@ def test_sub_envs_match_single_envs_bitwise_across_next_step_autoreset(faults):
 
 
 def test_batched_path_conserves_energy_and_momentum():
-    """No thrust, no damping, no moment: every sub-env keeps T, P and H (spec §2.4) through
+    """No thrust, no damping, no moment: every sub-env keeps T, P and H (the paper's
+    Lagrangian, eq. 5, has no potential) through
     the batched compiled step, to the RK4 error of 0.01 s sub-steps."""
     params = slosh.SloshParams(thrust_n=0.0, damping_kg_m2_s=(0.0, 0.0))
     limits = {"max_pitch_rate_rad_s": 10.0, "max_pitch_angle_deg": 1e4, "max_slosh_angle_deg": 1e4}

@@ -18,8 +18,8 @@ from agents.ga_tuning import (
     tune_pid_main,
 )
 from attitude_envs import quaternion
-from attitude_envs.reproductions import REPRODUCTIONS
 from baselines.pid import PAPER_FIXED, GainSchedule, PIDGains, PIDPolicy, load_gains, paper_schedule
+from experiments.reproductions import REPRODUCTIONS
 
 ENV_ID = "attitude_envs/AirBearing-v0"
 SHORT = {"episode_duration_s": 3.0}
@@ -168,8 +168,8 @@ def test_sample_maneuvers_replay_the_env_start():
     env = gym.make(ENV_ID).unwrapped
     m = sample_maneuvers(env, 2, seed=5)
     _, info = env.reset(seed=5)
-    np.testing.assert_allclose(m[0]["options"]["attitude"], info["state"]["attitude"])
-    assert quaternion.error_angle_rad(np.array(m[1]["options"]["attitude"]), info["state"]["attitude"]) > 0
+    np.testing.assert_allclose(m[0]["options"]["attitude"], info["truth"]["state"]["attitude"])
+    assert quaternion.error_angle_rad(np.array(m[1]["options"]["attitude"]), info["truth"]["state"]["attitude"]) > 0
 
 
 @pytest.mark.parametrize(
@@ -208,7 +208,7 @@ def test_bad_inputs():
 
 def test_reproduction_quick(tmp_path):
     assert "ga-pid" in REPRODUCTIONS
-    from attitude_envs.reproductions.ga_pid import reproduce
+    from experiments.reproductions.ga_pid import reproduce
 
     rows = reproduce(tmp_path, quick=True)
     doc = json.loads((tmp_path / "ga-pid.json").read_text())

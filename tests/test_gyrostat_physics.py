@@ -22,7 +22,7 @@ def make(**kwargs):
 
 
 def inertial_momentum(env, info):
-    s = info["state"]
+    s = info["truth"]["state"]
     h_body = gyrostat.body_momentum(env.model.params, s["rate_rad_s"], s["wheel_speed_rad_s"])
     return quaternion.to_matrix(s["attitude"]) @ h_body
 
@@ -35,19 +35,19 @@ def test_torque_free_conserves_momentum_and_energy_over_1000_s():
     )
     p = env.model.params
     h0 = inertial_momentum(env, info)
-    e0 = gyrostat.kinetic_energy(p, info["state"]["rate_rad_s"], info["state"]["wheel_speed_rad_s"])
+    e0 = gyrostat.kinetic_energy(p, info["truth"]["state"]["rate_rad_s"], info["truth"]["state"]["wheel_speed_rad_s"])
     zero = np.zeros(4)
     for _ in range(10000):
         _, _, term, trunc, info = env.step(zero)
         assert not (term or trunc)
     assert info["time_s"] == pytest.approx(1000.0)
     h1 = inertial_momentum(env, info)
-    e1 = gyrostat.kinetic_energy(p, info["state"]["rate_rad_s"], info["state"]["wheel_speed_rad_s"])
+    e1 = gyrostat.kinetic_energy(p, info["truth"]["state"]["rate_rad_s"], info["truth"]["state"]["wheel_speed_rad_s"])
     assert np.linalg.norm(h1 - h0) / np.linalg.norm(h0) <= 1e-9
     assert abs(e1 - e0) / e0 <= 1e-9
     # the motion is not trivial: the body really tumbled
-    assert np.linalg.norm(info["state"]["rate_rad_s"] - [0.05, -0.03, 0.08]) > 1e-3
-    assert abs(np.linalg.norm(info["state"]["attitude"]) - 1.0) <= 1e-12
+    assert np.linalg.norm(info["truth"]["state"]["rate_rad_s"] - [0.05, -0.03, 0.08]) > 1e-3
+    assert abs(np.linalg.norm(info["truth"]["state"]["attitude"]) - 1.0) <= 1e-12
 
 
 def test_internal_wheel_torques_conserve_total_momentum(rng):
@@ -58,7 +58,7 @@ def test_internal_wheel_torques_conserve_total_momentum(rng):
         _, _, _, _, info = env.step(rng.uniform(-1, 1, 4))
     h1 = inertial_momentum(env, info)
     assert np.linalg.norm(h1 - h0) / np.linalg.norm(h0) <= 1e-9
-    assert np.max(np.abs(info["state"]["wheel_speed_rad_s"])) > 1.0  # the wheels did work
+    assert np.max(np.abs(info["truth"]["state"]["wheel_speed_rad_s"])) > 1.0  # the wheels did work
 
 
 def reference_solution(env, y0, u, t_end):
@@ -114,14 +114,14 @@ def test_axisymmetric_torque_free_precession_matches_analytic():
     for k in range(1, 401):
         _, _, _, _, info = env.step(np.zeros(3))
         t = 0.05 * k
-        w = info["state"]["rate_rad_s"]
+        w = info["truth"]["state"]["rate_rad_s"]
         expected_w = [w0[0] * np.cos(lam * t), w0[0] * np.sin(lam * t), w0[2]]
         assert np.allclose(w, expected_w, atol=1e-10)
     # the body z axis cones about H at the rate |H|/I_t
     c, s = np.cos(precession * t), np.sin(precession * t)
     kx = quaternion.skew(h_hat)
     rot = np.eye(3) + s * kx + (1 - c) * kx @ kx
-    z_now = quaternion.to_matrix(info["state"]["attitude"])[:, 2]
+    z_now = quaternion.to_matrix(info["truth"]["state"]["attitude"])[:, 2]
     assert np.allclose(z_now, rot @ z0, atol=1e-9)
 
 
@@ -139,16 +139,16 @@ def test_wheel_torque_and_speed_limits_are_respected():
     env.reset(seed=0)
     action = np.array([1.0, -1.0, 3.0, 0.2])  # 3.0 is beyond the actuator range
     _, _, _, _, info = env.step(action)
-    assert np.allclose(info["applied"], [0.5, -0.5, 0.5, 0.1])  # clipped to ±max torque
+    assert np.allclose(info["truth"]["applied"], [0.5, -0.5, 0.5, 0.1])  # clipped to ±max torque
     speeds = []
     for _ in range(400):
         _, _, _, _, info = env.step(action)
-        speeds.append(info["state"]["wheel_speed_rad_s"])
+        speeds.append(info["truth"]["state"]["wheel_speed_rad_s"])
     speeds = np.array(speeds)
     # 0.5 N·m on 5e-4 kg·m² would reach 100 rad/s in 0.1 s; the limit holds from then on
     assert np.max(np.abs(speeds)) <= p.max_wheel_speed_rad_s * (1 + 1e-3)
     assert np.max(np.abs(speeds[:, :3])) >= p.max_wheel_speed_rad_s * (1 - 1e-3)
-    assert np.all(np.abs(info["applied"][:3]) < 0.05 * p.max_wheel_torque_nm)
+    assert np.all(np.abs(info["truth"]["applied"][:3]) < 0.05 * p.max_wheel_torque_nm)
 
 
 def test_constant_disturbance_spins_up_the_body():
@@ -159,5 +159,5 @@ def test_constant_disturbance_spins_up_the_body():
         _, _, _, _, info = env.step(np.zeros(4))
     # over 1 s from rest the gyroscopic term is negligible: I_eff ω ≈ T t
     w_expected = env.model.params.inertia_eff_inv @ torque * 1.0
-    assert np.allclose(info["state"]["rate_rad_s"], w_expected, rtol=1e-4, atol=1e-12)
-    assert np.allclose(info["disturbance_torque_nm"], torque)
+    assert np.allclose(info["truth"]["state"]["rate_rad_s"], w_expected, rtol=1e-4, atol=1e-12)
+    assert np.allclose(info["truth"]["disturbance_torque_nm"], torque)

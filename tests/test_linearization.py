@@ -87,7 +87,7 @@ def test_env_step_matches_discrete_model_near_the_target():
     action = env.model.allocation @ u_body / env.model.params.max_wheel_torque_nm
     env.reset(seed=0, options={"attitude": qe, "rate_rad_s": x0[3:], "target_attitude": [0, 0, 0, 1.0]})
     obs, reward, _, _, info = env.step(action)
-    u = -env.model.params.wheel_axes @ info["applied"]
+    u = -env.model.params.wheel_axes @ info["truth"]["applied"]
     x_pred = disc.A @ x0 + disc.B @ u
     assert np.allclose(env.error_state(), x_pred, rtol=0, atol=1e-4 * np.abs(x_pred).max())
     cost_pred = x0 @ disc.Q @ x0 + 2 * x0 @ disc.N @ u + u @ disc.R @ u

@@ -54,11 +54,12 @@ def run_against_reference(kwargs, steps, seed=3):
         _, reward, terminated, _, info = env.step(action)
         assert not terminated
         cost, applied, tau = ref.step(info["commanded"])
-        worst["state"] = max(worst["state"], rel(env._y[:7], ref.y[:7]))
-        worst["wheel"] = max(worst["wheel"], abs(env._y[7] - ref.y[7]) / max(abs(ref.y[7]), 1.0))
+        y = env.state_row
+        worst["state"] = max(worst["state"], rel(y[:7], ref.y[:7]))
+        worst["wheel"] = max(worst["wheel"], abs(y[7] - ref.y[7]) / max(abs(ref.y[7]), 1.0))
         worst["cost"] = max(worst["cost"], abs(-reward - cost) / cost)
-        worst["torque"] = max(worst["torque"], rel(info["magnetic_torque_nm"], tau))
-        worst["applied"] = max(worst["applied"], rel(info["applied"], applied))
+        worst["torque"] = max(worst["torque"], rel(info["truth"]["magnetic_torque_nm"], tau))
+        worst["applied"] = max(worst["applied"], rel(info["truth"]["applied"], applied))
         worst["error"] = max(worst["error"], rel(env.error_state(), ref.error_state()))
         blocked += applied[3] == 0.0
     return worst, blocked

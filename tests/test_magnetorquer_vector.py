@@ -6,10 +6,11 @@ import pytest
 from batched_reference import step_matches_singles
 from gymnasium.vector import AutoresetMode
 
-from attitude_envs.envs.magnetorquer import PAPER_FAULTS
+from attitude_envs import presets
 from attitude_envs.plants import magnetorquer as mt
 
 MT = "attitude_envs/Magnetorquer-v0"
+PAPER_FAULTS = presets.get(MT, "sadigh-2022-faults").params()["faults"]  # Sadigh et al. 2022, eq. (40)
 KWARGS = {
     "episode_duration_s": 2.0,
     "task": "regulation",
@@ -56,18 +57,21 @@ def test_sub_envs_match_single_envs_bitwise_across_autoreset(extra):
     for _ in range(20):  # exactly one 2 s episode of 0.1 s steps
         _, trunc, infos, single_infos = step_matches_singles(vec, singles, rng.uniform(-1, 1, (n, 4)))
         for i, info in enumerate(single_infos):
-            assert infos["error_angle_deg"][i] == info["error_angle_deg"] and infos["time_s"][i] == info["time_s"]
+            truth = info["truth"]
+            assert infos["truth"]["error_angle_deg"][i] == truth["error_angle_deg"]
+            assert infos["time_s"][i] == info["time_s"]
             assert np.array_equal(
                 vec.states[i],
-                info["state"]["attitude"].tolist()
-                + info["state"]["rate_rad_s"].tolist()
-                + info["state"]["wheel_speed_rad_s"].tolist(),
+                truth["state"]["attitude"].tolist()
+                + truth["state"]["rate_rad_s"].tolist()
+                + truth["state"]["wheel_speed_rad_s"].tolist(),
             )
     assert trunc.all()
     # next-step autoreset: the following step resets, ignores the action, reward 0; the
     # new episodes are the single envs' next episodes (same RNG streams)
-    obs, rewards, term, trunc, _ = vec.step(np.ones((n, 4)))
+    obs, rewards, term, trunc, infos = vec.step(np.ones((n, 4)))
     assert not (term.any() or trunc.any()) and np.all(rewards == 0.0)
+    assert not infos["_truth"].any() and not infos["truth"]["_applied"].any()  # the reset rows are masked out
     assert np.array_equal(obs, np.stack([s.reset()[0] for s in singles]))
     assert np.allclose(vec.states[:, 7], 0.0)  # wheels back at rest after the reset
 
@@ -92,7 +96,8 @@ def test_batched_path_conserves_inertial_momentum_with_the_wheel_working():
         for env, y in zip(base.envs, vec.states, strict=True):
             frame = env.orbit.state_at(t_s).eci_from_orbital
             w_bi = mt.inertial_rate(y[:4], y[4:7], env.orbit.state_at(t_s).rate_rad_s)
-            out.append(mt.angular_momentum_inertial(y[:4], w_bi, y[7], env._inertia, p.wheel_inertia_kg_m2, frame))
+            inertia = env.true_inertia_at(t_s)  # constant here: no ΔJ(t)
+            out.append(mt.angular_momentum_inertial(y[:4], w_bi, y[7], inertia, p.wheel_inertia_kg_m2, frame))
         return np.array(out)
 
     h0 = momentum(0.0)

@@ -1,4 +1,5 @@
-"""Keplerian orbit, LVLH frame and the Earth field models of Magnetorquer-v0 (spec 002 §2.6)."""
+"""Keplerian orbit, LVLH frame and the Earth field models of Magnetorquer-v0 (Sadigh et al.
+2022, eq. 9 and Table 1)."""
 
 import datetime as dt
 
@@ -20,7 +21,7 @@ def test_paper_orbit_reproduces_the_printed_orbital_rate():
     assert orbit.a == pytest.approx(7151.5e3)
     assert orbit.e == pytest.approx((1250 - 311) / (2 * 6371 + 1250 + 311))
     assert orbit.mean_motion_rad_s == pytest.approx(10.439e-4, rel=1e-4)  # Table 1
-    assert 2 * orbit.period_s == pytest.approx(12037.9, abs=0.5)  # two orbits, spec §5.2
+    assert 2 * orbit.period_s == pytest.approx(12037.9, abs=0.5)  # two orbits: the paper's run
 
 
 def test_keplerian_propagation_conserves_energy_and_momentum_and_hits_apsides():

@@ -1,4 +1,4 @@
-"""Q-learning LQR on the nonlinear ReactionWheel-v0 (spec-001 preset): from one-step data
+"""Q-learning LQR on the nonlinear ReactionWheel-v0 (heravi-2017 preset): from one-step data
 near the target the agent learns the DARE gain of the env's exact ZOH discretization."""
 
 from __future__ import annotations
@@ -9,19 +9,20 @@ import pytest
 from agents import QLearningLQR
 from agents.qlqr.estimators import InsufficientExcitationError, NotPositiveDefiniteError
 from agents.qlqr.truth import relative_error
+from attitude_envs import presets
 from attitude_envs.envs.reaction_wheel import ReactionWheelEnv
 from attitude_envs.evaluation import rollout
-from attitude_envs.presets import preset
 from baselines.lqr import LQRPolicy
 
 STD = np.array([1.0, 1.0, 1.0, 0.05, 0.05, 0.05])
-ALLOCATION = -np.linalg.pinv(preset("spec-001")["wheel_axes"])  # wheel geometry → body torque
+# wheel geometry → body torque
+ALLOCATION = -np.linalg.pinv(presets.get("ReactionWheel-v0", "heravi-2017").params()["wheel_axes"])
 K0 = np.hstack([0.1 * np.eye(3), 10.0 * np.eye(3)])  # spec 001 §6 item 15
 
 
 @pytest.fixture(scope="module")
 def env():
-    return ReactionWheelEnv(preset="spec-001", episode_duration_s=20.0)
+    return ReactionWheelEnv(preset="heravi-2017", episode_duration_s=20.0)
 
 
 def test_learned_gain_matches_zoh_dare_and_lqr_cost(env):

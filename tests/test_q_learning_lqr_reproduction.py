@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import json
 
-import train
+from experiments import cli
 
 
 def test_reproduce_q_learning_lqr_quick(tmp_path, capsys):
-    assert train.main(["reproduce", "q-learning-lqr", "--out", str(tmp_path), "--quick"]) == 0
+    assert cli.main(["reproduce", "q-learning-lqr", "--out", str(tmp_path), "--quick"]) == 0
     doc = json.loads((tmp_path / "q-learning-lqr.json").read_text())
     assert (tmp_path / "q-learning-lqr.md").exists()
     assert (tmp_path / "q-learning-lqr-convergence.png").stat().st_size > 10_000

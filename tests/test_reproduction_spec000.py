@@ -6,14 +6,14 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from attitude_envs.reproductions import REPRODUCTIONS
-from attitude_envs.reproductions.feedback_linearization import (
+from baselines.feedback_linearization import outer_loop_gain
+from experiments.reproductions import REPRODUCTIONS
+from experiments.reproductions.feedback_linearization import (
     MANEUVERS,
     TABLE_2,
     reproduce,
     run_maneuvers,
 )
-from baselines.feedback_linearization import outer_loop_gain
 
 
 @pytest.fixture(scope="module")

@@ -9,9 +9,9 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 import attitude_envs  # noqa: F401,E402
-from agents.sb3.hyperparams import load_hyperparams, parse_overrides, parse_python_literal, split_hyperparams  # noqa: E402
-from agents.sb3.registry import ALGORITHMS, algorithm_class  # noqa: E402
-from agents.sb3.training import load_trained, train  # noqa: E402
+from experiments.sb3.hyperparams import load_hyperparams, parse_overrides, parse_python_literal, split_hyperparams  # noqa: E402
+from experiments.sb3.registry import ALGORITHMS, algorithm_class  # noqa: E402
+from experiments.sb3.training import load_trained, train  # noqa: E402
 
 RW = "attitude_envs/ReactionWheel-v0"
 SHORT = {"episode_duration_s": 5.0}  # 50 control steps per episode
@@ -127,7 +127,7 @@ def test_rl_zoo3_trains_on_the_envs_with_the_shipped_file(tmp_path):
     import subprocess
     import sys
 
-    from agents.sb3.hyperparams import hyperparams_path
+    from experiments.sb3.hyperparams import hyperparams_path
 
     cmd = [sys.executable, "-m", "rl_zoo3.train", "--algo", "ppo", "--env", RW, "--gym-packages", "attitude_envs"]
     cmd += ["--conf-file", str(hyperparams_path("ppo")), "-n", "128", "--log-folder", str(tmp_path), "--seed", "0"]

@@ -4,9 +4,9 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from attitude_envs.evaluation import fault_campaign as fc
 from attitude_envs.scenarios import list_scenarios, load_scenario, make_scenario_env
 from baselines.lqr import LQRPolicy
+from experiments import fault_campaign as fc
 
 PRESETS = {"fault-campaign", "magnetorquer-fault", "sensor-bias", "stuck-wheel", "wheel-degraded", "wheel-failure"}
 
@@ -17,8 +17,8 @@ def test_presets_ship_and_build_envs_with_their_faults():
         sc = load_scenario(name)
         env = make_scenario_env(sc)
         _, info = env.reset(seed=0)
-        assert len(info["faults"]) == len(sc["faults"])
-        for truth, given in zip(info["faults"], sc["faults"], strict=True):
+        assert len(info["truth"]["faults"]) == len(sc["faults"])
+        for truth, given in zip(info["truth"]["faults"], sc["faults"], strict=True):
             assert truth["kind"] == given["kind"] and truth["onset_s"] == given["onset_s"]
 
 
@@ -30,19 +30,19 @@ def test_wheel_failure_reaches_the_plant_and_three_wheels_keep_control():
         t = info["time_s"]
         obs, _, terminated, truncated, info = env.step(policy.act(obs, info))
         if t >= 2.0 - 1e-9:
-            assert info["applied"][0] == 0.0
+            assert info["truth"]["applied"][0] == 0.0
         else:
-            assert info["applied"][0] == pytest.approx(info["commanded"][0], abs=1e-15)
+            assert info["truth"]["applied"][0] == pytest.approx(info["commanded"][0], abs=1e-15)
         if terminated or truncated:
             break
     assert not terminated
-    assert info["error_angle_deg"] < 2.0  # still converging on three wheels (healthy: 1.41 deg at 60 s)
+    assert info["truth"]["error_angle_deg"] < 2.0  # still converging on three wheels (healthy: 1.41 deg at 60 s)
 
 
 def test_magnetorquer_fault_is_the_papers_step_at_50_s():
     env = make_scenario_env("magnetorquer-fault", env_id="attitude_envs/LinearSystem-v0", episode_steps=5002)
     env.reset(seed=0)
-    applied = [env.step(np.ones(3))[4]["applied"] for _ in range(5002)]
+    applied = [env.step(np.ones(3))[4]["truth"]["applied"] for _ in range(5002)]
     assert np.allclose(applied[4999], [2.0, 2.0, 2.0])  # t = 49.99 s, action_scale 2
     assert np.allclose(applied[5000], [1.8, 1.4, 1.2])  # t = 50 s: E = diag(0.9, 0.7, 0.6)
     with pytest.raises(ValueError, match="names no env"):

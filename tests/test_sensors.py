@@ -42,7 +42,7 @@ def test_sensors_off_by_default_observe_the_truth_and_leave_the_plant_stream_alo
         o1, _, _, _, i1 = plain.step(CMD)
         o2, _, _, _, i2 = noisy.step(CMD)
     # the plant (incl. its random disturbance) is identical; only the observation is noisy
-    assert np.array_equal(i1["state"]["attitude"], i2["state"]["attitude"])
+    assert np.array_equal(i1["truth"]["state"]["attitude"], i2["truth"]["state"]["attitude"])
     assert np.array_equal(o1, plain.unwrapped.error_state().astype(np.float32))
     assert not np.allclose(o1, o2, atol=1e-6)
     assert np.allclose(o1, o2, atol=1e-2)
@@ -52,10 +52,22 @@ def test_noise_free_sensor_with_fault_measures_truth_until_onset_then_bias():
     rows = run(faults=[sensor_fault("bias", value=0.01)])
     for t, info in rows:
         gyro = info["sensors"]["gyro"]
-        truth = info["state"]["rate_rad_s"]
+        truth = info["truth"]["state"]["rate_rad_s"]
         expected = truth + np.array([0.0, 0.01, 0.0]) * (t >= 0.5 - 1e-9)
         assert np.allclose(gyro, expected, rtol=0, atol=1e-15)
-        assert np.array_equal(info["sensors"]["tachometer"], info["state"]["wheel_speed_rad_s"])
+        assert np.array_equal(info["sensors"]["tachometer"], info["truth"]["state"]["wheel_speed_rad_s"])
+
+
+def test_measured_state_is_the_sensor_readings():
+    """info["measured"] (the flight computer's view): star tracker, gyro and tachometers;
+    the commanded target as is."""
+    rows = run(sensors={"gyro": {"noise_std": 1e-3}, "tachometer": {"noise_std": 0.1}})
+    for _, info in rows:
+        m, raw, truth = info["measured"], info["sensors"], info["truth"]["state"]
+        assert np.array_equal(m["attitude"], raw["star_tracker"])
+        assert np.array_equal(m["rate_rad_s"], raw["gyro"]) and not np.array_equal(m["rate_rad_s"], truth["rate_rad_s"])
+        assert np.array_equal(m["wheel_speed_rad_s"], raw["tachometer"])
+        assert np.array_equal(m["target_attitude"], truth["target_attitude"])
 
 
 def test_drift_stuck_and_dropout_from_onset():
@@ -65,29 +77,31 @@ def test_drift_stuck_and_dropout_from_onset():
     nan = run(faults=[sensor_fault("dropout", index=0, duration_s=0.3)])
     hold = run(faults=[sensor_fault("dropout", index=0, mode="hold")])
     for k, (t, info) in enumerate(drift):
-        truth = info["state"]["rate_rad_s"]
+        truth = info["truth"]["state"]["rate_rad_s"]
         after = t >= 0.5 - 1e-9
         assert info["sensors"]["gyro"][1] == pytest.approx(truth[1] + after * 0.002 * (t - 0.5), abs=1e-15)
-        held = stuck[5][1]["state"]["rate_rad_s"][2]
+        held = stuck[5][1]["truth"]["state"]["rate_rad_s"][2]
         s = stuck[k][1]
-        assert s["sensors"]["gyro"][2] == (held if after else s["state"]["rate_rad_s"][2])
+        assert s["sensors"]["gyro"][2] == (held if after else s["truth"]["state"]["rate_rad_s"][2])
         g = given[k][1]
-        assert g["sensors"]["tachometer"][3] == (7.0 if after else g["state"]["wheel_speed_rad_s"][3])
+        assert g["sensors"]["tachometer"][3] == (7.0 if after else g["truth"]["state"]["wheel_speed_rad_s"][3])
         n = nan[k][1]
         assert np.isnan(n["sensors"]["gyro"][0]) == (0.5 - 1e-9 <= t < 0.8 - 1e-9)
-        assert np.array_equal(n["sensors"]["gyro"][1:], n["state"]["rate_rad_s"][1:])
+        assert np.array_equal(n["sensors"]["gyro"][1:], n["truth"]["state"]["rate_rad_s"][1:])
         h = hold[k][1]
         assert h["sensors"]["gyro"][0] == (
-            hold[4][1]["state"]["rate_rad_s"][0] if after else h["state"]["rate_rad_s"][0]
+            hold[4][1]["truth"]["state"]["rate_rad_s"][0] if after else h["truth"]["state"]["rate_rad_s"][0]
         )
-    assert stuck[5][1]["state"]["rate_rad_s"][2] != stuck[10][1]["state"]["rate_rad_s"][2]  # the truth moved on
+    assert (
+        stuck[5][1]["truth"]["state"]["rate_rad_s"][2] != stuck[10][1]["truth"]["state"]["rate_rad_s"][2]
+    )  # the truth moved on
 
 
 def test_star_tracker_stuck_freezes_the_quaternion_and_nan_dropout_reaches_the_observation():
     rows = run(faults=[sensor_fault("stuck", sensor="star_tracker", index="all")])
-    assert np.array_equal(rows[0][1]["sensors"]["star_tracker"], rows[0][1]["state"]["attitude"])
+    assert np.array_equal(rows[0][1]["sensors"]["star_tracker"], rows[0][1]["truth"]["state"]["attitude"])
     for _, info in rows[5:]:
-        assert np.array_equal(info["sensors"]["star_tracker"], rows[5][1]["state"]["attitude"])
+        assert np.array_equal(info["sensors"]["star_tracker"], rows[5][1]["truth"]["state"]["attitude"])
     env = gym.make(RW, faults=[sensor_fault("dropout", sensor="star_tracker", index="all")])
     env.reset(seed=0)
     obs = [env.step(CMD)[0] for _ in range(6)]
@@ -99,7 +113,7 @@ def test_star_tracker_noise_is_a_body_rotation_of_the_given_size():
     errs = np.array(
         [
             quaternion.to_rotvec(
-                quaternion.multiply(quaternion.conjugate(i["state"]["attitude"]), i["sensors"]["star_tracker"])
+                quaternion.multiply(quaternion.conjugate(i["truth"]["state"]["attitude"]), i["sensors"]["star_tracker"])
             )
             for _, i in rows
         ]
@@ -114,8 +128,8 @@ def test_noise_increase_scales_exactly_the_same_noise_draws():
     base = run(sensors=cfg)
     worse = run(sensors=cfg, faults=[sensor_fault("noise_increase", value=5.0)])
     for (t, b), (_, w) in zip(base, worse, strict=True):
-        eb = b["sensors"]["gyro"] - b["state"]["rate_rad_s"]
-        ew = w["sensors"]["gyro"] - w["state"]["rate_rad_s"]
+        eb = b["sensors"]["gyro"] - b["truth"]["state"]["rate_rad_s"]
+        ew = w["sensors"]["gyro"] - w["truth"]["state"]["rate_rad_s"]
         factor = np.array([1.0, 5.0 if t >= 0.5 - 1e-9 else 1.0, 1.0])
         assert np.allclose(ew, factor * eb, rtol=1e-9, atol=1e-15)
 
@@ -123,15 +137,15 @@ def test_noise_increase_scales_exactly_the_same_noise_draws():
 def test_gyro_bias_random_walk_statistics_and_seeding():
     cfg = {"gyro": {"bias_walk_std": 1e-4, "initial_bias": [0.01, 0.0, -0.01]}}
     rows = run(steps=400, action=np.zeros(4), sensors=cfg)
-    bias = np.array([i["sensor_bias"]["gyro"] for _, i in rows])
+    bias = np.array([i["truth"]["sensor_bias"]["gyro"] for _, i in rows])
     assert np.array_equal(bias[0], [0.01, 0.0, -0.01])
-    meas_err = np.array([i["sensors"]["gyro"] - i["state"]["rate_rad_s"] for _, i in rows])
+    meas_err = np.array([i["sensors"]["gyro"] - i["truth"]["state"]["rate_rad_s"] for _, i in rows])
     assert np.allclose(meas_err, bias, atol=1e-15)  # no white noise configured: error = bias
     steps = np.diff(bias, axis=0).ravel()
     # 1200 increments of N(0, σ² Δt): sample std within 7 % (≈ 3.4 standard errors)
     assert np.std(steps) == pytest.approx(1e-4 * np.sqrt(0.1), rel=0.07)
     again = run(steps=400, action=np.zeros(4), sensors=cfg)
-    assert np.array_equal(bias, np.array([i["sensor_bias"]["gyro"] for _, i in again]))
+    assert np.array_equal(bias, np.array([i["truth"]["sensor_bias"]["gyro"] for _, i in again]))
 
 
 def test_random_sensor_faults_follow_the_seed():
@@ -144,12 +158,12 @@ def test_random_sensor_faults_follow_the_seed():
         "onset_s": {"uniform": [5, 10]},
     }
     env = gym.make(RW, faults=[fault, {"kind": "outage", "index": "random"}]).unwrapped
-    draws = {s: env.reset(seed=s)[1]["faults"] for s in range(8)}
+    draws = {s: env.reset(seed=s)[1]["truth"]["faults"] for s in range(8)}
     assert len({(d[1]["index"], d[1]["value"], d[1]["onset_s"]) for d in draws.values()}) == 8
-    assert env.reset(seed=4)[1]["faults"] == draws[4]
+    assert env.reset(seed=4)[1]["truth"]["faults"] == draws[4]
     plain = gym.make(RW, faults=[{"kind": "outage", "index": "random"}]).unwrapped
     # the sensors draw from a spawned generator: the actuator draws do not change
-    assert all(plain.reset(seed=s)[1]["faults"][0] == draws[s][0] for s in range(8))
+    assert all(plain.reset(seed=s)[1]["truth"]["faults"][0] == draws[s][0] for s in range(8))
 
 
 def test_fault_hint_flags_actuator_and_sensor_faults():
@@ -176,8 +190,10 @@ def test_linear_system_state_sensor():
     assert obs.shape == (6 + 3 + 1,)
     for _ in range(8):
         obs, _, _, _, info = env.step(np.zeros(3))
-        err = obs[:6] - info["next_state"]
-        late = info["faults"][0]["active"]
+        err = obs[:6] - info["truth"]["next_state"]
+        assert np.array_equal(info["measured"], info["sensors"]["state"])  # the measurement in obs
+        assert np.array_equal(info["measured"].astype(np.float32), obs[:6])
+        late = info["truth"]["faults"][0]["active"]
         assert abs(err[3] - (1.0 if late else 0.0)) < 0.05
         assert np.all(np.abs(np.delete(err, 3)) < 0.05)
         assert obs[-1] == float(late)
@@ -227,7 +243,7 @@ def test_envs_with_sensors_and_hints_pass_the_gymnasium_checker():
 def test_star_tracker_bias_is_a_body_rotation_about_its_axis():
     rows = run(faults=[sensor_fault("bias", sensor="star_tracker", index=2, value=0.01)])
     for t, info in rows:
-        q, m = info["state"]["attitude"], info["sensors"]["star_tracker"]
+        q, m = info["truth"]["state"]["attitude"], info["sensors"]["star_tracker"]
         err = quaternion.to_rotvec(quaternion.multiply(quaternion.conjugate(q), m))
         assert np.allclose(err, [0, 0, 0.01 if t >= 0.5 - 1e-9 else 0.0], atol=1e-12)
 
@@ -241,7 +257,7 @@ def test_fuel_slosh_state_sensor_and_fault_hint():
     assert obs.shape == (8 + 3,)
     for _ in range(4):
         obs, _, _, _, info = env.step(np.zeros(2))
-        truth = np.append(info["x"], info["state"]["v_x_m_s"])
+        truth = np.append(info["truth"]["x"], info["truth"]["state"]["v_x_m_s"])
         active = info["time_s"] >= 0.2 - 1e-9
         assert np.allclose(obs[:8], truth + np.eye(8)[1] * (0.01 if active else 0.0), atol=1e-6)
         assert obs[-1] == float(active)

@@ -1,4 +1,4 @@
-"""Spec 004 baselines: PD, LQR (paper / feasible), Lyapunov reconstruction, fuzzy PD."""
+"""Navabi & Davoodi fuel-slosh baselines: PD, LQR (paper / feasible), Lyapunov reconstruction, fuzzy PD."""
 
 from __future__ import annotations
 
@@ -11,10 +11,10 @@ import pytest
 from attitude_envs.envs.fuel_slosh import PAPER_INITIAL_STATE, FuelSloshEnv
 from attitude_envs.evaluation.rollout import rollout
 from attitude_envs.plants.slosh_model import reduced_derivative
-from attitude_envs.reproductions.fuel_slosh_runs import metrics, simulate_reduced
 from baselines.base import Policy
 from baselines.fuzzy_slosh import GAIN_RANGES, SIGMA, FuzzySloshPDPolicy
 from baselines.slosh import SloshLQRPolicy, SloshLyapunovPolicy, SloshPDPolicy
+from experiments.reproductions.fuel_slosh_runs import metrics, simulate_reduced
 
 X0 = PAPER_INITIAL_STATE[1:]
 
@@ -60,12 +60,12 @@ def test_pd_law_and_initial_inputs(env):
     np.testing.assert_allclose(u, [-0.6, -5e-5 * math.radians(2)])
     obs, info = env.reset()
     action = pd.act(obs, info)
-    # spec §2.9: δ(0) = −17.53°, M(0) = 859 N·m, normalized by 30° and 2000 N·m
+    # reconstruction notes (eqs. 11–13): δ(0) = −17.53°, M(0) = 859 N·m, normalized by 30° and 2000 N·m
     np.testing.assert_allclose(action, [-17.53 / 30.0, 859.16 / 2000.0], atol=2e-4)
 
 
-def test_paper_lqr_gain_matches_spec_reference(env):
-    """Spec §3.2 reference gain and closed-loop poles (continuous design, v_x = 3000)."""
+def test_paper_lqr_gain_matches_the_reconstructed_reference(env):
+    """Reference gain of eqs. 30–31 (reconstruction notes) and closed-loop poles (continuous design, v_x = 3000)."""
     lqr = SloshLQRPolicy(env, "paper", discretization="continuous")
     K_ref = np.array(
         [
@@ -115,7 +115,7 @@ def test_fuzzy_gains_at_zero_error_match_centroid_of_rule_outputs(env):
     big = np.exp(-((y - 1.0) ** 2) / (2 * SIGMA**2))
     k_big = float(np.sum(y * big) / np.sum(big))
     k_small = 1.0 - k_big
-    assert 0.67 < k_big < 0.68  # spec §3.3: output range "about [0.322, 0.678]"
+    assert 0.67 < k_big < 0.68  # reconstruction notes: output range "about [0.322, 0.678]"
     expected = [
         GAIN_RANGES["k1"][0] + (GAIN_RANGES["k1"][1] - GAIN_RANGES["k1"][0]) * k_small,  # two-rule base: S
         GAIN_RANGES["k2"][0] + (GAIN_RANGES["k2"][1] - GAIN_RANGES["k2"][0]) * k_big,  # Table 1 (ZO, ZO) = B

@@ -61,9 +61,9 @@ def test_env_steps_match_the_numpy_reference_over_a_long_rollout():
         y0 = env.state
         _, reward, terminated, _, info = env.step(_pitch_hold(y0, k, rng))
         assert not terminated
-        free, c_free, _ = ref.env_step(p, cost, free, *info["applied"], h, n_sub)
+        free, c_free, _ = ref.env_step(p, cost, free, *info["truth"]["applied"], h, n_sub)
         if k % 10 == 0:
-            y1, c1, ni1 = ref.env_step(p, cost, y0, *info["applied"], h, n_sub)
+            y1, c1, ni1 = ref.env_step(p, cost, y0, *info["truth"]["applied"], h, n_sub)
             one_step_err.append(np.abs(env.state - y1))
             cost_err.append(abs(-reward - c1) / c1)
             new_inputs.append(info["new_inputs"])
@@ -86,7 +86,7 @@ def test_env_steps_match_the_numpy_reference_over_a_long_rollout():
 
 def test_compiled_step_is_fourth_order():
     """Halving the RK4 sub-step divides the one-step state error by ≈ 16."""
-    y0 = FuelSloshEnv().reset(seed=0)[1]["full_state"]
+    y0 = FuelSloshEnv().reset(seed=0)[1]["truth"]["full_state"]
     action = np.array([0.4, -0.3], np.float32)
     finals = []
     for dt in (0.1, 0.05, 0.1 / 64):

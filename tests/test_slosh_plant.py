@@ -1,5 +1,5 @@
-"""Physics verification of the fuel-slosh plant (spec 004 §2): the equations are checked,
-not trusted."""
+"""Physics verification of the fuel-slosh plant (Navabi & Davoodi, eqs. 1–27, as we
+reconstructed them): the equations are checked, not trusted."""
 
 from __future__ import annotations
 
@@ -32,8 +32,8 @@ def derive():
 
 @pytest.mark.parametrize("preset", sorted(slosh.FILL_PRESETS))
 def test_equations_satisfy_sympy_lagrange_derivation(derive, preset):
-    """The closed-form body-frame equations (spec §2.5) zero the inertial Euler–Lagrange
-    residual derived symbolically from T and R (spec §2.4), with thrust and moment."""
+    """The closed-form body-frame equations (eqs. 11–14) zero the inertial Euler–Lagrange
+    residual derived symbolically from T and R (eqs. 5 and 10), with thrust and moment."""
     p = slosh.SloshParams.from_fill_preset(preset)
     rng = np.random.default_rng(1)
     worst = max(
@@ -71,7 +71,7 @@ def test_mass_matrix_symmetric_positive_definite():
 
 
 def test_mass_matrix_values_at_rest():
-    """Spec §2.3 numbers for mapping (i): m_t, S_z, I_θθ(0), J_i."""
+    """Derived constants of mapping (i) (reconstruction notes): m_t, S_z, I_θθ(0), J_i."""
     p = slosh.SloshParams()
     M = slosh.mass_matrix(p, np.zeros(2))
     assert M[0, 0] == pytest.approx(1125.0)
@@ -108,8 +108,8 @@ def test_damping_dissipates_energy():
     assert slosh.kinetic_energy(p, y) < E0
 
 
-def test_free_slosh_frequency_matches_spec():
-    """Spec §2.5 sanity check: ψ1 from 5° with δ = M = 0 oscillates at ≈ 1.284 rad/s."""
+def test_free_slosh_frequency_matches_the_reconstruction():
+    """Sanity check of the reconstruction notes: ψ1 from 5° with δ = M = 0 oscillates at ≈ 1.284 rad/s."""
     p = slosh.SloshParams()
     y = np.zeros(10)
     y[slosh.IVX] = 3000.0
@@ -161,14 +161,14 @@ def test_reduced_linearization_matches_finite_differences():
 
     np.testing.assert_allclose(A, _fd_jacobian(reduced, np.zeros(7), [1e-6] * 7), rtol=1e-6, atol=1e-6)
     np.testing.assert_allclose(B, _fd_jacobian(lambda u: reduced(np.zeros(7), u), np.zeros(2), [1e-6] * 2), atol=1e-8)
-    # spec §2.8 numbers
+    # the reconstruction notes' numbers of eqs. 25–27 (mapping (i), v_x = 3000 m/s)
     assert A[4, 3] == pytest.approx(-1.666667, abs=1e-6)
     assert A[6, 6] == pytest.approx(-0.476190, abs=1e-6)
     np.testing.assert_allclose(B[4], [-0.833333, -0.5], atol=1e-6)
 
 
-def test_exact_inversion_realizes_new_inputs_and_matches_spec_initial_inputs():
-    """Spec §2.9: from the paper's initial condition under PD, δ(0) = −17.53°, M(0) = 859 N·m."""
+def test_exact_inversion_realizes_new_inputs_and_matches_the_reconstructed_initial_inputs():
+    """Reconstruction notes (inputs from eqs. 11–13): from the paper's initial condition under PD, δ(0) = −17.53°, M(0) = 859 N·m."""
     p = slosh.SloshParams()
     y = np.zeros(10)
     y[[slosh.IVX, slosh.IVZ, slosh.ITH, slosh.IPSI1, slosh.IPSI2]] = [3000, 100, math.radians(2), 0.5236, -0.5236]
@@ -186,8 +186,8 @@ def _pd(x):
     return np.array([-6e-3 * x[0], -5e-5 * x[1] - 6e-3 * x[2]])
 
 
-def test_reduced_model_tracks_full_model_within_spec_tolerance():
-    """Spec §2.9: under PD with exact input inversion the full 5-DOF plant follows the
+def test_reduced_model_tracks_full_model_within_the_reconstructed_tolerance():
+    """Reconstruction notes: under PD with exact input inversion the full 5-DOF plant follows the
     reduced nonlinear model within ≈ 0.3 % (v_z and θ, relative to their peaks)."""
     p = slosh.SloshParams()
     y = np.zeros(10)
@@ -203,7 +203,7 @@ def test_reduced_model_tracks_full_model_within_spec_tolerance():
 
     h = 0.1
     vz_f, vz_r, th_f, th_r = [], [], [], []
-    for _ in range(2500):  # 250 s: through the v_z undershoot (spec §4.4: −31.1 m/s at 250 s)
+    for _ in range(2500):  # 250 s: through the v_z undershoot (reconstruction notes: −31.1 m/s at 250 s)
         y = rk4_step(full, 0.0, y, h)
         z = rk4_step(reduced, 0.0, z, h)
         vz_f.append(y[slosh.IVZ])
@@ -247,8 +247,8 @@ def test_unknown_fill_preset_raises():
         ("iv", (28.0, 1.2), (1.464, 1.291), (0.045, 0.161)),
     ],
 )
-def test_fill_presets_match_spec_slosh_modes(preset, J, omega, zeta):
-    """Spec §2.2 table: J_i, ω_i = √(m_i l_i a_x / J_i), ζ_i = ε_i / (2 J_i ω_i) per mapping;
+def test_fill_presets_match_the_reconstructed_slosh_modes(preset, J, omega, zeta):
+    """The four readings of Table 3's lengths: J_i, ω_i = √(m_i l_i a_x / J_i), ζ_i = ε_i / (2 J_i ω_i) per mapping;
     ω_i also equals the reduced linear model's undamped slosh frequency."""
     p = slosh.SloshParams.from_fill_preset(preset)
     np.testing.assert_allclose(p.J, J, atol=1e-9)

@@ -15,8 +15,8 @@ from baselines.feedback_linearization import (
     outer_loop_gain,
     q_double_prime,
 )
+from baselines.measured import MeasuredState
 from baselines.quaternion_lqr import QuaternionLQRPolicy, quaternion_lqr_gains
-from baselines.state import MeasuredState
 
 M1 = quaternion.from_euler_321_deg(20.0, -30.0, -40.0)
 

@@ -91,10 +91,13 @@ def test_sub_envs_match_single_envs_bitwise_in_every_kernel_path(kwargs):
         obs, rewards, term, trunc, infos = vec.step(actions)
         for i, (o, r, te, tr, info) in enumerate(_step_singles_with_autoreset(singles, actions, done)):
             assert np.array_equal(obs[i], o) and rewards[i] == r and te == term[i] and tr == trunc[i], i
-            assert infos["_cost"][i] == (info is not None)
+            assert infos["_cost"][i] == infos["_truth"][i] == infos["truth"]["_applied"][i] == (info is not None)
             if info is not None:
-                assert np.array_equal(infos["applied"][i], info["applied"]) and infos["cost"][i] == info["cost"]
-                assert infos["error_angle_deg"][i] == info["error_angle_deg"]
+                truth = infos["truth"]
+                assert (
+                    np.array_equal(truth["applied"][i], info["truth"]["applied"]) and infos["cost"][i] == info["cost"]
+                )
+                assert truth["error_angle_deg"][i] == info["truth"]["error_angle_deg"]
                 assert infos["time_s"][i] == info["time_s"]
         done = term | trunc
         ended += done.sum()
@@ -157,13 +160,15 @@ def test_returned_arrays_are_not_reused_by_the_env():
     vec = make_vec(2)
     vec.reset(seed=0)
     first = vec.step(np.ones((2, 4)))
-    kept = [np.copy(a) for a in first[:4]] + [{k: np.copy(v) for k, v in first[4].items()}]
+    infos = {**first[4], **{"truth." + k: v for k, v in first[4]["truth"].items()}}
+    del infos["truth"]
+    kept = [np.copy(a) for a in first[:4]] + [{k: np.copy(v) for k, v in infos.items()}]
     for _ in range(3):
         vec.step(-np.ones((2, 4)))
     for a, b in zip(first[:4], kept[:4], strict=True):
         assert np.array_equal(a, b)
     for k, v in kept[4].items():
-        assert np.array_equal(first[4][k], v)
+        assert np.array_equal(infos[k], v)
 
 
 def test_batched_path_conserves_momentum():
@@ -228,10 +233,12 @@ def test_linear_system_batch_matches_single_envs_bitwise(noise):
     rng = np.random.default_rng(2)
     for _ in range(15):
         actions = rng.uniform(-1, 1, (n, 3))
-        obs, rewards, _, trunc, _ = vec.step(actions)
+        obs, rewards, _, trunc, infos = vec.step(actions)
         for i, s in enumerate(singles):
-            o, r, _, tr, _ = s.step(actions[i])
+            o, r, _, tr, info = s.step(actions[i])
             assert np.array_equal(obs[i], o) and rewards[i] == r and tr == trunc[i]
+            assert np.array_equal(infos["truth"]["applied"][i], info["truth"]["applied"])
+            assert np.array_equal(infos["commanded"][i], info["commanded"]) and infos["time_s"][i] == info["time_s"]
     assert trunc.all()
 
 
@@ -253,7 +260,7 @@ def test_air_bearing_batch_matches_single_envs_including_the_tilt_stop():
     singles = [gym.make(ab, **kwargs).unwrapped for _ in range(n)]
     options = {"euler_321_deg": [38.0, 0.0, 0.0], "rate_rad_s": [0.3, 0.0, 0.0]}  # tips over the 40° stop
     vec.reset(seed=1)
-    vec.unwrapped._reset_one(0, 1, options)
+    vec.reset(seed=1, options={**options, "reset_mask": np.array([True, False, False])})
     singles[0].reset(seed=1, options=options)
     for i in range(1, n):
         singles[i].reset(seed=1 + i)

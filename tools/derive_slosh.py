@@ -1,9 +1,10 @@
-"""Derive the fuel-slosh equations of motion with sympy (development tool, spec 004 §2.4).
+"""Derive the fuel-slosh equations of motion with sympy (development tool): the
+Lagrangian model of Navabi & Davoodi, eqs. 1–10.
 
 Generalized coordinates q = [X, Z, θ, ψ1, ψ2] in an *inertial* frame (no body-frame
 quasi-velocities, so the derivation is plain Euler–Lagrange):
 
-    d/dt ∂T/∂q̇ − ∂T/∂q + ∂R/∂q̇ = Q(δ, M_c),   R = ½ Σ ε_i ψ̇_i²  (spec eq. 10)
+    d/dt ∂T/∂q̇ − ∂T/∂q + ∂R/∂q̇ = Q(δ, M_c),   R = ½ Σ ε_i ψ̇_i²  (the paper's eq. 10)
 
 Body axes: i = (cos θ, −sin θ), k = (sin θ, cos θ) in (X, Z), so a body point (x, z) sits
 at R_O + x i + z k. The thrust F(cos δ i + sin δ k) acts at x = −(b + d); the couple M_c
@@ -11,7 +12,7 @@ acts on θ. The generalized forces follow from virtual work.
 
 ``residual_function()`` returns a numeric function of (q, q̇, q̈, params, δ, M_c) that is
 zero for motions satisfying the equations; the tests feed it the accelerations of the
-closed-form body-frame plant in :mod:`attitude_envs.plants.slosh` (spec §2.5). Running
+closed-form body-frame plant in :mod:`attitude_envs.plants.slosh` (the paper's eqs. 11–14). Running
 this file prints the largest residual over random states.
 """
 

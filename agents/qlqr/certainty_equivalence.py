@@ -3,8 +3,7 @@
 ``[Â B̂] = X⁺ Z⁺`` (Z = [X U]); the stage-cost kernel ``W = [[Q, N], [Nᵀ, R]]`` is fitted
 from the observed costs with the same quadratic features unless given; then
 ``K = DARE(√γÂ, √γB̂, Q, R, N)``. This is the sample-efficiency ceiling a Q-learner is
-compared with (q-learning-lqr note §0 item 3, §3.5: it equals the Lopez et al. matrix
-Bellman equation). It is a *model-based* method on the agent's data, for reference only.
+compared with (it equals the matrix Bellman equation of Lopez, Alsalti & Müller 2023). It is a *model-based* method on the agent's data, for reference only.
 """
 
 from __future__ import annotations

@@ -1,9 +1,11 @@
 """Transition data ``(x_k, u_k, r_k, x_{k+1})`` collected by stepping a Gymnasium env.
 
-The learner sees only what the env returns: the error state (the observation, or the
-float64 state in ``info`` when the env provides one), the input actually applied
-(``info["applied"]``: after clipping/saturation) and the positive step cost
-(``info["cost"]``). Nothing is read from the env's model.
+The learner sees only what a flight computer has (:mod:`attitude_envs.info`): the error
+state it measures (the float64 measured state ``info["measured"]`` when the env provides
+one, else the observation), the input it commanded (``info["commanded"]``: the physical
+input of the clipped action) and the positive step cost (``info["cost"]``). Nothing is read
+from the env's model or its ground truth ``info["truth"]``; with sensors and faults off the
+measured state and the commanded input equal the truth.
 """
 
 from __future__ import annotations
@@ -14,11 +16,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from attitude_envs import quaternion
+from attitude_envs.info import MEASURED
 
 
 @dataclass
 class Transitions:
-    """N transitions: states ``X`` (N×n), applied inputs ``U`` (N×m, physical units),
+    """N transitions: measured states ``X`` (N×n), commanded inputs ``U`` (N×m, physical units),
     step costs ``r`` (N,), next states ``Xn`` (N×n)."""
 
     X: np.ndarray
@@ -43,7 +46,7 @@ class EnvAdapter:
     ReactionWheel-v0's wheel torque rating.
 
     ``input_map`` (actuators × m) makes the learner's input ``v`` a combination of
-    actuators: command ``M v``; the applied ``v`` is read back as ``M⁺·applied``. With four
+    actuators: command ``M v``; the commanded ``v`` is read back as ``M⁺·commanded``. With four
     wheels on three axes, ``M = −A⁺`` (the wheel geometry's minimum-norm allocation) makes
     ``v`` the body torque, removing the wheel null space that no data can determine.
     """
@@ -103,13 +106,14 @@ class EnvAdapter:
     def can_set_state(self) -> bool:
         return self.state_to_options is not None
 
-    def state(self, obs: np.ndarray, info: dict, after_step: bool) -> np.ndarray:
-        """The float64 error state: ``info["next_state"]``/``info["state"]`` arrays when the env
-        gives them, the error quaternion from ReactionWheel-v0's physical state, else ``obs``."""
+    def state(self, obs: np.ndarray, info: dict) -> np.ndarray:
+        """The float64 measured error state at the observation time of ``obs`` / ``info``:
+        LinearSystem-v0's ``info["measured"]`` array, the error quaternion and rate from
+        ReactionWheel-v0's measured state, else ``obs``."""
         if self.kind == "linear":
-            return np.asarray(info["next_state"] if after_step else info["state"], dtype=float)
+            return np.asarray(info[MEASURED], dtype=float)
         if self.kind == "reaction_wheel":
-            s = info["state"]
+            s = info[MEASURED]
             qe = quaternion.error(np.asarray(s["attitude"]), np.asarray(s["target_attitude"]))
             return np.concatenate([qe[:3], s["rate_rad_s"]])
         return np.asarray(obs, dtype=float).reshape(self.n)
@@ -120,9 +124,9 @@ class EnvAdapter:
             u = u @ self.input_map.T
         return np.clip(u / self.action_scale, -1.0, 1.0).astype(np.float32)
 
-    def applied(self, info: dict) -> np.ndarray:
-        """The learner's input actually applied over the step, from ``info["applied"]``."""
-        a = np.asarray(info["applied"], dtype=float)
+    def commanded(self, info: dict) -> np.ndarray:
+        """The learner's input commanded for the step, from ``info["commanded"]``."""
+        a = np.asarray(info["commanded"], dtype=float)
         return a if self.input_map is None else self._map_pinv @ a
 
 
@@ -157,7 +161,7 @@ def collect(
 
     ``mode="reset"``: each transition starts from a fresh state ``x ~ N(0, diag(state_std²))``
     set through ``reset(options=...)`` (i.i.d. one-step samples, the paper's points p_j ∈ Ω,
-    spec 001 eq. 29). ``mode="trajectory"``: consecutive steps along episodes from the env's
+    Heravi & Novinzadeh 2017, eq. 29). ``mode="trajectory"``: consecutive steps along episodes from the env's
     own ``reset()``, restarted when an episode ends.
     """
     env = adapter.env
@@ -172,14 +176,14 @@ def collect(
         if mode == "reset":
             x_req = state_std * rng.standard_normal(n)
             obs, info = env.reset(seed=env_seed if first else None, options=adapter.state_to_options(x_req))
-            x = adapter.state(obs, info, after_step=False)
+            x = adapter.state(obs, info)
         elif x is None:
             obs, info = env.reset(seed=env_seed if first else None)
-            x = adapter.state(obs, info, after_step=False)
+            x = adapter.state(obs, info)
         first = False
         u_cmd = -gain @ x + exploration_std * rng.standard_normal(m)
         obs, _, terminated, truncated, info = env.step(adapter.action(u_cmd))
-        x_next = adapter.state(obs, info, after_step=True)
-        X[k], U[k], r[k], Xn[k] = x, adapter.applied(info), float(info["cost"]), x_next
+        x_next = adapter.state(obs, info)
+        X[k], U[k], r[k], Xn[k] = x, adapter.commanded(info), float(info["cost"]), x_next
         x = None if (terminated or truncated) else x_next
     return Transitions(X, U, r, Xn)

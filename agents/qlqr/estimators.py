@@ -1,9 +1,8 @@
 """Least-squares solvers for quadratic Q-functions, with an excitation guard.
 
-All solvers work on *weighted, column-scaled* rows (row normalization, q-learning-lqr
-note §7 item 6; Jacobi column scaling), factor the instrument matrix once by QR (never the
-normal equations, §7 item 7) and report rank and condition number (persistence of
-excitation, §4). Equation numbers refer to ``../shared/spec/q-learning-lqr.md``.
+All solvers work on *weighted, column-scaled* rows (row normalization; Jacobi column
+scaling), factor the instrument matrix once by QR (never the normal equations) and report
+rank and condition number (persistence of excitation).
 """
 
 from __future__ import annotations
@@ -105,14 +104,14 @@ class Design:
         self.cond_limit, self.cond_warn = cond_limit, cond_warn
 
     def least_squares(self, Y: np.ndarray) -> np.ndarray:
-        """``argmin_θ Σ w_k² (f_kᵀθ − y_k)²`` for each column of ``Y`` (fitted-Q / VI, §3.4)."""
+        """``argmin_θ Σ w_k² (f_kᵀθ − y_k)²`` for each column of ``Y`` (fitted-Q / VI)."""
         Yw = Y * (self.weights if Y.ndim == 1 else self.weights[:, None])
         Rf, QtY = _projected(self.Fn, Yw)
         theta = scipy.linalg.solve_triangular(Rf, QtY) / self.col[:, None]
         return theta[:, 0] if Y.ndim == 1 else theta
 
     def instrumental(self, Psi: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, Excitation]:
-        """LSTD-Q: solve ``Σ w_k² f_k ψ_kᵀ θ = Σ w_k² f_k y_k`` (§3.3) as the equivalent
+        """LSTD-Q: solve ``Σ w_k² f_k ψ_kᵀ θ = Σ w_k² f_k y_k`` as the equivalent
         square system ``(Q_Fᵀ Ψ_w) θ = Q_Fᵀ y_w`` (``F_w = Q_F R_F``), column-scaled."""
         Pw = Psi * self.weights[:, None]
         pcol = np.linalg.norm(Pw, axis=0)
@@ -131,7 +130,7 @@ def ordinary_least_squares(
     """Legacy Bradtke-style fit of the Bellman *residual* ``ψ_kᵀθ = r_k`` by OLS.
 
     Exact on deterministic data, **inconsistent under process noise** (errors in
-    variables, §7 item 1); kept only as an option to demonstrate that bias."""
+    variables); kept only as an option to demonstrate that bias."""
     Pw = Psi * weights[:, None]
     col = np.linalg.norm(Pw, axis=0)
     col[col == 0] = 1.0
@@ -150,12 +149,12 @@ def recursive_least_squares(
     initial_covariance: float | None = None,
     forgetting: float = 1.0,
 ) -> np.ndarray:
-    """Instrumental-variable RLS (Bradtke & Barto 1996; §3.3 "RLS-TD"), one row at a time.
+    """Instrumental-variable RLS (Bradtke & Barto 1996, "RLS-TD"), one row at a time.
 
     Solves ``Σ λ^{N−k} w_k² f_k ψ_kᵀ θ = Σ λ^{N−k} w_k² f_k y_k`` for each column of ``Y``
     (``Psi is F`` gives ordinary RLS, used by value iteration). ``initial_covariance=None``
     initializes *exactly* from the first p rows (no ridge bias); a number β starts from
-    ``P₀ = βI, θ₀ = 0``, which is ridge regression with penalty 1/β (§6.5, §7 item 8).
+    ``P₀ = βI, θ₀ = 0``, which is ridge regression with penalty 1/β.
     """
     Fw, Pw = F * weights[:, None], Psi * weights[:, None]
     Yw = (Y * (weights if Y.ndim == 1 else weights[:, None])).reshape(len(weights), -1)
@@ -184,9 +183,9 @@ def recursive_least_squares(
 
 
 def greedy_gain(H: np.ndarray, n: int, rel_tol: float = 1e-6, cond_limit: float = 1e4) -> tuple[np.ndarray, float]:
-    """Greedy gain ``K = H_uu⁺ H_ux`` (u = −Kx; spec 001 eq. 13 with the sign moved out).
+    """Greedy gain ``K = H_uu⁺ H_ux`` (u = −Kx; Heravi & Novinzadeh 2017, eq. 13 with the sign moved out).
 
-    ``H_uu`` must be positive semi-definite (spec 001 eq. 14): eigenvalues below
+    ``H_uu`` must be positive semi-definite (the paper's eq. 14): eigenvalues below
     ``−rel_tol·λ_max`` raise :class:`NotPositiveDefiniteError`. Eigen-directions with
     ``λ < rel_tol·λ_max`` are input directions that change neither cost nor state (e.g. the
     null space of four wheels on three axes); they get no gain (minimum-norm input).
@@ -212,7 +211,7 @@ def variance_weights(
     F: np.ndarray, residuals: np.ndarray, noise_free: float = 0.0, iterations: int = 3, floor: float = 1e-3
 ) -> np.ndarray | None:
     """Row weights ``1/√v̂(z_k)`` of feasible generalized least squares for a TD equation
-    (q-learning-lqr note §3.3: weights that depend on ``z_k`` only keep LSTD-Q consistent).
+    (weights that depend on ``z_k`` only keep LSTD-Q consistent).
 
     Under Gaussian process noise the TD error of the Q-function of gain K,
     ``ε_k = γ(x⁺ᵀP_K x⁺ − E[x⁺ᵀP_K x⁺ | z_k])``, has the conditional variance

@@ -1,4 +1,4 @@
-"""Orthonormal quadratic features: ``zᵀHz = φ(z)ᵀ svec(H)`` (q-learning-lqr note §2).
+"""Orthonormal quadratic features: ``zᵀHz = φ(z)ᵀ svec(H)``.
 
 ``svec`` stacks the upper triangle of a symmetric d×d matrix row by row, with √2 on the
 off-diagonal entries, so ``H ↔ θ`` is an isometry in the Frobenius norm and

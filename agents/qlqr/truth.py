@@ -1,6 +1,6 @@
 """Model-based ground truth for checking the learners (tests, reproductions, benchmarks).
 
-Never used by :class:`agents.QLearningLQR` itself. Convention u = −Kx (note §1).
+Never used by :class:`agents.QLearningLQR` itself. Convention u = −Kx.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ def relative_error(K: np.ndarray, K_ref: np.ndarray) -> float:
 
 
 def dare_gain(A, B, Q, R, discount: float = 1.0, N=None) -> tuple[np.ndarray, np.ndarray]:
-    """``(K*, P*)`` of the discounted LQR: ``P* = DARE(√γA, √γB, Q, R, N)`` (note §1)."""
+    """``(K*, P*)`` of the discounted LQR: ``P* = DARE(√γA, √γB, Q, R, N)``."""
     g = np.sqrt(discount)
     N = np.zeros(np.shape(B)) if N is None else N
     P = scipy.linalg.solve_discrete_are(g * A, g * B, Q, R, s=N)
@@ -23,7 +23,7 @@ def dare_gain(A, B, Q, R, discount: float = 1.0, N=None) -> tuple[np.ndarray, np
 
 
 def riccati_gains(A, B, Q, R, iterations: int, discount: float = 1.0) -> np.ndarray:
-    """Gains of the Riccati difference recursion from P₀ = 0 (spec 001 eq. 10):
+    """Gains of the Riccati difference recursion from P₀ = 0 (Heravi & Novinzadeh 2017, eq. 10):
     ``out[j] = K(P_j) = (R + γBᵀP_jB)⁻¹γBᵀP_jA`` with ``P_{j+1} = Q + γAᵀP_j(A − BK(P_j))``,
     j = 0 … iterations−1 — aligned with VI's ``history[j]["gain"]`` (H_{j+1} is built on P_j)."""
     P = np.zeros_like(Q, dtype=float)

@@ -1,178 +1,236 @@
-"""FuelSlosh-v0: planar spacecraft burn with two-pendulum fuel slosh (spec 004)."""
+"""FuelSlosh-v0: planar spacecraft burn with two-pendulum fuel slosh (Navabi & Davoodi;
+year not in our copy, ≥ 2012)."""
 
 from __future__ import annotations
 
 import math
+import warnings
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from attitude_envs import validation
+from attitude_envs import presets, validation
 from attitude_envs.cost import QuadraticCost
-from attitude_envs.faults import ActuatorFaults
+from attitude_envs.envs.base import AttitudeEnv
 from attitude_envs.integrators import substeps
 from attitude_envs.plants import slosh
 from attitude_envs.plants import slosh_kernels as kernels
-from attitude_envs.plants.slosh_model import PAPER_Q, PAPER_R, REDUCED_INDEX, FuelSloshModel, reduced_state
-from attitude_envs.sensors import Channel, SensorSuite
+from attitude_envs.plants.slosh_model import REDUCED_INDEX, FuelSloshModel, reduced_state
+from attitude_envs.presets.navabi_slosh import PAPER_INITIAL_STATE  # re-exported: the paper's start state
+from attitude_envs.sensors import Channel
 
-# Spec 004 Table 4 (READ): [v_x, v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2] in m/s, rad, rad/s.
-PAPER_INITIAL_STATE = np.array(
-    [3000.0, 100.0, math.radians(2.0), 0.0, math.radians(30.0), 0.0, math.radians(-30.0), 0.0]
-)
+ENV = "FuelSlosh-v0"
 _INITIAL_ORDER = (slosh.IVX, slosh.IVZ, slosh.ITH, slosh.IOM, slosh.IPSI1, slosh.IDPSI1, slosh.IPSI2, slosh.IDPSI2)
 _OPTION_KEYS = {"state", "faults"}
 # full-state indices of the observation [v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2, v_x], or [v_z, θ, Ω, v_x]
 OBS_INDEX = np.append(REDUCED_INDEX, slosh.IVX)
 OBS_INDEX_NO_SLOSH = OBS_INDEX[[0, 1, 2, 7]]
+OBS_INDEX.setflags(write=False)
+OBS_INDEX_NO_SLOSH.setflags(write=False)
 
 
-class FuelSloshEnv(gym.Env):
+def _read_only(a: np.ndarray) -> np.ndarray:
+    a.setflags(write=False)
+    return a
+
+
+class FuelSloshEnv(AttitudeEnv):
     """Stabilize pitch, transverse velocity and fuel slosh during a constant-thrust burn.
 
-    Plant: the full 5-DOF nonlinear model of :mod:`attitude_envs.plants.slosh` (body
-    translation v_x, v_z, pitch θ, two damped slosh pendulums ψ1, ψ2; spec 004 §2.5) in
-    mass-matrix form, integrated by fixed-step RK4 with ``integrator_dt_s`` sub-steps in
-    one compiled call per step (:func:`attitude_envs.plants.slosh_kernels.control_step`).
-    Step-size choice: with the input held over a control period the plant is *not* stiff
-    (its fastest modes are the slosh pendulums at ≈ 1–1.5 rad/s; RK4 at 0.05 s has
-    |λh| ≤ 0.08, per-step error ~1e-8). The stiffness the spec warns about (§3.2: LQR
-    closed-loop pole at −448 rad/s) belongs to the continuous-time paper controller; here
-    the controller is sampled every ``control_dt_s``, so a policy must be designed for
-    that period (the LQR baseline uses the exact ZOH discretization), and the reproduction
-    simulates the continuous paper LQR with scipy's stiff LSODA.
+    **Description.** A spacecraft fires its main engine (constant thrust F, gimbal angle δ)
+    in a plane; the propellant sloshes as two damped pendulums in the tank. The plant is
+    the full 5-DOF nonlinear model of Navabi & Davoodi (eqs. 11–14, re-derived from their
+    Lagrangian, eqs. 1–10; :mod:`attitude_envs.plants.slosh`): body translation v_x, v_z,
+    pitch θ and the pendulum angles ψ1, ψ2, in mass-matrix form, integrated by fixed-step
+    RK4 with ``integrator_dt_s`` sub-steps in one compiled call per step
+    (:func:`attitude_envs.plants.slosh_kernels.control_step`). With the input held over a
+    control period the plant is not stiff (its fastest modes are the slosh pendulums at
+    ≈ 1–1.5 rad/s; RK4 at 0.05 s has |λh| ≤ 0.08, per-step error ~1e-8). The paper's
+    continuous-time LQR has a closed-loop pole near −448 rad/s; a policy here is sampled
+    every ``control_dt_s`` and must be designed for that period (the LQR baseline uses the
+    exact zero-order-hold discretization; the reproduction simulates the continuous LQR
+    with scipy's stiff LSODA).
 
-    ================  ==========================================================  ==========
-    Quantity          Meaning                                                     Units
-    ================  ==========================================================  ==========
-    State (truth)     X, Z (inertial position of the tank centre), θ, ψ1, ψ2,    m, rad,
-                      v_x, v_z (tank-centre velocity, body axes), Ω, ψ̇1, ψ̇2       m/s, rad/s
-    Observation       float32 ``[v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2, v_x]``;             m/s, rad,
-                      with ``observe_slosh=False`` only ``[v_z, θ, Ω, v_x]``      rad/s
-    Action            2 in [-1, 1] (clipped): gimbal δ = a0·``max_gimbal_deg``,   deg,
-                      pitch moment M_c = a1·``max_moment_nm``; thrust F constant  N·m, N
-    Reward            −∫ (xᵀQx + u_cᵀRu_c) dt over the step (RK4, augmented       (cost)
-                      state); x = [v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2], u_c = realized
-                      new inputs [a_z, Ω̇] (spec §2.7); Q, R default to the paper's
-                      LQR weights (§3.2)
-    Start state       the paper's (Table 4): v_x 3000 m/s, v_z 100 m/s, θ 2°,     m/s, deg
-                      ψ1 30°, ψ2 −30°, rates 0; ``randomize_initial_state``
-                      draws v_z, θ, ψ_i uniformly within ± those magnitudes
-    Termination       non-finite state, |ψ_i| > ``max_slosh_angle_deg``,          deg,
-                      |θ| > ``max_pitch_angle_deg`` or |Ω| > ``max_pitch_rate_    rad/s
-                      rad_s``
-    Truncation        simulated time reaches ``episode_duration_s``               s
-    ================  ==========================================================  ==========
+    **Action space.** ``Box(-1, 1, (2,), float32)``, clipped: gimbal angle
+    δ = a0 · ``max_gimbal_deg`` (rad), pitch moment M_c = a1 · ``max_moment_nm`` (N·m);
+    the thrust is constant.
 
-    Parameters: ``fill_preset`` (``"i"`` default, ``"ii"``, ``"iii"``, ``"iv"``: the
-    spec's length mappings, §2.2), ``params`` (a full :class:`SloshParams`, overrides the
-    preset), ``max_gimbal_deg`` (default 30°, OURS: the paper gives no limit; the paper's
-    PD needs 17.5°), ``max_moment_nm`` (default 2000 N·m, OURS), ``control_dt_s`` (0.1),
-    ``integrator_dt_s`` (0.05), ``episode_duration_s`` (1500, spec §4.2), ``Q``, ``R``,
-    ``observe_slosh``, ``initial_state`` (8 values, order as PAPER_INITIAL_STATE),
-    ``randomize_initial_state``, ``max_slosh_angle_deg`` (90), ``max_pitch_rate_rad_s``
-    (0.5), ``max_pitch_angle_deg`` (90), ``design_v_x_m_s`` (3000, the nominal linear model's axial speed).
-    ``faults`` (actuator 0 = gimbal δ in rad, 1 = pitch moment in N·m; see
-    :mod:`attitude_envs.faults`; ``"target": "sensor"`` entries hit the ``state`` sensor),
-    ``sensors`` (``{"state": {...}}``, see :mod:`attitude_envs.sensors`: the observation is
-    then measured), ``fault_hint`` (append 3 active-fault flags: 2 actuators, the sensor). ``reset(options={"state": 8 values, "faults": [...]})``
-    pins the start state and the episode's faults.
+    **Observation space.** float32 ``[v_z (m/s), θ (rad), Ω (rad/s), ψ1 (rad), ψ̇1 (rad/s),
+    ψ2 (rad), ψ̇2 (rad/s), v_x (m/s)]``; with ``observe_slosh=False`` only ``[v_z, θ, Ω,
+    v_x]``; with ``fault_hint`` 3 flags in [0, 1] appended (gimbal, moment, state sensor).
+    Bounds: speeds ±1e4 m/s, angles and rates twice their termination limits, slosh rates
+    ±50 rad/s. With sensors the observation is measured (see below).
+
+    **Reward.** ``−∫ (xᵀQx + u_cᵀRu_c) dt`` over the step (RK4 of the augmented state),
+    with x = [v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2] and u_c the new inputs [a_z, Ω̇] the plant
+    realized; Q, R default to the paper's LQR weights (eqs. 30–31).
+
+    **Starting state.** The paper's (Table 4): v_x 3000 m/s, v_z 100 m/s, θ 2°, ψ1 30°,
+    ψ2 −30°, rates 0 (``initial_state``); ``randomize_initial_state`` draws v_z, θ, ψ1 and
+    ψ2 uniformly within ± the magnitudes of Table 4; ``reset(options={"state": 8 values,
+    "faults": [...]})`` pins the start state (order of ``initial_state``) and the
+    episode's faults.
+
+    **Episode end.** Terminated on a non-finite state (the observation is then zeros),
+    |ψ_i| > ``max_slosh_angle_deg``, |θ| > ``max_pitch_angle_deg`` or |Ω| >
+    ``max_pitch_rate_rad_s``; truncated when the simulated time reaches
+    ``episode_duration_s``.
+
+    **Arguments** (None takes the preset's value):
+
+    ==========================  ===============  ===========  ========  ==========================================
+    name                        type             default      unit      description
+    ==========================  ===============  ===========  ========  ==========================================
+    ``preset``                  str              navabi-fill  —         parameter set (see Presets); None: none,
+                                                 -i                     every preset keyword must then be given
+    ``params``                  SloshParams      preset       SI        the whole plant (Table 3 values)
+    ``max_gimbal_deg``          float in (0,90]  30           deg       gimbal limit (assumed)
+    ``max_moment_nm``           float > 0        2000         N·m       pitch-moment limit (assumed)
+    ``control_dt_s``            float > 0        0.1          s         control period (zero-order hold)
+    ``integrator_dt_s``         float > 0        0.05         s         RK4 sub-step (must divide control_dt_s)
+    ``episode_duration_s``      float > 0        1500         s         time limit
+    ``Q``, ``R``                7×7, 2×2 PSD     eqs. 30–31   —         cost weights on x and [a_z, Ω̇]
+    ``observe_slosh``           bool             True         —         observe ψ_i, ψ̇_i
+    ``initial_state``           8 floats         Table 4      m/s, rad  [v_x, v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2]
+    ``randomize_initial_state`` bool             False        —         draw the start (see Starting state)
+    ``max_slosh_angle_deg``     float > 0        90           deg       termination limit on |ψ_i|
+    ``max_pitch_rate_rad_s``    float > 0        0.5          rad/s     termination limit on |Ω|
+    ``max_pitch_angle_deg``     float > 0        90           deg       termination limit on |θ|
+    ``design_v_x_m_s``          float            3000         m/s       axial speed of the nominal linear model
+    ``faults``                  list of dicts    None         —         :mod:`attitude_envs.faults`
+    ``sensors``                 dict             None         —         ``{"state": {...}}``, :mod:`attitude_envs.sensors`
+    ``fault_hint``              bool             False        —         append the active-fault flags
+    ``fill_preset``             str              None         —         deprecated: ``preset="i"`` … ``"iv"``
+    ==========================  ===============  ===========  ========  ==========================================
+
+    **Presets** (:mod:`attitude_envs.presets.navabi_slosh`): ``navabi-fill-i`` (default,
+    alias ``"i"``) … ``navabi-fill-iv`` (``"iv"``): Table 3 of the paper under the four
+    readings of its five tank lengths, whose symbols our copy lost; everything else is the
+    same. ``presets.get("FuelSlosh-v0", name).source(key)`` tells where each value comes from.
+
+    **Faults and sensors.** Actuator 0 is the gimbal angle (rad), actuator 1 the pitch
+    moment (N·m); ``"target": "sensor"`` faults hit the ``state`` sensor, which measures
+    the observation vector (without the flags).
+
+    **Info** (:mod:`attitude_envs.info`). ``truth``: ``state`` (``position_m`` [X, Z] of the
+    tank centre, ``theta_rad``, ``slosh_angle_rad`` [ψ1, ψ2], ``v_x_m_s``, ``v_z_m_s``,
+    ``pitch_rate_rad_s``, ``slosh_rate_rad_s`` [ψ̇1, ψ̇2]), ``full_state`` (the 10 entries
+    of :mod:`attitude_envs.plants.slosh`), ``x`` (the true reduced state, float64),
+    ``applied`` ([δ rad, M_c N·m] after clipping and faults), ``faults``, ``sensor_bias``
+    (with sensors). ``measured``: with sensors off, the truth's ``state`` (a copy of the
+    dict); with sensors on, only what the ``state`` sensor measures: ``theta_rad``,
+    ``v_x_m_s``, ``v_z_m_s``, ``pitch_rate_rad_s`` and, with ``observe_slosh``,
+    ``slosh_angle_rad`` and ``slosh_rate_rad_s`` (``position_m`` is never measured; after
+    a non-finite step every entry is NaN). Top level: ``cost``, ``time_s``, ``commanded``
+    ([δ, M_c] the action asked for, before clipping), ``new_inputs`` (step-mean [a_z m/s²,
+    Ω̇ rad/s²] the plant realized) and, with sensors, ``sensors`` (``{"state": reading}``).
 
     ``env.unwrapped.model`` is the nominal :class:`FuelSloshModel` (reduced model,
-    linearizations, input inversion). ``info``: ``state`` (full truth, named), ``x``
-    (reduced state, float64), ``applied`` ([δ rad, M_c N·m] after clipping and faults),
-    ``commanded`` (same, before clipping), ``new_inputs`` (step-mean [a_z, Ω̇]), ``cost``,
-    ``time_s``, ``faults`` (ground truth).
+    linearizations, input inversion). The batched env and tools use the public members
+    :attr:`state`, :attr:`observation_index`, :attr:`actuator_limits`,
+    :attr:`kernel_constants`, :meth:`batch_termination` and the base's ``fault_layer``.
+
+    **Version history.** v0: the full 5-DOF plant with one compiled RK4 step; presets
+    ``navabi-fill-i`` … ``-iv`` replace ``fill_preset`` (kept, deprecated); infos follow
+    the truth/measured contract.
     """
 
+    env_name = ENV
+    default_preset = "navabi-fill-i"
     metadata = {"render_modes": []}
 
     def __init__(
         self,
-        fill_preset: str = "i",
+        preset: str | None = "navabi-fill-i",
         params: slosh.SloshParams | None = None,
-        max_gimbal_deg: float = 30.0,
-        max_moment_nm: float = 2000.0,
-        control_dt_s: float = 0.1,
-        integrator_dt_s: float = 0.05,
-        episode_duration_s: float = 1500.0,
+        max_gimbal_deg: float | None = None,
+        max_moment_nm: float | None = None,
+        control_dt_s: float | None = None,
+        integrator_dt_s: float | None = None,
+        episode_duration_s: float | None = None,
         Q=None,
         R=None,
         observe_slosh: bool = True,
         initial_state=None,
         randomize_initial_state: bool = False,
-        max_slosh_angle_deg: float = 90.0,
-        max_pitch_rate_rad_s: float = 0.5,
-        max_pitch_angle_deg: float = 90.0,
-        design_v_x_m_s: float = 3000.0,
+        max_slosh_angle_deg: float | None = None,
+        max_pitch_rate_rad_s: float | None = None,
+        max_pitch_angle_deg: float | None = None,
+        design_v_x_m_s: float | None = None,
         faults: list[dict] | None = None,
         sensors: dict | None = None,
         fault_hint: bool = False,
+        fill_preset: str | None = None,
+        render_mode: str | None = None,
     ) -> None:
-        if params is None:
-            params = slosh.SloshParams.from_fill_preset(fill_preset)
-        elif not isinstance(params, slosh.SloshParams):
+        if fill_preset is not None:
+            preset, fill_preset = _preset_of_fill(preset, fill_preset), None
+        cfg = self._configure(preset, locals())
+        missing = sorted(set(presets.get(ENV).values) - set(cfg))
+        if missing:
+            raise ValueError(f"{ENV} with preset=None needs {missing}; or pass a preset ({_preset_names()})")
+        params = cfg["params"]
+        if not isinstance(params, slosh.SloshParams):
             raise ValueError(f"params must be a SloshParams, got {type(params).__name__}")
-        gimbal = validation.positive("max_gimbal_deg", max_gimbal_deg)
+        gimbal = validation.positive("max_gimbal_deg", cfg["max_gimbal_deg"])
         if gimbal > 90.0:
-            raise ValueError(f"max_gimbal_deg must be in (0, 90], got {max_gimbal_deg!r}")
-        self.control_dt_s = validation.positive("control_dt_s", control_dt_s)
-        self.integrator_dt_s = validation.positive("integrator_dt_s", integrator_dt_s)
+            raise ValueError(f"max_gimbal_deg must be in (0, 90], got {cfg['max_gimbal_deg']!r}")
+        if render_mode is not None:
+            raise ValueError(f"render_mode must be None for {ENV}, got {render_mode!r}")
+        self.render_mode = None
+        self.control_dt_s = validation.positive("control_dt_s", cfg["control_dt_s"])
+        self.integrator_dt_s = validation.positive("integrator_dt_s", cfg["integrator_dt_s"])
         self._substeps = substeps(self.control_dt_s, self.integrator_dt_s)
-        self.episode_duration_s = validation.positive("episode_duration_s", episode_duration_s)
-        cost = QuadraticCost.build(PAPER_Q if Q is None else Q, PAPER_R if R is None else R, 7, 2)
+        self.episode_duration_s = validation.positive("episode_duration_s", cfg["episode_duration_s"])
+        cost = QuadraticCost.build(cfg["Q"], cfg["R"], 7, 2)
         self.model = FuelSloshModel(
             params,
             cost,
             math.radians(gimbal),
-            validation.positive("max_moment_nm", max_moment_nm),
-            float(validation.finite_array("design_v_x_m_s", design_v_x_m_s, ())),
+            validation.positive("max_moment_nm", cfg["max_moment_nm"]),
+            float(validation.finite_array("design_v_x_m_s", cfg["design_v_x_m_s"], ())),
             self.control_dt_s,
         )
         self.observe_slosh = bool(observe_slosh)
-        self._initial = (
-            PAPER_INITIAL_STATE.copy()
-            if initial_state is None
-            else validation.finite_array("initial_state", initial_state, (8,))
-        )
+        self._initial = validation.finite_array("initial_state", cfg["initial_state"], (8,))
         self.randomize_initial_state = bool(randomize_initial_state)
-        self.max_slosh_angle_rad = math.radians(validation.positive("max_slosh_angle_deg", max_slosh_angle_deg))
-        self.max_pitch_rate_rad_s = validation.positive("max_pitch_rate_rad_s", max_pitch_rate_rad_s)
-
-        self.max_pitch_angle_rad = math.radians(validation.positive("max_pitch_angle_deg", max_pitch_angle_deg))
+        self.max_slosh_angle_rad = math.radians(validation.positive("max_slosh_angle_deg", cfg["max_slosh_angle_deg"]))
+        self.max_pitch_rate_rad_s = validation.positive("max_pitch_rate_rad_s", cfg["max_pitch_rate_rad_s"])
+        self.max_pitch_angle_rad = math.radians(validation.positive("max_pitch_angle_deg", cfg["max_pitch_angle_deg"]))
         # Bounds: speeds stay below |v(0)| + a_x t ≤ 1e4 m/s on any sensible burn; angles and
         # rates within twice their termination limits; slosh rates within 50 rad/s.
         high = np.array([1e4, 2 * self.max_pitch_angle_rad, 2 * self.max_pitch_rate_rad_s])
         slosh_high = np.array([2 * self.max_slosh_angle_rad, 50.0] * 2)
         high = np.concatenate([high, slosh_high, [1e4]]) if self.observe_slosh else np.append(high, 1e4)
-        self.observation_space = spaces.Box(-high.astype(np.float32), high.astype(np.float32), dtype=np.float32)
-        self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+        self._limits = _read_only(np.array([self.model.max_gimbal_rad, self.model.max_moment_nm]))
         # actuator 0: gimbal angle (rad), actuator 1: pitch moment (N·m)
-        self._faults = ActuatorFaults(
-            faults, 2, [self.model.max_gimbal_rad, self.model.max_moment_nm], other_targets={"sensor"}
+        self._init_layers(
+            n_actuators=2,
+            actuator_limits=self._limits,
+            channels=[Channel("state", len(high))],
+            faults=faults,
+            sensors=sensors,
+            fault_hint=fault_hint,
         )
-        self._sensors = SensorSuite(sensors, [Channel("state", len(high))], faults)
-        self.fault_hint = bool(fault_hint)
-        if self.fault_hint:  # 2 actuator flags + 1 sensor flag in [0, 1]
-            low = np.concatenate([-high, np.zeros(3)]).astype(np.float32)
-            self.observation_space = spaces.Box(
-                low, np.concatenate([high, np.ones(3)]).astype(np.float32), dtype=np.float32
-            )
+        low, high = self._hint_bounds(-high, high)
+        self.observation_space = spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
         self._y = np.zeros(slosh.N_STATE)
         self._t = 0.0
         self._steps = 0
-        self._limits = np.array([self.model.max_gimbal_rad, self.model.max_moment_nm])
+        self._sensing = self.sensor_layer.enabled
         self._obs_index = OBS_INDEX if self.observe_slosh else OBS_INDEX_NO_SLOSH
         self._work = np.empty(kernels.WORK_SIZE)
-        self._constants = kernels.step_constants(
-            self.model.params.packed,
-            self.integrator_dt_s,
-            self._substeps,
-            self.control_dt_s,
-            self.model.cost.Q,
-            self.model.cost.R,
+        self._constants = _read_only(
+            kernels.step_constants(
+                self.model.params.packed,
+                self.integrator_dt_s,
+                self._substeps,
+                self.control_dt_s,
+                self.model.cost.Q,
+                self.model.cost.R,
+            )
         )
 
     # ------------------------------------------------------------------ gym API
@@ -190,25 +248,27 @@ class FuelSloshEnv(gym.Env):
         self._y[list(_INITIAL_ORDER)] = init
         self._t = 0.0
         self._steps = 0
-        self._sensors.reset(self.np_random, options.get("faults"))  # own spawned generator
-        self._faults.reset(self.np_random, options.get("faults"))
+        self._reset_layers(self.np_random, options)
+        self._sensing = self.sensor_layer.enabled  # fixed for the episode
         zero = np.zeros(2)
-        return self._observation(), self._info(zero, zero, zero, 0.0)
+        measured = self._measure()
+        return self._with_hint(measured, self._t), self._info(zero, zero, zero, 0.0, measured)
 
     def step(self, action):
         a0, a1 = validation.action(action, 2).tolist()  # Python floats: cheaper than tiny arrays
         gimbal, moment = self.model.max_gimbal_rad, self.model.max_moment_nm
         commanded = np.array([a0 * gimbal, a1 * moment])
         applied = np.array([min(max(a0, -1.0), 1.0) * gimbal, min(max(a1, -1.0), 1.0) * moment])
-        applied = self._faults.apply(applied, self._t)
+        applied = self._deliver(applied, self._t)
         new_inputs = np.empty(2)  # step-mean [a_z, Ω̇]
         cost = kernels.control_step(self._y, applied, self._constants, new_inputs, self._work)
         self._steps += 1
         self._t = self._steps * self.control_dt_s  # from the step count: no drift of onsets/time limit
         y = self._y.tolist()
+        a_z, dom = new_inputs.tolist()
         # a finite sum proves every entry finite; only a non-finite one needs the exact check
-        finite = math.isfinite(cost + sum(y) + float(new_inputs.sum())) or (
-            math.isfinite(cost) and all(map(math.isfinite, y)) and bool(np.isfinite(new_inputs).all())
+        finite = math.isfinite(cost + sum(y) + a_z + dom) or (
+            math.isfinite(cost) and all(map(math.isfinite, y)) and math.isfinite(a_z) and math.isfinite(dom)
         )
         terminated = not finite or (
             max(abs(y[slosh.IPSI1]), abs(y[slosh.IPSI2])) > self.max_slosh_angle_rad
@@ -216,8 +276,35 @@ class FuelSloshEnv(gym.Env):
             or abs(y[slosh.ITH]) > self.max_pitch_angle_rad
         )
         truncated = bool(self._t >= self.episode_duration_s - 1e-9 * self.control_dt_s) and not terminated
-        obs = self._observation() if finite else np.zeros(self.observation_space.shape, np.float32)
-        return obs, -cost, terminated, truncated, self._info(applied, commanded, new_inputs, cost)
+        if finite:
+            measured = self._measure()
+            obs = self._with_hint(measured, self._t)
+        else:  # no sensor sample of a diverged state
+            measured = None
+            obs = np.zeros(self.observation_space.shape, np.float32)
+        return obs, -cost, terminated, truncated, self._info(applied, commanded, new_inputs, cost, measured)
+
+    # ------------------------------------------------------------------ public interface
+    @property
+    def state(self) -> np.ndarray:
+        """The full true state ``y`` (10 entries, see :mod:`attitude_envs.plants.slosh`), a copy."""
+        return self._y.copy()
+
+    @property
+    def observation_index(self) -> np.ndarray:
+        """Full-state indices of the observation's entries (before any fault flags), read-only."""
+        return self._obs_index
+
+    @property
+    def actuator_limits(self) -> np.ndarray:
+        """``[max gimbal angle (rad), max pitch moment (N·m)]``, read-only."""
+        return self._limits
+
+    @property
+    def kernel_constants(self) -> np.ndarray:
+        """The constants of :func:`~attitude_envs.plants.slosh_kernels.control_step` (plant,
+        sub-step, cost weights; the same for every env built with the same keywords), read-only."""
+        return self._constants
 
     def batch_termination(self, states: np.ndarray) -> np.ndarray:
         """The limits :meth:`step` terminates on (slosh angle, pitch rate, pitch angle) for
@@ -230,40 +317,79 @@ class FuelSloshEnv(gym.Env):
         )
 
     # ------------------------------------------------------------------ internals
-    def _observation(self) -> np.ndarray:
+    def _measure(self) -> np.ndarray:
+        """The observation's state entries, measured by the ``state`` sensor when sensors are on."""
         obs = self._y[self._obs_index]
-        if self._sensors.enabled:
-            obs = self._sensors.measure({"state": obs}, self._t)["state"]
-        if self.fault_hint:
-            obs = np.concatenate([obs, self._faults.active_flags(self._t), self._sensors.active_flags(self._t)])
-        return obs.astype(np.float32)
+        if self._sensing:
+            obs = self.sensor_layer.measure({"state": obs}, self._t)["state"]
+        return obs
 
-    @property
-    def state(self) -> np.ndarray:
-        """The full true state ``y`` (10 entries, see :mod:`attitude_envs.plants.slosh`)."""
-        return self._y.copy()
+    def _measured_state(self, reading: np.ndarray) -> dict[str, Any]:
+        """``info["measured"]`` from the ``state`` sensor's reading."""
+        m = reading.tolist()
+        out: dict[str, Any] = {"theta_rad": m[1], "v_x_m_s": m[-1], "v_z_m_s": m[0], "pitch_rate_rad_s": m[2]}
+        if self.observe_slosh:
+            out["slosh_angle_rad"] = reading[[3, 5]]
+            out["slosh_rate_rad_s"] = reading[[4, 6]]
+        return out
 
-    def _info(self, applied, commanded, new_inputs, cost: float) -> dict:
+    def _info(self, applied, commanded, new_inputs, cost: float, reading: np.ndarray | None) -> dict:
         # New arrays every call (gymnasium's checker): one copy of the state, whose slices
         # are views of it.
         y = self._y.copy()
         th, vx, vz, om = y[[slosh.ITH, slosh.IVX, slosh.IVZ, slosh.IOM]].tolist()
-        return {
-            "state": {
-                "position_m": y[slosh.IX : slosh.IZ + 1],
-                "theta_rad": th,
-                "slosh_angle_rad": y[slosh.IPSI1 : slosh.IPSI2 + 1],
-                "v_x_m_s": vx,
-                "v_z_m_s": vz,
-                "pitch_rate_rad_s": om,
-                "slosh_rate_rad_s": y[slosh.IDPSI1 :],
-            },
+        state = {
+            "position_m": y[slosh.IX : slosh.IZ + 1],
+            "theta_rad": th,
+            "slosh_angle_rad": y[slosh.IPSI1 : slosh.IPSI2 + 1],
+            "v_x_m_s": vx,
+            "v_z_m_s": vz,
+            "pitch_rate_rad_s": om,
+            "slosh_rate_rad_s": y[slosh.IDPSI1 :],
+        }
+        truth = {
+            "state": state,
             "full_state": y,
             "x": reduced_state(y),
             "applied": applied,
-            "commanded": commanded,
-            "new_inputs": new_inputs,
-            "cost": cost,
-            "time_s": self._t,
-            "faults": self._faults.info(self._t) + self._sensors.info(self._t),
+            "faults": self._fault_truth(self._t),
         }
+        if not self._sensing:
+            return self._make_info(
+                truth=truth,
+                measured=dict(state),
+                cost=cost,
+                time_s=self._t,
+                commanded=commanded,
+                new_inputs=new_inputs,
+            )
+        if reading is None:  # no sample of a diverged state
+            reading = np.full(len(self._obs_index), np.nan)
+        return self._make_info(
+            truth=truth,
+            measured=self._measured_state(reading),
+            cost=cost,
+            time_s=self._t,
+            commanded=commanded,
+            new_inputs=new_inputs,
+            sensors={"state": reading},
+        )
+
+
+def _preset_names() -> str:
+    return ", ".join(p.name for p in presets.for_env(ENV))
+
+
+def _preset_of_fill(preset: str | None, fill_preset: str) -> str:
+    """The preset the deprecated ``fill_preset`` selects (a conflicting ``preset`` raises)."""
+    warnings.warn(
+        f"{ENV}: fill_preset is deprecated; pass preset='navabi-fill-{fill_preset}' (or its alias "
+        f"preset={fill_preset!r}) instead",
+        DeprecationWarning,
+        stacklevel=3,
+    )
+    validation.choice("fill_preset", fill_preset, set(slosh.FILL_PRESETS))
+    name = f"navabi-fill-{fill_preset}"
+    if preset not in (None, FuelSloshEnv.default_preset) and presets.get(ENV, preset).name != name:
+        raise ValueError(f"pass preset or the deprecated fill_preset, not both (got {preset!r} and {fill_preset!r})")
+    return name

@@ -13,6 +13,7 @@ import numpy as np
 
 from attitude_envs.envs.fuel_slosh import FuelSloshEnv
 from attitude_envs.envs.vector_base import BatchedEnv
+from attitude_envs.info import TRUTH
 from attitude_envs.plants import slosh
 from attitude_envs.plants import slosh_kernels as kernels
 
@@ -20,8 +21,11 @@ from attitude_envs.plants import slosh_kernels as kernels
 class FuelSloshVectorEnv(BatchedEnv):
     """``num_envs`` FuelSlosh-v0 envs stepped as one array (see :class:`BatchedEnv` for
     autoreset). Infos are dicts of arrays with gymnasium's ``_key`` masks: ``cost``,
-    ``applied`` ([δ rad, M_c N·m] after clipping and faults), ``new_inputs`` (step-mean
-    [a_z m/s², Ω̇ rad/s²]), ``time_s``."""
+    ``time_s``, ``commanded`` ([δ rad, M_c N·m] the actions asked for, before clipping),
+    ``new_inputs`` (step-mean [a_z m/s², Ω̇ rad/s²]) and the ground truth under ``truth``:
+    ``applied`` ([δ rad, M_c N·m] after clipping and faults). It reads the sub-envs only
+    through their public members (``state``, ``fault_layer``, ``observation_index``,
+    ``actuator_limits``, ``kernel_constants``, ``batch_termination``)."""
 
     def __init__(self, num_envs: int = 1, autoreset_mode: str = "next_step", render_mode: str | None = None, **kwargs):
         super().__init__(lambda: FuelSloshEnv(**kwargs), num_envs, autoreset_mode, render_mode)
@@ -38,26 +42,30 @@ class FuelSloshVectorEnv(BatchedEnv):
 
     def _load(self, i: int) -> None:
         sub = self.envs[i]
-        self._states[i] = sub._y
+        self._states[i] = sub.state
         self._steps[i] = 0
-        self._faulty[i] = bool(sub._faults.realized)
+        self._faulty[i] = bool(sub.fault_layer.realized)
         self._finite[i] = True
 
     def _observations(self, indices=None) -> np.ndarray:
         rows = slice(None) if indices is None else indices
-        obs = self._states[rows][:, self.envs[0]._obs_index].astype(np.float32)
+        obs = self._states[rows][:, self.envs[0].observation_index].astype(np.float32)
         obs[~self._finite[rows]] = 0.0  # as the single env reports a diverged state
         return obs
 
     def _advance(self, actions):
         first = self.envs[0]
         a = self._check_actions(actions, 2)
-        applied = np.minimum(np.maximum(a, -1.0), 1.0) * first._limits
+        limits = first.actuator_limits
+        commanded = a * limits
+        applied = np.minimum(np.maximum(a, -1.0), 1.0) * limits
         # sub-envs about to be reset (next-step autoreset) skip their faults: an intermittent
         # fault draws from the sub-env's generator, which the single env would not do
         for i in np.flatnonzero(self._faulty & ~self._needs_reset):
-            applied[i] = self.envs[i]._faults.apply(applied[i], self._steps[i] * first.control_dt_s)
-        kernels.control_step_batch(self._states, applied, first._constants, self._new_inputs, self._costs, self._work)
+            applied[i] = self.envs[i].fault_layer.apply(applied[i], self._steps[i] * first.control_dt_s)
+        kernels.control_step_batch(
+            self._states, applied, first.kernel_constants, self._new_inputs, self._costs, self._work
+        )
         self._steps += 1
         new_inputs = self._new_inputs.copy()
         self._finite = (
@@ -67,8 +75,13 @@ class FuelSloshVectorEnv(BatchedEnv):
         time_s = self._steps * first.control_dt_s
         truncated = (time_s >= first.episode_duration_s - 1e-9 * first.control_dt_s) & ~terminated
         infos = self._with_masks(
-            {"cost": self._costs.copy(), "applied": applied, "new_inputs": new_inputs, "time_s": time_s},
-            self.num_envs,
+            {
+                "cost": self._costs.copy(),
+                "time_s": time_s,
+                "commanded": commanded,
+                "new_inputs": new_inputs,
+                TRUTH: {"applied": applied},
+            }
         )
         return self._observations(), -self._costs, terminated, truncated, infos
 

@@ -5,82 +5,119 @@ from __future__ import annotations
 
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
 from attitude_envs import validation
 from attitude_envs.cost import QuadraticCost
-from attitude_envs.faults import ActuatorFaults
+from attitude_envs.envs.base import AttitudeEnv
 from attitude_envs.linearization import LinearModel
 from attitude_envs.plants import linear_kernels
-from attitude_envs.sensors import Channel, SensorSuite
+from attitude_envs.sensors import Channel
+
+ENV = "LinearSystem-v0"
 
 
-def spec001_plant() -> dict:
-    """Spec 001 §2.3: forward-Euler discretization (Δt = 0.01 s) of the linearized
-    quaternion/rate model with J = diag(1000, 1000, 800) kg·m², Q = I₆, R = I₃, and the
-    paper's initial state (scalar-first reading of eq. 74, normalized; §2.4)."""
-    dt = 0.01
-    inertia = np.array([1000.0, 1000.0, 800.0])
-    A = np.eye(6)
-    A[:3, 3:] = 0.5 * dt * np.eye(3)
-    B = np.zeros((6, 3))
-    B[3:, :] = dt * np.diag(1.0 / inertia)
-    q0 = np.array([0.4783, 0.3722, -0.4329, 0.6645])
-    q0 = q0 / np.linalg.norm(q0)
-    x0 = np.concatenate([q0[1:], [0.01, -0.02, 0.01]])
-    return {
-        "A": A,
-        "B": B,
-        "Q": np.eye(6),
-        "R": np.eye(3),
-        "x0_mean": x0,
-        "x0_std": 0.0,
-        "action_scale": 2.0,
-        "dt_s": dt,
-    }
+class _DefaultPreset:
+    """The ``preset`` argument's default: the env's default preset, or none when the caller
+    gives its own ``A`` or ``B``."""
+
+    def __repr__(self) -> str:
+        return "<'heravi-2017' unless A or B is given>"
 
 
-_PRESETS = {"spec-001": spec001_plant}
+DEFAULT_PRESET = _DefaultPreset()
 
 
-class LinearSystemEnv(gym.Env):
+class LinearSystemEnv(AttitudeEnv):
     """Discrete linear plant ``x⁺ = A x + B u + w`` with stage cost ``xᵀQx + uᵀRu``.
 
-    ================  ========================================================  ==========
-    Quantity          Meaning                                                   Units
-    ================  ========================================================  ==========
-    State / obs       ``x`` (n), float32 observation of the float64 state       plant's
-    Action            m values in [-1, 1] (clipped: saturation); physical        -
-                      ``u = action_scale · a``
-    Reward            ``−(xᵀQx + uᵀRu)`` of the step (x before the step)        (cost)
-    Start state       ``x0 ~ N(x0_mean, diag(x0_std²))``, or ``options["state"]``
-    Termination       ``‖x‖∞ > divergence_threshold`` or non-finite state
-                      (observation bounds follow from it)
-    Truncation        after ``episode_steps`` steps
-    Noise             ``w ~ N(0, process_noise_std²)`` per component, from the
-                      env's RNG
-    ================  ========================================================  ==========
+    **Description.** A learner's test bench: the plant is exactly linear and known (the
+    model's Riccati solution is the optimal controller), so a model-free learner can be
+    checked against it. The default preset is the linearized quaternion/rate model of the
+    1000 kg·m² satellite of Heravi & Novinzadeh (2017), eq. 59, discretized by forward
+    Euler (eqs. 61–62) with Δt = 0.01 s; any ``A``, ``B`` can be given instead. One
+    compiled call per step (:func:`attitude_envs.plants.linear_kernels.linear_step`).
 
-    Parameters: ``preset`` (``"spec-001"``, default: spec 001 §2.3's Euler-discretized
-    satellite, Δt = 0.01 s) or ``A`` (n×n), ``B`` (n×m), ``Q``, ``R``, ``x0_mean``,
-    ``x0_std``, ``process_noise_std``, ``action_scale`` (scalar or m-vector, > 0),
-    ``episode_steps``, ``divergence_threshold``, ``faults`` (see :mod:`attitude_envs.faults`,
-    time = steps × ``dt_s``; ``"target": "sensor"`` entries are faults of the ``state``
-    sensor), ``sensors`` (``{"state": {...}}``, see :mod:`attitude_envs.sensors`; the
-    observation is then the measured state, ``info["sensors"]["state"]``), ``fault_hint``
-    (append m + 1 active-fault flags: actuators, then the state sensor), ``dt_s`` (the period the matrices
-    represent, for reporting). ``env.unwrapped.model`` is the :class:`LinearModel`
-    (A, B, Q, R, dt). ``info`` holds ``state`` (x before the step), ``next_state``,
-    ``applied`` (physical u after saturation) and ``cost``.
+    **Action space.** ``Box(-1, 1, (m,), float32)``, clipped (saturation); the physical
+    input is ``u = action_scale · a``.
+
+    **Observation space.** float32 ``x`` (n) of the float64 state, measured when sensors
+    are on; with ``fault_hint`` m + 1 flags in [0, 1] appended (actuators, then the
+    ``state`` sensor). Bounds: ``‖A‖∞ · divergence_threshold + ‖B‖∞ · max(action_scale)
+    + 10 · process_noise_std`` (what one step can reach from a non-terminated state).
+
+    **Reward.** ``−(xᵀQx + uᵀRu)`` with ``x`` the state the step starts from and ``u`` the
+    applied input.
+
+    **Starting state.** ``x0 ~ N(x0_mean, diag(x0_std²))`` from the env's RNG, or
+    ``reset(options={"state": x0, "faults": [...]})``.
+
+    **Episode end.** Terminated when ``‖x‖∞ > divergence_threshold`` or the state is not
+    finite (the observation is then zeros); truncated after ``episode_steps`` steps.
+
+    **Arguments** (None takes the preset's value, or the neutral default without preset):
+
+    ========================  ==============  ===========  ======  ==============================================
+    name                      type            default      unit    description
+    ========================  ==============  ===========  ======  ==============================================
+    ``preset``                str or None     see below    —       parameter set; None: none
+    ``A``                     n×n             preset       —       state matrix (required without preset)
+    ``B``                     n×m             preset       —       input matrix (required without preset)
+    ``Q``, ``R``              n×n, m×m PSD    preset / I   —       stage-cost weights
+    ``x0_mean``               n floats        preset / 0   state   mean initial state
+    ``x0_std``                float or n      preset / 1   state   initial-state standard deviation (≥ 0)
+    ``process_noise_std``     float ≥ 0       0            state   ``w ~ N(0, process_noise_std²)`` per entry
+    ``action_scale``          float or m > 0  preset / 1   input   physical input of a unit action
+    ``episode_steps``         int ≥ 1         1000         steps   time limit
+    ``divergence_threshold``  float > 0       1e6          state   termination limit on ‖x‖∞
+    ``dt_s``                  float > 0       preset / 1   s       the period the matrices represent (time_s)
+    ``faults``                list of dicts   None         —       :mod:`attitude_envs.faults` (time = steps·dt_s)
+    ``sensors``               dict            None         —       ``{"state": {...}}``, :mod:`attitude_envs.sensors`
+    ``fault_hint``            bool            False        —       append the active-fault flags
+    ========================  ==============  ===========  ======  ==============================================
+
+    **Presets.** ``heravi-2017`` (default, alias ``"spec-001"``): Heravi & Novinzadeh
+    (2017), A and B of eq. 59 by forward Euler (eqs. 61–62, Δt = 0.01 s) with
+    J = diag(1000, 1000, 800) kg·m² (eq. 71), Q = I₆, R = I₃, the fixed initial state of
+    eqs. 72 and 74 (the quaternion read scalar-first and normalized), ``action_scale`` 2
+    N·m (assumed). When ``preset`` is not passed and ``A`` or ``B`` is, no preset is used
+    (a user's system gets the neutral defaults Q = I, R = I, x0_mean = 0, x0_std = 1,
+    action_scale = 1, dt_s = 1); ``preset="heravi-2017"`` with ``A`` is an explicit
+    override of that preset.
+
+    **Faults and sensors.** Actuator i is input u_i (physical units, limit
+    ``action_scale[i]``); ``"target": "sensor"`` faults hit the ``state`` sensor, which
+    measures the whole state at the observation times (reset and the end of each step).
+
+    **Info** (:mod:`attitude_envs.info`). ``truth``: ``state`` (the state ``x`` the step
+    started from: the learner's transition is ``(truth["state"], u, truth["next_state"])``;
+    at reset the initial state), ``next_state`` (the state after the step; not at reset),
+    ``applied`` (u after saturation and faults), ``faults`` (actuator faults as applied
+    over the step, sensor faults at the observation time), ``sensor_bias`` (with sensors).
+    ``measured``: the latest measurement of the state, the one in the observation, i.e. of
+    ``truth["next_state"]`` after a step and of ``truth["state"]`` at reset (sensors are
+    only sampled at observation times; with sensors off it equals that truth). Top level:
+    ``cost``, ``time_s`` (steps · dt_s), ``commanded`` (``action_scale ·`` the clipped
+    action, before faults) and, with sensors, ``sensors`` (``{"state": reading}``).
+
+    ``env.unwrapped.model`` is the :class:`LinearModel` (A, B, Q, R, dt_s). The batched env
+    uses the public members :attr:`state`, :attr:`process_noise_std`, :attr:`action_scale`,
+    :attr:`cost`, :attr:`episode_steps`, :attr:`divergence_threshold` and the base's
+    ``fault_layer``.
+
+    **Version history.** v0: presets through :mod:`attitude_envs.presets` (``"spec-001"`` is
+    an alias of ``heravi-2017``); a user's ``A``/``B`` no longer inherit the default
+    preset's ``x0_mean`` and ``action_scale``; infos follow the truth/measured contract.
     """
 
+    env_name = ENV
+    default_preset = "heravi-2017"
     metadata = {"render_modes": []}
 
     def __init__(
         self,
-        preset: str | None = "spec-001",
+        preset: str | None = DEFAULT_PRESET,  # type: ignore[assignment]
         A=None,
         B=None,
         Q=None,
@@ -97,14 +134,9 @@ class LinearSystemEnv(gym.Env):
         fault_hint: bool = False,
         render_mode: str | None = None,
     ) -> None:
-        cfg: dict = {}
-        if preset is not None:
-            if preset not in _PRESETS:
-                raise ValueError(f"preset must be one of {sorted(_PRESETS)} or None, got {preset!r}")
-            cfg = _PRESETS[preset]()
-        given = {"A": A, "B": B, "Q": Q, "R": R, "x0_mean": x0_mean, "x0_std": x0_std}
-        given.update({"action_scale": action_scale, "dt_s": dt_s})
-        cfg.update({k: v for k, v in given.items() if v is not None})
+        if preset is DEFAULT_PRESET:  # a user's own system takes no preset values
+            preset = None if (A is not None or B is not None) else self.default_preset
+        cfg = self._configure(preset, locals())
         for key in ("A", "B"):
             if key not in cfg:
                 raise ValueError(f"{key} is required when preset is None")
@@ -117,7 +149,9 @@ class LinearSystemEnv(gym.Env):
             raise ValueError(f"B must be an n x m matrix with n = {n}, got shape {b_mat.shape}")
         m = b_mat.shape[1]
         cost = QuadraticCost.build(cfg.get("Q", np.eye(n)), cfg.get("R", np.eye(m)), n, m)
-        self.model = LinearModel(a_mat, b_mat, cost.Q, cost.R, np.zeros((n, m)), cfg.get("dt_s", 1.0))
+        dt = validation.positive("dt_s", cfg.get("dt_s", 1.0))
+        self.model = LinearModel(a_mat, b_mat, cost.Q, cost.R, np.zeros((n, m)), dt)
+        #: the stage cost (Q, R) of the reward
         self.cost = cost
         self._x0_mean = validation.finite_array("x0_mean", cfg.get("x0_mean", np.zeros(n)), (n,))
         std = validation.finite_array("x0_std", cfg.get("x0_std", 1.0))
@@ -126,34 +160,45 @@ class LinearSystemEnv(gym.Env):
         )
         if np.any(self._x0_std < 0):
             raise ValueError(f"x0_std must be >= 0, got {self._x0_std.tolist()}")
-        self._noise_std = validation.nonnegative("process_noise_std", process_noise_std)
+        #: standard deviation of the process noise w per state entry
+        self.process_noise_std = validation.nonnegative("process_noise_std", process_noise_std)
         scale = validation.finite_array("action_scale", cfg.get("action_scale", 1.0))
+        #: physical input of a unit action, per input (m)
         self.action_scale = np.broadcast_to(scale, (m,)).copy() if scale.ndim == 0 else scale
         if self.action_scale.shape != (m,) or np.any(self.action_scale <= 0):
             raise ValueError(f"action_scale must be > 0, a scalar or length {m}, got {scale.tolist()}")
-        self._faults = ActuatorFaults(faults, m, self.action_scale, other_targets={"sensor"})
-        self._sensors = SensorSuite(sensors, [Channel("state", n)], faults)
-        self.fault_hint = bool(fault_hint)
         if int(episode_steps) < 1:
             raise ValueError(f"episode_steps must be >= 1, got {episode_steps!r}")
         self.episode_steps = int(episode_steps)
         self.divergence_threshold = validation.positive("divergence_threshold", divergence_threshold)
         if render_mode is not None:
-            raise ValueError(f"render_mode must be None for LinearSystem-v0, got {render_mode!r}")
+            raise ValueError(f"render_mode must be None for {ENV}, got {render_mode!r}")
         self.render_mode = None
+        self._init_layers(
+            n_actuators=m,
+            actuator_limits=self.action_scale,
+            channels=[Channel("state", n)],
+            faults=faults,
+            sensors=sensors,
+            fault_hint=fault_hint,
+        )
         # |x⁺|∞ <= ‖A‖∞ |x|∞ + ‖B‖∞ |u|∞ (+ noise, 10σ margin) while |x|∞ <= divergence_threshold.
         bound = (
             self.divergence_threshold * max(1.0, np.linalg.norm(a_mat, np.inf))
             + np.linalg.norm(b_mat, np.inf) * float(np.max(self.action_scale))
-            + 10.0 * self._noise_std
+            + 10.0 * self.process_noise_std
         )
-        low, high = np.full(n, -bound), np.full(n, bound)
-        if self.fault_hint:
-            low, high = np.concatenate([low, np.zeros(m + 1)]), np.concatenate([high, np.ones(m + 1)])
+        low, high = self._hint_bounds(np.full(n, -bound), np.full(n, bound))
         self.observation_space = spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(m,), dtype=np.float32)
         self._x = self._x0_mean.copy()
         self._steps = 0
+        self._sensing = self.sensor_layer.enabled
+
+    @property
+    def state(self) -> np.ndarray:
+        """The true state ``x`` (n), a copy."""
+        return self._x.copy()
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
@@ -164,39 +209,50 @@ class LinearSystemEnv(gym.Env):
         else:
             self._x = self._x0_mean + self._x0_std * self.np_random.normal(size=n)
         self._steps = 0
-        self._sensors.reset(self.np_random, options.get("faults"))  # own spawned generator
-        self._faults.reset(self.np_random, options.get("faults"))
-        info = {"state": self._x.copy(), "faults": self._faults.info(0.0) + self._sensors.info(0.0)}
-        return self._observe(self._x, 0.0, info), info
+        self._reset_layers(self.np_random, options)
+        self._sensing = self.sensor_layer.enabled  # fixed for the episode
+        x = self._x.copy()
+        truth = {"state": x, "faults": self._fault_truth(0.0)}
+        if not self._sensing:
+            info = self._make_info(truth=truth, measured=x.copy(), cost=0.0, time_s=0.0)
+            return self._with_hint(x, 0.0), info
+        readings = self.sensor_layer.measure({"state": x}, 0.0)
+        info = self._make_info(truth=truth, measured=readings["state"], cost=0.0, time_s=0.0, sensors=readings)
+        return self._with_hint(readings["state"], 0.0), info
 
     def step(self, action):
         a = np.clip(validation.action(action, self.model.m), -1.0, 1.0)
         t_s = self._steps * self.model.dt_s
-        u = self._faults.apply(self.action_scale * a, t_s)
+        commanded = self.action_scale * a
+        u = self._deliver(commanded, t_s)
         x = self._x
         x_next = np.empty_like(x)
         cost = linear_kernels.linear_step(x, u, self.model.A, self.model.B, self.cost.Q, self.cost.R, x_next)
-        if self._noise_std > 0:
-            x_next = x_next + self._noise_std * self.np_random.normal(size=self.model.n)
+        if self.process_noise_std > 0:
+            x_next = x_next + self.process_noise_std * self.np_random.normal(size=self.model.n)
         self._x = x_next
         self._steps += 1
-        terminated = bool(not np.all(np.isfinite(x_next)) or np.max(np.abs(x_next)) > self.divergence_threshold)
+        t_next = self._steps * self.model.dt_s
+        finite = bool(np.isfinite(x_next).all())
+        terminated = not finite or bool(np.abs(x_next).max() > self.divergence_threshold)
         truncated = self._steps >= self.episode_steps and not terminated
-        info = {"state": x.copy(), "next_state": x_next.copy(), "applied": u, "cost": cost}
         # actuator faults as applied over this step, sensor faults at the observation time
-        info["faults"] = self._faults.info(t_s) + self._sensors.info(self._steps * self.model.dt_s)
-        if np.all(np.isfinite(x_next)):
-            obs = self._observe(x_next, self._steps * self.model.dt_s, info)
-        else:
-            obs = np.zeros(self.observation_space.shape, np.float32)
+        truth = {
+            "state": x.copy(),
+            "next_state": x_next.copy(),
+            "applied": u,
+            "faults": self._fault_truth(t_s, t_next),
+        }
+        if not self._sensing:
+            measured = x_next.copy()
+            public = {"commanded": commanded}
+        elif finite:
+            readings = self.sensor_layer.measure({"state": x_next}, t_next)
+            measured = readings["state"]
+            public = {"commanded": commanded, "sensors": readings}
+        else:  # no sensor sample of a diverged state
+            measured = np.full(self.model.n, np.nan)
+            public = {"commanded": commanded, "sensors": {"state": measured}}
+        info = self._make_info(truth=truth, measured=measured, cost=cost, time_s=t_next, **public)
+        obs = self._with_hint(measured, t_next) if finite else np.zeros(self.observation_space.shape, np.float32)
         return obs, -cost, terminated, truncated, info
-
-    def _observe(self, x: np.ndarray, t_s: float, info: dict) -> np.ndarray:
-        """The observation of state ``x`` at time ``t_s`` (measured when sensors are on)."""
-        if self._sensors.enabled:
-            info["sensors"] = self._sensors.measure({"state": x}, t_s)
-            info["sensor_bias"] = {k: v.copy() for k, v in self._sensors.bias.items()}
-            x = info["sensors"]["state"]
-        if self.fault_hint:
-            x = np.concatenate([x, self._faults.active_flags(t_s), self._sensors.active_flags(t_s)])
-        return x.astype(np.float32)

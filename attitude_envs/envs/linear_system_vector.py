@@ -8,11 +8,17 @@ import numpy as np
 
 from attitude_envs.envs.linear_system import LinearSystemEnv
 from attitude_envs.envs.vector_base import BatchedEnv
+from attitude_envs.info import TRUTH
 from attitude_envs.plants import linear_kernels
 
 
 class LinearSystemVectorEnv(BatchedEnv):
-    """``num_envs`` LinearSystem-v0 envs as one array; infos: ``cost``, ``applied``."""
+    """``num_envs`` LinearSystem-v0 envs as one array. Infos (dicts of arrays with
+    gymnasium's ``_key`` masks): ``cost``, ``time_s``, ``commanded`` (``action_scale ·``
+    the clipped actions) and the ground truth under ``truth``: ``applied`` (u after
+    saturation and faults). It reads the sub-envs only through their public members
+    (``state``, ``fault_layer``, ``action_scale``, ``cost``, ``process_noise_std``,
+    ``episode_steps``, ``divergence_threshold``)."""
 
     def __init__(self, num_envs: int = 1, autoreset_mode: str = "next_step", render_mode: str | None = None, **kwargs):
         super().__init__(lambda: LinearSystemEnv(**kwargs), num_envs, autoreset_mode, render_mode)
@@ -28,9 +34,9 @@ class LinearSystemVectorEnv(BatchedEnv):
 
     def _load(self, i: int) -> None:
         sub = self.envs[i]
-        self._x[i] = sub._x
+        self._x[i] = sub.state
         self._steps[i] = 0
-        self._faulty[i] = bool(sub._faults.realized)
+        self._faulty[i] = bool(sub.fault_layer.realized)
 
     def _observations(self, indices=None) -> np.ndarray:
         return (self._x if indices is None else self._x[indices]).astype(np.float32)
@@ -38,21 +44,30 @@ class LinearSystemVectorEnv(BatchedEnv):
     def _advance(self, actions):
         first = self.envs[0]
         a = self._check_actions(actions, self._m)
-        u = first.action_scale * np.minimum(np.maximum(a, -1.0), 1.0)
+        commanded = first.action_scale * np.minimum(np.maximum(a, -1.0), 1.0)
+        u = commanded.copy() if self._faulty.any() else commanded
         # sub-envs about to be reset (next-step autoreset) take no draws: their generators
         # go on as the single env's, whose next episode starts with the reset
         live = ~self._needs_reset
         for i in np.flatnonzero(self._faulty & live):
-            u[i] = self.envs[i]._faults.apply(u[i], self._steps[i] * self.model.dt_s)
+            u[i] = self.envs[i].fault_layer.apply(u[i], self._steps[i] * self.model.dt_s)
         linear_kernels.linear_step_batch(
             self._x, u, self.model.A, self.model.B, first.cost.Q, first.cost.R, self._next, self._costs
         )
-        if first._noise_std > 0:
+        noise_std = first.process_noise_std
+        if noise_std > 0:
             for i in np.flatnonzero(live):
-                self._next[i] += first._noise_std * self.envs[i].np_random.normal(size=self.model.n)
+                self._next[i] += noise_std * self.envs[i].np_random.normal(size=self.model.n)
         self._x, self._next = self._next, self._x
         self._steps += 1
         bad = ~np.isfinite(self._x).all(axis=1) | (np.abs(self._x).max(axis=1) > first.divergence_threshold)
         truncated = (self._steps >= first.episode_steps) & ~bad
-        infos = self._with_masks({"cost": self._costs.copy(), "applied": u})
+        infos = self._with_masks(
+            {
+                "cost": self._costs.copy(),
+                "time_s": self._steps * self.model.dt_s,
+                "commanded": commanded,
+                TRUTH: {"applied": u},
+            }
+        )
         return self._observations(), -self._costs, bad, truncated, infos

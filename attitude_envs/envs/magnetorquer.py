@@ -1,39 +1,74 @@
-"""Magnetorquer-v0: nano-satellite with three magnetorquers and one y-axis wheel (spec 002)."""
+"""Magnetorquer-v0: nano-satellite with three magnetorquers and one y-axis wheel (Sadigh,
+Kashaninia & Dehghan 2022)."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from attitude_envs import quaternion, validation
+from attitude_envs import presets, quaternion, validation
 from attitude_envs.cost import QuadraticCost
-from attitude_envs.disturbances import Disturbance
-from attitude_envs.faults import ActuatorFaults
+from attitude_envs.envs.base import AttitudeEnv
 from attitude_envs.integrators import substeps
 from attitude_envs.plants import magnetorquer as mt
 from attitude_envs.plants import magnetorquer_kernels as kernels
-from attitude_envs.plants.magnetic_field import DIPOLE_STRENGTH_T_M3, FieldModel
+from attitude_envs.plants.magnetic_field import FieldModel
 from attitude_envs.plants.orbit import KeplerOrbit
-from attitude_envs.sensors import Channel, SensorSuite
+from attitude_envs.presets.sadigh_2022 import TIME_VARYING_INERTIA
+from attitude_envs.sensors import Channel
 from attitude_envs.trajectories import SmoothBangBang
 from attitude_envs.uncertainty import InertiaUncertainty
 
 _OPTION_KEYS = {"attitude", "rate_rad_s", "wheel_speed_rad_s", "faults", "mean_anomaly_deg"}
-# Spec 002 Table 1 [READ]; RAAN and argument of perigee are not printed [ASSUME 0].
-PAPER_ORBIT = {
-    "model": "keplerian",
-    "apogee_altitude_km": 1250.0,
-    "perigee_altitude_km": 311.0,
-    "inclination_deg": 69.5,
-    "raan_deg": 0.0,
-    "arg_perigee_deg": 0.0,
-    "mean_anomaly_deg": "random",
-}
-PAPER_REFERENCE = {"delta_deg": [10.0, 20.0, 10.0], "t_final_s": 1200.0, "start_deg": [0.0, 0.0, 0.0]}
+_ORBIT_KEYS = (
+    "model",
+    "apogee_altitude_km",
+    "perigee_altitude_km",
+    "inclination_deg",
+    "raan_deg",
+    "arg_perigee_deg",
+    "mean_anomaly_deg",
+)
+_REFERENCE_KEYS = ("delta_deg", "t_final_s", "start_deg")
+# The keywords that must come from the preset or the caller.
+_REQUIRED = (
+    "inertia_kg_m2",
+    "wheel_inertia_kg_m2",
+    "max_dipole_am2",
+    "max_wheel_torque_nm",
+    "max_wheel_momentum_nms",
+    "orbit",
+    "reference",
+    "field_model",
+    "dipole_strength_t_m3",
+    "control_dt_s",
+    "Q",
+    "R",
+)
+
+
+def _slice(offset: int, start: int, size: int) -> slice:
+    return slice(offset + start, offset + start + size)
+
+
+# The info's entries in ``[state (8), step outputs, snapshot]`` (built once: the hot path slices)
+_ST, _SN = 8, 8 + kernels.STEP_OUT_SIZE
+_V_APPLIED = _slice(_ST, kernels.ST_APPLIED, 4)
+_V_TAU = _slice(_ST, kernels.ST_TAU, 3)
+_V_CONTROL = _slice(_ST, kernels.ST_CONTROL, 3)
+_V_BBODY = _slice(_SN, kernels.SN_BBODY, 3)
+_V_WBI = _slice(_SN, kernels.SN_WBI, 3)
+_V_QD = _slice(_SN, kernels.SN_QD, 4)
+_V_WD = _slice(_SN, kernels.SN_WD, 3)
+_V_QDOT = _slice(_SN, kernels.SN_QDOT, 4)
+_V_BORB = _slice(_SN, kernels.SN_BORB, 3)
+_V_EXT = _slice(_SN, kernels.SN_EXT, 3)
+_V_INERTIA = _slice(_SN, kernels.SN_I, 9)
+_SN_HW, _SN_ANGLE, _SN_R, _SN_U, _SN_RATE = kernels.SN_HW, kernels.SN_ANGLE, kernels.SN_R, kernels.SN_U, kernels.SN_RATE
 FIELD_SCALE_T = kernels.FIELD_SCALE_T  # observation scale of the body-frame field
 WHEEL_SPEED_SCALE_RAD_S = kernels.WHEEL_SPEED_SCALE_RAD_S  # observation scale of the wheel speed
 
@@ -56,93 +91,170 @@ class MagnetorquerModel:
     control_dt_s: float
 
 
-class MagnetorquerEnv(gym.Env):
-    """Attitude tracking/regulation of a nano-satellite with 3 magnetorquers + 1 wheel on y.
+class MagnetorquerEnv(AttitudeEnv):
+    """Attitude tracking or regulation of a nano-satellite with three magnetorquers and one
+    reaction wheel on the body y axis.
 
-    Paper: Sadigh, Kashaninia, Dehghan, J. Control 15(4), 2022 (spec 002). Plant:
-    :mod:`attitude_envs.plants.magnetorquer` (exact gyrostat equations with one wheel,
-    attitude relative to the orbital LVLH frame), orbit :mod:`attitude_envs.plants.orbit`,
-    field :mod:`attitude_envs.plants.magnetic_field`; fixed-step RK4 with the stage cost as
-    an extra state, quaternion renormalized after every sub-step. Each step is one compiled
-    call (:func:`attitude_envs.plants.magnetorquer_kernels.advance`): integration, then the
-    observation and ``info`` quantities at the step's end.
+    **Description.** The spacecraft of Sadigh, Kashaninia & Dehghan (2022), "fault-tolerant
+    adaptive modified nonsingular fast terminal sliding-mode control" (Journal of Control
+    15(4), DOI 10.52547/joc.15.4.49): a 0.95 kg·m² nano-satellite on an elliptic
+    311 × 1250 km orbit, inclination 69.5°, with 0.5 A·m² magnetorquers on three axes and a
+    small wheel on y, tracking a smooth 3-2-1 Euler slew relative to the orbital (LVLH)
+    frame. Plant: :mod:`attitude_envs.plants.magnetorquer` (exact gyrostat equations with
+    one wheel, attitude relative to the orbital frame); orbit
+    :mod:`attitude_envs.plants.orbit`; field :mod:`attitude_envs.plants.magnetic_field`.
+    Fixed-step RK4 with the stage cost as an extra state, quaternion renormalized after every
+    sub-step; each step is one compiled call
+    (:func:`attitude_envs.plants.magnetorquer_kernels.advance`).
 
-    ================  ==========================================================  ===========
-    Quantity          Meaning                                                     Units
-    ================  ==========================================================  ===========
-    State (truth)     q (body rel. orbital frame, scalar last), ω_bo, wheel       -, rad/s
-                      speed Ω relative to the body; orbit (anomaly), time
-    Observation       float32 ``[q_e,vec (3), ω_e (3), Ω/1000 (1)]``, q_e =       -, rad/s,
-                      q_d*⊗q (w ≥ 0), ω_e = ω_bo − C(q_e)ᵀω_d; ``+ b/5e-5 T``     krad/s, -
-                      (body-frame field, 3) if ``observe_field``
-    Action            4 in [-1, 1] (clipped): dipoles ``m = a[:3]·max_dipole_am2``  A·m²
-                      and the wheel torque on the body about +y                    N·m
-                      ``T_w = a[3]·max_wheel_torque_nm`` (spec eq. 7 convention)
-    Reward            −∫ (xᵀQx + uᵀRu) dt over the step, x = [q_e,vec, ω_e],       (cost)
-                      u = m_applied × b + e_y T_w,applied (body torque, N·m)
-    Start state       tracking: q = q_d(0), ω_bo = 0, Ω = 0 (paper); regulation:
-                      q within ``initial_angle_deg`` of the target, ω_bo uniform   deg, rad/s
-                      in ±``initial_rate_max_rad_s``; orbit anomaly from the seed
-    Termination       non-finite state or ``max|ω_bo| > max_rate_rad_s``          rad/s
-    Truncation        simulated time reaches ``episode_duration_s`` (default two  s
-                      orbital periods, the paper's 12 038 s)
-    ================  ==========================================================  ===========
+    **Action space.** ``Box(-1, 1, (4,), float32)``, clipped: dipoles
+    ``m = a[:3] · max_dipole_am2`` (A·m²) and the wheel torque on the body about +y
+    ``T_w = a[3] · max_wheel_torque_nm`` (N·m; the motor applies −T_w to the wheel, the
+    paper's eq. 7). The magnetic torque is ``m × b``: none along the field.
 
-    Parameters: ``task`` (``"tracking"``: spec 002's smooth bang-bang 3-2-1 Euler reference,
-    ``reference`` = {delta_deg, t_final_s, start_deg}; ``"regulation"``: hold
-    ``target_euler_deg``); ``inertia_kg_m2`` (nominal J_t), ``wheel_inertia_kg_m2``,
-    ``max_dipole_am2`` (0.5), ``max_wheel_torque_nm`` (2.3e-4), ``max_wheel_momentum_nms``
-    (40 as printed; 0.04 is the spec's likely reading); ``orbit`` (dict, keys of
-    ``PAPER_ORBIT``; ``model`` "keplerian"/"circular", ``mean_anomaly_deg`` a number or
-    "random"); ``field_model`` ("dipole", "dipole-printed", "igrf"), ``dipole_strength_t_m3``,
-    ``field_epoch``, ``observe_field``; ``disturbance`` ("paper": eq. 39 × ``disturbance_scale``,
-    ``disturbance_second_harmonic``; a dict of :mod:`attitude_envs.disturbances`; or None);
-    ``gravity_gradient``; ``time_varying_inertia`` (eq. 35 by default, dict or None);
-    ``inertia_uncertainty`` (random dispersions, :mod:`attitude_envs.uncertainty`);
-    ``control_dt_s``, ``integrator_dt_s``, ``episode_duration_s``, ``Q``, ``R``,
-    ``max_rate_rad_s``, ``faults`` (actuator indices 0–2 dipoles, 3 wheel; see
-    :mod:`attitude_envs.faults`; ``"target": "sensor"`` entries hit the sensors), ``sensors``
-    (channels ``gyro`` = inertial rate, ``star_tracker``, ``tachometer``, ``magnetometer`` =
-    body field in T; see :mod:`attitude_envs.sensors`: the observation is then built from
-    the measurements), ``fault_hint`` (append 4 actuator + 4 sensor active-fault flags);
-    the paper's E = diag(0.9, 0.7, 0.6) after 50 s is
-    ``PAPER_FAULTS``).
+    **Observation space.** ``Box(float32)`` of ``[q_e,vec (3), ω_e (3, rad/s), Ω/1000
+    (1, krad/s)]``, ``q_e = q_d* ⊗ q`` (w ≥ 0), ``ω_e = ω_bo − C(q_e)ᵀ ω_d``; plus the body
+    field ``b / 5e-5 T`` (3) with ``observe_field``; plus 8 fault flags with ``fault_hint``
+    (4 actuators: m_x, m_y, m_z, wheel; 4 sensor channels: gyro, star tracker, tachometer,
+    magnetometer). With sensors the observation is built from the measurements.
 
-    ``info``: ``state`` (attitude, rate_rad_s = ω_bo, inertial_rate_rad_s, wheel_speed_rad_s,
-    wheel_momentum_nms), ``reference`` (attitude, rate_rad_s, attitude_rate), ``time_s``,
-    ``magnetic_field_body_t``, ``magnetic_field_orbital_t``, ``orbit`` (radius_m,
-    argument_of_latitude_rad, rate_rad_s), ``commanded`` and ``applied`` (4: dipoles after
-    faults, wheel torque after faults and the momentum limit, step means), ``magnetic_torque_nm``
-    and ``control_torque_nm`` (step means), ``disturbance_torque_nm``, ``true_inertia_kg_m2``,
-    ``cost``, ``error_angle_deg``, ``faults``.
+    **Reward.** ``−∫ (xᵀQx + uᵀRu) dt`` over the step, ``x = [q_e,vec, ω_e]``,
+    ``u = m_applied × b + e_y T_w,applied`` (body torque, N·m).
+
+    **Starting state.** Tracking: q = q_d(0), ω_bo = 0, Ω = 0 (the paper's start).
+    Regulation: q within ``initial_angle_deg`` of the target, ω_bo uniform in
+    ±``initial_rate_max_rad_s``. The start on the orbit is drawn from the seed (or fixed by
+    ``orbit["mean_anomaly_deg"]``). ``reset(options=...)`` pins ``attitude`` (scalar-last
+    quaternion), ``rate_rad_s`` (ω_bo), ``wheel_speed_rad_s`` (1), ``mean_anomaly_deg`` and
+    ``faults`` (this episode's fault list).
+
+    **Episode end.** Terminated on a non-finite state or ``max|ω_bo| > max_rate_rad_s``;
+    truncated when the simulated time reaches ``episode_duration_s`` (default two orbital
+    periods, the paper's 12 038 s).
+
+    **Arguments.** Where the default column says "preset", ``None`` (the default) takes the
+    preset's value; the preset ``sadigh-2022`` gives every physical value with its source
+    (:mod:`attitude_envs.presets.sadigh_2022`). ``disturbance`` and ``time_varying_inertia``
+    default to the paper's models (eqs. 39 and 35); ``None`` switches either off.
+
+    ===============================  ============  ==================  ========  ==========================================
+    name                             type          default             unit      description
+    ===============================  ============  ==================  ========  ==========================================
+    ``preset``                       str           "sadigh-2022"       —         parameter set (:mod:`attitude_envs.presets`;
+                                                                                 None: the default preset)
+    ``task``                         str           ``"tracking"``      —         ``"tracking"`` the ``reference`` slew or
+                                                                                 ``"regulation"`` to ``target_euler_deg``
+    ``reference``                    dict          preset              deg, s    ``delta_deg`` (3-2-1 Euler slew),
+                                                                                 ``t_final_s``, ``start_deg``; keys left out
+                                                                                 are the preset's
+    ``target_euler_deg``             3 floats      (0, 0, 0)           deg       regulation target (3-2-1 Euler)
+    ``initial_angle_deg``            float         10                  deg       regulation: start within this angle
+    ``initial_rate_max_rad_s``       float         0 / 1e-3            rad/s     start rate bound (tracking / regulation)
+    ``inertia_kg_m2``                3×3           preset              kg·m²     nominal ``J_t`` with the wheel's spin
+    ``wheel_inertia_kg_m2``          float         preset (50e-6)      kg·m²     wheel spin inertia J_w
+    ``max_dipole_am2``               float         preset (0.5)        A·m²      dipole limit per axis
+    ``max_wheel_torque_nm``          float         preset (2.3e-4)     N·m       wheel torque limit
+    ``max_wheel_momentum_nms``       float         preset (40)         N·m·s     storable momentum (torque that would
+                                                                                 raise ``|h_w|`` past it is blocked)
+    ``orbit``                        dict          preset              km, deg   ``model`` ("keplerian"/"circular"),
+                                                                                 ``apogee_altitude_km``,
+                                                                                 ``perigee_altitude_km``,
+                                                                                 ``inclination_deg``, ``raan_deg``,
+                                                                                 ``arg_perigee_deg``, ``mean_anomaly_deg``
+                                                                                 (number or "random"); keys left out are
+                                                                                 the preset's
+    ``field_model``                  str           preset ("dipole")   —         "dipole", "dipole-printed", "igrf"
+    ``dipole_strength_t_m3``         float         preset (7.96e15)    T·m³      dipole strength μ_e
+    ``field_epoch``                  str           2020-01-01          —         IGRF epoch (ISO date-time)
+    ``observe_field``                bool          False               —         append the body field to the observation
+    ``disturbance``                  str/dict      ``"paper"``         N·m       "paper" (eq. 39, ×``disturbance_scale``),
+                                                                                 a dict of :mod:`attitude_envs.disturbances`,
+                                                                                 or None
+    ``disturbance_scale``            float         1                   —         scale of the "paper" disturbance
+    ``disturbance_second_harmonic``  bool          False               —         eq. 39's second term at 2ω0
+    ``gravity_gradient``             bool          False               —         add the gravity-gradient torque
+    ``time_varying_inertia``         str/dict      ``"paper"``         kg·m², s  ΔJ(t): "paper" (eq. 35), a dict (keys
+                                                                                 left out are eq. 35's) or None
+    ``inertia_uncertainty``          dict          None                —         random dispersions
+                                                                                 (:mod:`attitude_envs.uncertainty`)
+    ``control_dt_s``                 float         preset (0.1)        s         control period (zero-order hold)
+    ``integrator_dt_s``              float         ``control_dt_s``    s         RK4 sub-step
+    ``episode_duration_s``           float         two orbits          s         episode length
+    ``Q``, ``R``                     6×6, 3×3      preset              —         cost weights
+    ``max_rate_rad_s``               float         1                   rad/s     tumbling limit (terminates)
+    ``faults``                       list[dict]    preset (none)       —         :mod:`attitude_envs.faults`; actuators
+                                                                                 0–2 dipoles, 3 wheel
+    ``sensors``                      dict          None                —         :mod:`attitude_envs.sensors`
+    ``fault_hint``                   bool          False               —         append the 8 active-fault flags
+    ===============================  ============  ==================  ========  ==========================================
+
+    **Presets.** ``"sadigh-2022"`` (default): the paper's spacecraft, orbit and actuators
+    (Table 1, eqs. 34, 9), healthy. ``"sadigh-2022-faults"``: the same with the paper's
+    magnetorquer faults of eq. (40), ``E = diag(0.9, 0.7, 0.6)`` from t = 50 s.
+
+    **Faults and sensors.** Faults (:mod:`attitude_envs.faults`) act on the commanded
+    outputs, actuator 0–2 the dipoles (A·m²), 3 the wheel torque (N·m); entries with
+    ``"target": "sensor"`` act on the sensors. Sensor channels (:mod:`attitude_envs.sensors`):
+    ``gyro`` (inertial rate ω_bi, body axes, rad/s), ``star_tracker`` (attitude relative to
+    the orbital frame), ``tachometer`` (wheel speed, rad/s), ``magnetometer`` (body field, T).
+
+    **Info** (:mod:`attitude_envs.info`). ``info["truth"]``: ``state`` (``attitude`` q,
+    ``rate_rad_s`` ω_bo, ``inertial_rate_rad_s`` ω_bi, ``wheel_speed_rad_s`` (1),
+    ``wheel_momentum_nms`` J_w(Ω + ω_bi,y)), ``applied`` (4: dipoles after faults, wheel
+    torque after faults and the momentum limit; step means), ``faults``,
+    ``error_angle_deg``, ``disturbance_torque_nm`` (disturbance + gravity gradient),
+    ``true_inertia_kg_m2``, ``magnetic_torque_nm`` and ``control_torque_nm`` (step means),
+    ``magnetic_field_body_t`` (the true body field) and, with sensors, ``sensor_bias``.
+    ``info["measured"]``: the keys of ``truth["state"]`` **plus** ``magnetic_field_body_t``,
+    from the star tracker, gyro, tachometer and magnetometer readings when sensors are on
+    (ω_bo = gyro − R ω_oi of the measured attitude, the momentum from the measured wheel
+    speed and gyro), else the truth's arrays. Top level: ``cost``, ``time_s``,
+    ``commanded`` (4, before faults), ``reference`` (``attitude``, ``rate_rad_s``,
+    ``attitude_rate``: the commanded trajectory), ``orbit`` (``radius_m``,
+    ``argument_of_latitude_rad``, ``rate_rad_s``: the known ephemeris),
+    ``magnetic_field_orbital_t`` (the field model in the orbital frame) and, with sensors,
+    ``sensors`` (raw readings).
+
+    **Public extension interface** (the batched env and tools use only these and the base's
+    ``fault_layer``, ``sensor_layer``, ``disturbance``): :attr:`kernel_constants`,
+    :attr:`episode_constants`, :attr:`snapshot`, :attr:`state_row`,
+    :attr:`observation_size`, :attr:`field`, :meth:`advance_disturbance`,
+    :meth:`true_inertia_at`, :meth:`external_torque_at`, :meth:`error_state`.
+
+    **Version history.** v0: the plant, orbit, field and reference of the paper; ``info``
+    split into ``truth`` and ``measured`` (:mod:`attitude_envs.info`), the paper's values
+    as presets.
     """
 
+    env_name = "Magnetorquer-v0"
+    default_preset = "sadigh-2022"
     metadata = {"render_modes": []}
 
     def __init__(
         self,
+        preset: str | None = None,
         task: str = "tracking",
         reference: dict | None = None,
         target_euler_deg=(0.0, 0.0, 0.0),
         initial_angle_deg: float = 10.0,
         initial_rate_max_rad_s: float | None = None,
         inertia_kg_m2=None,
-        wheel_inertia_kg_m2: float = mt.PAPER_WHEEL_INERTIA_KG_M2,
-        max_dipole_am2: float = mt.PAPER_MAX_DIPOLE_AM2,
-        max_wheel_torque_nm: float = mt.PAPER_MAX_WHEEL_TORQUE_NM,
-        max_wheel_momentum_nms: float = mt.PAPER_MAX_WHEEL_MOMENTUM_NMS,
+        wheel_inertia_kg_m2: float | None = None,
+        max_dipole_am2: float | None = None,
+        max_wheel_torque_nm: float | None = None,
+        max_wheel_momentum_nms: float | None = None,
         orbit: dict | None = None,
-        field_model: str = "dipole",
-        dipole_strength_t_m3: float = DIPOLE_STRENGTH_T_M3,
+        field_model: str | None = None,
+        dipole_strength_t_m3: float | None = None,
         field_epoch: str = "2020-01-01T00:00:00",
         observe_field: bool = False,
         disturbance: str | dict | None = "paper",
         disturbance_scale: float = 1.0,
         disturbance_second_harmonic: bool = False,
         gravity_gradient: bool = False,
-        time_varying_inertia: dict | None = mt.PAPER_DELTA_J,
+        time_varying_inertia: str | dict | None = "paper",
         inertia_uncertainty: dict | None = None,
-        control_dt_s: float = 0.1,
+        control_dt_s: float | None = None,
         integrator_dt_s: float | None = None,
         episode_duration_s: float | None = None,
         Q=None,
@@ -153,40 +265,50 @@ class MagnetorquerEnv(gym.Env):
         fault_hint: bool = False,
         render_mode: str | None = None,
     ) -> None:
+        cfg = self._configure(self.default_preset if preset is None else preset, locals())
+        missing = [k for k in _REQUIRED if cfg.get(k) is None]
+        if missing:
+            raise ValueError(f"{self.env_name} preset {self.preset!r} sets no {missing[0]!r}; pass {missing[0]}=...")
+        preset_values = presets.get(self.env_name, self.preset).params()
         self.task = validation.choice("task", task, {"tracking", "regulation"})
-        if inertia_kg_m2 is None:
-            inertia_kg_m2 = mt.PAPER_BODY_INERTIA_KG_M2 + wheel_inertia_kg_m2 * np.outer(mt.E_Y, mt.E_Y)
         params = mt.MagnetorquerParams(
-            inertia_kg_m2, wheel_inertia_kg_m2, max_dipole_am2, max_wheel_torque_nm, max_wheel_momentum_nms
+            cfg["inertia_kg_m2"],
+            cfg["wheel_inertia_kg_m2"],
+            cfg["max_dipole_am2"],
+            cfg["max_wheel_torque_nm"],
+            cfg["max_wheel_momentum_nms"],
         )
-        self.orbit = self._orbit(orbit)
-        self.field = FieldModel(field_model, dipole_strength_t_m3, field_epoch)
+        self._orbit_cfg = _completed("orbit", orbit, preset_values.get("orbit"), _ORBIT_KEYS)
+        self._random_anomaly = isinstance(self._orbit_cfg["mean_anomaly_deg"], str)
+        if self._random_anomaly:
+            validation.choice("orbit.mean_anomaly_deg", self._orbit_cfg["mean_anomaly_deg"], {"random"})
+        self.orbit = self._make_orbit(0.0 if self._random_anomaly else float(self._orbit_cfg["mean_anomaly_deg"]))
+        #: the Earth field model along the orbit (its ``table`` is the episode's IGRF table)
+        self.field = FieldModel(cfg["field_model"], cfg["dipole_strength_t_m3"], field_epoch)
         self.observe_field = bool(observe_field)
         if isinstance(disturbance, str):
             validation.choice("disturbance", disturbance, {"paper"})
-            self._disturbance = "paper"
-        else:
-            self._disturbance = None if disturbance is None else Disturbance(disturbance)
+        #: True when the disturbance is the paper's eq. (39) (compiled; ``disturbance`` is then None)
+        self.paper_disturbance = isinstance(disturbance, str)
         self.disturbance_scale = validation.nonnegative("disturbance_scale", disturbance_scale)
         self.disturbance_second_harmonic = bool(disturbance_second_harmonic)
         self.gravity_gradient = bool(gravity_gradient)
-        self._delta_j = mt.TimeVaryingInertia.from_config(time_varying_inertia)
-        if self._delta_j is not None:
-            self._delta_j.check_against(params.inertia_kg_m2)
+        if isinstance(time_varying_inertia, str):
+            validation.choice("time_varying_inertia", time_varying_inertia, {"paper"})
+            time_varying_inertia = {}
+        #: ΔJ(t) added to the true inertia (:class:`~attitude_envs.plants.magnetorquer.TimeVaryingInertia`), or None
+        self.time_varying_inertia = mt.TimeVaryingInertia.from_config(time_varying_inertia, TIME_VARYING_INERTIA.value)
+        if self.time_varying_inertia is not None:
+            self.time_varying_inertia.check_against(params.inertia_kg_m2)
         self._uncertainty = InertiaUncertainty.from_config(inertia_uncertainty)
-        self.control_dt_s = validation.positive("control_dt_s", control_dt_s)
-        self.integrator_dt_s = validation.positive(
-            "integrator_dt_s", self.control_dt_s if integrator_dt_s is None else integrator_dt_s
-        )
+        self.control_dt_s = validation.positive("control_dt_s", cfg["control_dt_s"])
+        self.integrator_dt_s = validation.positive("integrator_dt_s", cfg.get("integrator_dt_s", self.control_dt_s))
         self._substeps = substeps(self.control_dt_s, self.integrator_dt_s)
         self.episode_duration_s = validation.positive(
-            "episode_duration_s", 2.0 * self.orbit.period_s if episode_duration_s is None else episode_duration_s
+            "episode_duration_s", cfg.get("episode_duration_s", 2.0 * self.orbit.period_s)
         )
         if self.task == "tracking":
-            ref_cfg = dict(PAPER_REFERENCE, **(reference or {}))
-            unknown = set(ref_cfg) - set(PAPER_REFERENCE)
-            if unknown:
-                raise ValueError(f"reference has unknown keys {sorted(unknown)}")
+            ref_cfg = _completed("reference", reference, preset_values.get("reference"), _REFERENCE_KEYS)
             ref = SmoothBangBang(ref_cfg["delta_deg"], ref_cfg["t_final_s"], ref_cfg["start_deg"])
         else:
             ref = SmoothBangBang(
@@ -199,10 +321,8 @@ class MagnetorquerEnv(gym.Env):
         self._rate_max = validation.nonnegative(
             "initial_rate_max_rad_s", default_rate if initial_rate_max_rad_s is None else initial_rate_max_rad_s
         )
-        # [ASSUME] cost weights (the paper defines none): 1 per unit q_e², 1e3 per (rad/s)²,
-        # 1e4 per (N·m)² of body torque — a 0.01 attitude error and 1e-3 N·m weigh alike.
-        q_mat = validation.psd_matrix("Q", np.diag([1.0] * 3 + [1e3] * 3) if Q is None else Q, 6)
-        r_mat = validation.psd_matrix("R", 1e4 * np.eye(3) if R is None else R, 3, definite=True)
+        q_mat = validation.psd_matrix("Q", cfg["Q"], 6)
+        r_mat = validation.psd_matrix("R", cfg["R"], 3, definite=True)
         self.model = MagnetorquerModel(
             params,
             self.orbit.mean_motion_rad_s,
@@ -211,15 +331,20 @@ class MagnetorquerEnv(gym.Env):
             QuadraticCost(q_mat, r_mat),
             self.control_dt_s,
         )
-        self._faults = ActuatorFaults(faults, 4, params.limits, other_targets={"sensor"})
-        channels = [
-            Channel("gyro", 3, units="rad/s"),  # inertial rate ω_bi, body axes
-            Channel("star_tracker", 4, "attitude", "rad"),  # attitude relative to the orbital frame
-            Channel("tachometer", 1, units="rad/s"),
-            Channel("magnetometer", 3, units="T"),  # body-frame field
-        ]
-        self._sensors = SensorSuite(sensors, channels, faults)
-        self.fault_hint = bool(fault_hint)
+        self._init_layers(
+            n_actuators=4,
+            actuator_limits=params.limits,
+            channels=[
+                Channel("gyro", 3, units="rad/s"),  # inertial rate ω_bi, body axes
+                Channel("star_tracker", 4, "attitude", "rad"),  # attitude relative to the orbital frame
+                Channel("tachometer", 1, units="rad/s"),
+                Channel("magnetometer", 3, units="T"),  # body-frame field
+            ],
+            faults=cfg.get("faults"),
+            sensors=sensors,
+            fault_hint=fault_hint,
+            disturbance=None if self.paper_disturbance else disturbance,
+        )
         self.max_rate_rad_s = validation.positive("max_rate_rad_s", max_rate_rad_s)
         if render_mode is not None:
             raise ValueError(f"render_mode must be None (no renderer for Magnetorquer-v0), got {render_mode!r}")
@@ -228,9 +353,7 @@ class MagnetorquerEnv(gym.Env):
         high = np.concatenate([np.ones(3), np.full(3, 2.0 * self.max_rate_rad_s), [1e3]])
         if self.observe_field:
             high = np.concatenate([high, np.full(3, 3.0)])
-        low = -high
-        if self.fault_hint:  # 4 actuator flags + 4 sensor-channel flags in [0, 1]
-            low, high = np.concatenate([low, np.zeros(8)]), np.concatenate([high, np.ones(8)])
+        low, high = self._hint_bounds(-high, high)
         self.observation_space = spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(4,), dtype=np.float32)
 
@@ -238,6 +361,7 @@ class MagnetorquerEnv(gym.Env):
         self._y = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0])
         self._t = 0.0
         self._meas: dict[str, np.ndarray] = {}
+        self._meas_state: dict[str, Any] = {}
         self._steps = 0
         self._shared = self._pack_shared(q_mat, r_mat)
         self._env_vec = self._pack_env()
@@ -248,21 +372,6 @@ class MagnetorquerEnv(gym.Env):
         self._limits = params.limits
 
     # ------------------------------------------------------------------ construction helpers
-    def _orbit(self, config: dict | None) -> KeplerOrbit:
-        cfg = dict(PAPER_ORBIT)
-        if config is not None:
-            if not isinstance(config, dict):
-                raise ValueError(f"orbit must be a dict or None, got {config!r}")
-            unknown = set(config) - set(PAPER_ORBIT)
-            if unknown:
-                raise ValueError(f"orbit has unknown keys {sorted(unknown)}")
-            cfg.update(config)
-        self._random_anomaly = isinstance(cfg["mean_anomaly_deg"], str)
-        if self._random_anomaly:
-            validation.choice("orbit.mean_anomaly_deg", cfg["mean_anomaly_deg"], {"random"})
-        self._orbit_cfg = cfg
-        return self._make_orbit(0.0 if self._random_anomaly else float(cfg["mean_anomaly_deg"]))
-
     def _make_orbit(self, mean_anomaly_deg: float) -> KeplerOrbit:
         c = self._orbit_cfg
         return KeplerOrbit.from_altitudes(
@@ -280,7 +389,7 @@ class MagnetorquerEnv(gym.Env):
         p = self.model.params
         dist = self._disturbance
         amplitude, period = np.zeros(3), 1.0
-        if dist == "paper":
+        if self.paper_disturbance:
             kind = kernels.DIST_PAPER
         elif dist is None:
             kind = kernels.DIST_NONE
@@ -288,7 +397,7 @@ class MagnetorquerEnv(gym.Env):
             kind, amplitude, period = kernels.DIST_SINUSOIDAL, dist.amplitude_nm, dist.period_s
         else:  # constant, random walk: a torque held over the control step
             kind = kernels.DIST_HELD
-        dj = self._delta_j
+        dj = self.time_varying_inertia
         return kernels.pack_shared(
             wheel_inertia_kg_m2=p.wheel_inertia_kg_m2,
             max_wheel_momentum_nms=p.max_wheel_momentum_nms,
@@ -315,17 +424,79 @@ class MagnetorquerEnv(gym.Env):
         """The per-episode disturbance entry of the compiled step: the held torque (constant,
         random walk) or the sinusoid's phases."""
         dist = self._disturbance
-        if isinstance(dist, Disturbance):
-            if dist.kind == "sinusoidal":
-                return dist._phase
-            return dist.torque_nm if dist.kind == "constant" else dist._walk
-        return np.zeros(3)
+        if dist is None:
+            return np.zeros(3)
+        if dist.kind == "sinusoidal":
+            return dist.episode_phase_rad
+        return dist.torque_nm if dist.kind == "constant" else dist.walk_nm
 
     def _pack_env(self) -> np.ndarray:
         """This episode's draws in the compiled step's layout (:func:`kernels.pack_env`)."""
         eff = self._inertia.copy()
         eff[1, 1] -= self.model.params.wheel_inertia_kg_m2
         return kernels.pack_env(self._inertia, np.linalg.inv(eff), self.orbit.packed, self._disturbance_vector())
+
+    # ------------------------------------------------------------------ public interface
+    @property
+    def kernel_constants(self) -> np.ndarray:
+        """The compiled step's configuration (:func:`~attitude_envs.plants.magnetorquer_kernels.pack_shared`:
+        wheel, limits, step sizes, field and disturbance models, cost weights, reference);
+        the same for every env built with the same keywords. Do not modify."""
+        return self._shared
+
+    @property
+    def episode_constants(self) -> np.ndarray:
+        """This episode's draws in the compiled step's layout
+        (:func:`~attitude_envs.plants.magnetorquer_kernels.pack_env`: true inertia, its
+        effective inverse, the orbit, the disturbance entry), a read-only view (it follows
+        the env: copy it to keep it)."""
+        view = self._env_vec.view()
+        view.setflags(write=False)
+        return view
+
+    @property
+    def snapshot(self) -> np.ndarray:
+        """The observation and info quantities at the current state (layout ``SN_*`` of
+        :mod:`~attitude_envs.plants.magnetorquer_kernels`), a read-only view."""
+        view = self._snap.view()
+        view.setflags(write=False)
+        return view
+
+    @property
+    def state_row(self) -> np.ndarray:
+        """The true physical state ``[q (4, body rel. orbital frame, scalar last), ω_bo (3,
+        rad/s), Ω (1, rad/s)]``, a read-only view (it follows the env: copy it to keep it)."""
+        view = self._y.view()
+        view.setflags(write=False)
+        return view
+
+    @property
+    def observation_size(self) -> int:
+        """Entries of the observation the compiled step builds (7, or 10 with
+        ``observe_field``; without the ``fault_hint`` flags)."""
+        return self._n_obs
+
+    def advance_disturbance(self) -> None:
+        """Move the disturbance one control period on (a random walk draws from the env's
+        generator) and store its new entry in :attr:`episode_constants` (entries
+        ``EN_DIST:EN_DIST + 3``). The env's ``step`` calls it; the batched env calls it per
+        sub-env. Needs a :attr:`disturbance` (not the compiled "paper" one)."""
+        self._disturbance.advance(self.np_random, self.control_dt_s)
+        self._env_vec[kernels.EN_DIST : kernels.EN_DIST + 3] = self._disturbance_vector()
+
+    def true_inertia_at(self, t_s: float) -> np.ndarray:
+        """The true inertia ``I + ΔJ(t)`` of the plant at ``t_s``, kg·m² (evaluation truth)."""
+        return self._snapshot(t_s, self._y)[kernels.SN_I : kernels.SN_I + 9].reshape(3, 3)
+
+    def external_torque_at(self, t_s: float, q: np.ndarray) -> np.ndarray:
+        """Disturbance (+ gravity gradient when enabled) on the body at attitude ``q``, N·m."""
+        y = self._y.copy()
+        y[:4] = q
+        return self._snapshot(t_s, y)[kernels.SN_EXT : kernels.SN_EXT + 3]
+
+    def error_state(self) -> np.ndarray:
+        """The true error state ``x = [q_e,vec, ω_e]`` (float64) now."""
+        return self._snapshot(self._t, self._y)[kernels.SN_X : kernels.SN_X + 6]
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
@@ -334,8 +505,8 @@ class MagnetorquerEnv(gym.Env):
         rng = self.np_random
         nominal = self.model.params.inertia_kg_m2
         self._inertia = nominal if self._uncertainty is None else self._uncertainty.draw(nominal, rng)
-        if self._delta_j is not None and self._uncertainty is not None:
-            self._delta_j.check_against(self._inertia)
+        if self.time_varying_inertia is not None and self._uncertainty is not None:
+            self.time_varying_inertia.check_against(self._inertia)
         if "mean_anomaly_deg" in options:
             anomaly = float(validation.finite_array("options['mean_anomaly_deg']", options["mean_anomaly_deg"], ()))
         else:
@@ -360,10 +531,7 @@ class MagnetorquerEnv(gym.Env):
         self._y = np.concatenate([q0, rate, wheel])
         self._t = 0.0
         self._steps = 0
-        if isinstance(self._disturbance, Disturbance):
-            self._disturbance.reset(rng)
-        self._sensors.reset(rng, options.get("faults"))  # own spawned generator
-        self._faults.reset(rng, options.get("faults"))
+        self._reset_layers(rng, options)  # disturbance, sensors (own spawned generator), faults
         self._env_vec = self._pack_env()
         self._work[kernels.WK_TAG] = np.nan  # new draws: no context to reuse
         kernels.snapshot_into(
@@ -376,16 +544,16 @@ class MagnetorquerEnv(gym.Env):
             self._snap,
         )
         self._step_out[:] = 0.0
+        if self._sensor_layer.enabled:
+            self._measure()
         return self._observation(), self._info(np.zeros(4), 0.0)
 
     def step(self, action):
         a = validation.action(action, 4)
         commanded = np.minimum(np.maximum(a, -1.0), 1.0) * self._limits
-        delivered = self._faults.apply(commanded, self._t)
-        dist = self._disturbance
-        if isinstance(dist, Disturbance):  # the held torque may change between steps
-            dist.advance(self.np_random, self.control_dt_s)
-            self._env_vec[kernels.EN_DIST : kernels.EN_DIST + 3] = self._disturbance_vector()
+        delivered = self._deliver(commanded, self._t)
+        if self._disturbance is not None:  # the held torque may change between steps
+            self.advance_disturbance()
         t0 = self._t
         self._steps += 1
         self._t = self._steps * self.control_dt_s  # from the step count: onsets and the time limit do not drift
@@ -404,6 +572,8 @@ class MagnetorquerEnv(gym.Env):
         finite = self._step_out[kernels.ST_FINITE] == 1.0
         terminated = not finite or bool(self._step_out[kernels.ST_MAX_RATE] > self.max_rate_rad_s)
         truncated = bool(self._t >= self.episode_duration_s - 1e-9 * self.control_dt_s) and not terminated
+        if self._sensor_layer.enabled:
+            self._measure()
         obs = self._observation() if finite else np.zeros(self.observation_space.shape, np.float32)
         return obs, -cost, terminated, truncated, self._info(commanded, cost)
 
@@ -415,94 +585,98 @@ class MagnetorquerEnv(gym.Env):
         kernels.snapshot_into(y, float(t_s), self._shared, self._env_vec, self.field.table, ctx, out)
         return out
 
-    def true_inertia_at(self, t_s: float) -> np.ndarray:
-        """The true inertia ``I + ΔJ(t)`` of the plant at ``t_s``, kg·m² (evaluation truth)."""
-        return self._snapshot(t_s, self._y)[kernels.SN_I : kernels.SN_I + 9].reshape(3, 3)
-
-    def external_torque_at(self, t_s: float, q: np.ndarray) -> np.ndarray:
-        """Disturbance (+ gravity gradient when enabled) on the body at attitude ``q``, N·m."""
-        y = self._y.copy()
-        y[:4] = q
-        return self._snapshot(t_s, y)[kernels.SN_EXT : kernels.SN_EXT + 3]
-
     def _error_state(self, q: np.ndarray, rate: np.ndarray) -> np.ndarray:
         """``[q_e,vec, ω_e]`` of ``q``, ``rate`` against the reference of the last snapshot."""
         x, y, z, w = (float(v) for v in q)
         r0, r1, r2 = (float(v) for v in rate)
         return np.array(kernels.error_state(x, y, z, w, r0, r1, r2, self._snap, kernels.SN_QD)[:6])
 
-    def error_state(self) -> np.ndarray:
-        """The true error state ``x = [q_e,vec, ω_e]`` (float64) now."""
-        return self._snapshot(self._t, self._y)[kernels.SN_X : kernels.SN_X + 6]
+    def _measure(self) -> None:
+        """Read the sensors at the current state (when they are modelled): the raw readings
+        and the measured state of ``info["measured"]``."""
+        snap = self._snap
+        truth = {
+            "gyro": snap[kernels.SN_WBI : kernels.SN_WBI + 3].copy(),
+            "star_tracker": self._y[:4],
+            "tachometer": self._y[7:],
+            "magnetometer": snap[kernels.SN_BBODY : kernels.SN_BBODY + 3].copy(),
+        }
+        meas = self._sensor_layer.measure(truth, self._t)
+        self._meas = meas
+        q, gyro, wheel = meas["star_tracker"], meas["gyro"], meas["tachometer"]
+        rate = gyro - mt.inertial_rate(q, np.zeros(3), float(snap[_SN_RATE]))  # ω_bo from the measured q
+        self._meas_state = {
+            "attitude": q,
+            "rate_rad_s": rate,
+            "inertial_rate_rad_s": gyro,
+            "wheel_speed_rad_s": wheel,
+            "wheel_momentum_nms": float(self.model.params.wheel_inertia_kg_m2 * (wheel[0] + gyro[1])),
+            "magnetic_field_body_t": meas["magnetometer"],
+        }
 
     def _observation(self) -> np.ndarray:
         snap = self._snap
-        if not self._sensors.enabled and not self.fault_hint:
-            return snap[: self._n_obs].astype(np.float32)
-        parts = [snap[: self._n_obs]]
-        if self._sensors.enabled:
-            q, rate, wheel = self._y[:4], self._y[4:7], self._y[7:]
-            n = float(snap[kernels.SN_RATE])
-            truth = {
-                "gyro": snap[kernels.SN_WBI : kernels.SN_WBI + 3].copy(),
-                "star_tracker": q,
-                "tachometer": wheel,
-                "magnetometer": snap[kernels.SN_BBODY : kernels.SN_BBODY + 3].copy(),
-            }
-            self._meas = self._sensors.measure(truth, self._t)
-            q, wheel, field = self._meas["star_tracker"], self._meas["tachometer"], self._meas["magnetometer"]
-            rate = self._meas["gyro"] - mt.inertial_rate(q, np.zeros(3), n)  # ω_bo from the measured attitude
-            parts = [self._error_state(q, rate), wheel / WHEEL_SPEED_SCALE_RAD_S]
-            if self.observe_field:
-                parts.append(field / FIELD_SCALE_T)
-        if self.fault_hint:
-            parts += [self._faults.active_flags(self._t), self._sensors.active_flags(self._t)]
-        return np.concatenate(parts).astype(np.float32)
+        if not self._sensor_layer.enabled:
+            return self._with_hint(snap[: self._n_obs], self._t)
+        m = self._meas_state
+        parts = [self._error_state(m["attitude"], m["rate_rad_s"]), m["wheel_speed_rad_s"] / WHEEL_SPEED_SCALE_RAD_S]
+        if self.observe_field:
+            parts.append(m["magnetic_field_body_t"] / FIELD_SCALE_T)
+        return self._with_hint(np.concatenate(parts), self._t)
 
     def _info(self, commanded, cost: float) -> dict:
         # one fresh array (state, step outputs, snapshot) whose slices the info hands out
         v = np.concatenate([self._y, self._step_out, self._snap])
-        k = kernels
-        st, sn = 8, 8 + k.STEP_OUT_SIZE
         snap = self._snap
-        info = {
-            "state": {
-                "attitude": v[:4],
-                "rate_rad_s": v[4:7],
-                "inertial_rate_rad_s": v[sn + k.SN_WBI : sn + k.SN_WBI + 3],
-                "wheel_speed_rad_s": v[7:8],
-                "wheel_momentum_nms": float(snap[k.SN_HW]),
-            },
-            "reference": {
-                "attitude": v[sn + k.SN_QD : sn + k.SN_QD + 4],
-                "rate_rad_s": v[sn + k.SN_WD : sn + k.SN_WD + 3],
-                "attitude_rate": v[sn + k.SN_QDOT : sn + k.SN_QDOT + 4],
-            },
-            "time_s": self._t,
-            "magnetic_field_body_t": v[sn + k.SN_BBODY : sn + k.SN_BBODY + 3],
-            "magnetic_field_orbital_t": v[sn + k.SN_BORB : sn + k.SN_BORB + 3],
-            "orbit": {
-                "radius_m": float(snap[k.SN_R]),
-                "argument_of_latitude_rad": float(snap[k.SN_U]),
-                "rate_rad_s": float(snap[k.SN_RATE]),
-            },
-            "commanded": commanded,
-            "applied": v[st + k.ST_APPLIED : st + k.ST_APPLIED + 4],
-            "magnetic_torque_nm": v[st + k.ST_TAU : st + k.ST_TAU + 3],
-            "control_torque_nm": v[st + k.ST_CONTROL : st + k.ST_CONTROL + 3],
-            "disturbance_torque_nm": v[sn + k.SN_EXT : sn + k.SN_EXT + 3],
-            "true_inertia_kg_m2": v[sn + k.SN_I : sn + k.SN_I + 9].reshape(3, 3),
-            "cost": cost,
-            "error_angle_deg": float(snap[k.SN_ANGLE]),
-            "faults": self._faults.info(self._t) + self._sensors.info(self._t),
+        field_body = v[_V_BBODY]
+        state = {
+            "attitude": v[:4],
+            "rate_rad_s": v[4:7],
+            "inertial_rate_rad_s": v[_V_WBI],
+            "wheel_speed_rad_s": v[7:8],
+            "wheel_momentum_nms": float(snap[_SN_HW]),
         }
-        if self._sensors.enabled:
+        truth = {
+            "state": state,
+            "applied": v[_V_APPLIED],
+            "faults": self._fault_truth(self._t),
+            "error_angle_deg": float(snap[_SN_ANGLE]),
+            "disturbance_torque_nm": v[_V_EXT],
+            "true_inertia_kg_m2": v[_V_INERTIA].reshape(3, 3),
+            "magnetic_torque_nm": v[_V_TAU],
+            "control_torque_nm": v[_V_CONTROL],
+            "magnetic_field_body_t": field_body,
+        }
+        sensors = self._sensor_layer.enabled
+        info = self._make_info(
+            truth=truth,
+            measured=self._meas_state if sensors else {**state, "magnetic_field_body_t": field_body},
+            cost=cost,
+            time_s=self._t,
+            commanded=commanded,
+            reference={"attitude": v[_V_QD], "rate_rad_s": v[_V_WD], "attitude_rate": v[_V_QDOT]},
+            orbit={
+                "radius_m": float(snap[_SN_R]),
+                "argument_of_latitude_rad": float(snap[_SN_U]),
+                "rate_rad_s": float(snap[_SN_RATE]),
+            },
+            magnetic_field_orbital_t=v[_V_BORB],
+        )
+        if sensors:
             info["sensors"] = {key: val.copy() for key, val in self._meas.items()}
         return info
 
 
-# Spec 002 eq. (40): magnetorquer effectiveness E = diag(0.9, 0.7, 0.6) for t > 50 s, through
-# the shared fault layer (actuators 0–2 are the dipoles).
-PAPER_FAULTS = [
-    {"kind": "loss_of_effectiveness", "index": i, "value": v, "onset_s": 50.0} for i, v in enumerate((0.1, 0.3, 0.4))
-]
+def _completed(name: str, given: Mapping | None, base: Mapping | None, keys: tuple[str, ...]) -> dict:
+    """The dict keyword ``name``: ``given``'s entries over the preset's ``base``; every one
+    of ``keys`` must be set and no other."""
+    if given is not None and not isinstance(given, Mapping):
+        raise ValueError(f"{name} must be a dict or None, got {given!r}")
+    unknown = set(given or {}) - set(keys)
+    if unknown:
+        raise ValueError(f"{name} has unknown keys {sorted(unknown)}")
+    cfg = {**(base or {}), **(given or {})}
+    missing = [k for k in keys if k not in cfg]
+    if missing:
+        raise ValueError(f"{name} needs the keys {list(keys)}, missing {missing}")
+    return cfg

@@ -6,7 +6,8 @@ vectorization_mode="vector_entry_point", **env_kwargs)``. Sub-env ``i`` reset wi
 (the same compiled step on the same inputs; a test checks bitwise equality). Each sub-env
 keeps its own draws (orbit anomaly, true inertia, disturbance phases, IGRF table, faults);
 faults and random-walk disturbances are advanced per sub-env in Python, so only the
-sub-envs that have them pay.
+sub-envs that have them pay. The sub-envs are read through their public interface only
+(:class:`~attitude_envs.envs.magnetorquer.MagnetorquerEnv`).
 """
 
 from __future__ import annotations
@@ -19,12 +20,15 @@ from attitude_envs.envs.magnetorquer import MagnetorquerEnv
 from attitude_envs.envs.vector_base import BatchedEnv
 from attitude_envs.plants import magnetorquer_kernels as kernels
 
+_DIST = slice(kernels.EN_DIST, kernels.EN_DIST + 3)  # the disturbance entry of the episode constants
+
 
 class MagnetorquerVectorEnv(BatchedEnv):
     """``num_envs`` Magnetorquer-v0 envs stepped as one array (see :class:`BatchedEnv` for
-    autoreset). Infos are dicts of arrays with gymnasium's ``_key`` masks: ``cost``,
-    ``applied`` (dipoles A·m², wheel torque N·m, after faults and the momentum limit),
-    ``time_s``, ``error_angle_deg``."""
+    autoreset). Infos are dicts of arrays with gymnasium's ``_key`` masks: ``cost`` and
+    ``time_s``; ``truth`` (the ground truth, :mod:`attitude_envs.info`, a dict of arrays with
+    its own masks): ``applied`` (dipoles A·m², wheel torque N·m, after faults and the
+    momentum limit) and ``error_angle_deg``."""
 
     def __init__(self, num_envs: int = 1, autoreset_mode: str = "next_step", render_mode: str | None = None, **kwargs):
         prototype = MagnetorquerEnv(**kwargs)
@@ -40,13 +44,13 @@ class MagnetorquerVectorEnv(BatchedEnv):
         super().__init__(factory, num_envs, autoreset_mode, render_mode)
         first = self.envs[0]
         self.model = first.model
-        self._shared = first._shared
+        self._shared = first.kernel_constants
         self._limits = first.model.params.limits
-        self._n_obs = first._n_obs
+        self._n_obs = first.observation_size
         self._dt = first.control_dt_s
         self._duration = first.episode_duration_s
         self._max_rate = first.max_rate_rad_s
-        dist = first._disturbance
+        dist = first.disturbance
         self._walks = getattr(dist, "kind", None) == "random_walk"  # drawn per step from each sub-env's RNG
         e = self.num_envs
         self._states = np.zeros((e, 8))
@@ -62,8 +66,8 @@ class MagnetorquerVectorEnv(BatchedEnv):
 
     def _load(self, i: int) -> None:
         sub = self.envs[i]
-        self._states[i] = sub._y
-        self._env_vecs[i] = sub._env_vec
+        self._states[i] = sub.state_row
+        self._env_vecs[i] = sub.episode_constants
         table = sub.field.table
         if table.shape != self._tables.shape[1:]:  # the IGRF table's length is known after a reset
             self._tables = np.stack(
@@ -71,9 +75,9 @@ class MagnetorquerVectorEnv(BatchedEnv):
             )
         self._tables[i] = table
         self._steps[i] = 0
-        self._snaps[i] = sub._snap  # the observation and info quantities at reset
+        self._snaps[i] = sub.snapshot  # the observation and info quantities at reset
         self._work[i, kernels.WK_TAG] = np.nan  # new draws: no time context to reuse
-        self._faulty[i] = bool(sub._faults.realized)
+        self._faulty[i] = bool(sub.fault_layer.realized)
         self._finite[i] = True
 
     def _observations(self, indices=None) -> np.ndarray:
@@ -93,12 +97,12 @@ class MagnetorquerVectorEnv(BatchedEnv):
         live = ~self._needs_reset
         if self._faulty.any():
             for i in np.flatnonzero(self._faulty & live):
-                commanded[i] = self.envs[i]._faults.apply(commanded[i], float(t0[i]))
+                commanded[i] = self.envs[i].fault_layer.apply(commanded[i], float(t0[i]))
         if self._walks:
             for i in np.flatnonzero(live):
                 env = self.envs[i]
-                env._disturbance.advance(env.np_random, self._dt)
-                self._env_vecs[i, kernels.EN_DIST : kernels.EN_DIST + 3] = env._disturbance_vector()
+                env.advance_disturbance()
+                self._env_vecs[i, kernels.EN_DIST : kernels.EN_DIST + 3] = env.episode_constants[_DIST]
         self._steps += 1
         t1 = self._steps * self._dt
         kernels.advance_batch(
@@ -117,15 +121,15 @@ class MagnetorquerVectorEnv(BatchedEnv):
         self._finite = self._step_out[:, kernels.ST_FINITE] == 1.0
         terminated = ~self._finite | (self._step_out[:, kernels.ST_MAX_RATE] > self._max_rate)
         truncated = (t1 >= self._duration - 1e-9 * self._dt) & ~terminated
-        infos = self._with_masks(
-            {"cost": self._costs.copy(), "applied": self._step_out[:, :4].copy(), "time_s": t1},
-            self.num_envs,
-        )
+        truth = {"applied": self._step_out[:, :4].copy()}
+        infos = self._with_masks({"cost": self._costs.copy(), "time_s": t1, "truth": truth}, self.num_envs)
         return self._observations(), -self._costs, terminated, truncated, infos
 
     def step(self, actions):
         obs, rewards, terminated, truncated, infos = super().step(actions)
-        infos.update(self._with_masks({"error_angle_deg": self._snaps[:, kernels.SN_ANGLE].copy()}, self.num_envs))
+        truth = infos["truth"]
+        truth["error_angle_deg"] = self._snaps[:, kernels.SN_ANGLE].copy()
+        truth["_error_angle_deg"] = infos["_truth"]  # masked out for the sub-envs next-step autoreset reset
         return obs, rewards, terminated, truncated, infos
 
     @property

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import gymnasium as gym
@@ -10,27 +11,54 @@ from gymnasium import spaces
 
 from attitude_envs import quaternion, validation
 from attitude_envs.cost import QuadraticCost
-from attitude_envs.disturbances import Disturbance
-from attitude_envs.faults import ActuatorFaults
+from attitude_envs.envs.base import AttitudeEnv
 from attitude_envs.integrators import substeps
 from attitude_envs.plants import gyrostat
 from attitude_envs.plants import gyrostat_kernels as kernels
 from attitude_envs.plants.gyrostat_model import ReactionWheelModel
-from attitude_envs.presets import preset as load_preset
-from attitude_envs.sensors import Channel, SensorSuite
+from attitude_envs.sensors import Channel
 from attitude_envs.uncertainty import InertiaUncertainty
 
+_TWO_RAD_TO_DEG = 2.0 * (180.0 / np.pi)  # np.degrees(2 a) = a · 2(180/π) bit for bit (times 2 is exact)
 _OPTION_KEYS = {"attitude", "rate_rad_s", "wheel_speed_rad_s", "target_attitude", "faults"}
+# Values of the keywords that neither the preset nor the caller set (the physical ones,
+# _REQUIRED, must come from one of them).
+_DEFAULTS = {
+    "cost_input": "body",
+    "target_angle_deg": 0.0,
+    "initial_angle_deg": 0.0,
+    "initial_rate_max_rad_s": 0.0,
+    "wheel_momentum_weight": 0.0,
+    "max_rate_rad_s": 2.0 * np.pi,
+    "observe_wheel_speeds": False,
+    "action_frame": "wheel",
+    "fault_hint": False,
+}
+_REQUIRED = (
+    "inertia_kg_m2",
+    "wheel_axes",
+    "wheel_inertia_kg_m2",
+    "max_wheel_torque_nm",
+    "max_wheel_speed_rad_s",
+    "control_dt_s",
+    "integrator_dt_s",
+    "episode_duration_s",
+    "Q",
+    "R",
+)
 
 
-class ReactionWheelEnv(gym.Env):
+class ReactionWheelEnv(AttitudeEnv):
     """Rigid spacecraft with N reaction wheels driven to a target attitude.
 
     Plant: the exact gyrostat equations of :mod:`attitude_envs.plants.gyrostat` (no
     small-wheel approximation), scalar-last quaternion kinematics, fixed-step RK4 with
     ``integrator_dt_s`` sub-steps inside each ``control_dt_s`` period, quaternion
-    renormalized after every sub-step. Papers: spec 000 (preset ``"spec-000"``, default)
-    and spec 001 (preset ``"spec-001"``).
+    renormalized after every sub-step. Presets (:mod:`attitude_envs.presets`):
+    ``"pyramid-4wheel"`` (default; the feedback-linearization paper's 4 kg·m² spacecraft,
+    alias ``"spec-000"``) and ``"heravi-2017"`` (Heravi & Novinzadeh 2017, alias
+    ``"spec-001"``). AirBearing-v0 (:mod:`attitude_envs.envs.air_bearing`) is this env
+    with the air-bearing platform's preset.
 
     ================  ==========================================================  ==========
     Quantity          Meaning                                                     Units
@@ -51,48 +79,70 @@ class ReactionWheelEnv(gym.Env):
                       ±``initial_rate_max_rad_s``, wheels at rest; target within
                       ``target_angle_deg``; all pinned by ``reset(options=...)``
     Termination       non-finite state, or tumbling: ``max|ω| > max_rate_rad_s``  rad/s
-                      (default 2π rad/s, one revolution per second)
+                      (default 2π rad/s, one revolution per second); roll or
+                      pitch beyond ``tilt_limit_deg`` when it is set
     Truncation        simulated time reaches ``episode_duration_s``               s
     ================  ==========================================================  ==========
 
-    Parameters (``None`` takes the preset's value): ``inertia_kg_m2`` (3×3, whole
-    spacecraft incl. wheel spin inertia), ``wheel_axes`` (3×N unit columns),
-    ``wheel_inertia_kg_m2``, ``max_wheel_torque_nm``, ``max_wheel_speed_rad_s`` (motor
-    driver blocks torque beyond it), ``control_dt_s``, ``integrator_dt_s``,
-    ``episode_duration_s``, ``Q``, ``R``, ``cost_input`` (``"body"``/``"wheel"``),
-    ``wheel_momentum_weight`` (adds ``h_w`` to x, weight per (N·m·s)²), ``target_attitude``,
-    ``target_angle_deg``, ``initial_attitude``, ``initial_angle_deg``, ``initial_rate_rad_s``,
-    ``initial_rate_max_rad_s``, ``inertia_uncertainty`` (see :mod:`attitude_envs.uncertainty`),
-    ``disturbance`` (see :mod:`attitude_envs.disturbances`), ``max_rate_rad_s``,
-    ``observe_wheel_speeds``, ``action_frame`` (``"wheel"``: one action per wheel;
-    ``"body"``: a body-torque demand through the minimum-norm allocation — no action
-    reaches the wheels' null space, whose momentum the cost does not see), ``faults`` (list of fault dicts, see :mod:`attitude_envs.faults`;
-    also per episode as ``reset(options={"faults": [...]})``; ``"target": "sensor"`` entries
-    are sensor faults), ``sensors`` (dict, see :mod:`attitude_envs.sensors`: channels
-    ``gyro`` (rad/s), ``star_tracker`` (rad), ``tachometer`` (rad/s); default None: the truth
-    is observed), ``fault_hint`` (append N + 3 flags to the observation: 1.0 per actuator,
-    then per sensor gyro/star tracker/tachometer, with an active fault).
+    Parameters (``None`` takes the preset's value, or where the preset sets none the
+    default named here): ``preset`` (name or alias; None: the env's
+    :attr:`default_preset`), ``inertia_kg_m2`` (3×3, whole spacecraft incl. wheel spin
+    inertia), ``wheel_axes`` (3×N unit columns), ``wheel_inertia_kg_m2``,
+    ``max_wheel_torque_nm``, ``max_wheel_speed_rad_s`` (motor driver blocks torque beyond
+    it), ``control_dt_s``, ``integrator_dt_s``, ``episode_duration_s``, ``Q``, ``R`` (these
+    ten: from the preset or the caller), ``cost_input`` (``"body"``/``"wheel"``; "body"),
+    ``wheel_momentum_weight`` (adds ``h_w`` to x, weight per (N·m·s)²; 0),
+    ``target_attitude``, ``target_angle_deg`` (0), ``initial_attitude``,
+    ``initial_angle_deg`` (0), ``initial_rate_rad_s``, ``initial_rate_max_rad_s`` (0),
+    ``offset_torque_nm`` (``m g r_s``, N·m, body axes: the torque of a centre-of-mass
+    offset about an air bearing's centre of rotation, see
+    :func:`~attitude_envs.plants.gyrostat.gravity_torque_nm`; none),
+    ``tilt_limit_deg`` (roll/pitch stop in (0, 90) deg that ends the episode; none),
+    ``inertia_uncertainty`` (see :mod:`attitude_envs.uncertainty`), ``disturbance`` (see
+    :mod:`attitude_envs.disturbances`), ``max_rate_rad_s`` (2π), ``observe_wheel_speeds``
+    (False), ``action_frame`` (``"wheel"``, default: one action per wheel; ``"body"``: a
+    body-torque demand through the minimum-norm allocation — no action reaches the wheels'
+    null space, whose momentum the cost does not see), ``faults`` (list of fault dicts, see
+    :mod:`attitude_envs.faults`; also per episode as ``reset(options={"faults": [...]})``;
+    ``"target": "sensor"`` entries are sensor faults), ``sensors`` (dict, see
+    :mod:`attitude_envs.sensors`: channels ``gyro`` (rad/s), ``star_tracker`` (rad),
+    ``tachometer`` (rad/s); None: the truth is observed), ``fault_hint`` (False; True
+    appends N + 3 flags to the observation: 1.0 per actuator, then per sensor gyro/star
+    tracker/tachometer, with an active fault).
 
     With sensors (or sensor faults) the observation is the error state of the *measured*
     attitude, rate and wheel speeds (a dropout in ``"nan"`` mode puts NaN in it, outside
-    the observation bounds by design); ``info["sensors"]`` holds the raw measurements
-    (``star_tracker`` quaternion, ``gyro``, ``tachometer``) and ``info["sensor_bias"]`` the
-    true biases.
+    the observation bounds by design).
 
     ``env.unwrapped.model`` is the *nominal* :class:`ReactionWheelModel` (inertia,
-    wheels, cost, linearization); the true inertia and disturbance stay private, and
-    ``info`` carries the truth: ``state`` (``attitude``, ``rate_rad_s``,
-    ``wheel_speed_rad_s``, ``target_attitude``), ``applied`` (mean motor torque actually
-    delivered over the step, N·m), ``commanded``, ``cost``, ``time_s``,
-    ``error_angle_deg``, ``disturbance_torque_nm``, ``true_inertia_kg_m2``, ``faults``
-    (ground truth: every fault of the episode with its draws and whether it is active).
+    wheels, cost, linearization); the true inertia and disturbance stay in the env.
+    ``info`` follows :mod:`attitude_envs.info`: ``info["truth"]`` holds ``state``
+    (``attitude``, ``rate_rad_s``, ``wheel_speed_rad_s``, ``target_attitude``),
+    ``applied`` (mean motor torque actually delivered over the step, N·m), ``faults``
+    (every fault of the episode with its draws and whether it is active),
+    ``error_angle_deg``, ``disturbance_torque_nm``, ``true_inertia_kg_m2``,
+    ``sensor_bias`` (with sensors) and ``tilt_limit_hit`` (with a tilt limit);
+    ``info["measured"]`` has the keys of ``truth["state"]`` from the star tracker, gyro and
+    tachometer readings (when sensors are off it is ``truth["state"]`` itself;
+    ``target_attitude`` is the commanded target; replace its entries, do not modify them in
+    place: they are shared with ``truth`` or ``sensors``); top level: ``cost``, ``time_s``, ``commanded`` (motor torques the
+    action asked for, N·m) and, with sensors, ``sensors`` (raw ``star_tracker``
+    quaternion, ``gyro``, ``tachometer``).
+
+    Batched envs and tools use the public members :attr:`kernel_constants`,
+    :attr:`kernel_matrices`, :attr:`n_substeps`, :attr:`state_row`,
+    :attr:`target_attitude`, :attr:`observation_size`, :meth:`disturbance_stages`,
+    :meth:`commanded_torques`, :meth:`reset_episode` and the base's ``fault_layer``,
+    ``sensor_layer`` and ``disturbance``.
     """
 
+    env_name = "ReactionWheel-v0"
+    default_preset = "pyramid-4wheel"
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 10}
 
     def __init__(
         self,
-        preset: str = "spec-000",
+        preset: str | None = None,
         inertia_kg_m2=None,
         wheel_axes=None,
         wheel_inertia_kg_m2: float | None = None,
@@ -104,44 +154,29 @@ class ReactionWheelEnv(gym.Env):
         Q=None,
         R=None,
         cost_input: str | None = None,
-        wheel_momentum_weight: float = 0.0,
+        wheel_momentum_weight: float | None = None,
         target_attitude=None,
         target_angle_deg: float | None = None,
         initial_attitude=None,
         initial_angle_deg: float | None = None,
         initial_rate_rad_s=None,
         initial_rate_max_rad_s: float | None = None,
+        offset_torque_nm=None,
+        tilt_limit_deg: float | None = None,
         inertia_uncertainty: dict | None = None,
         disturbance: dict | None = None,
-        max_rate_rad_s: float = 2.0 * np.pi,
-        observe_wheel_speeds: bool = False,
-        action_frame: str = "wheel",
+        max_rate_rad_s: float | None = None,
+        observe_wheel_speeds: bool | None = None,
+        action_frame: str | None = None,
         faults: list[dict] | None = None,
         sensors: dict | None = None,
-        fault_hint: bool = False,
+        fault_hint: bool | None = None,
         render_mode: str | None = None,
     ) -> None:
-        cfg = load_preset(preset)
-        given = {
-            "inertia_kg_m2": inertia_kg_m2,
-            "wheel_axes": wheel_axes,
-            "wheel_inertia_kg_m2": wheel_inertia_kg_m2,
-            "max_wheel_torque_nm": max_wheel_torque_nm,
-            "max_wheel_speed_rad_s": max_wheel_speed_rad_s,
-            "control_dt_s": control_dt_s,
-            "integrator_dt_s": integrator_dt_s,
-            "episode_duration_s": episode_duration_s,
-            "Q": Q,
-            "R": R,
-            "cost_input": cost_input,
-            "target_attitude": target_attitude,
-            "target_angle_deg": target_angle_deg,
-            "initial_attitude": initial_attitude,
-            "initial_angle_deg": initial_angle_deg,
-            "initial_rate_rad_s": initial_rate_rad_s,
-            "initial_rate_max_rad_s": initial_rate_max_rad_s,
-        }
-        cfg.update({k: v for k, v in given.items() if v is not None})
+        cfg = _DEFAULTS | self._configure(self.default_preset if preset is None else preset, locals())
+        missing = [k for k in _REQUIRED if cfg.get(k) is None]
+        if missing:
+            raise ValueError(f"{self.env_name} preset {self.preset!r} sets no {missing[0]!r}; pass {missing[0]}=...")
         if (
             control_dt_s is not None
             and integrator_dt_s is None
@@ -155,13 +190,14 @@ class ReactionWheelEnv(gym.Env):
             cfg["wheel_inertia_kg_m2"],
             cfg["max_wheel_torque_nm"],
             cfg["max_wheel_speed_rad_s"],
+            cfg.get("offset_torque_nm"),
         )
         self.control_dt_s = validation.positive("control_dt_s", cfg["control_dt_s"])
         self.integrator_dt_s = validation.positive("integrator_dt_s", cfg["integrator_dt_s"])
         self._substeps = substeps(self.control_dt_s, self.integrator_dt_s)
         self.episode_duration_s = validation.positive("episode_duration_s", cfg["episode_duration_s"])
         cost_in = validation.choice("cost_input", cfg["cost_input"], {"body", "wheel"})
-        wmw = validation.nonnegative("wheel_momentum_weight", wheel_momentum_weight)
+        wmw = validation.nonnegative("wheel_momentum_weight", cfg["wheel_momentum_weight"])
         n_w = params.n_wheels
         include_h = wmw > 0
         n_x = 6 + (n_w if include_h else 0)
@@ -182,15 +218,30 @@ class ReactionWheelEnv(gym.Env):
         rate = cfg.get("initial_rate_rad_s")
         self._rate_fixed = None if rate is None else validation.finite_array("initial_rate_rad_s", rate, (3,))
         self._rate_max = validation.nonnegative("initial_rate_max_rad_s", cfg["initial_rate_max_rad_s"])
-        self._uncertainty = InertiaUncertainty.from_config(inertia_uncertainty)
-        self._disturbance = None if disturbance is None else Disturbance(disturbance)
-        self._faults = ActuatorFaults(faults, params.n_wheels, params.max_wheel_torque_nm, other_targets={"sensor"})
-        channels = [Channel("gyro", 3, units="rad/s"), Channel("star_tracker", 4, "attitude", "rad")]
-        self._sensors = SensorSuite(sensors, [*channels, Channel("tachometer", n_w, units="rad/s")], faults)
+        tilt = cfg.get("tilt_limit_deg")
+        if tilt is not None and not 0.0 < float(tilt) < 90.0:
+            raise ValueError(f"tilt_limit_deg must be in (0, 90) or None (no stop), got {tilt!r}")
+        #: roll/pitch stop (deg) that ends the episode, or None
+        self.tilt_limit_deg = None if tilt is None else float(tilt)
+        self._tilt_limit_rad = np.inf if tilt is None else math.radians(self.tilt_limit_deg)
+        self._uncertainty = InertiaUncertainty.from_config(cfg.get("inertia_uncertainty"))
+        channels = [
+            Channel("gyro", 3, units="rad/s"),
+            Channel("star_tracker", 4, "attitude", "rad"),
+            Channel("tachometer", n_w, units="rad/s"),
+        ]
+        self._init_layers(
+            n_actuators=n_w,
+            actuator_limits=params.max_wheel_torque_nm,
+            channels=channels,
+            faults=cfg.get("faults"),
+            sensors=cfg.get("sensors"),
+            fault_hint=cfg["fault_hint"],
+            disturbance=cfg.get("disturbance"),
+        )
         self._meas: dict[str, np.ndarray] = {}
-        self.fault_hint = bool(fault_hint)
-        self.max_rate_rad_s = validation.positive("max_rate_rad_s", max_rate_rad_s)
-        self.observe_wheel_speeds = bool(observe_wheel_speeds)
+        self.max_rate_rad_s = validation.positive("max_rate_rad_s", cfg["max_rate_rad_s"])
+        self.observe_wheel_speeds = bool(cfg["observe_wheel_speeds"])
         if self.observe_wheel_speeds and not np.isfinite(params.max_wheel_speed_rad_s):
             raise ValueError("observe_wheel_speeds needs a finite max_wheel_speed_rad_s to normalize by")
         if render_mode is not None:
@@ -206,19 +257,15 @@ class ReactionWheelEnv(gym.Env):
             obs_high = np.concatenate([obs_high, np.full(n_w, h_bound if np.isfinite(h_bound) else 1e6)])
         if self.observe_wheel_speeds:
             obs_high = np.concatenate([obs_high, np.full(n_w, 1.5)])
-        obs_low = -obs_high
-        if self.fault_hint:
-            obs_high = np.concatenate([obs_high, np.ones(n_w + 3)])
-            obs_low = np.concatenate([obs_low, np.zeros(n_w + 3)])
+        obs_low, obs_high = self._hint_bounds(-obs_high, obs_high)
         self.observation_space = spaces.Box(obs_low.astype(np.float32), obs_high.astype(np.float32), dtype=np.float32)
-        self.action_frame = validation.choice("action_frame", action_frame, {"wheel", "body"})
+        self.action_frame = validation.choice("action_frame", cfg["action_frame"], {"wheel", "body"})
         # body frame: a normalized body-torque demand, allocated like the analytic baselines do
         # (minimum-norm u = −A⁺T, then each wheel clipped at its limit)
         self._action_map = self.model.allocation * params.max_wheel_torque_nm if self.action_frame == "body" else None
         self.action_space = spaces.Box(-1.0, 1.0, shape=(3 if self._action_map is not None else n_w,), dtype=np.float32)
 
         self._plant = params
-        self._tilt_limit_rad = np.inf  # no roll/pitch stop (AirBearing-v0 has one)
         # State, target and outputs as one-column struct-of-arrays views for the compiled
         # step (the batched env's kernel with one lane; updated in place).
         self._y = np.zeros(7 + n_w)
@@ -254,9 +301,62 @@ class ReactionWheelEnv(gym.Env):
         self.__dict__.update(state)
         self._bind_views()
 
+    # ------------------------------------------------------------------ public interface
+    @property
+    def kernel_constants(self) -> np.ndarray:
+        """The compiled step's constants (:func:`~attitude_envs.plants.gyrostat_kernels.pack_constants`:
+        wheel axes, cost weights, limits, step sizes, offset torque, tilt stop); the same for
+        every env built with the same keywords. Do not modify."""
+        return self._constants
+
+    @property
+    def kernel_matrices(self) -> np.ndarray:
+        """This episode's true inertia and inverse effective inertia as the compiled step's
+        matrix column (:func:`~attitude_envs.plants.gyrostat_kernels.pack_matrices`, a view;
+        it changes at reset with ``inertia_uncertainty``). Do not modify."""
+        return self._mats[0, :, 0]
+
+    @property
+    def n_substeps(self) -> int:
+        """RK4 sub-steps per control period (``control_dt_s / integrator_dt_s``)."""
+        return self._substeps
+
+    @property
+    def state_row(self) -> np.ndarray:
+        """The true physical state ``[q (4, scalar last), ω (3, rad/s), Ω (N, rad/s)]``, a
+        read-only view (it follows the env: copy it to keep it)."""
+        view = self._y.view()
+        view.setflags(write=False)
+        return view
+
+    @property
+    def target_attitude(self) -> np.ndarray:
+        """This episode's target attitude (scalar-last quaternion), a read-only view."""
+        view = self._target.view()
+        view.setflags(write=False)
+        return view
+
+    @property
+    def observation_size(self) -> int:
+        """Entries of the observation the compiled step builds (the error state, plus wheel
+        speeds with ``observe_wheel_speeds``; without the ``fault_hint`` flags)."""
+        return self._out_obs.shape[1]
+
+    def disturbance_stages(self, t_s: float) -> np.ndarray:
+        """External torque (N·m, body axes) at the RK4 stage times (t, t + h/2, t + h) of each
+        sub-step of the control period that starts at ``t_s``, shape (n_substeps, 3, 3).
+        Returns the env's own buffer (overwritten by the next call); needs a disturbance."""
+        h = self.integrator_dt_s
+        torque_at = self._disturbance.torque_nm_at
+        for j in range(self._substeps):
+            t = t_s + j * h
+            for k, dt in enumerate((0.0, 0.5 * h, h)):
+                self._ext_stages[j, k] = torque_at(t + dt)
+        return self._ext_stages
+
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        self._reset_state(seed, options)
+        self.reset_episode(seed, options)
         self._measure()
         obs = self._observation()
         n_w = self._plant.n_wheels
@@ -265,9 +365,10 @@ class ReactionWheelEnv(gym.Env):
             self.render()
         return obs, info
 
-    def _reset_state(self, seed: int | None, options: dict[str, Any] | None) -> None:
-        """Seed, draw and set the start state, target, plant, faults and disturbance (all of
-        ``reset`` but the observation and info; the batched env's reset of a sub-env)."""
+    def reset_episode(self, seed: int | None = None, options: dict[str, Any] | None = None) -> None:
+        """Seed, draw and set the start state, target, plant, faults and disturbance: all of
+        :meth:`reset` but the sensor reading, observation and info (the batched env's reset
+        of a sub-env). ``options`` as for :meth:`reset`."""
         gym.Env.reset(self, seed=seed)
         options = validation.reset_options(options, _OPTION_KEYS)
         rng = self.np_random
@@ -292,17 +393,14 @@ class ReactionWheelEnv(gym.Env):
         self._t = 0.0
         self._steps = 0
         self._step_count[0] = 0
-        if self._disturbance is not None:
-            self._disturbance.reset(rng)
-        self._sensors.reset(rng, options.get("faults"))  # spawns its own generator: rng's stream is unchanged
-        self._faults.reset(rng, options.get("faults"))
+        self._reset_layers(rng, options)  # the sensor layer spawns its own generator: rng's stream is unchanged
 
     def step(self, action):
         commanded = self.commanded_torques(validation.action(action, self.action_space.shape[0]))
-        delivered = self._faults.apply(commanded, self._t)
+        delivered = self._deliver(commanded, self._t)
         if self._disturbance is not None:
             self._disturbance.advance(self.np_random, self.control_dt_s)
-            self._fill_disturbance_stages()
+            self.disturbance_stages(self._t)
         self._kernel(
             self._y_block,
             delivered.reshape(1, -1),
@@ -329,7 +427,7 @@ class ReactionWheelEnv(gym.Env):
         # time from the step count, so that onsets and the time limit do not drift
         self._steps += 1
         self._t = self._steps * self.control_dt_s
-        terminated = bool(self._out_terminated[0])  # non-finite, or tumbling beyond max_rate_rad_s
+        terminated = bool(self._out_terminated[0])  # non-finite, tumbling, or beyond the tilt stop
         truncated = bool(self._out_truncated[0])
         finite = not terminated or (bool(np.isfinite(self._y).all()) and np.isfinite(cost))
         if finite:
@@ -337,7 +435,7 @@ class ReactionWheelEnv(gym.Env):
             self._qe_w = float(self._out_qe_w[0])
         if not finite:
             obs = np.zeros(self.observation_space.shape, np.float32)
-        elif self._sensors.enabled or self.fault_hint:
+        elif self._sensor_layer.enabled or self.fault_hint:
             obs = self._observation()
         else:
             obs = self._out_obs[0].copy()  # the kernel's observation of the true state
@@ -360,7 +458,7 @@ class ReactionWheelEnv(gym.Env):
         return np.minimum(np.maximum(torque, -limit), limit)
 
     def _pack_kernel_arguments(self) -> None:
-        """The compiled step, its constants and the plant's matrices (after a parameter change)."""
+        """The compiled step, its constants and the plant's matrices."""
         p = self._plant
         self._kernel = kernels.kernel_for(self.model, 1)
         self._pack_matrices()
@@ -382,14 +480,6 @@ class ReactionWheelEnv(gym.Env):
     def _pack_matrices(self) -> None:
         p = self._plant
         self._mats = kernels.pack_matrices(p.inertia_kg_m2, p.inertia_eff_inv).reshape(1, -1, 1)
-
-    def _fill_disturbance_stages(self) -> None:
-        """External torque at each sub-step's RK4 stage times (t, t + h/2, t + h)."""
-        h = self.integrator_dt_s
-        for j in range(self._substeps):
-            t = self._t + j * h
-            for k, dt in enumerate((0.0, 0.5 * h, h)):
-                self._ext_stages[j, k] = self._disturbance.torque_nm_at(t + dt)
 
     def render(self):
         if self.render_mode is None:
@@ -421,9 +511,9 @@ class ReactionWheelEnv(gym.Env):
 
     def _measure(self) -> None:
         """Sample the sensors at the current time (no-op when sensors are off)."""
-        if self._sensors.enabled:
+        if self._sensor_layer.enabled:
             truth = {"gyro": self._y[4:7], "star_tracker": self._y[:4], "tachometer": self._y[7:]}
-            self._meas = self._sensors.measure(truth, self._t)
+            self._meas = self._sensor_layer.measure(truth, self._t)
 
     def _observation(self) -> np.ndarray:
         qe_w = self._out_qe_w  # the true error state (also gives info's true error angle)
@@ -438,45 +528,44 @@ class ReactionWheelEnv(gym.Env):
         self._qe_w = float(qe_w[0])
         x = self._x_col[:, 0]
         wheel = self._y[7:]
-        if self._sensors.enabled:
+        if self._sensor_layer.enabled:
             m = self._meas
             x = self.model.error_state(m["star_tracker"], m["gyro"], m["tachometer"], self._target)
             wheel = m["tachometer"]
         if self.observe_wheel_speeds:
             x = np.concatenate([x, wheel / self._plant.max_wheel_speed_rad_s])
-        if self.fault_hint:
-            x = np.concatenate([x, self._faults.active_flags(self._t), self._sensors.active_flags(self._t)])
-        return x.astype(np.float32)
+        return self._with_hint(x, self._t)
 
     def _info(self, applied: np.ndarray, commanded: np.ndarray, cost: float) -> dict:
         # Info holds new arrays every call (gymnasium's checker): one copy of the state and
         # target, whose slices are views of it.
         y = np.concatenate([self._y, self._target])
         n = y.shape[0] - 4
-        return {
-            "state": {
-                "attitude": y[:4],
-                "rate_rad_s": y[4:7],
-                "wheel_speed_rad_s": y[7:n],
-                "target_attitude": y[n:],
-            },
+        state = {"attitude": y[:4], "rate_rad_s": y[4:7], "wheel_speed_rad_s": y[7:n], "target_attitude": y[n:]}
+        truth = {
+            "state": state,
             "applied": applied,
-            "commanded": commanded,
-            "cost": cost,
-            "time_s": self._t,
-            "error_angle_deg": float(np.degrees(2.0 * np.arccos(min(1.0, self._qe_w)))),
+            "faults": self._fault_truth(self._t),
+            "error_angle_deg": float(np.arccos(min(1.0, self._qe_w))) * _TWO_RAD_TO_DEG,
             "disturbance_torque_nm": np.zeros(3)
             if self._disturbance is None
             else np.array(self._disturbance.torque_nm_at(self._t)),
             "true_inertia_kg_m2": self._plant.inertia_kg_m2.copy(),
-            "faults": self._faults.info(self._t) + self._sensors.info(self._t),
-        } | self._sensor_info()
-
-    def _sensor_info(self) -> dict:
-        if not self._sensors.enabled:
-            return {}
-        meas = {k: v.copy() for k, v in self._meas.items()}
-        return {"sensors": meas, "sensor_bias": {k: v.copy() for k, v in self._sensors.bias.items()}}
+        }
+        if self.tilt_limit_deg is not None:
+            truth["tilt_limit_hit"] = bool(kernels.tilt_exceeded(self._y, self._constants))
+        if not self._sensor_layer.enabled:  # the flight computer has the truth: the same dict
+            return self._make_info(truth=truth, measured=state, cost=cost, time_s=self._t, commanded=commanded)
+        sensors = {k: v.copy() for k, v in self._meas.items()}
+        measured = {  # the readings (the same arrays as info["sensors"]) and the commanded target
+            "attitude": sensors["star_tracker"],
+            "rate_rad_s": sensors["gyro"],
+            "wheel_speed_rad_s": sensors["tachometer"],
+            "target_attitude": state["target_attitude"],
+        }
+        return self._make_info(
+            truth=truth, measured=measured, cost=cost, time_s=self._t, commanded=commanded, sensors=sensors
+        )
 
 
 def _divides(control_dt_s: float, integrator_dt_s: float) -> bool:

@@ -22,8 +22,9 @@ _TWO_RAD_TO_DEG = 2.0 * (180.0 / np.pi)  # np.degrees multiplies by 180/π; time
 
 class ReactionWheelVectorEnv(BatchedEnv):
     """``num_envs`` ReactionWheel-v0 envs stepped as one array (see :class:`BatchedEnv` for
-    autoreset). Infos are dicts of arrays with gymnasium's ``_key`` masks: ``cost``,
-    ``applied`` (N·m), ``time_s``, ``error_angle_deg``.
+    autoreset). Infos are dicts of arrays with gymnasium's ``_key`` masks: ``cost`` and
+    ``time_s``, and the ground truth (:mod:`attitude_envs.info`) in ``infos["truth"]``:
+    ``applied`` (N·m) and ``error_angle_deg``.
 
     The states live in the kernel's blocked struct-of-arrays layout
     (:func:`~attitude_envs.plants.gyrostat_kernels.blocks`); :attr:`states` gives them as
@@ -42,34 +43,34 @@ class ReactionWheelVectorEnv(BatchedEnv):
         self._max_torque = p.max_wheel_torque_nm
         self._dt = first.control_dt_s
         self._observe_wheels = first.observe_wheel_speeds
-        self._n_obs = first._out_obs.shape[1]
+        self._n_obs = first.observation_size
         include_h, body_input = self.model.include_wheel_momentum, self.model.cost_input == "body"
         self._kernel = kernels.kernel_for(self.model, lanes)
         self._work = np.zeros(kernels.work_size(n, lanes, include_h, body_input))
-        self._constants = first._constants  # shared by all sub-envs (same keywords)
-        self._substeps = first._substeps
+        self._constants = first.kernel_constants  # shared by all sub-envs (same keywords)
+        self._substeps = first.n_substeps
         self._Y = kernels.blocks(e, 7 + n, lanes)
         self._T = kernels.blocks(e, 4, lanes)
         self._Y[:, 3, :] = self._T[:, 3, :] = 1.0  # identity attitudes in the padding lanes
         self._M = kernels.blocks(e, kernels.MAT_ROWS, lanes)
-        self._has_disturbance = first._disturbance is not None
-        self._ext = kernels.blocks(e, 9 * first._substeps if self._has_disturbance else 0, lanes)
+        self._has_disturbance = first.disturbance is not None
+        self._ext = kernels.blocks(e, 9 * self._substeps if self._has_disturbance else 0, lanes)
         self._steps = np.zeros(e, dtype=np.int64)
         self._faulty = np.zeros(e, dtype=bool)
         self._n_faulty = 0
         self._n_actions = self.single_action_space.shape[0]
 
     def _reset_sub(self, i: int, seed: int | None, options: dict | None) -> None:
-        self.envs[i]._reset_state(seed, options)
+        self.envs[i].reset_episode(seed, options)
 
     def _load(self, i: int) -> None:
         sub = self.envs[i]
         b, lane = divmod(i, kernels.BATCH_LANES)
-        self._Y[b, :, lane] = sub._y
-        self._T[b, :, lane] = sub._target
-        self._M[b, :, lane] = sub._mats[0, :, 0]
+        self._Y[b, :, lane] = sub.state_row
+        self._T[b, :, lane] = sub.target_attitude
+        self._M[b, :, lane] = sub.kernel_matrices
         self._steps[i] = 0
-        faulty = bool(sub._faults.realized)
+        faulty = bool(sub.fault_layer.realized)
         self._n_faulty += int(faulty) - int(self._faulty[i])
         self._faulty[i] = faulty
 
@@ -100,18 +101,17 @@ class ReactionWheelVectorEnv(BatchedEnv):
         # sub-envs about to be reset (next-step autoreset) take no draws: their generators
         # go on as the single env's, whose next episode starts with the reset
         live = ~self._needs_reset if self._n_needs_reset else self._all_envs
-        scale = self._n_faulty == 0 and first._action_map is None  # the kernel clips and scales
+        scale = self._n_faulty == 0 and first.action_frame == "wheel"  # the kernel clips and scales
         if not scale:  # faults act on, or the body frame allocates, the commanded torques first
             a = first.commanded_torques(self._check_actions(a, self._n_actions))
             for i in np.flatnonzero(self._faulty & live):
-                a[i] = self.envs[i]._faults.apply(a[i], self._steps[i] * self._dt)
+                a[i] = self.envs[i].fault_layer.apply(a[i], self._steps[i] * self._dt)
         if self._has_disturbance:
             for i in np.flatnonzero(live):
                 env = self.envs[i]
-                env._t = self._steps[i] * self._dt
-                env._disturbance.advance(env.np_random, self._dt)
-                env._fill_disturbance_stages()
-                self._ext[i // kernels.BATCH_LANES, :, i % kernels.BATCH_LANES] = env._ext_stages.ravel()
+                env.disturbance.advance(env.np_random, self._dt)
+                stages = env.disturbance_stages(self._steps[i] * self._dt)
+                self._ext[i // kernels.BATCH_LANES, :, i % kernels.BATCH_LANES] = stages.ravel()
         obs = np.empty((e, self._n_obs), dtype=np.float32)
         time_s = np.empty(e)
         cost = np.empty(e)
@@ -145,7 +145,9 @@ class ReactionWheelVectorEnv(BatchedEnv):
             raise ValueError("actions must be finite (no NaN or inf)")
         np.arccos(angle, out=angle)  # min(1, q_e,w) → error angle, deg: the single env's
         angle *= _TWO_RAD_TO_DEG  # np.degrees(2 arccos(.)), bit for bit
-        infos = self._with_masks({"cost": cost, "applied": applied, "time_s": time_s, "error_angle_deg": angle})
+        infos = self._with_masks(
+            {"cost": cost, "time_s": time_s, "truth": {"applied": applied, "error_angle_deg": angle}}
+        )
         return obs, reward, terminated, truncated, infos
 
     @property

@@ -45,7 +45,7 @@ class BatchedEnv(VectorEnv):
         self.autoreset_mode = AutoresetMode.NEXT_STEP if mode == "next_step" else AutoresetMode.SAME_STEP
         self.metadata = {"autoreset_mode": self.autoreset_mode, "render_modes": []}
         self.envs = [single_env_factory() for _ in range(self.num_envs)]
-        if self.envs[0]._sensors.enabled or self.envs[0].fault_hint:
+        if self.envs[0].sensor_layer.enabled or self.envs[0].fault_hint:
             raise ValueError("sensors and fault_hint are not supported by the batched env yet; use SyncVectorEnv")
         self.single_observation_space = self.envs[0].observation_space
         self.single_action_space = self.envs[0].action_space
@@ -105,8 +105,7 @@ class BatchedEnv(VectorEnv):
             infos["cost"][idx] = 0.0
             stepped = ~skipped
             stepped.setflags(write=False)
-            for key in [k for k in infos if not k.startswith("_")]:
-                infos["_" + key] = stepped
+            _set_masks(infos, stepped)
         n_done = int(np.count_nonzero(terminated)) + int(np.count_nonzero(truncated))
         if self.autoreset_mode == AutoresetMode.NEXT_STEP:
             if n_done:
@@ -126,11 +125,19 @@ class BatchedEnv(VectorEnv):
             infos["_final_obs"] = done
         return obs, rewards, terminated, truncated, infos
 
-    def _with_masks(self, arrays: dict[str, np.ndarray], n: int | None = None) -> dict:
+    def _with_masks(self, arrays: dict[str, Any], n: int | None = None) -> dict:
         """Per-sub-env info arrays with gymnasium's ``_key`` masks (all sub-envs: one shared
-        read-only array)."""
+        read-only array); a nested dict of arrays (``"truth"``) gets its own masks too."""
         infos: dict[str, Any] = {}
         for key, value in arrays.items():
-            infos[key] = value
+            infos[key] = self._with_masks(value) if isinstance(value, dict) else value
             infos["_" + key] = self._all_envs
         return infos
+
+
+def _set_masks(infos: dict[str, Any], mask: np.ndarray) -> None:
+    """Set every ``_key`` mask of ``infos`` (and of its nested dicts) to ``mask``."""
+    for key in [k for k in infos if not k.startswith("_")]:
+        infos["_" + key] = mask
+        if isinstance(infos[key], dict):
+            _set_masks(infos[key], mask)

@@ -33,6 +33,7 @@ import numpy as np
 from filterpy.kalman import IMMEstimator, KalmanFilter
 
 from attitude_envs import validation
+from attitude_envs.info import policy_view
 
 _MU_FLOOR = 1e-12
 
@@ -205,7 +206,7 @@ class ActuatorFDI:
     def for_env(cls, env, **kwargs) -> ActuatorFDI:
         """An FDI for a ReactionWheel-v0 env, with its nominal model and sensor noise."""
         base = env.unwrapped
-        sensors = base._sensors
+        sensors = base.sensor_layer
         params = {
             "rate_noise_std": sensors.parameters("gyro")["noise_std"],
             "wheel_noise_std": sensors.parameters("tachometer")["noise_std"],
@@ -215,11 +216,10 @@ class ActuatorFDI:
 
 
 def measurements(info: dict) -> tuple[np.ndarray, np.ndarray]:
-    """(rate, wheel speeds) as the FDI sees them: the sensors when on, else the truth."""
-    src = info.get("sensors")
-    if src is not None:
-        return src["gyro"], src["tachometer"]
-    return info["state"]["rate_rad_s"], info["state"]["wheel_speed_rad_s"]
+    """(rate, wheel speeds) as the FDI sees them: ``info["measured"]`` (the gyro and
+    tachometers when sensors are on, else the truth)."""
+    measured = info["measured"]
+    return measured["rate_rad_s"], measured["wheel_speed_rad_s"]
 
 
 def run_fdi_episode(env, policy, fdi: ActuatorFDI, seed: int | None = None, options: dict | None = None) -> dict:
@@ -233,15 +233,15 @@ def run_fdi_episode(env, policy, fdi: ActuatorFDI, seed: int | None = None, opti
     total, done = 0.0, False
     alarm_without_fault = False
     while not done:
-        obs, _, terminated, truncated, info = env.step(policy.act(obs, info))
+        obs, _, terminated, truncated, info = env.step(policy.act(obs, policy_view(info)))
         total += info["cost"]
         done = terminated or truncated
         had = fdi.detection is not None
         fdi.update(info["commanded"], *measurements(info), info["time_s"])
         if fdi.detection is not None and not had:
-            active = [f for f in info["faults"] if f["target"] == "actuator" and f["active"]]
+            active = [f for f in info["truth"]["faults"] if f["target"] == "actuator" and f["active"]]
             alarm_without_fault = not active
-    truth = [f for f in info["faults"] if f["target"] == "actuator"]
+    truth = [f for f in info["truth"]["faults"] if f["target"] == "actuator"]
     fault_index = truth[0]["index"] if truth else None
     onset = truth[0]["onset_s"] if truth else None
     det = fdi.detection

@@ -17,15 +17,17 @@ class EstimatedAttitude(gym.Wrapper, gym.utils.RecordConstructorArgs):
 
     The wrapped env must have sensors on (``sensors={...}`` or a sensor fault); the filter
     uses the env's *nominal* sensor parameters unless ``filter_params`` overrides them
-    (keys of :class:`AttitudeMEKF`). ``info["estimate"]`` holds ``attitude``,
-    ``gyro_bias_rad_s``, ``rate_rad_s`` and ``covariance`` (6×6, [δθ rad, δb rad/s]).
+    (keys of :class:`AttitudeMEKF`). ``info["measured"]`` becomes the estimate (``attitude``
+    q̂, ``rate_rad_s`` ω_m − b̂; ``wheel_speed_rad_s`` and ``target_attitude`` as the env
+    measured them), and ``info["estimate"]`` holds ``attitude``, ``gyro_bias_rad_s``,
+    ``rate_rad_s`` and ``covariance`` (6×6, [δθ rad, δb rad/s]).
     """
 
     def __init__(self, env: gym.Env, filter_params: dict | None = None) -> None:
         gym.utils.RecordConstructorArgs.__init__(self, filter_params=filter_params)
         gym.Wrapper.__init__(self, env)
         base = env.unwrapped
-        sensors = getattr(base, "_sensors", None)
+        sensors = getattr(base, "sensor_layer", None)
         if sensors is None or "star_tracker" not in sensors.channels or "gyro" not in sensors.channels:
             raise ValueError("EstimatedAttitude needs an env with gyro and star_tracker sensors (ReactionWheel-v0)")
         if not sensors.enabled:
@@ -61,7 +63,8 @@ class EstimatedAttitude(gym.Wrapper, gym.utils.RecordConstructorArgs):
     def _estimated(self, obs: np.ndarray, info: dict) -> np.ndarray:
         f = self.filter
         base = self.env.unwrapped
-        target = info["state"]["target_attitude"]
+        measured = info["measured"]
+        target = measured["target_attitude"]
         x = base.model.error_state(f.attitude, f.rate, np.zeros(base.model.params.n_wheels), target)
         info["estimate"] = {
             "attitude": f.attitude.copy(),
@@ -69,6 +72,7 @@ class EstimatedAttitude(gym.Wrapper, gym.utils.RecordConstructorArgs):
             "rate_rad_s": f.rate.copy(),
             "covariance": f.covariance.copy(),
         }
+        info["measured"] = dict(measured, attitude=f.attitude.copy(), rate_rad_s=f.rate.copy())
         out = np.array(obs, dtype=np.float32)
         out[:6] = x[:6]
         return out

@@ -1,6 +1,9 @@
-"""Rollouts, metrics, the evaluator grid, reports and plots."""
+"""The policy-agnostic evaluation core: the Policy interface, rollouts, traces, metrics, the evaluator grid.
+
+Campaigns, reports and plots live one layer up, in ``experiments``."""
 
 from attitude_envs.evaluation.metrics import episode_metrics
+from attitude_envs.evaluation.policy import Policy
 from attitude_envs.evaluation.rollout import rollout
 from attitude_envs.evaluation.runner import Evaluation, Scenario, evaluate, write_csv, write_json
 from attitude_envs.evaluation.trace import EpisodeTrace, record_episode
@@ -8,6 +11,7 @@ from attitude_envs.evaluation.trace import EpisodeTrace, record_episode
 __all__ = [
     "EpisodeTrace",
     "Evaluation",
+    "Policy",
     "Scenario",
     "episode_metrics",
     "evaluate",

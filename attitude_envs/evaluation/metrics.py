@@ -2,11 +2,11 @@
 
 Time integrals are dt-independent (they converge as the control period shrinks): state
 quantities by the trapezoid rule over the step boundaries, torques exactly (held over each
-step). The paper's per-sample sums (spec 000 Table 2 sums over solver output points) are
+step). The paper's per-sample sums (the feedback-linearization paper's Table 2 sums over solver output points) are
 carried too, over the control samples, with ``sum ≈ integral / dt``.
 
-Spec 000 criteria (§4.2): EULERINT = ∫ α dt with α the eigen-axis error angle in degrees
-(eqs. 13–14; *not* time-weighted), wheel power ``P_i = Ω_i u_i`` (§2.5: the motor constants
+Criteria of the feedback-linearization paper (Modares Mech. Eng.): EULERINT = ∫ α dt with α the eigen-axis error angle in degrees
+(eqs. 13–14; *not* time-weighted), wheel power ``P_i = Ω_i u_i`` (the paper's motor model: the motor constants
 cancel, ``K_V ≈ K_T`` in SI, so ``P = V i`` is the mechanical power), effort ``|u_i|`` and
 energy ``u_i²`` summed over wheels.
 """

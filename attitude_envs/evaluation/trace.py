@@ -7,10 +7,13 @@ from typing import Any
 
 import numpy as np
 
+from attitude_envs.evaluation.policy import Policy
+from attitude_envs.info import TRUTH, policy_view
+
 
 @dataclass(frozen=True)
 class EpisodeTrace:
-    """Time series of one episode; ``K`` steps, ``K + 1`` samples of the state.
+    """Time series of one episode (ground truth); ``K`` steps, ``K + 1`` samples of the state.
 
     Sampled at the step boundaries (``t[0] = 0`` after reset): ``time_s`` (K+1), ``attitude``
     (K+1, 4, scalar last), ``target_attitude`` (K+1, 4), ``rate_rad_s`` (K+1, 3),
@@ -42,27 +45,33 @@ class EpisodeTrace:
         return np.diff(self.time_s)
 
 
-def record_episode(env, policy, seed: int | None = None, options: dict[str, Any] | None = None) -> EpisodeTrace:
-    """Run one episode of ``policy`` (``reset(seed)``, ``act(obs, info)``) on a ReactionWheel env."""
+def record_episode(env, policy: Policy, seed: int | None = None, options: dict[str, Any] | None = None) -> EpisodeTrace:
+    """Run one episode of ``policy`` (``reset(seed)``, ``act(obs, info)``) on a ReactionWheel env.
+
+    The policy acts on :func:`attitude_envs.info.policy_view` of each info (no ground truth);
+    the trace records the truth (``info["truth"]``: true state, applied torques, error angle)."""
     obs, info = env.reset(seed=seed, options=options)
     policy.reset(seed)
-    samples = [info]
+    samples = [info[TRUTH]]
+    times = [info["time_s"]]
     actions, commanded, applied, costs = [], [], [], []
     terminated = truncated = False
     while not (terminated or truncated):
-        action = np.asarray(policy.act(obs, info), dtype=float)
+        action = np.asarray(policy.act(obs, policy_view(info)), dtype=float)
         obs, _, terminated, truncated, info = env.step(action)
+        truth = info[TRUTH]
         actions.append(action)
         commanded.append(info["commanded"])
-        applied.append(info["applied"])
+        applied.append(truth["applied"])
         costs.append(info["cost"])
-        samples.append(info)
+        times.append(info["time_s"])
+        samples.append(truth)
 
     def stack(key: str) -> np.ndarray:
         return np.array([s["state"][key] for s in samples])
 
     return EpisodeTrace(
-        time_s=np.array([s["time_s"] for s in samples]),
+        time_s=np.array(times),
         attitude=stack("attitude"),
         target_attitude=stack("target_attitude"),
         rate_rad_s=stack("rate_rad_s"),

@@ -1,4 +1,4 @@
-"""Tracking metrics of spec 002 (eqs. 42–44), chattering and recovery after a fault.
+"""Tracking metrics of Sadigh, Kashaninia & Dehghan 2022 (eqs. 42–44), chattering and recovery after a fault.
 
 Signals are sampled once per control step of length ``dt_s`` and held over it (zero-order
 hold, as the env applies them), so an integral ``∫|x| dt`` is the exact sum ``Σ|x_k| dt``.
@@ -21,9 +21,11 @@ from typing import Any
 
 import numpy as np
 
+from attitude_envs.info import TRUTH, policy_view
+
 
 def additive_error(q: np.ndarray, q_d: np.ndarray) -> np.ndarray:
-    """Spec 002 §4.1: ``q_e = q − q_d`` of the vector parts, both signed with w ≥ 0 (…×3)."""
+    """Sadigh, Kashaninia & Dehghan 2022's additive error ``q_e = q − q_d`` of the vector parts, both signed with w ≥ 0 (…×3)."""
     q = np.where(q[..., 3:4] < 0, -q, q)
     q_d = np.where(q_d[..., 3:4] < 0, -q_d, q_d)
     return q[..., :3] - q_d[..., :3]
@@ -91,14 +93,16 @@ class EpisodeTrace:
     terminated: bool = False
 
     def add(self, info: dict[str, Any]) -> None:
+        """Append one step from the env's full ``info`` (its ground truth ``info["truth"]``)."""
+        truth = info[TRUTH]
         self.time_s.append(info["time_s"])
-        self.q_e.append(additive_error(info["state"]["attitude"], info["reference"]["attitude"]))
-        self.error_angle_deg.append(info["error_angle_deg"])
-        self.dipole_am2.append(info["applied"][:3])
+        self.q_e.append(additive_error(truth["state"]["attitude"], info["reference"]["attitude"]))
+        self.error_angle_deg.append(truth["error_angle_deg"])
+        self.dipole_am2.append(truth["applied"][:3])
         self.dipole_cmd_am2.append(info["commanded"][:3])
-        self.wheel_torque_nm.append(info["applied"][3])
+        self.wheel_torque_nm.append(truth["applied"][3])
         self.wheel_cmd_nm.append(info["commanded"][3])
-        self.magnetic_torque_nm.append(info["magnetic_torque_nm"])
+        self.magnetic_torque_nm.append(truth["magnetic_torque_nm"])
         self.cost += info["cost"]
 
     def finish(self) -> EpisodeTrace:
@@ -118,13 +122,14 @@ class EpisodeTrace:
 
 def run_traced(env, policy, seed: int | None = None, options: dict | None = None) -> EpisodeTrace:
     """Run one episode; ``q_e`` is sampled at the end of each step (t = dt … T_f), the
-    actuator signals are the ones held over each step."""
+    actuator signals are the ones held over each step. The policy acts on
+    :func:`attitude_envs.info.policy_view` of each info; the trace records the truth."""
     obs, info = env.reset(seed=seed, options=options)
     policy.reset(seed)
     trace = EpisodeTrace(env.unwrapped.control_dt_s)
     done = False
     while not done:
-        obs, _, terminated, truncated, info = env.step(policy.act(obs, info))
+        obs, _, terminated, truncated, info = env.step(policy.act(obs, policy_view(info)))
         trace.add(info)
         done = terminated or truncated
         trace.terminated = bool(terminated)

@@ -109,7 +109,8 @@ def derivative(
 
 
 def gravity_torque_nm(params: GyrostatParams, q: np.ndarray) -> np.ndarray:
-    """Torque of gravity about the bearing's centre of rotation, N·m, body axes (spec 003 eq. 6–9).
+    """Torque of gravity about the bearing's centre of rotation, N·m, body axes
+    (Ahangarani Farahani et al., air-bearing simulator, eqs. 6–9).
 
     ``p × K`` with ``p = offset_torque_nm = m g r_s`` and ``K = R(q)ᵀ e_Z`` the gravity
     direction (inertial +Z points down) in body axes. With ``p_z > 0`` (centre of mass below

@@ -94,8 +94,9 @@ def _derivative_lane(W, C, e, B, n, offset, y, u, uj, ext, mat, out, ax, sc):
     wheel axes and of the scalars (:func:`pack_constants`).
 
     ``I_eff ω̇ = −ω × (Iω + J_s A Ω) − A u + T_ext + p × K`` with ``K = R(q)ᵀ e_Z`` the unit
-    gravity direction in body axes (air-bearing offset torque, spec 003 eq. 6–9; left out
-    unless ``offset``: ``p = 0`` for a free body), ``Ω̇_i = u_i / J_s − a_i·ω̇``,
+    gravity direction in body axes (air-bearing offset torque, Ahangarani Farahani et al.,
+    eqs. 6–9; left out unless ``offset``: ``p = 0`` for a free body),
+    ``Ω̇_i = u_i / J_s − a_i·ω̇``,
     ``q̇ = ½ q ⊗ [ω, 0]``.
     """
     j_s = C[sc + _JS]

@@ -2,7 +2,7 @@
 
 Models (``field_model`` of Magnetorquer-v0):
 
-* ``"dipole"`` (default): the axial dipole of spec 002 eq. (9), evaluated from the actual
+* ``"dipole"`` (default): the axial dipole of Sadigh et al. (2022) eq. (9), evaluated from the actual
   position: ``B = μ_e/r³ [3(m̂·r̂)r̂ − m̂]`` with ``m̂ = −z_ECI`` (dipole pointing to
   geographic south, so the equatorial field points north). In the LVLH frame of
   :mod:`attitude_envs.plants.orbit` this is ``μ_e/r³ [cos α sin i, −cos i, 2 sin α sin i]``
@@ -17,7 +17,7 @@ Models (``field_model`` of Magnetorquer-v0):
   coefficient file on every call (~10 ms), so the field is tabulated along the orbit once
   per episode (one vectorized call) and interpolated linearly in ECI in between.
 
-μ_e is not printed in the paper; spec 002 §2.6 recommends 7.96e15 T·m³ (Wertz).
+μ_e is not printed in the paper; 7.96e15 T·m³ (Wertz) is assumed.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from attitude_envs import validation
 from attitude_envs.plants import magnetorquer_kernels as kernels
 from attitude_envs.plants.orbit import KeplerOrbit, OrbitState
 
-DIPOLE_STRENGTH_T_M3 = 7.96e15  # spec 002 §2.6 [ASSUME]
+DIPOLE_STRENGTH_T_M3 = 7.96e15  # Earth's dipole strength μ_e, T·m³ (Wertz)
 EARTH_RATE_RAD_S = 7.2921150e-5
 MODELS = ("dipole", "dipole-printed", "igrf")
 

@@ -1,10 +1,12 @@
-"""Nano-satellite with three magnetorquers and one reaction wheel on body y (spec 002 §2).
+"""Nano-satellite with three magnetorquers and one reaction wheel on body y (the plant of
+Sadigh, Kashaninia & Dehghan 2022, §2).
 
 State ``y = [q (4, scalar last: body relative to the orbital frame), ω_bo (3, rad/s, body
 rate relative to the orbital frame in body axes), Ω (1, wheel speed relative to the body,
 rad/s)]``. The dynamics are the exact gyrostat equations of
-:mod:`attitude_envs.plants.gyrostat` for one wheel on ``e_y`` (spec 002 eqs. 5–6 with the
-consistent momentum bookkeeping the spec recommends, §2.2):
+:mod:`attitude_envs.plants.gyrostat` for one wheel on ``e_y`` (the paper's eqs. 5–6 with
+consistent momentum bookkeeping: ``I_eff``, not ``J_t``, on the left; the difference,
+J_w/J_yy ≈ 5e-5, is negligible):
 
     I_eff ω̇_bi = −ω_bi × (I ω_bi + J_w e_y Ω) + e_y T_w + τ        I_eff = I − J_w e_y e_yᵀ
     J_w (Ω̇ + ω̇_bi,y) = −T_w
@@ -17,16 +19,19 @@ the paper). ``T_w`` is the paper's wheel torque: the torque *on the body* about 
 motor applies −T_w to the wheel, eq. 6). ``τ`` holds the magnetic torque ``m × b``
 (eqs. 7–8: ``B m = m × b``), the external disturbance and, optionally, gravity gradient.
 With a time-varying inertia ``I(t)`` the equation is used as printed (eq. 5, no ``İω``
-term, spec §6 item 16). ``R`` (orbital → body) is ``to_matrix(q)ᵀ``, the paper's eq. (4).
+term). ``R`` (orbital → body) is ``to_matrix(q)ᵀ``, the paper's eq. (4).
 
-The equations, the momentum limit of the wheel (§6 item 10), the disturbance of eq. (39),
-the gravity gradient, ΔJ(t) of eq. (35) and the RK4 step are compiled in
+The equations, the momentum limit of the wheel (Table 1's storable momentum, enforced by
+blocking any torque that would raise ``|h_w|`` past it), the disturbance of eq. (39), the
+gravity gradient, ΔJ(t) of eq. (35) and the RK4 step are compiled in
 :mod:`attitude_envs.plants.magnetorquer_kernels` (the one implementation); this module holds
-the parameters and the small helpers the controllers use.
+the parameter container and the small helpers the controllers use. The paper's values are
+the preset ``sadigh-2022`` (:mod:`attitude_envs.presets.sadigh_2022`).
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -34,19 +39,7 @@ import numpy as np
 from attitude_envs import validation
 
 E_Y = np.array([0.0, 1.0, 0.0])
-
-# Spec 002 §2.5, §2.7 [READ]
-PAPER_BODY_INERTIA_KG_M2 = np.diag([0.951, 0.97, 0.946])
-PAPER_WHEEL_INERTIA_KG_M2 = 50e-6
-PAPER_MAX_DIPOLE_AM2 = 0.5
-PAPER_MAX_WHEEL_TORQUE_NM = 2.3e-4
-PAPER_MAX_WHEEL_MOMENTUM_NMS = 40.0  # as printed; spec §6 item 10: likely 0.04
-# Spec 002 eq. (35): ΔJ_s(t) = 0.095 diag(sin 0.3t, 2 cos 0.2t, sin 0.1t)
-PAPER_DELTA_J = {
-    "amplitude_kg_m2": [0.095, 0.19, 0.095],
-    "frequency_rad_s": [0.3, 0.2, 0.1],
-    "phase_rad": [0.0, np.pi / 2, 0.0],
-}
+_DELTA_J_KEYS = ("amplitude_kg_m2", "frequency_rad_s", "phase_rad")
 
 
 @dataclass(frozen=True)
@@ -54,10 +47,10 @@ class MagnetorquerParams:
     """Physical parameters (SI). ``inertia_kg_m2`` includes the wheel's spin inertia."""
 
     inertia_kg_m2: np.ndarray
-    wheel_inertia_kg_m2: float = PAPER_WHEEL_INERTIA_KG_M2
-    max_dipole_am2: float = PAPER_MAX_DIPOLE_AM2
-    max_wheel_torque_nm: float = PAPER_MAX_WHEEL_TORQUE_NM
-    max_wheel_momentum_nms: float = PAPER_MAX_WHEEL_MOMENTUM_NMS
+    wheel_inertia_kg_m2: float
+    max_dipole_am2: float
+    max_wheel_torque_nm: float
+    max_wheel_momentum_nms: float
     inertia_eff_inv: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -92,7 +85,7 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def orbital_to_body(q: np.ndarray) -> np.ndarray:
-    """``R`` of spec 002 eq. (4): maps orbital-frame vectors to body axes (scalar-last q)."""
+    """``R`` of the paper's eq. (4): maps orbital-frame vectors to body axes (scalar-last q)."""
     x, y, z, w = q
     return np.array(
         [
@@ -123,23 +116,29 @@ def angular_momentum_inertial(
 
 @dataclass(frozen=True)
 class TimeVaryingInertia:
-    """Spec 002 eq. (35): ``ΔJ(t) = diag(a_j sin(f_j t + φ_j))`` added to the true inertia, kg·m²
-    (evaluated by the compiled step, :func:`attitude_envs.plants.magnetorquer_kernels.context_into`)."""
+    """Sadigh et al. 2022 eq. (35)'s form: ``ΔJ(t) = diag(a_j sin(f_j t + φ_j))`` added to the
+    true inertia, kg·m² (evaluated by the compiled step,
+    :func:`attitude_envs.plants.magnetorquer_kernels.context_into`)."""
 
     amplitude_kg_m2: np.ndarray
     frequency_rad_s: np.ndarray
     phase_rad: np.ndarray
 
     @classmethod
-    def from_config(cls, config: dict | None) -> TimeVaryingInertia | None:
+    def from_config(cls, config: dict | None, defaults: Mapping | None = None) -> TimeVaryingInertia | None:
+        """From a dict with ``amplitude_kg_m2``, ``frequency_rad_s``, ``phase_rad`` (3 each);
+        keys it lacks come from ``defaults``. None: no time-varying inertia."""
         if config is None:
             return None
-        if not isinstance(config, dict):
+        if not isinstance(config, Mapping):
             raise ValueError(f"time_varying_inertia must be a dict or None, got {config!r}")
-        unknown = set(config) - set(PAPER_DELTA_J)
+        unknown = set(config) - set(_DELTA_J_KEYS)
         if unknown:
             raise ValueError(f"time_varying_inertia has unknown keys {sorted(unknown)}")
-        cfg = dict(PAPER_DELTA_J, **config)
+        cfg = {**(defaults or {}), **config}
+        missing = [k for k in _DELTA_J_KEYS if k not in cfg]
+        if missing:
+            raise ValueError(f"time_varying_inertia needs the keys {list(_DELTA_J_KEYS)}, missing {missing}")
         amp = validation.finite_array("time_varying_inertia.amplitude_kg_m2", cfg["amplitude_kg_m2"], (3,))
         if np.any(amp < 0):
             raise ValueError(f"time_varying_inertia.amplitude_kg_m2 must be >= 0, got {amp.tolist()}")

@@ -264,7 +264,7 @@ def _reference_at(ref, rb, t_s, out, qb):
 # ----------------------------------------------------------------------------- plant
 @njit(cache=True, error_model="numpy")
 def paper_disturbance_into(t_s, orbital_rate_rad_s, scale, k, out, db):
-    """Spec 002 eq. (39): ``d_j = d0 + d1 sin(ω0 t + φ_j1) + d2 sin(k ω0 t + φ_j2)``, N·m
+    """Sadigh et al. 2022 eq. (39): ``d_j = d0 + d1 sin(ω0 t + φ_j1) + d2 sin(k ω0 t + φ_j2)``, N·m
     (d0 = 1e-7, d1 = d2 = 1e-5; φ_x = ±π/4, φ_y = ∓π/4, φ_z = (0, π/2)), times ``scale``,
     into ``out[db:db + 3]``."""
     a = orbital_rate_rad_s * t_s
@@ -300,7 +300,7 @@ def inverse3_into(m, base, out, out_base):
 @njit(cache=True, error_model="numpy")
 def context_into(t_s, shared, env, table, ctx, cb):
     """Everything that depends on time only into ``ctx[cb:]`` (layout ``CX_*``): orbit, field,
-    reference, true inertia ``I + ΔJ(t)`` (spec 002 eq. 35) and its ``(I − J_w e_y e_yᵀ)⁻¹``,
+    reference, true inertia ``I + ΔJ(t)`` (Sadigh et al. 2022 eq. 35) and its ``(I − J_w e_y e_yᵀ)⁻¹``,
     disturbance."""
     orbit_state_into(env, EN_ORBIT, t_s, ctx, cb + CX_ORB)
     field_orbital_into(
@@ -337,7 +337,7 @@ def context_into(t_s, shared, env, table, ctx, cb):
 @njit(cache=True, error_model="numpy")
 def disturbance_into(t_s, shared, env, ctx, cb):
     """The disturbance torque at ``t_s`` (N·m, body axes, without gravity gradient) into
-    ``ctx[cb:]``: spec 002 eq. (39), a torque held over the control step (constant, random
+    ``ctx[cb:]``: Sadigh et al. 2022 eq. (39), a torque held over the control step (constant, random
     walk: ``env[EN_DIST:]``) or a sinusoid with the phases ``env[EN_DIST:]``; times the scale."""
     kind = shared[SH_DIST]
     scale = shared[SH_DIST_SCALE]
@@ -358,7 +358,7 @@ def disturbance_into(t_s, shared, env, ctx, cb):
 
 @njit(cache=True, error_model="numpy")
 def _body_vector(x, y, z, w, v0, v1, v2):
-    """``R v`` with ``R`` (orbital → body) of spec 002 eq. (4), scalar-last q."""
+    """``R v`` with ``R`` (orbital → body) of Sadigh et al. 2022 eq. (4), scalar-last q."""
     return (
         (1 - 2 * (y * y + z * z)) * v0 + 2 * (x * y + z * w) * v1 + 2 * (x * z - y * w) * v2,
         2 * (x * y - z * w) * v0 + (1 - 2 * (x * x + z * z)) * v1 + 2 * (y * z + x * w) * v2,
@@ -420,7 +420,7 @@ def stage_cost(shared, x, u):
 @njit(cache=True, error_model="numpy")
 def augmented_derivative(buf, ib, m, t_w, shared, cb, ob):
     """``buf[ob:ob + 9] = d/dt [q, ω_bo, Ω, cost]`` at ``buf[ib:ib + 9]`` with the time context
-    ``buf[cb:]`` (spec 002 eqs. 1–8 with the consistent wheel bookkeeping, see
+    ``buf[cb:]`` (Sadigh et al. 2022 eqs. 1–8 with the consistent wheel bookkeeping, see
     :mod:`attitude_envs.plants.magnetorquer`): dipole moments ``m`` (A·m²) against the field,
     wheel torque ``t_w`` on the body about +y (N·m), the disturbance and optional gravity
     gradient; cost ``xᵀQx + uᵀRu`` with ``x = [q_e,vec, ω_e]`` and the body control torque
@@ -472,7 +472,7 @@ def control_step(state, cmd, t0_s, t1_s, shared, env, table, step_out, work):
     returns the step cost ``∫ (xᵀQx + uᵀRu) dt``. Sub-step ``j`` starts at ``t0 + j h``; the
     last one's end stage is evaluated at ``t1_s`` (the caller's step end, equal to ``t0 + n h``
     up to rounding), so that its time context serves the snapshot and the next step. Per sub-step the wheel torque is zeroed when it would grow
-    ``|h_w| ≥ h_max`` (spec 002 §6 item 10); the quaternion is renormalized after each.
+    ``|h_w| ≥ h_max`` (the storable momentum of the paper's Table 1); the quaternion is renormalized after each.
     ``step_out``: mean applied command (4), mean magnetic torque ``m × b`` and mean control
     torque (3 each, N·m, body axes, at the sub-step starts). ``work``: :data:`WORK_SIZE` floats."""
     n_sub = int(shared[SH_NSUB])

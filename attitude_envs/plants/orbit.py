@@ -1,18 +1,18 @@
 """Keplerian orbit (two-body, no perturbations) and the orbital (LVLH) frame.
 
-Spec 002 §2.6 / Table 1 gives the orbit by its apogee and perigee altitudes (1250 km,
-311 km) over a spherical Earth of radius 6371 km, inclination 69.5°; the printed orbital
-rate ω0 = 10.439e-4 rad/s is the mean motion sqrt(μ/a³) at a = 7151.5 km.
+Sadigh, Kashaninia & Dehghan (2022), Table 1, give the orbit by its apogee and perigee
+altitudes (1250 km, 311 km) and inclination 69.5°; with a spherical Earth of radius 6371 km
+the printed orbital rate ω0 = 10.439e-4 rad/s is the mean motion sqrt(μ/a³) at a = 7151.5 km.
 
 Frames. ECI: x to the ascending-node reference direction (RAAN measured from it), z to
-the north pole. The orbital frame is the LVLH frame of spec 002 eq. (3): ``x`` completes
+the north pole. The orbital frame is the LVLH frame of the paper's eq. (3): ``x`` completes
 the triad (along-track for a circular orbit), ``y = −h/|h|`` (orbit anti-normal), ``z =
 −r/|r|`` (nadir). It rotates about ``y`` with the true-anomaly rate, so its angular velocity
 in its own axes is ``ω_oi = [0, −ν̇, 0]`` (eq. 3 with ν̇ = ω0 on a circular orbit).
 
 ``model="keplerian"`` propagates the ellipse (Kepler's equation by Newton iteration);
 ``model="circular"`` is the paper's approximation: radius ``a``, argument of latitude
-``α = α0 + ω0 t``, constant rate ω0 (spec 002 §6 item 6).
+``α = α0 + ω0 t``, constant rate ω0 (the paper's eq. 3 takes ω0 constant).
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from attitude_envs import validation
 from attitude_envs.plants import magnetorquer_kernels as kernels
 
 MU_EARTH_M3_S2 = 3.986004418e14
-EARTH_RADIUS_M = 6371.0e3  # spec 002 §2.6: the radius that reproduces the printed ω0
+EARTH_RADIUS_M = 6371.0e3  # the radius that reproduces Sadigh et al. 2022's printed ω0 (Table 1)
 MODELS = ("keplerian", "circular")
 
 
@@ -112,7 +112,7 @@ class KeplerOrbit:
         earth_radius_km: float = EARTH_RADIUS_M / 1e3,
         **kwargs,
     ) -> KeplerOrbit:
-        """Spec 002 Table 1 style: apogee/perigee altitudes above a spherical Earth, km."""
+        """From apogee/perigee altitudes above a spherical Earth, km (as Sadigh et al. 2022, Table 1)."""
         ra = (validation.positive("earth_radius_km", earth_radius_km) + float(apogee_altitude_km)) * 1e3
         rp = (earth_radius_km + float(perigee_altitude_km)) * 1e3
         if not (np.isfinite(ra) and np.isfinite(rp)) or rp <= earth_radius_km * 1e3 or ra < rp:

@@ -1,12 +1,15 @@
-"""Planar spacecraft with two-pendulum fuel slosh (spec 004): the full 5-DOF plant.
+"""Planar spacecraft with two-pendulum fuel slosh (Navabi & Davoodi, "Modelling and control
+of fuel slosh and its effect on spacecraft attitude"; year not in our copy, ≥ 2012): the
+full 5-DOF plant.
 
-Body frame {i, k} with origin at the tank centre O (spec 004 §2.1): i forward (thrust
+Body frame {i, k} with origin at the tank centre O (the paper's frame): i forward (thrust
 direction at δ = 0), k transverse, pitch θ about j with θ̇ = Ω. Vehicle point mass m at
 x = −b, rigid fuel m0 at x = a0, thrust F (N) applied at x = −(b + d) with gimbal angle δ,
 pendulum i hinged at x = a_i with mass at ``(a_i − l_i cos ψ_i, l_i sin ψ_i)`` and absolute
 rate Ω + ψ̇_i. No gravity.
 
-Equations of motion in mass-matrix form (spec 004 §2.5, eqs. 11–14)::
+Equations of motion in mass-matrix form (the paper's eqs. 11–14, which our copy gives only
+as skeletons; re-derived from its Lagrangian, eqs. 1–10)::
 
     M(ψ) ṡ = f(s, ψ) + G(δ, M_c),   s = [v_x, v_z, Ω, ψ̇1, ψ̇2]
 
@@ -34,8 +37,10 @@ from attitude_envs.plants import slosh_kernels as kernels
 N_STATE = 10
 IX, IZ, ITH, IPSI1, IPSI2, IVX, IVZ, IOM, IDPSI1, IDPSI2 = range(N_STATE)
 
-# Spec 004 §2.2: the lengths are printed as 0.05, 0.6, 0.9, 0.2, 0.1 m with the symbol
-# mapping lost. Each preset assigns them to (a0, a1, a2, l1, l2); "i" is the spec's default.
+# Navabi & Davoodi, Table 3 prints the lengths 0.05, 0.6, 0.9, 0.2, 0.1 m, but our copy lost
+# which symbol each belongs to. Each mapping assigns them to (a0, a1, a2, l1, l2); mapping
+# "i" (the symbol-grouped order, l1 > l2) is the default. They are FuelSlosh-v0's presets
+# ``navabi-fill-i`` … ``navabi-fill-iv`` (:mod:`attitude_envs.presets.navabi_slosh`).
 FILL_PRESETS: dict[str, tuple[float, float, float, float, float]] = {
     "i": (0.05, 0.6, 0.9, 0.2, 0.1),
     "ii": (0.05, 0.6, 0.2, 0.9, 0.1),
@@ -46,11 +51,11 @@ FILL_PRESETS: dict[str, tuple[float, float, float, float, float]] = {
 
 @dataclass(frozen=True)
 class SloshParams:
-    """Physical parameters (spec 004 Table 3; defaults = the paper's, mapping (i)).
+    """Physical parameters (Navabi & Davoodi, Table 3; defaults = the paper's, mapping (i)).
 
     Masses in kg, inertias in kg·m² (pitch axis), lengths in m, thrust in N, hinge
     damping in kg·m²/s (N·m·s/rad). ``b`` is the tank-centre position relative to the
-    vehicle CM (positive forward, spec §5 item 2), ``d`` the vehicle-CM-to-gimbal distance.
+    vehicle CM (positive forward; assumed: the paper's sign of b is ambiguous), ``d`` the vehicle-CM-to-gimbal distance.
     """
 
     mass_kg: float = 590.0
@@ -126,7 +131,8 @@ class SloshParams:
 
     @classmethod
     def from_fill_preset(cls, fill_preset: str = "i", **overrides) -> SloshParams:
-        """The paper's parameters with the length mapping ``fill_preset`` (spec §2.2)."""
+        """The paper's parameters (Table 3) with the length mapping ``fill_preset``
+        (``"i"`` … ``"iv"``, :data:`FILL_PRESETS`)."""
         validation.choice("fill_preset", fill_preset, set(FILL_PRESETS))
         a0, a1, a2, l1, l2 = FILL_PRESETS[fill_preset]
         base = {"fuel_offset_m": a0, "hinge_m": (a1, a2), "length_m": (l1, l2)}
@@ -139,7 +145,7 @@ class SloshParams:
 
     @property
     def axial_acceleration_m_s2(self) -> float:
-        """Nominal a_x = F / m_t (spec eq. 20), m/s²."""
+        """Nominal a_x = F / m_t (the paper's eq. 20), m/s²."""
         return self.thrust_n / self.total_mass_kg
 
     @property
@@ -148,7 +154,7 @@ class SloshParams:
         return self.b_m + self.d_m
 
     def pitch_inertia(self, psi: np.ndarray) -> float:
-        """I_θθ(ψ) about O (spec §2.3), kg·m²."""
+        """I_θθ(ψ) about O, kg·m²."""
         return float(mass_matrix(self, psi)[2, 2])
 
 
@@ -160,7 +166,7 @@ def _state(y) -> np.ndarray:
 
 
 def mass_matrix(p: SloshParams, psi: np.ndarray) -> np.ndarray:
-    """The symmetric 5×5 mass matrix M(ψ) of ``s = [v_x, v_z, Ω, ψ̇1, ψ̇2]`` (spec §2.5);
+    """The symmetric 5×5 mass matrix M(ψ) of ``s = [v_x, v_z, Ω, ψ̇1, ψ̇2]`` (eqs. 11–14);
     ``psi`` = [ψ1, ψ2] in rad."""
     M = np.empty((5, 5))
     kernels.mass_matrix_into(p.packed, float(psi[0]), float(psi[1]), M)
@@ -168,7 +174,7 @@ def mass_matrix(p: SloshParams, psi: np.ndarray) -> np.ndarray:
 
 
 def forces(p: SloshParams, y: np.ndarray, delta_rad: float, moment_nm: float) -> np.ndarray:
-    """Right-hand side f(s, ψ) + G(δ, M_c) of the mass-matrix form (spec §2.5), SI units."""
+    """Right-hand side f(s, ψ) + G(δ, M_c) of the mass-matrix form (eqs. 11–14), SI units."""
     out = np.empty(5)
     kernels.forces_into(p.packed, _state(y), float(delta_rad), float(moment_nm), out)
     return out
@@ -183,7 +189,7 @@ def derivative(p: SloshParams, y: np.ndarray, delta_rad: float, moment_nm: float
 
 
 def tank_accelerations(y: np.ndarray, dy: np.ndarray) -> tuple[float, float, float]:
-    """``(a_x, a_z, Ω̇)`` of the tank centre (m/s², m/s², rad/s²), spec §2.1:
+    """``(a_x, a_z, Ω̇)`` of the tank centre (m/s², m/s², rad/s²):
     a_x = v̇_x + Ω v_z, a_z = v̇_z − Ω v_x (the paper's "new inputs" are a_z and Ω̇)."""
     om = y[IOM]
     return dy[IVX] + om * y[IVZ], dy[IVZ] - om * y[IVX], dy[IOM]
@@ -208,7 +214,7 @@ def _bodies(p: SloshParams, y: np.ndarray):
 
 
 def kinetic_energy(p: SloshParams, y: np.ndarray) -> float:
-    """Total kinetic energy T (J), spec §2.4."""
+    """Total kinetic energy T (J), the paper's eq. 5."""
     return sum(0.5 * m * (v[0] ** 2 + v[1] ** 2) + 0.5 * inertia * w**2 for m, _, v, inertia, w in _bodies(p, y))
 
 

@@ -1,9 +1,10 @@
 """Compiled hot path of the fuel-slosh plant (numba): the one implementation of its mass
-matrix, generalized forces and state derivative (spec 004 §2.5, closed forms of
-:mod:`attitude_envs.plants.slosh`), and the RK4 control step of FuelSlosh-v0 with the
-stage cost and the new inputs integrated as extra states. Used by the single env, the
-batched env and (through the thin wrappers in :mod:`attitude_envs.plants.slosh`) by the
-linearization, the input inversion and the physics tests.
+matrix, generalized forces and state derivative (Navabi & Davoodi, eqs. 11–14 in
+mass-matrix form; closed forms of :mod:`attitude_envs.plants.slosh`), and the RK4 control
+step of FuelSlosh-v0 with the stage cost and the new inputs integrated as extra states.
+Used by the single env, the batched env and (through the thin wrappers in
+:mod:`attitude_envs.plants.slosh`) by the linearization, the input inversion and the
+physics tests.
 
 Written for the sizes they have: the 5×5 mass matrix
 
@@ -223,7 +224,7 @@ def derivative_into(pk, y, sin_d, cos_d, moment, out):
 def _augmented_into(pk, aug, sin_d, cos_d, moment, Q, R, xbuf, ubuf, out):
     """ẏ (10), the stage cost xᵀQx + u_cᵀRu_c and the new inputs u_c = [a_z, Ω̇]."""
     derivative_into(pk, aug, sin_d, cos_d, moment, out)
-    a_z = out[6] - aug[7] * aug[5]  # a_z = v̇_z − Ω v_x (tank centre, spec §2.1)
+    a_z = out[6] - aug[7] * aug[5]  # a_z = v̇_z − Ω v_x (tank centre)
     dom = out[7]
     # reduced state x = [v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2]
     xbuf[0] = aug[6]

@@ -1,9 +1,11 @@
-"""Reduced slosh models, linearizations and input inversion (spec 004 §2.5–§2.9).
+"""Reduced slosh models, linearizations and input inversion of Navabi & Davoodi
+(double-pendulum fuel slosh; year not in our copy, ≥ 2012), eqs. 15–27.
 
 The paper's controllers act on "new inputs" ``u = [u1, u2] = [a_z, Ω̇]`` (transverse
-acceleration of the tank centre, m/s², and pitch acceleration, rad/s²; spec §2.7) and
-recover the physical gimbal angle δ (rad) and pitch moment M_c (N·m) from the full
-equations (§2.9). Reduced state ``x = [v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2]`` (m/s, rad, rad/s);
+acceleration of the tank centre, m/s², and pitch acceleration, rad/s²; our reading of the
+paper's eqs. 22–24, whose symbols are lost in our copy) and recover the physical gimbal
+angle δ (rad) and pitch moment M_c (N·m) from the full equations (linear eqs. 15–17 or
+nonlinear eqs. 11–13). Reduced state ``x = [v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2]`` (m/s, rad, rad/s);
 the axial speed v_x (m/s) is a parameter of the reduced linear model.
 """
 
@@ -38,7 +40,7 @@ def reduced_state(y: np.ndarray) -> np.ndarray:
 
 
 def reduced_derivative(p: SloshParams, z: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """Reduced nonlinear model (spec eqs. 20, 22–24), ``z = [v_x, v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2]``,
+    """Reduced nonlinear model (the paper's eqs. 20, 22–24), ``z = [v_x, v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2]``,
     ``u = [a_z (m/s²), Ω̇ (rad/s²)]``; a_x is the constant F/m_t (eq. 20)."""
     vx, vz, _, om, p1, dp1, p2, dp2 = z
     u1, u2 = float(u[0]), float(u[1])
@@ -57,7 +59,7 @@ def reduced_derivative(p: SloshParams, z: np.ndarray, u: np.ndarray) -> np.ndarr
 
 
 def reduced_linear(p: SloshParams, v_x_m_s: float) -> tuple[np.ndarray, np.ndarray]:
-    """``(A, B)`` of the reduced linear model (spec §2.8, eqs. 25–27) at axial speed v_x."""
+    """``(A, B)`` of the reduced linear model (the paper's eqs. 25–27) at axial speed v_x."""
     ax = p.axial_acceleration_m_s2
     A = np.zeros((7, 7))
     B = np.zeros((7, 2))
@@ -82,8 +84,9 @@ def _linear_mass(p: SloshParams) -> np.ndarray:
 
 
 def full_linear(p: SloshParams, v_x_m_s: float) -> tuple[np.ndarray, np.ndarray]:
-    """``(A, B)`` of the full plant linearized about the relative equilibrium (spec eqs.
-    15–18) for ``x`` (7) and the physical inputs ``[δ (rad), M_c (N·m)]``; v̇_x = F/m_t."""
+    """``(A, B)`` of the full plant linearized about the relative equilibrium (the
+    paper's eqs. 15–18) for ``x`` (7) and the physical inputs ``[δ (rad), M_c (N·m)]``;
+    v̇_x = F/m_t."""
     ax = p.axial_acceleration_m_s2
     ml, eps = p.ml, np.asarray(p.damping_kg_m2_s)
     Mlin = _linear_mass(p)
@@ -112,8 +115,8 @@ def full_linear(p: SloshParams, v_x_m_s: float) -> tuple[np.ndarray, np.ndarray]
 
 
 def invert_inputs(p: SloshParams, y: np.ndarray, u1: float, u2: float, iterations: int = 6):
-    """Exact inversion on the full plant (spec §2.9 "validation mode"): the ``(δ, M_c)``
-    (rad, N·m) that make a_z = u1 and Ω̇ = u2 at state ``y``; also returns whether
+    """Exact inversion on the full plant (the nonlinear eqs. 11–13 solved exactly): the
+    ``(δ, M_c)`` (rad, N·m) that make a_z = u1 and Ω̇ = u2 at state ``y``; also returns whether
     |sin δ| had to be clipped to 1 (thrust authority exceeded)."""
     M = slosh.mass_matrix(p, y[slosh.IPSI1 : slosh.IPSI2 + 1])
     f = slosh.forces(p, y, 0.0, 0.0)  # δ = 0: f_x contains +F, f_z and pitch no thrust term
@@ -143,7 +146,7 @@ def invert_inputs(p: SloshParams, y: np.ndarray, u1: float, u2: float, iteration
 
 
 def invert_inputs_linear(p: SloshParams, x: np.ndarray, u1: float, u2: float) -> tuple[float, float]:
-    """Linear recovery of ``(δ, M_c)`` (rad, N·m) from eqs. 15–17 (spec §2.9, used by the
+    """Linear recovery of ``(δ, M_c)`` (rad, N·m) from eqs. 15–17 (used by the
     paper for PD and LQR); ψ̈ from the reduced linear model (eq. 26)."""
     ax = p.axial_acceleration_m_s2
     ml = p.ml
@@ -163,11 +166,6 @@ def invert_inputs_linear(p: SloshParams, x: np.ndarray, u1: float, u2: float) ->
         - p.lever_arm_m * p.thrust_n * delta
     )
     return float(delta), float(moment)
-
-
-# Spec 004 §3.2 (READ): Q on [v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2], R on [u1, u2].
-PAPER_Q = np.diag([1e-6, 1e-6, 1e-1, 1e-6, 1e-1, 1e-6, 1e-1])
-PAPER_R = 1e-6 * np.eye(2)
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,0 @@
-"""Stable-Baselines3 glue: algorithm registry, Zoo-format hyperparameters, callbacks, training with resume."""
-
-from agents.sb3.hyperparams import load_hyperparams
-from agents.sb3.registry import ALGORITHMS, algorithm_class
-
-__all__ = ["ALGORITHMS", "algorithm_class", "load_hyperparams"]

@@ -1,0 +1,139 @@
+"""The shared base of every env: presets, the fault and sensor layers, ``fault_hint``,
+disturbances, and the ``info`` contract (:mod:`attitude_envs.info`), wired once here.
+
+A plant's env subclasses :class:`AttitudeEnv`, sets :attr:`AttitudeEnv.env_name` and
+:attr:`AttitudeEnv.default_preset`, and in ``__init__``
+
+1. resolves its keywords with ``cfg = self._configure(preset, locals())`` (the preset's
+   values, overridden by every keyword that is not None);
+2. builds its plant and nominal ``model``;
+3. calls :meth:`AttitudeEnv._init_layers` with its actuator count and limits, its sensor
+   channels, and the ``faults``, ``sensors``, ``fault_hint`` and ``disturbance`` keywords;
+
+then in ``reset`` calls :meth:`AttitudeEnv._reset_layers` and in ``step`` passes its
+commanded actuator outputs through :meth:`AttitudeEnv._deliver`, builds the observation with
+:meth:`AttitudeEnv._with_hint` and the info with :meth:`AttitudeEnv._make_info`.
+
+Batched envs, wrappers, estimators and campaigns use only the public members documented
+here and on each env (no private attribute of another object).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import gymnasium as gym
+import numpy as np
+
+from attitude_envs import presets
+from attitude_envs.disturbances import Disturbance
+from attitude_envs.faults import ActuatorFaults
+from attitude_envs.info import MEASURED, TRUTH
+from attitude_envs.sensors import Channel, SensorSuite
+
+_NOT_KEYWORDS = {"self", "preset", "__class__", "render_mode"}
+
+
+class AttitudeEnv(gym.Env):
+    """Base of the suite's envs (see the module docstring for the recipe)."""
+
+    #: the env id without namespace, e.g. ``"ReactionWheel-v0"`` (names its presets)
+    env_name: ClassVar[str] = ""
+    #: the preset used when ``preset`` is not given (None: the env has no presets)
+    default_preset: ClassVar[str | None] = None
+
+    # ------------------------------------------------------------------ construction
+    def _configure(self, preset: str | None, given: Mapping[str, Any]) -> dict[str, Any]:
+        """Constructor values: preset ``preset`` (None: none), overridden by each keyword
+        in ``given`` (the constructor's ``locals()``) that is not None."""
+        overrides = {k: v for k, v in given.items() if k not in _NOT_KEYWORDS and not k.startswith("_")}
+        self.preset = preset
+        return presets.resolve(self.env_name, preset, overrides, overrides.keys())
+
+    def _init_layers(
+        self,
+        *,
+        n_actuators: int,
+        actuator_limits,
+        channels: list[Channel],
+        faults: list[dict] | None,
+        sensors: dict | None,
+        fault_hint: bool,
+        disturbance: dict | None = None,
+    ) -> None:
+        """Build the actuator-fault, sensor and disturbance layers (validated here, once).
+        ``faults`` entries with ``"target": "sensor"`` go to the sensor layer."""
+        self._fault_layer = ActuatorFaults(faults, n_actuators, actuator_limits, other_targets={"sensor"})
+        self._sensor_layer = SensorSuite(sensors, channels, faults)
+        self.fault_hint = bool(fault_hint)
+        self._disturbance = None if disturbance is None else Disturbance(disturbance)
+
+    @property
+    def fault_layer(self) -> ActuatorFaults:
+        """The actuator fault layer (read it, e.g. ``realized`` faults; do not modify)."""
+        return self._fault_layer
+
+    @property
+    def sensor_layer(self) -> SensorSuite:
+        """The sensor layer (``enabled`` is False when the truth is observed)."""
+        return self._sensor_layer
+
+    @property
+    def disturbance(self) -> Disturbance | None:
+        """The external-torque disturbance model, or None."""
+        return self._disturbance
+
+    @property
+    def n_hint_flags(self) -> int:
+        """Entries ``fault_hint`` appends to the observation (0 when off): one per actuator,
+        then one per sensor channel."""
+        if not self.fault_hint:
+            return 0
+        return self._fault_layer.n + len(self._sensor_layer.channels)
+
+    # ------------------------------------------------------------------ episode
+    def _reset_layers(self, rng: np.random.Generator, options: Mapping[str, Any]) -> None:
+        """Draw this episode's sensor faults and biases (from a generator the sensor layer
+        spawns: ``rng``'s own stream is unchanged by it), actuator faults and disturbance."""
+        faults = options.get("faults")
+        if self._disturbance is not None:
+            self._disturbance.reset(rng)
+        self._sensor_layer.reset(rng, faults)
+        self._fault_layer.reset(rng, faults)
+
+    def _deliver(self, commanded: np.ndarray, t_s: float) -> np.ndarray:
+        """The actuator outputs delivered for ``commanded`` at time ``t_s`` (faults applied)."""
+        return self._fault_layer.apply(commanded, t_s)
+
+    def _hint_flags(self, t_s: float) -> np.ndarray:
+        """1.0 per actuator, then per sensor channel, with a fault active at ``t_s``."""
+        return np.concatenate([self._fault_layer.active_flags(t_s), self._sensor_layer.active_flags(t_s)])
+
+    def _with_hint(self, obs: np.ndarray, t_s: float) -> np.ndarray:
+        """``obs`` with the fault flags appended when ``fault_hint`` is on, as float32."""
+        if self.fault_hint:
+            obs = np.concatenate([obs, self._hint_flags(t_s)])
+        return obs.astype(np.float32)
+
+    def _hint_bounds(self, low: np.ndarray, high: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Observation bounds with the ``fault_hint`` flags' [0, 1] appended when on."""
+        n = self.n_hint_flags
+        return np.concatenate([low, np.zeros(n)]), np.concatenate([high, np.ones(n)])
+
+    def _fault_truth(self, actuator_t_s: float, sensor_t_s: float | None = None) -> list[dict]:
+        """Ground truth of every fault of the episode and whether it is active."""
+        if not (self._fault_layer.realized or self._sensor_layer.realized):
+            return []  # the common fault-free episode: a fast path for every step's info
+        t_sensor = actuator_t_s if sensor_t_s is None else sensor_t_s
+        return self._fault_layer.info(actuator_t_s) + self._sensor_layer.info(t_sensor)
+
+    def _make_info(
+        self, *, truth: dict[str, Any], measured: Any, cost: float, time_s: float, **public: Any
+    ) -> dict[str, Any]:
+        """The info of :mod:`attitude_envs.info`: ``truth`` (must hold ``state``; the sensor
+        biases are added when sensors are on), ``measured`` (same structure as
+        ``truth["state"]``), ``cost``, ``time_s`` and the env's other public entries."""
+        if self._sensor_layer.enabled:
+            truth = dict(truth, sensor_bias={k: v.copy() for k, v in self._sensor_layer.bias.items()})
+        return {TRUTH: truth, MEASURED: measured, "cost": cost, "time_s": time_s, **public}

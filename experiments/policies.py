@@ -1,0 +1,99 @@
+"""Policy registry: every controller the CLI and campaigns can name, built from an env.
+
+``build_policy(spec, env)`` with ``spec = {"policy": NAME, "params": {...}, ...}``:
+
+==================  ==========================================================  =================
+name                controller                                                   params
+==================  ==========================================================  =================
+zero                no torque (free drift)                                       —
+lqr                 ``baselines.lqr.LQRPolicy`` on the nominal linearization     discretization, Q, R
+quaternion-lqr      quaternion LQR law of the feedback-linearization paper       Q, R, stiffness, saturation
+feedback-linearization  that paper's feedback linearization + LQR outer loop      Q, R, output, q4_min, ...
+linear-lqr          discrete LQR on a LinearSystem-v0 env's (A, B, Q, R)         —
+pid                 Ahangarani Farahani et al.'s PID (AirBearing-v0, also        gains (paper-fixed,
+                    ReactionWheel-v0)                                            paper-schedule-rad|deg,
+                                                                                 or a tune-pid JSON)
+slosh-pd, -lqr,     Navabi & Davoodi's P/PD, LQR, Lyapunov, fuzzy                see baselines/slosh.py
+-lyapunov, -fuzzy   (FuelSlosh-v0)
+amnftsmc, mnftsmc,  Sadigh et al. 2022's sliding-mode controllers                gain overrides
+ftsmc-standin       (Magnetorquer-v0)
+bdot                B-dot detumbling (Magnetorquer-v0)                           gain_nms
+q-learning-lqr      ``agents.QLearningLQR`` (model-free; learns at build time)   constructor kwargs; ``learn``
+sb3                 a saved Stable-Baselines3 model (``model: PATH``)            deterministic
+==================  ==========================================================  =================
+
+Imports are lazy, so a controller whose package is not installed only fails when it is
+used, with a ``ValueError`` that says so.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+from experiments.sb3.policy import SB3Policy
+
+POLICIES: dict[str, str] = {
+    "zero": "baselines.base:ZeroPolicy",
+    "lqr": "baselines.lqr:LQRPolicy",
+    "quaternion-lqr": "baselines.quaternion_lqr:QuaternionLQRPolicy",
+    "feedback-linearization": "baselines.feedback_linearization:FeedbackLinearizationPolicy",
+    "linear-lqr": "baselines.linear_lqr:LinearLQRPolicy",
+    "pid": "baselines.pid:pid_policy",
+    "slosh-pd": "baselines.slosh:SloshPDPolicy",
+    "slosh-lqr": "baselines.slosh:SloshLQRPolicy",
+    "slosh-lyapunov": "baselines.slosh:SloshLyapunovPolicy",
+    "slosh-fuzzy": "baselines.fuzzy_slosh:FuzzySloshPDPolicy",
+    "amnftsmc": "baselines.sliding_mode:AMNFTSMCPolicy",
+    "mnftsmc": "baselines.sliding_mode:MNFTSMCPolicy",
+    "ftsmc-standin": "baselines.sliding_mode:FTSMCStandInPolicy",
+    "bdot": "baselines.bdot:BDotPolicy",
+    "q-learning-lqr": "agents:QLearningLQR",
+    "sb3": "experiments.sb3.training:load_trained",
+}
+
+
+class PolicyUnavailable(ValueError):
+    """The named policy exists in the registry but its code is not installed here."""
+
+
+def check_policy_name(name: str) -> str:
+    if name not in POLICIES:
+        raise ValueError(f"unknown policy {name!r}; accepted: {sorted(POLICIES)}")
+    return name
+
+
+def _import(target: str):
+    module, attr = target.split(":")
+    try:
+        return getattr(importlib.import_module(module), attr)
+    except (ImportError, AttributeError) as exc:
+        raise PolicyUnavailable(f"policy {target!r} is not available in this install ({exc})") from exc
+
+
+def build_policy(spec: dict[str, Any], env, name: str | None = None):
+    """The Policy (``reset(seed)``, ``act(obs, info)``) described by ``spec`` for ``env``.
+
+    ``spec["policy"]``: a registry name; ``spec["params"]``: its keyword arguments;
+    for ``sb3``, ``spec["model"]``: the saved model (``.zip`` or run directory);
+    for ``q-learning-lqr``, ``spec["learn"]``: keyword arguments of ``learn``.
+    """
+    kind = check_policy_name(str(spec.get("policy")))
+    params = dict(spec.get("params") or {})
+    label = name or spec.get("name") or kind
+    if kind == "sb3":
+        if "model" not in spec:
+            raise ValueError("policy 'sb3' needs model: PATH (a saved model .zip or its run directory)")
+        predictor = _import(POLICIES[kind])(spec["model"], env)
+        return SB3Policy(predictor, deterministic=bool(params.get("deterministic", True)), name=label)
+    cls = _import(POLICIES[kind])
+    if kind == "q-learning-lqr":
+        agent = cls(env, name=label, **params)
+        agent.learn(**dict(spec.get("learn") or {}))
+        return agent
+    try:
+        policy = cls(env, **params)
+    except TypeError as exc:
+        raise ValueError(f"bad parameters for policy {kind!r}: {exc}") from exc
+    policy.name = label
+    return policy

@@ -1,0 +1,383 @@
+"""Campaign report: leaderboards (J mean, 95 % bootstrap CI, IQM), paper metrics, plots, metadata.
+
+Statistics are over episodes (evaluation seeds × training seeds) of one agent in one
+env × scenario × fault cell: the mean of J with a percentile bootstrap 95 % confidence
+interval (``n_boot`` resamples, fixed RNG seed, so the report is reproducible) and the
+interquartile mean (mean of the middle 50 %, ``scipy.stats.trim_mean(J, 0.25)``; Agarwal
+et al. 2021). A cell with fewer than ``MIN_EPISODES`` episodes is flagged.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import os
+import subprocess
+from collections.abc import Mapping, Sequence
+from importlib import metadata as importlib_metadata
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.wrappers import RecordVideo
+from scipy import stats
+
+from attitude_envs.evaluation.trace import record_episode
+from attitude_envs.plants.gyrostat_model import ReactionWheelModel
+from experiments.campaign import episode_jobs
+from experiments.policies import build_policy
+
+MIN_EPISODES = 5
+PAPER_METRICS = ("eulerint_deg_s", "settling_time_abs_s", "final_error_deg", "peak_wheel_speed_rpm")
+
+
+def bootstrap_ci(
+    values: Sequence[float], n_boot: int = 2000, level: float = 0.95, seed: int = 0
+) -> tuple[float, float]:
+    """Percentile bootstrap confidence interval of the mean (``(nan, nan)`` for no finite value)."""
+    x = np.asarray([v for v in values if np.isfinite(v)], dtype=float)
+    if len(x) == 0:
+        return (float("nan"), float("nan"))
+    if not 0.0 < level < 1.0:
+        raise ValueError(f"level must be in (0, 1), got {level!r}")
+    rng = np.random.default_rng(seed)
+    means = x[rng.integers(0, len(x), size=(int(n_boot), len(x)))].mean(axis=1)
+    alpha = (1.0 - level) / 2.0
+    return (float(np.quantile(means, alpha)), float(np.quantile(means, 1.0 - alpha)))
+
+
+def iqm(values: Sequence[float]) -> float:
+    """Interquartile mean (mean of the middle 50 % of the finite values)."""
+    x = np.asarray([v for v in values if np.isfinite(v)], dtype=float)
+    return float(stats.trim_mean(x, 0.25)) if len(x) else float("nan")
+
+
+def _finite_mean(values: Sequence[Any]) -> float:
+    x = np.asarray([float(v) for v in values if v is not None and np.isfinite(float(v))], dtype=float)
+    return float(x.mean()) if len(x) else float("nan")
+
+
+def leaderboards(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str, str], list[dict[str, Any]]]:
+    """``(env, scenario, fault)`` → one entry per agent, best (lowest J mean) first."""
+    cells: dict[tuple[str, str, str], dict[str, list[Mapping[str, Any]]]] = {}
+    for r in rows:
+        cells.setdefault((r["env"], r["scenario"], r["fault"]), {}).setdefault(r["agent"], []).append(r)
+    out = {}
+    for cell, agents in cells.items():
+        board = []
+        for agent, rs in agents.items():
+            J = [float(r["J"]) for r in rs]
+            lo, hi = bootstrap_ci(J)
+            entry = {
+                "agent": agent,
+                "episodes": len(rs),
+                "train_seeds": len({r.get("train_seed") for r in rs}),
+                "J_mean": _finite_mean(J),
+                "J_ci_low": lo,
+                "J_ci_high": hi,
+                "J_iqm": iqm(J),
+                "success_rate": float(np.mean([bool(r.get("success")) for r in rs])),
+                "recovery_time_s": _finite_mean([r.get("recovery_time_s") for r in rs]),
+            }
+            for m in PAPER_METRICS:
+                if any(m in r for r in rs):
+                    entry[m] = _finite_mean([r.get(m) for r in rs])
+            board.append(entry)
+        board.sort(key=lambda e: (not np.isfinite(e["J_mean"]), e["J_mean"]))
+        out[cell] = board
+    return dict(sorted(out.items()))
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, float):
+        if not np.isfinite(v):
+            return "—"
+        return f"{v:.4g}" if abs(v) < 1e5 else f"{v:.3e}"
+    return str(v)
+
+
+def leaderboard_markdown(boards: Mapping[tuple[str, str, str], list[dict[str, Any]]]) -> str:
+    """One markdown table per env × scenario × fault."""
+    parts = []
+    for (env, scenario, fault), board in boards.items():
+        extra = [m for m in PAPER_METRICS if m in board[0]]
+        head = ["rank", "agent", "episodes", "J mean", "95 % CI", "IQM", "success", "recovery [s]", *extra]
+        lines = [f"### {env} · {scenario} · fault: {fault}", "", "| " + " | ".join(head) + " |"]
+        lines.append("|" + "---|" * len(head))
+        for i, e in enumerate(board, 1):
+            flag = "" if e["episodes"] >= MIN_EPISODES else " (< 5 episodes)"
+            cells = [
+                str(i),
+                e["agent"],
+                f"{e['episodes']}{flag}",
+                _fmt(e["J_mean"]),
+                f"[{_fmt(e['J_ci_low'])}, {_fmt(e['J_ci_high'])}]",
+                _fmt(e["J_iqm"]),
+                f"{100 * e['success_rate']:.0f} %",
+                _fmt(e["recovery_time_s"]),
+                *[_fmt(e.get(m, float("nan"))) for m in extra],
+            ]
+            lines.append("| " + " | ".join(cells) + " |")
+        parts.append("\n".join(lines))
+    return "\n\n".join(parts) + "\n"
+
+
+def _plots():
+    """:mod:`experiments.plots` (matplotlib.pyplot on the Agg backend), imported on first use."""
+    from experiments import plots  # heavy: matplotlib.pyplot (~0.4 s) would slow every command of the CLI
+
+    return plots
+
+
+def plot_leaderboard(boards, path: str | Path) -> Path:
+    """J mean per agent with 95 % CI bars, one panel per env × scenario × fault (log scale)."""
+    plt = _plots().plt
+    cells = list(boards)
+    fig, axes = plt.subplots(len(cells), 1, figsize=(7.5, 2.4 * len(cells) + 0.6), squeeze=False)
+    for ax, cell in zip(axes[:, 0], cells, strict=True):
+        board = boards[cell]
+        names = [e["agent"] for e in board]
+        mean = np.array([e["J_mean"] for e in board])
+        err = np.array([[e["J_mean"] - e["J_ci_low"], e["J_ci_high"] - e["J_mean"]] for e in board]).T
+        ax.barh(names, mean, xerr=np.nan_to_num(err), color="tab:blue", alpha=0.8, capsize=3)
+        ax.set_xscale("log")
+        ax.invert_yaxis()
+        ax.set_title(" · ".join(cell), fontsize=9)
+        ax.grid(True, axis="x", alpha=0.3)
+    axes[-1, 0].set_xlabel("episode cost J (mean, 95 % bootstrap CI)")
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_fault_heatmap(rows: Sequence[Mapping[str, Any]], env: str, path: str | Path) -> Path | None:
+    """Agent × fault heatmap of mean J (colour: log10), for one env; None with a single fault case."""
+    rs = [r for r in rows if r["env"] == env]
+    faults = list(dict.fromkeys(r["fault"] for r in rs))
+    if len(faults) < 2:
+        return None
+    plt = _plots().plt
+    agents = list(dict.fromkeys(r["agent"] for r in rs))
+    grid = np.array(
+        [[_finite_mean([r["J"] for r in rs if r["agent"] == a and r["fault"] == f]) for f in faults] for a in agents]
+    )
+    fig, ax = plt.subplots(figsize=(1.6 * len(faults) + 3, 0.45 * len(agents) + 1.6))
+    im = ax.imshow(np.log10(grid), aspect="auto", cmap="viridis")
+    ax.set_xticks(range(len(faults)), faults, rotation=20, ha="right")
+    ax.set_yticks(range(len(agents)), agents)
+    for i in range(len(agents)):
+        for j in range(len(faults)):
+            ax.text(j, i, _fmt(float(grid[i, j])), ha="center", va="center", color="w", fontsize=8)
+    fig.colorbar(im, ax=ax, label="log10 mean J")
+    ax.set_title(f"{env}: mean J per agent and fault")
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def _save(fig, path: str | Path) -> Path:
+    return _plots().save_figure(fig, path, dpi=100)
+
+
+def git_revision(root: str | Path | None = None) -> str:
+    """``git rev-parse HEAD`` of the source tree (``"unknown"`` outside a checkout)."""
+    root = Path(root or Path(__file__).resolve().parents[1])
+    try:
+        out = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True, timeout=10)
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    return out.stdout.strip() if out.returncode == 0 else "unknown"
+
+
+def package_version() -> str:
+    try:
+        return importlib_metadata.version("attitude-envs")
+    except importlib_metadata.PackageNotFoundError:
+        return "unknown"
+
+
+def atomic_write(path: Path, text: str) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, path)
+    return path
+
+
+def write_report(
+    out_dir: str | Path,
+    rows: Sequence[Mapping[str, Any]],
+    metadata: Mapping[str, Any],
+    figures: Mapping[str, str] | None = None,
+    notes: Sequence[str] = (),
+) -> Path:
+    """``report.md`` (metadata, leaderboards, figures), ``leaderboard.json`` and ``metadata.json``."""
+    out_dir = Path(out_dir)
+    notes = list(dict.fromkeys(notes))
+    boards = leaderboards(rows)
+    serial = [{"env": c[0], "scenario": c[1], "fault": c[2], "board": b} for c, b in boards.items()]
+    atomic_write(out_dir / "leaderboard.json", json.dumps(serial, indent=2) + "\n")
+    atomic_write(out_dir / "metadata.json", json.dumps(dict(metadata), indent=2, default=str) + "\n")
+    lines = [f"# Benchmark report: {metadata.get('campaign', '')}", ""]
+    lines += ["| | |", "|---|---|"]
+    for key in (
+        "campaign",
+        "source",
+        "package_version",
+        "git_revision",
+        "seeds",
+        "executor",
+        "episodes",
+        "wall_time_s",
+        "wall_time_all_runs_s",
+    ):
+        if key in metadata:
+            lines.append(f"| {key} | {metadata[key]} |")
+    for agent, budget in (metadata.get("training_budget") or {}).items():
+        lines.append(f"| training budget: {agent} | {budget} |")
+    lines += ["", "J = ∫(xᵀQx + uᵀRu) dt per episode (lower is better); CI: 95 % percentile bootstrap of the mean;"]
+    lines += ["IQM: interquartile mean; success: not terminated and final error within the campaign's bound;"]
+    lines += ["recovery: time from the fault onset until the error stays within the settling band.", ""]
+    lines += ["## Leaderboards", "", leaderboard_markdown(boards)]
+    if notes:
+        lines += ["## Notes", "", *[f"* {n}" for n in notes], ""]
+    if figures:
+        lines += ["## Figures", ""]
+        for caption, rel in figures.items():
+            lines.append(f"* [{caption}]({rel})" if rel.endswith(".mp4") else f"![{caption}]({rel})")
+        lines.append("")
+    return atomic_write(out_dir / "report.md", "\n".join(lines))
+
+
+def _example_traces(result, env_spec, scenario: dict, fault: str, agents: Sequence[str]) -> dict:
+    """Re-run seed ``campaign.seeds[0]`` of ``agents`` (first training seed) and record their traces."""
+    jobs = episode_jobs(result.campaign, result.out_dir, skip_agents=result.skipped_agents)
+    traces = {}
+    for agent in agents:
+        job = next(
+            (
+                j
+                for j in jobs
+                if j["key"]["env"] == env_spec.name
+                and j["key"]["scenario"] == scenario["name"]
+                and j["key"]["fault"] == fault
+                and j["key"]["agent"] == agent
+            ),
+            None,
+        )
+        if job is None:
+            continue
+        env = gym.make(job["env_id"], **job["env_kwargs"])
+        try:
+            policy = build_policy(job["policy"], env, name=agent)
+            traces[agent] = record_episode(
+                env, policy, seed=job["key"]["seed"], options=copy.deepcopy(job["options"]) or None
+            )
+        finally:
+            env.close()
+    return traces
+
+
+def _record_video(result, env_spec, agent: str, path_dir: Path) -> Path | None:
+    """An episode of ``agent`` through gymnasium's ``RecordVideo`` (None when moviepy is missing)."""
+    try:
+        import moviepy  # noqa: F401  (optional: the video extra; RecordVideo needs it)
+    except ImportError:
+        return None
+    job = next(
+        j
+        for j in episode_jobs(result.campaign, result.out_dir, skip_agents=result.skipped_agents)
+        if j["key"]["env"] == env_spec.name and j["key"]["agent"] == agent
+    )
+    base = gym.make(job["env_id"], render_mode="rgb_array", **job["env_kwargs"])
+    policy = build_policy(job["policy"], base, name=agent)
+    prefix = f"{env_spec.name}-{agent}"
+    env = RecordVideo(base, str(path_dir), name_prefix=prefix, episode_trigger=lambda e: e == 0, disable_logger=True)
+    obs, info = env.reset(seed=job["key"]["seed"], options=copy.deepcopy(job["options"]) or None)
+    policy.reset(job["key"]["seed"])
+    done = False
+    while not done:
+        obs, _, terminated, truncated, info = env.step(policy.act(obs, info))
+        done = terminated or truncated
+    env.close()
+    videos = sorted(Path(path_dir).glob(f"{prefix}-episode-0.mp4"))
+    return videos[0] if videos else None
+
+
+def _training_summary(result, agent) -> str:
+    """A trained agent's budget (``config.json`` of each run) and the snapshot its episodes
+    ran: ``best snapshot at N steps`` (per run, from ``best/best.json``) or ``final snapshot``."""
+    jobs = episode_jobs(result.campaign, result.out_dir)
+    runs = sorted({Path(j["policy"]["model"]) for j in jobs if j["key"]["agent"] == agent.name})
+    budgets, best_steps = set(), []
+    for model in runs:
+        config = model.parent.parent / "config.json"
+        if config.is_file():
+            budgets.add(json.loads(config.read_text())["total_timesteps"])
+        best = model.parent / "best.json"
+        if model.parent.name == "best" and best.is_file():
+            best_steps.append(str(json.loads(best.read_text())["timesteps"]))
+    t = agent.train
+    steps = ", ".join(map(str, sorted(budgets))) or t.get("timesteps", "file default")
+    snapshot = f"best snapshot at {', '.join(best_steps)} steps" if best_steps else "final snapshot"
+    return f"{t['algo']}, {steps} steps × seeds {t.get('seeds', [0])}, evaluated: {snapshot}"
+
+
+def write_campaign_report(result, video: bool | None = None) -> Path:
+    """The full report of a :class:`~experiments.campaign.CampaignResult`:
+    leaderboards, J-with-CI plot, fault heatmaps, example time histories and (with moviepy)
+    an episode video of the best agent per env."""
+    out_dir = Path(result.out_dir)
+    video = result.campaign.video if video is None else bool(video)
+    rows = result.rows
+    if not rows:
+        raise ValueError("the campaign produced no episodes (every agent skipped?)")
+    boards = leaderboards(rows)
+    figures: dict[str, str] = {}
+    plot_leaderboard(boards, out_dir / "figures" / "leaderboard.png")
+    figures["J per agent (mean, 95 % CI)"] = "figures/leaderboard.png"
+    notes = [f"agent {a} skipped: {why}" for a, why in result.skipped_agents.items()]
+    for env_spec in result.campaign.envs:
+        heat = plot_fault_heatmap(rows, env_spec.name, out_dir / "figures" / f"faults-{env_spec.name}.png")
+        if heat is not None:
+            figures[f"{env_spec.name}: fault campaign"] = f"figures/faults-{env_spec.name}.png"
+        cell = next((c for c in boards if c[0] == env_spec.name), None)
+        if cell is None:
+            continue
+        probe = gym.make(env_spec.id, **env_spec.kwargs)
+        is_rw = isinstance(getattr(probe.unwrapped, "model", None), ReactionWheelModel)
+        probe.close()
+        best = boards[cell][0]["agent"]
+        if is_rw:
+            scenario = env_spec.scenarios[0]
+            fault = list(env_spec.faults)[-1]
+            agents = [e["agent"] for e in boards[(env_spec.name, scenario["name"], fault)]][:4]
+            traces = _example_traces(result, env_spec, scenario, fault, agents)
+            if traces:
+                name = f"figures/history-{env_spec.name}-{scenario['name']}-{fault}.png"
+                _plots().plot_episodes(traces, out_dir / name, title=f"{env_spec.name} · {scenario['name']} · {fault}")
+                figures[f"{env_spec.name}: time histories ({fault})"] = name
+            if video:
+                path = _record_video(result, env_spec, best, out_dir / "videos")
+                if path is not None:
+                    figures[f"{env_spec.name}: episode video of the best agent ({best})"] = f"videos/{path.name}"
+                else:
+                    notes.append("no episode video: gymnasium's RecordVideo needs the optional package moviepy")
+            else:
+                notes.append(
+                    "episode videos off for this campaign (video: false; rendering a 60 s episode takes minutes)"
+                )
+    budget = {a.name: _training_summary(result, a) for a in result.campaign.agents if a.train is not None}
+    metadata = {
+        "campaign": result.campaign.name,
+        "source": result.campaign.source,
+        "package_version": package_version(),
+        "git_revision": git_revision(),
+        "seeds": result.campaign.seeds,
+        "executor": result.executor,
+        "episodes": len(rows),
+        "wall_time_s": round(result.wall_time_s, 1),
+        "wall_time_all_runs_s": f"{result.total_wall_time_s:.1f} over {result.runs} run(s) (runs.jsonl)",
+        "training_budget": budget,
+        "trained": result.trained,
+    }
+    return write_report(out_dir, rows, metadata, figures, notes)

@@ -1,0 +1,175 @@
+"""Hyperparameters in the RL Baselines3 Zoo file format (files move between the two projects).
+
+One YAML file per algorithm (``hyperparams/<algo>.yml``), keyed by gymnasium env id::
+
+    attitude_envs/ReactionWheel-v0:
+      n_timesteps: !!float 2e5
+      policy: 'MlpPolicy'
+      normalize: "{'norm_obs': True, 'norm_reward': False}"   # or true / false
+      n_envs: 4
+      learning_rate: lin_3e-4                                   # Zoo linear schedule
+      policy_kwargs: "dict(net_arch=[64, 64], log_std_init=-1)"
+      noise_type: 'normal'                                      # TD3 / DDPG / SAC action noise
+      noise_std: 0.1
+
+The Zoo evaluates ``policy_kwargs`` and ``normalize`` strings with ``eval``; here they are
+parsed without executing code (literals, ``dict(...)`` and ``nn.<Activation>`` only).
+Command-line overrides use the Zoo's ``key:value`` syntax (value parsed as YAML).
+"""
+
+from __future__ import annotations
+
+import ast
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from experiments.sb3.registry import check_algorithm
+
+# Keys the Zoo reads itself (not passed to the algorithm's constructor).
+ZOO_KEYS = ("n_timesteps", "policy", "normalize", "n_envs", "noise_type", "noise_std", "frame_stack", "env_wrapper")
+_UNSUPPORTED = ("frame_stack", "env_wrapper", "callback", "vec_env_wrapper")
+
+
+def hyperparams_path(algo: str) -> Path:
+    """The shipped YAML file of ``algo`` (package data)."""
+    return Path(str(resources.files("experiments.sb3") / "hyperparams" / f"{check_algorithm(algo)}.yml"))
+
+
+def _safe_value(node: ast.AST) -> Any:
+    if isinstance(node, ast.Constant):
+        return node.value
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub):
+        return -_safe_value(node.operand)
+    if isinstance(node, ast.List | ast.Tuple):
+        values = [_safe_value(e) for e in node.elts]
+        return values if isinstance(node, ast.List) else tuple(values)
+    if isinstance(node, ast.Dict):
+        return {_safe_value(k): _safe_value(v) for k, v in zip(node.keys, node.values, strict=True)}
+    if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "dict" and not node.args:
+        return {kw.arg: _safe_value(kw.value) for kw in node.keywords}
+    if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name | ast.Attribute):
+        import torch.nn as nn  # optional: the sb3 extra; only policy_kwargs with nn.<Activation> need it
+
+        cls = getattr(nn, node.attr, None)
+        if isinstance(cls, type) and issubclass(cls, nn.Module):
+            return cls
+    raise ValueError(f"unsupported expression {ast.unparse(node)!r}")
+
+
+def parse_python_literal(name: str, text: Any) -> Any:
+    """A Zoo string such as ``"dict(net_arch=[64, 64])"`` → its value, without ``eval``."""
+    if not isinstance(text, str):
+        return text
+    try:
+        return _safe_value(ast.parse(text, mode="eval").body)
+    except (SyntaxError, ValueError) as exc:
+        raise ValueError(
+            f"{name} must be a literal, dict(...) or nn.<Activation> expression, got {text!r} ({exc})"
+        ) from exc
+
+
+def parse_overrides(items: list[str] | None) -> dict[str, Any]:
+    """Zoo-style ``key:value`` overrides (``learning_rate:1e-3``, ``policy_kwargs:"dict(...)"``)."""
+    out: dict[str, Any] = {}
+    for item in items or []:
+        key, sep, value = str(item).partition(":")
+        if not sep or not key:
+            raise ValueError(f"hyperparameter override must look like key:value, got {item!r}")
+        try:
+            parsed = yaml.safe_load(value)
+        except yaml.YAMLError as exc:
+            raise ValueError(f"hyperparameter override {item!r} has a malformed value: {exc}") from exc
+        if isinstance(parsed, str):  # YAML 1.1 reads "1e-3" (no dot) as a string
+            try:
+                parsed = float(parsed)
+            except ValueError:
+                pass
+        out[key] = parsed
+    return out
+
+
+def read_yaml(path: str | Path) -> Any:
+    """A YAML file's content; ``ValueError`` with the file name on a syntax error or missing file."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"YAML file {str(path)!r} does not exist")
+    try:
+        return yaml.safe_load(path.read_text(encoding="utf-8"))
+    except yaml.YAMLError as exc:
+        problem = str(exc).replace("\n", " ")
+        raise ValueError(f"malformed YAML in {str(path)!r}: {problem}") from exc
+
+
+def load_hyperparams(
+    algo: str, env_id: str, path: str | Path | None = None, overrides: dict[str, Any] | None = None
+) -> dict[str, Any]:
+    """The Zoo entry of ``env_id`` in ``path`` (default: the shipped ``<algo>.yml``), with overrides applied.
+
+    Returns the raw entry (Zoo keys included); :func:`split_hyperparams` turns it into
+    constructor arguments.
+    """
+    algo = check_algorithm(algo)
+    path = hyperparams_path(algo) if path is None else Path(path)
+    table = read_yaml(path)
+    if not isinstance(table, dict):
+        raise ValueError(f"hyperparameter file {str(path)!r} must map env ids to settings, got {type(table).__name__}")
+    if env_id not in table:
+        raise ValueError(f"no hyperparameters for env {env_id!r} in {str(path)!r}; it has {sorted(table)}")
+    entry = dict(table[env_id] or {})
+    entry.update(overrides or {})
+    for key in _UNSUPPORTED:
+        if key in entry:
+            raise ValueError(f"hyperparameter {key!r} is not supported here (accepted Zoo keys: {list(ZOO_KEYS[:5])})")
+    return entry
+
+
+def _schedule(name: str, value: Any) -> Any:
+    if isinstance(value, str) and value.startswith("lin_"):
+        try:
+            start = float(value[4:])
+        except ValueError as exc:
+            raise ValueError(f"{name} schedule must look like lin_<float>, got {value!r}") from exc
+        return lambda progress_remaining: progress_remaining * start
+    return value
+
+
+def split_hyperparams(entry: dict[str, Any], n_actions: int) -> dict[str, Any]:
+    """Zoo entry → ``{"n_timesteps", "n_envs", "normalize" (dict | None), "policy", "kwargs"}``.
+
+    ``kwargs`` go to the algorithm's constructor (schedules, ``policy_kwargs`` and action
+    noise built); ``normalize`` holds VecNormalize arguments when observation/reward
+    normalization is on.
+    """
+    entry = dict(entry)
+    n_timesteps = int(float(entry.pop("n_timesteps", 100_000)))
+    n_envs = int(entry.pop("n_envs", 1))
+    if n_timesteps < 1 or n_envs < 1:
+        raise ValueError(f"n_timesteps and n_envs must be >= 1, got {n_timesteps} and {n_envs}")
+    policy = entry.pop("policy", "MlpPolicy")
+    normalize = parse_python_literal("normalize", entry.pop("normalize", False))
+    if normalize is True:
+        normalize = {"norm_obs": True, "norm_reward": True}
+    elif not normalize:
+        normalize = None
+    elif not isinstance(normalize, dict):
+        raise ValueError(f"normalize must be a bool or a dict of VecNormalize arguments, got {normalize!r}")
+    noise_type = entry.pop("noise_type", None)
+    noise_std = float(entry.pop("noise_std", 0.1))
+    if "policy_kwargs" in entry:
+        entry["policy_kwargs"] = parse_python_literal("policy_kwargs", entry["policy_kwargs"])
+    for key in ("learning_rate", "clip_range", "clip_range_vf"):
+        if key in entry:
+            entry[key] = _schedule(key, entry[key])
+    if noise_type is not None:
+        # optional: the sb3 extra (this module is also imported by the core command line)
+        from stable_baselines3.common.noise import NormalActionNoise, OrnsteinUhlenbeckActionNoise
+
+        kinds = {"normal": NormalActionNoise, "ornstein-uhlenbeck": OrnsteinUhlenbeckActionNoise}
+        if noise_type not in kinds:
+            raise ValueError(f"noise_type must be one of {sorted(kinds)}, got {noise_type!r}")
+        entry["action_noise"] = kinds[noise_type](np.zeros(n_actions), noise_std * np.ones(n_actions))
+    return {"n_timesteps": n_timesteps, "n_envs": n_envs, "normalize": normalize, "policy": policy, "kwargs": entry}
