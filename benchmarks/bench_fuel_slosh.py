@@ -11,6 +11,7 @@ import warnings
 import numpy as np
 
 from attitude_envs.envs.fuel_slosh import FuelSloshEnv
+from attitude_envs.info import policy_view
 from baselines.fuzzy_slosh import FuzzySloshPDPolicy
 from baselines.slosh import SloshLQRPolicy, SloshLyapunovPolicy, SloshPDPolicy
 
@@ -22,7 +23,7 @@ def steps_per_second(env, policy=None, n: int = 2000) -> float:
     zero = np.zeros(2, np.float32)
     start = time.perf_counter()
     for _ in range(n):
-        action = zero if policy is None else policy.act(obs, info)
+        action = zero if policy is None else policy.act(obs, policy_view(info))
         obs, _, terminated, truncated, info = env.step(action)
         if terminated or truncated:
             obs, info = env.reset(seed=0)

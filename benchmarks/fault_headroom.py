@@ -41,7 +41,7 @@ PIECES = 6  # the correction acts over the first PIECE_S · PIECES seconds
 
 def make(onset_s: float | None):
     faults = [] if onset_s is None else [{"kind": "outage", "target": "actuator", "index": 0, "onset_s": onset_s}]
-    return gym.make(ENV, preset="spec-000", action_frame="body", faults=faults)
+    return gym.make(ENV, preset="pyramid-4wheel", action_frame="body", faults=faults)
 
 
 def episode_cost(env, seed: int, gain: np.ndarray, remap=None, correction=None, until_s: float = np.inf) -> float:

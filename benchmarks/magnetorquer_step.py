@@ -15,6 +15,7 @@ import gymnasium as gym
 import numpy as np
 
 import attitude_envs  # noqa: F401
+from attitude_envs.info import policy_view
 from baselines.sliding_mode import AMNFTSMCPolicy
 
 
@@ -33,7 +34,7 @@ def main() -> None:
     policy.reset(0)
     start = time.perf_counter()
     for _ in range(args.steps):
-        obs, _, _, _, info = env.step(policy.act(obs, info))
+        obs, _, _, _, info = env.step(policy.act(obs, policy_view(info)))
     both_us = (time.perf_counter() - start) / args.steps * 1e6
     print(f"Magnetorquer-v0 step: {env_us:.0f} µs; step + AMNFTSMC: {both_us:.0f} µs")
     print(f"two-orbit episode (120 380 steps) with AMNFTSMC: {both_us * 120380 / 1e6:.0f} s")

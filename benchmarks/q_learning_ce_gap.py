@@ -28,7 +28,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tests"))  # the note's benchmark instances live with the tests
+sys.path.insert(0, str(ROOT / "tests"))  # the benchmark instances live with the tests
 
 from qlqr_systems import benchmark_systems, linear_env, random_system, stabilizing_gain  # noqa: E402
 

@@ -102,7 +102,7 @@ def run(sizes: list[int], m: int = 2, seed: int = 0) -> list[dict]:
 
 def spacecraft(seed: int = 0) -> list[dict]:
     """Heravi & Novinzadeh 2017's slow plant (Euler, Δt = 0.01 s, J ≈ 10³ kg·m²): ρ(A − BK*) = 0.99984."""
-    env = LinearSystemEnv(preset="spec-001")
+    env = LinearSystemEnv(preset="heravi-2017")
     A, B, Q, R = env.model.A, env.model.B, env.model.Q, env.model.R
     K_star, _ = dare_gain(A, B, Q, R)
     std = [1.0, 1.0, 1.0, 0.05, 0.05, 0.05]

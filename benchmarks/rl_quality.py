@@ -40,7 +40,7 @@ def main() -> None:
     tag = args.tag or f"{args.algo}-{'faults' if args.fault_randomized else 'nominal'}-seed{args.seed}"
     run = Path(args.out) / tag
     extra = json.loads(args.env_kwargs)
-    eval_kwargs = {"preset": "spec-000", **extra}
+    eval_kwargs = {"preset": "pyramid-4wheel", **extra}
     env_kwargs = {**eval_kwargs, **({"faults": RANDOM_OUTAGE} if args.fault_randomized else {})}
     if not (run / "final" / "model.zip").is_file() or args.resume:
         result = train(

@@ -58,6 +58,7 @@ import attitude_envs  # noqa: F401  (registers the env ids, also in pool and Ray
 from attitude_envs.evaluation.metrics import episode_metrics, settling_time_s
 from attitude_envs.evaluation.runner import write_csv, write_json
 from attitude_envs.evaluation.trace import record_episode
+from attitude_envs.info import policy_view
 from attitude_envs.make import check_env_id, make_checked
 from attitude_envs.plants.gyrostat_model import ReactionWheelModel
 from experiments.policies import POLICIES, PolicyUnavailable, _import, build_policy, check_policy_name
@@ -415,7 +416,7 @@ def _generic_metrics(env, policy, job: dict[str, Any]) -> dict[str, Any]:
     policy.reset(job["key"]["seed"])
     total, steps, terminated, truncated = 0.0, 0, False, False
     while not (terminated or truncated):
-        obs, _, terminated, truncated, info = env.step(policy.act(obs, info))
+        obs, _, terminated, truncated, info = env.step(policy.act(obs, policy_view(info)))
         total += float(info["cost"])
         steps += 1
     final = float(np.linalg.norm(obs))

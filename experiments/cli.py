@@ -193,7 +193,9 @@ ENV_DEFAULT = "attitude_envs/ReactionWheel-v0"
 
 def _add_env_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--env", default=ENV_DEFAULT, help="registered env id")
-    p.add_argument("--env-kwargs", help="env keyword arguments as YAML/JSON (or @FILE), e.g. '{preset: pyramid-4wheel}'")
+    p.add_argument(
+        "--env-kwargs", help="env keyword arguments as YAML/JSON (or @FILE), e.g. '{preset: pyramid-4wheel}'"
+    )
     p.add_argument("--faults", help="actuator faults as a YAML list (attitude_envs.faults), or @FILE")
 
 
@@ -211,7 +213,11 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command")
     demo = sub.add_parser("demo", help="evaluate the LQR baselines on ReactionWheel-v0 and print a table")
     demo.add_argument("--seeds", type=int, default=5, help="episodes per policy (>= 1)")
-    demo.add_argument("--preset", default="spec-000", help="ReactionWheel-v0 preset (pyramid-4wheel or heravi-2017; aliases spec-000, spec-001)")
+    demo.add_argument(
+        "--preset",
+        default="pyramid-4wheel",
+        help="ReactionWheel-v0 preset (pyramid-4wheel or heravi-2017; aliases spec-000, spec-001)",
+    )
     demo.set_defaults(func=_demo)
     rep = sub.add_parser("reproduce", help="reproduce a paper's results: writes DIR/<paper>.json and .md")
     rep.add_argument("paper", help="reproduction id (see experiments.reproductions)")
@@ -263,7 +269,9 @@ def build_parser() -> argparse.ArgumentParser:
     bm.set_defaults(func=_benchmark)
 
     tp = sub.add_parser(
-        "tune-pid", add_help=False, help="GA-tune PID gains (Ahangarani Farahani et al.'s pipeline); `tune-pid --help` for its options"
+        "tune-pid",
+        add_help=False,
+        help="GA-tune PID gains (Ahangarani Farahani et al.'s pipeline); `tune-pid --help` for its options",
     )
     tp.add_argument("rest", nargs=argparse.REMAINDER)
     tp.set_defaults(func=_tune_pid)

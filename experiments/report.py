@@ -24,6 +24,7 @@ from gymnasium.wrappers import RecordVideo
 from scipy import stats
 
 from attitude_envs.evaluation.trace import record_episode
+from attitude_envs.info import policy_view
 from attitude_envs.plants.gyrostat_model import ReactionWheelModel
 from experiments.campaign import episode_jobs
 from experiments.policies import build_policy
@@ -296,7 +297,7 @@ def _record_video(result, env_spec, agent: str, path_dir: Path) -> Path | None:
     policy.reset(job["key"]["seed"])
     done = False
     while not done:
-        obs, _, terminated, truncated, info = env.step(policy.act(obs, info))
+        obs, _, terminated, truncated, info = env.step(policy.act(obs, policy_view(info)))
         done = terminated or truncated
     env.close()
     videos = sorted(Path(path_dir).glob(f"{prefix}-episode-0.mp4"))

@@ -231,8 +231,8 @@ def test_linear_system_step_is_exactly_the_model():
     _, reward, _, _, info = env.step(np.array([0.25, -0.5, 0.1]))
     u = np.array([0.5, -1.0, 0.2])
     assert np.allclose(info["truth"]["applied"], u) and np.array_equal(info["commanded"], info["truth"]["applied"])
-    assert np.array_equal(info["truth"]["state"], x)  # the state the step started from
-    assert np.allclose(info["truth"]["next_state"], A @ x + B @ u, rtol=1e-15)
+    assert np.array_equal(info["truth"]["previous_state"], x)  # the state the step started from
+    assert np.allclose(info["truth"]["state"], A @ x + B @ u, rtol=1e-15)
     assert reward == pytest.approx(-(x @ x + u @ u))
     # the DARE gain of the preset (the reference K* of our Heravi & Novinzadeh 2017 reproduction)
     K = env.model.lqr_gain()

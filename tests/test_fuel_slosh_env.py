@@ -63,7 +63,7 @@ def test_step_matches_plant_integration_and_cost_is_integrated():
     assert info["cost"] == pytest.approx(cost, rel=1e-6)
     assert reward == -info["cost"]
     az_int += 0.5 * h * a_z
-    assert info["new_inputs"][0] == pytest.approx(az_int / 0.1, rel=1e-6)  # step-mean a_z
+    assert info["truth"]["new_inputs"][0] == pytest.approx(az_int / 0.1, rel=1e-6)  # step-mean a_z
 
 
 def test_reset_options_and_randomization():
@@ -161,10 +161,10 @@ def test_info_contract_truth_measured_and_public_entries():
     env = FuelSloshEnv()
     _, info = env.reset(seed=0)
     truth = info["truth"]
-    assert set(truth) == {"state", "full_state", "x", "applied", "faults"}
+    assert set(truth) == {"state", "full_state", "x", "applied", "new_inputs", "faults"}
     assert info["measured"] is not truth["state"] and set(info["measured"]) == set(truth["state"])
     _, _, _, _, info = env.step(np.array([0.1, -0.2], np.float32))
-    assert {"cost", "time_s", "commanded", "new_inputs", "truth", "measured"} <= set(info)
+    assert {"cost", "time_s", "commanded", "truth", "measured"} <= set(info) and "new_inputs" not in info
     np.testing.assert_array_equal(info["truth"]["x"], info["truth"]["full_state"][[6, 2, 7, 3, 8, 4, 9]])
     for key, value in info["truth"]["state"].items():  # sensors off: measured is the truth
         np.testing.assert_array_equal(info["measured"][key], value)

@@ -55,7 +55,7 @@ def test_sub_envs_match_single_envs_bitwise_across_next_step_autoreset(faults):
                 o, r, te, tr, info = s.step(actions[i])
                 assert np.array_equal(infos["truth"]["applied"][i], info["truth"]["applied"])
                 assert np.array_equal(infos["commanded"][i], info["commanded"])
-                assert np.array_equal(infos["new_inputs"][i], info["new_inputs"])
+                assert np.array_equal(infos["truth"]["new_inputs"][i], info["truth"]["new_inputs"])
                 assert infos["cost"][i] == info["cost"] and infos["time_s"][i] == info["time_s"]
             assert np.array_equal(obs[i], o) and rewards[i] == r and te == term[i] and tr == trunc[i]
         done = term | trunc

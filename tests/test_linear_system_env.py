@@ -70,10 +70,10 @@ def test_info_truth_is_the_transition_and_measured_is_the_observed_state():
     assert np.array_equal(env.state, x)
     obs, reward, _, _, info = env.step(np.array([0.25, -0.5, 2.0], np.float32))
     truth = info["truth"]
-    assert set(truth) == {"state", "next_state", "applied", "faults"}
-    assert np.array_equal(truth["state"], x)  # the state the step started from
-    assert np.array_equal(truth["next_state"], env.state)
-    assert np.array_equal(info["measured"], truth["next_state"])  # the latest measurement: after the step
+    assert set(truth) == {"state", "previous_state", "applied", "faults"}
+    assert np.array_equal(truth["previous_state"], x)  # the state the step started from
+    assert np.array_equal(truth["state"], env.state)  # the state after the step
+    assert np.array_equal(info["measured"], truth["state"])  # the latest measurement: after the step
     assert np.array_equal(info["commanded"], [0.5, -1.0, 2.0])  # action_scale · clipped action
     assert np.array_equal(truth["applied"], info["commanded"])
     assert info["time_s"] == 0.01 and reward == -info["cost"]
@@ -85,7 +85,7 @@ def test_measured_follows_the_state_sensor():
     for _ in range(3):
         assert np.array_equal(info["measured"], info["sensors"]["state"])
         assert np.array_equal(info["measured"].astype(np.float32), obs)
-        truth = info["truth"].get("next_state", info["truth"]["state"])
+        truth = info["truth"]["state"]
         assert 0 < np.max(np.abs(info["measured"] - truth)) < 0.01
         assert "state" in info["truth"]["sensor_bias"]
         obs, _, _, _, info = env.step(np.zeros(3, np.float32))

@@ -27,6 +27,7 @@ from baselines.pid import PAPER_FIXED, PIDPolicy, paper_schedule
 from baselines.quaternion_lqr import QuaternionLQRPolicy
 from baselines.sliding_mode import AMNFTSMCPolicy, FTSMCStandInPolicy, MNFTSMCPolicy
 from baselines.slosh import SloshLQRPolicy, SloshLyapunovPolicy, SloshPDPolicy
+from experiments import campaign
 
 RW = "attitude_envs/ReactionWheel-v0"
 AB = "attitude_envs/AirBearing-v0"
@@ -88,11 +89,10 @@ def test_baseline_acts_on_the_measurement_not_the_truth(name):
 
 
 def measured_truth(info: dict):
-    """The truth that ``info["measured"]`` measures: ``truth["state"]`` (LinearSystem-v0 after a
-    step: ``truth["next_state"]``, the state the step ended in, like the observation), plus
-    Magnetorquer-v0's body-frame field."""
+    """The truth that ``info["measured"]`` measures: ``truth["state"]`` (the state the
+    observation shows), plus Magnetorquer-v0's body-frame field."""
     truth = info[TRUTH]
-    state = truth["next_state"] if "next_state" in truth else truth["state"]
+    state = truth["state"]
     if isinstance(state, dict) and "magnetic_field_body_t" in info[MEASURED]:
         state = {**state, "magnetic_field_body_t": truth["magnetic_field_body_t"]}
     return state
@@ -175,3 +175,13 @@ def test_ga_episode_hands_the_pid_no_truth():
     spy = Spy(env)
     pid_episode(env, spy, seed=0)
     spy.check()
+
+
+@pytest.mark.parametrize("env_id", [MT, FS, LS])
+def test_campaign_episodes_hand_the_policy_no_truth(env_id):
+    env = gym.make(env_id, **SHORT[env_id])
+    spy = Spy(env)
+    job = {"key": {"seed": 0}, "options": {}, "metrics": {}, "env_kwargs": {}, "success_error_deg": 2.0}
+    row = campaign._generic_metrics(env, spy, job)
+    spy.check()
+    assert row["steps"] == len(spy.infos)

@@ -190,7 +190,7 @@ def test_linear_system_state_sensor():
     assert obs.shape == (6 + 3 + 1,)
     for _ in range(8):
         obs, _, _, _, info = env.step(np.zeros(3))
-        err = obs[:6] - info["truth"]["next_state"]
+        err = obs[:6] - info["truth"]["state"]
         assert np.array_equal(info["measured"], info["sensors"]["state"])  # the measurement in obs
         assert np.array_equal(info["measured"].astype(np.float32), obs[:6])
         late = info["truth"]["faults"][0]["active"]

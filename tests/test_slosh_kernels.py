@@ -66,7 +66,7 @@ def test_env_steps_match_the_numpy_reference_over_a_long_rollout():
             y1, c1, ni1 = ref.env_step(p, cost, y0, *info["truth"]["applied"], h, n_sub)
             one_step_err.append(np.abs(env.state - y1))
             cost_err.append(abs(-reward - c1) / c1)
-            new_inputs.append(info["new_inputs"])
+            new_inputs.append(info["truth"]["new_inputs"])
             new_inputs_ref.append(ni1 / env.control_dt_s)
         states.append(env.state)
         free_states.append(free)

@@ -2,7 +2,7 @@
 
 ``svec`` stacks the upper triangle of a symmetric d×d matrix row by row, with √2 on the
 off-diagonal entries, so ``H ↔ θ`` is an isometry in the Frobenius norm and
-``φ(z) = svec(zzᵀ)`` has p = d(d+1)/2 entries. (The seed paper's basis, eq. 21, stores
+``φ(z) = svec(zzᵀ)`` has p = d(d+1)/2 entries. (Heravi & Novinzadeh 2017's basis, eq. 21, stores
 ``2H_ij`` without the √2; it is the same space, worse scaled.)
 """
 

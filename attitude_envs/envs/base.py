@@ -40,7 +40,10 @@ class AttitudeEnv(gym.Env):
 
     #: the env id without namespace, e.g. ``"ReactionWheel-v0"`` (names its presets)
     env_name: ClassVar[str] = ""
-    #: the preset used when ``preset`` is not given (None: the env has no presets)
+    #: the env's default preset (listed first by :func:`attitude_envs.presets.for_env`). What
+    #: ``preset=None`` means is each env's to document: the envs whose plant needs a full
+    #: parameter set (ReactionWheel, AirBearing, Magnetorquer) then take this default;
+    #: FuelSlosh-v0 and LinearSystem-v0 take no preset (every value given explicitly).
     default_preset: ClassVar[str | None] = None
 
     # ------------------------------------------------------------------ construction

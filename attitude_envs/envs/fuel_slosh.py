@@ -117,14 +117,15 @@ class FuelSloshEnv(AttitudeEnv):
     tank centre, ``theta_rad``, ``slosh_angle_rad`` [ψ1, ψ2], ``v_x_m_s``, ``v_z_m_s``,
     ``pitch_rate_rad_s``, ``slosh_rate_rad_s`` [ψ̇1, ψ̇2]), ``full_state`` (the 10 entries
     of :mod:`attitude_envs.plants.slosh`), ``x`` (the true reduced state, float64),
-    ``applied`` ([δ rad, M_c N·m] after clipping and faults), ``faults``, ``sensor_bias``
-    (with sensors). ``measured``: with sensors off, the truth's ``state`` (a copy of the
-    dict); with sensors on, only what the ``state`` sensor measures: ``theta_rad``,
+    ``applied`` ([δ rad, M_c N·m] after clipping and faults), ``new_inputs`` (step-mean
+    [a_z m/s², Ω̇ rad/s²] the true plant realized under the applied inputs; zeros at reset),
+    ``faults``, ``sensor_bias`` (with sensors). ``measured``: with sensors off, the truth's
+    ``state`` (a copy of the dict); with sensors on, only what the ``state`` sensor measures: ``theta_rad``,
     ``v_x_m_s``, ``v_z_m_s``, ``pitch_rate_rad_s`` and, with ``observe_slosh``,
     ``slosh_angle_rad`` and ``slosh_rate_rad_s`` (``position_m`` is never measured; after
     a non-finite step every entry is NaN). Top level: ``cost``, ``time_s``, ``commanded``
-    ([δ, M_c] the action asked for, before clipping), ``new_inputs`` (step-mean [a_z m/s²,
-    Ω̇ rad/s²] the plant realized) and, with sensors, ``sensors`` (``{"state": reading}``).
+    ([δ, M_c] the action asked for, before clipping) and, with sensors, ``sensors``
+    (``{"state": reading}``).
 
     ``env.unwrapped.model`` is the nominal :class:`FuelSloshModel` (reduced model,
     linearizations, input inversion). The batched env and tools use the public members
@@ -133,7 +134,8 @@ class FuelSloshEnv(AttitudeEnv):
 
     **Version history.** v0: the full 5-DOF plant with one compiled RK4 step; presets
     ``navabi-fill-i`` … ``-iv`` replace ``fill_preset`` (kept, deprecated); infos follow
-    the truth/measured contract.
+    the truth/measured contract; ``new_inputs`` moved from the top level to
+    ``truth["new_inputs"]`` (it is truth-derived: it reveals actuator faults).
     """
 
     env_name = ENV
@@ -352,6 +354,7 @@ class FuelSloshEnv(AttitudeEnv):
             "full_state": y,
             "x": reduced_state(y),
             "applied": applied,
+            "new_inputs": new_inputs,
             "faults": self._fault_truth(self._t),
         }
         if not self._sensing:
@@ -361,7 +364,6 @@ class FuelSloshEnv(AttitudeEnv):
                 cost=cost,
                 time_s=self._t,
                 commanded=commanded,
-                new_inputs=new_inputs,
             )
         if reading is None:  # no sample of a diverged state
             reading = np.full(len(self._obs_index), np.nan)
@@ -371,7 +373,6 @@ class FuelSloshEnv(AttitudeEnv):
             cost=cost,
             time_s=self._t,
             commanded=commanded,
-            new_inputs=new_inputs,
             sensors={"state": reading},
         )
 

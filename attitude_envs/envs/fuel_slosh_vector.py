@@ -21,9 +21,9 @@ from attitude_envs.plants import slosh_kernels as kernels
 class FuelSloshVectorEnv(BatchedEnv):
     """``num_envs`` FuelSlosh-v0 envs stepped as one array (see :class:`BatchedEnv` for
     autoreset). Infos are dicts of arrays with gymnasium's ``_key`` masks: ``cost``,
-    ``time_s``, ``commanded`` ([δ rad, M_c N·m] the actions asked for, before clipping),
-    ``new_inputs`` (step-mean [a_z m/s², Ω̇ rad/s²]) and the ground truth under ``truth``:
-    ``applied`` ([δ rad, M_c N·m] after clipping and faults). It reads the sub-envs only
+    ``time_s``, ``commanded`` ([δ rad, M_c N·m] the actions asked for, before clipping)
+    and the ground truth under ``truth``: ``applied`` ([δ rad, M_c N·m] after clipping and
+    faults) and ``new_inputs`` (step-mean [a_z m/s², Ω̇ rad/s²] the true plant realized). It reads the sub-envs only
     through their public members (``state``, ``fault_layer``, ``observation_index``,
     ``actuator_limits``, ``kernel_constants``, ``batch_termination``)."""
 
@@ -79,8 +79,7 @@ class FuelSloshVectorEnv(BatchedEnv):
                 "cost": self._costs.copy(),
                 "time_s": time_s,
                 "commanded": commanded,
-                "new_inputs": new_inputs,
-                TRUTH: {"applied": applied},
+                TRUTH: {"applied": applied, "new_inputs": new_inputs},
             }
         )
         return self._observations(), -self._costs, terminated, truncated, infos

@@ -90,14 +90,14 @@ class LinearSystemEnv(AttitudeEnv):
     ``action_scale[i]``); ``"target": "sensor"`` faults hit the ``state`` sensor, which
     measures the whole state at the observation times (reset and the end of each step).
 
-    **Info** (:mod:`attitude_envs.info`). ``truth``: ``state`` (the state ``x`` the step
-    started from: the learner's transition is ``(truth["state"], u, truth["next_state"])``;
-    at reset the initial state), ``next_state`` (the state after the step; not at reset),
-    ``applied`` (u after saturation and faults), ``faults`` (actuator faults as applied
-    over the step, sensor faults at the observation time), ``sensor_bias`` (with sensors).
-    ``measured``: the latest measurement of the state, the one in the observation, i.e. of
-    ``truth["next_state"]`` after a step and of ``truth["state"]`` at reset (sensors are
-    only sampled at observation times; with sensors off it equals that truth). Top level:
+    **Info** (:mod:`attitude_envs.info`). ``truth``: ``state`` (the state the observation
+    shows: after the step; at reset the initial state x0), ``previous_state`` (the state the
+    step started from; step infos only, so the true transition is
+    ``(truth["previous_state"], truth["applied"], truth["state"])``), ``applied`` (u after
+    saturation and faults), ``faults`` (actuator faults as applied over the step, sensor
+    faults at the observation time), ``sensor_bias`` (with sensors). ``measured``: the
+    measurement of ``truth["state"]``, the one in the observation (sensors are only sampled
+    at observation times; with sensors off it equals ``truth["state"]``). Top level:
     ``cost``, ``time_s`` (steps · dt_s), ``commanded`` (``action_scale ·`` the clipped
     action, before faults) and, with sensors, ``sensors`` (``{"state": reading}``).
 
@@ -108,7 +108,9 @@ class LinearSystemEnv(AttitudeEnv):
 
     **Version history.** v0: presets through :mod:`attitude_envs.presets` (``"spec-001"`` is
     an alias of ``heravi-2017``); a user's ``A``/``B`` no longer inherit the default
-    preset's ``x0_mean`` and ``action_scale``; infos follow the truth/measured contract.
+    preset's ``x0_mean`` and ``action_scale``; infos follow the truth/measured contract
+    (``truth["state"]`` is the state after the step, ``truth["previous_state"]`` the one
+    before; ``truth["next_state"]`` was removed).
     """
 
     env_name = ENV
@@ -238,8 +240,8 @@ class LinearSystemEnv(AttitudeEnv):
         truncated = self._steps >= self.episode_steps and not terminated
         # actuator faults as applied over this step, sensor faults at the observation time
         truth = {
-            "state": x.copy(),
-            "next_state": x_next.copy(),
+            "state": x_next.copy(),
+            "previous_state": x.copy(),
             "applied": u,
             "faults": self._fault_truth(t_s, t_next),
         }

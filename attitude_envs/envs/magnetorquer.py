@@ -232,7 +232,6 @@ class MagnetorquerEnv(AttitudeEnv):
 
     def __init__(
         self,
-        preset: str | None = None,
         task: str = "tracking",
         reference: dict | None = None,
         target_euler_deg=(0.0, 0.0, 0.0),
@@ -264,6 +263,7 @@ class MagnetorquerEnv(AttitudeEnv):
         sensors: dict | None = None,
         fault_hint: bool = False,
         render_mode: str | None = None,
+        preset: str | None = None,  # last: positional callers of the earlier signature keep working
     ) -> None:
         cfg = self._configure(self.default_preset if preset is None else preset, locals())
         missing = [k for k in _REQUIRED if cfg.get(k) is None]
@@ -627,6 +627,7 @@ class MagnetorquerEnv(AttitudeEnv):
     def _info(self, commanded, cost: float) -> dict:
         # one fresh array (state, step outputs, snapshot) whose slices the info hands out
         v = np.concatenate([self._y, self._step_out, self._snap])
+        v.setflags(write=False)  # measured shares these views with the truth: nobody edits them
         snap = self._snap
         field_body = v[_V_BBODY]
         state = {

@@ -486,6 +486,7 @@ class ReactionWheelEnv(AttitudeEnv):
             gym.logger.warn("render() called without render_mode; pass render_mode='rgb_array' to gym.make")
             return None
         if self._renderer is None:
+            # heavy: the renderer loads matplotlib.pyplot, needed only when rendering
             from attitude_envs.rendering import AttitudeRenderer
 
             self._renderer = AttitudeRenderer(human=self.render_mode == "human")
@@ -540,6 +541,7 @@ class ReactionWheelEnv(AttitudeEnv):
         # Info holds new arrays every call (gymnasium's checker): one copy of the state and
         # target, whose slices are views of it.
         y = np.concatenate([self._y, self._target])
+        y.setflags(write=False)  # measured may share these views with the truth: nobody edits them
         n = y.shape[0] - 4
         state = {"attitude": y[:4], "rate_rad_s": y[4:7], "wheel_speed_rad_s": y[7:n], "target_attitude": y[n:]}
         truth = {
@@ -555,7 +557,7 @@ class ReactionWheelEnv(AttitudeEnv):
         if self.tilt_limit_deg is not None:
             truth["tilt_limit_hit"] = bool(kernels.tilt_exceeded(self._y, self._constants))
         if not self._sensor_layer.enabled:  # the flight computer has the truth: the same dict
-            return self._make_info(truth=truth, measured=state, cost=cost, time_s=self._t, commanded=commanded)
+            return self._make_info(truth=truth, measured=dict(state), cost=cost, time_s=self._t, commanded=commanded)
         sensors = {k: v.copy() for k, v in self._meas.items()}
         measured = {  # the readings (the same arrays as info["sensors"]) and the commanded target
             "attitude": sensors["star_tracker"],

@@ -55,7 +55,7 @@ def greenwich_sidereal_angle_rad(epoch: _dt.datetime) -> float:
 def igrf_ecef_t(position_ecef_m: np.ndarray, epoch: _dt.datetime) -> np.ndarray:
     """IGRF field (tesla, ECEF axes) at ECEF positions (…×3, m) via ``ppigrf.igrf_gc``."""
     try:
-        import ppigrf
+        import ppigrf  # optional: the igrf extra
     except ImportError as exc:  # pragma: no cover - exercised only without the extra
         raise ImportError("field_model='igrf' needs the optional package: pip install 'attitude-envs[igrf]'") from exc
     p = np.atleast_2d(position_ecef_m)

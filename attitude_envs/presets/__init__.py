@@ -18,6 +18,8 @@ as aliases, so saved configurations keep loading.
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import difflib
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
@@ -30,7 +32,14 @@ __all__ = ["Preset", "Sourced", "all_presets", "for_env", "get", "register", "re
 
 
 def _frozen(value: Any) -> Any:
-    """An immutable copy: arrays read-only, lists as tuples, dicts as read-only mappings."""
+    """An immutable copy: arrays read-only, lists as tuples, dicts as read-only mappings,
+    dataclass instances deep-copied with their array fields read-only."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        frozen = copy.deepcopy(value)
+        for v in vars(frozen).values():
+            if isinstance(v, np.ndarray):
+                v.setflags(write=False)
+        return frozen
     if isinstance(value, np.ndarray):
         arr = np.array(value, copy=True)
         arr.setflags(write=False)
@@ -44,6 +53,8 @@ def _frozen(value: Any) -> Any:
 
 def _thawed(value: Any) -> Any:
     """A fresh, writable copy of a frozen value (what an env receives)."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return copy.deepcopy(value)  # numpy's deepcopy gives writable arrays
     if isinstance(value, np.ndarray):
         return np.array(value, copy=True)
     if isinstance(value, Mapping):

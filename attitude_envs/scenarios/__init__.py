@@ -5,7 +5,7 @@ A scenario is a YAML mapping::
     name: wheel-failure
     description: ...
     env: attitude_envs/ReactionWheel-v0     # null: the user names the env
-    env_kwargs: {preset: spec-000, sensors: {...}}
+    env_kwargs: {preset: pyramid-4wheel, sensors: {...}}
     faults: [ {kind: outage, target: actuator, index: 0, onset_s: 10.0}, ... ]
     campaign: {kinds: [...], severities: [...], onsets_s: [...], index: 0, seeds: [...]}  # optional
 

@@ -1,4 +1,4 @@
-"""Reproduction of spec 002 (Sadigh et al., fault-tolerant AMNFTSMC), Table 2 and claims.
+"""Reproduction of Sadigh et al. 2022 (fault-tolerant AMNFTSMC), Table 2 and claims.
 
 ``python train.py reproduce fault-tolerant-smc --out DIR [--quick]`` runs the three
 controllers (AMNFTSMC, MNFTSMC, FTSMC stand-in) over two orbits (12 038 s, dt 0.1 s,
@@ -7,8 +7,8 @@ in two configurations:
 
 * ``as-printed`` — every printed number: sign(S) switching, Ĥ(0) = 0.605, ρ = 0.0015,
   the paper's allocation (16)–(17) on the whole demand, eq. (9) as printed, full eq. (39)
-  disturbance, ΔJ(t) of eq. (35), circular orbit at ω0 (the paper's model). Spec §7 found
-  that x/z control is lost: the run reports what happens.
+  disturbance, ΔJ(t) of eq. (35), circular orbit at ω0 (the paper's model). An independent
+  prototype lost x/z control with these numbers: the run reports what happens.
 * ``consistent`` — every number the comparison depends on derived from the actuators'
   authority (:mod:`experiments.reproductions.fault_tolerant_smc_design`): the physical
   dipole field, the disturbance scaled so that it never exceeds what the faulty
@@ -23,8 +23,9 @@ in two configurations:
 
 Metrics: eqs. (42)–(44) on applied signals (ASM also on commanded dipoles), chattering
 (total variation of the normalized command), time to recover ‖q_e‖ ≤ 0.01 after the
-fault, final/max error. Paper values carry a null tolerance: spec §5.4/§7 show Table 2
-cannot be reached (its ASM exceeds what saturated dipoles can give).
+fault, final/max error. Paper values carry a null tolerance: Table 2 cannot be reached
+(its ASM exceeds what saturated dipoles can give, and the printed disturbance exceeds the
+x/z magnetic authority).
 """
 
 from __future__ import annotations
@@ -44,9 +45,9 @@ from experiments.reproduction import Row, write_reproduction
 from experiments.reproductions.fault_tolerant_smc_design import ConsistentDesign, derive
 
 PAPER = "fault-tolerant-smc"
-SEED_FILE = "seeds/002_7b19fb18a362e12d.txt"
+SEED_FILE = "002_7b19fb18a362e12d.txt"
 CONTROLLERS = ("AMNFTSMC", "MNFTSMC", "FTSMC")
-# Table 2 as reconstructed in spec 002 §5.4: RMS (√s), AST (N·m·s), ASM (A·m²·s)
+# Table 2 (its layout garbled in our copy, reconstructed): RMS (√s), AST (N·m·s), ASM (A·m²·s)
 TABLE2 = {
     "FTSMC": {"RMS": 2.0739, "AST": 2.9656, "ASM": 8.4347e4},
     "MNFTSMC": {"RMS": 3.9257, "AST": 2.9980, "ASM": 8.6391e4},
@@ -147,7 +148,7 @@ def _plot(results: list[dict], out_dir: Path) -> list[Path]:
         for a in ax:
             a.legend(fontsize=7, loc="upper right")
             a.grid(alpha=0.3)
-        fig.suptitle(f"spec 002 reproduction, {config}: fault E = diag(0.9, 0.7, 0.6) at 50 s", fontsize=10)
+        fig.suptitle(f"Sadigh et al. 2022 reproduction, {config}: fault E = diag(0.9, 0.7, 0.6) at 50 s", fontsize=10)
         fig.tight_layout()
         path = out_dir / f"{PAPER}-{config}.png"
         fig.savefig(path, dpi=110)
@@ -224,7 +225,7 @@ def _observations(by: dict, design: ConsistentDesign) -> list[str]:
             f"- as-printed: AST = {min(ast):.3f}–{max(ast):.3f} N·m·s (Table 2: 2.60–3.00; the wheel alone at "
             f"±2.3e-4 N·m for the whole run gives {2.3e-4 * 12037.9:.2f}): sign(S) keeps the wheel bang-bang. "
             f"ASM = {min(asm):.4g}–{max(asm):.4g} A·m²·s, near Table 2's values divided by 10 (6.8–8.6 × 10³), "
-            "which supports the spec's reading that the printed exponent should be 10³."
+            "which supports reading the printed exponent as 10³ (saturated dipoles cannot exceed 1.81 × 10⁴)."
         )
     for config in CONFIGS:
         ms = [by[(config, c)] for c in CONTROLLERS if (config, c) in by]
@@ -255,7 +256,7 @@ def _design_notes(d: ConsistentDesign) -> list[str]:
         f"{d.weak_authority_min_nm:.3g} N·m (t = {d.weak_authority_time_s:.0f} s), against the printed "
         f"disturbance's per-axis bound {d.disturbance_bound_nm[0]:.3g} N·m: no controller can hold x/z there.",
         "2. Disturbance scale: the largest for which the box |d_i| ≤ s·d̄_i stays inside the achievable x/z "
-        f"torque set along the whole reference (any phases): s = {d.disturbance_scale:.4g}. At the spec §7 "
+        f"torque set along the whole reference (any phases): s = {d.disturbance_scale:.4g}. At an independent "
         f"prototype's 0.1 ({0.1 / d.disturbance_scale:.1f}× this) the printed disturbance leaves that set "
         f"during {100 * d.prototype_excess_fraction:.0f} % of the run: why the earlier `consistent` "
         "definition (0.1, 'xz' allocation, ρ = 0.0015 N·m, δ = 1e-3 rad/s) lost x/z at ~2000 s (not a bug).",
@@ -271,8 +272,8 @@ def _design_notes(d: ConsistentDesign) -> list[str]:
         "within 1/λ while ‖S‖ = δ). Eq. (22) as printed otherwise: no dead zone, so Ĥ keeps growing while S "
         "sits inside the boundary layer.",
         "Also: physical dipole field, 'exact' allocation (the wheel takes the along-b part; the magnetorquers' "
-        "whole authority serves the demand), wheel momentum limit 40 mN·m·s (spec §6 item 10), everything else "
-        "as printed or the spec's default (γ1 = 0.01, γ2 = 0.001, r = 0.6, ϵ = 0.01, p = q = 2).",
+        "whole authority serves the demand), wheel momentum limit 40 mN·m·s (the printed 40 N·m·s would "
+        "allow 8e5 rad/s), everything else as printed or assumed where the paper gives none (γ1 = 0.01, γ2 = 0.001, r = 0.6, ϵ = 0.01, p = q = 2).",
     ]
 
 
@@ -280,23 +281,24 @@ def _notes(duration: float, claims: list[str], plots: list[Path], by: dict, desi
     return "\n".join(
         [
             f"Episodes of {duration:.1f} s (dt 0.1 s, RK4), seed 0, circular orbit (the paper's constant ω0), "
-            "reference: spec §5.1 defaults Δθ = [10°, 20°, 10°], t_f = 1200 s. Fault: magnetorquer "
+            "reference (assumed: the paper gives no slew or t_f): Δθ = [10°, 20°, 10°], t_f = 1200 s. Fault: magnetorquer "
             "effectiveness diag(0.9, 0.7, 0.6) from 50 s (shared fault layer).",
             "",
-            "Paper values: Table 2 as reconstructed by spec 002 §5.4. Tolerances are null because the spec "
-            "shows they cannot be reached: the printed ASM (6.8–8.6 × 10⁴ A·m²·s) exceeds the maximum "
+            "Paper values: Table 2 (its layout garbled in our copy of the paper, reconstructed). Tolerances "
+            "are null because the values cannot be reached: the printed ASM (6.8–8.6 × 10⁴ A·m²·s) exceeds the maximum "
             "3 × 0.5 A·m² × 12 038 s = 1.81 × 10⁴ that saturated dipoles can give, the controller parameters "
             "γ1, γ2, r, ϵ, κ, μ, p, q and the trajectory are not printed, and with the printed disturbance "
-            "the x/z magnetic authority is insufficient (spec §6 item 8; item 1 below).",
+            "the x/z magnetic authority is insufficient (item 1 below).",
             "",
             "`as-printed`: all printed numbers (sign(S), Ĥ(0) = 0.605, ρ1 = ρ2 = 0.0015, allocation (16)–(17), "
-            "eq. (9) as printed, eq. (39) disturbance at full scale, ΔJ(t) of eq. (35)). The FTSMC row is the "
-            "spec §4.7 stand-in, not the paper's reference [13].",
+            "eq. (9) as printed, eq. (39) disturbance at full scale, ΔJ(t) of eq. (35)). The FTSMC row is a "
+            "stand-in (the MNFTSMC structure with the unmodified terminal term sig^r(q_e); assumed: the "
+            "paper's reference [13] is missing from our copy), not [13] itself.",
             "",
             *_design_notes(design),
             "",
             "`consistent-eq9`: the same numbers with eq. (9) exactly as printed (field y, z flipped relative to "
-            "the physical dipole in the paper's LVLH frame), the field of the spec's own prototype.",
+            "the physical dipole in the paper's LVLH frame), the field an independent prototype used.",
             "",
             "What happened:",
             *_observations(by, design),
@@ -307,7 +309,8 @@ def _notes(duration: float, claims: list[str], plots: list[Path], by: dict, desi
             "",
             "Chattering index: total variation of the normalized command (dipoles / 0.5 A·m², wheel / 2.3e-4 N·m) "
             "summed over the episode. Time to recover: seconds after 50 s until ‖q_e‖ ≤ 0.01 for good (NaN: "
-            "never); it includes the ω_bo-surface tracking lag during the slew (spec §6 item 3).",
+            "never); it includes the ω_bo-surface tracking lag during the slew (the sliding variable uses ω_bo, not "
+            "ω_bo − ω_d).",
             "",
             "Plots: " + ", ".join(p.name for p in plots),
         ]

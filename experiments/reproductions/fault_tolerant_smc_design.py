@@ -1,6 +1,6 @@
-"""The ``consistent`` configuration of the spec-002 reproduction, derived from the physics.
+"""The ``consistent`` configuration of the Sadigh et al. 2022 reproduction, derived from the physics.
 
-The paper's numbers are not consistent with its actuators (spec 002 §6 items 2, 8): its
+The paper's numbers are not consistent with its actuators: its
 switching gain (ρ1 + 1)Ĥ(0) = 0.606 N·m is ~10⁴ times what the magnetorquers can make, and
 its disturbance (1.4e-5 N·m per axis) exceeds what they can reject. This module derives
 every number the comparison depends on from the plant, the reference and the fault, in
@@ -13,15 +13,15 @@ this order (no number is chosen by looking at the results):
    the x/z plane the most is ``Σ_i |(b × ê)_i| e_i m̄`` (support function, the best corner
    of the dipole box). ``P``'s facet normals are ``x``, ``z`` and ``ê_b ∥ [b_x, 0, b_z]``;
    about ``ê_b``, ``b × ê_b = b_y (e_y × ê_b)``, so the authority scales with the field
-   component along the wheel axis. Along the reference (spec §5.1: 3-2-1 angles up to
-   [10°, 20°, 10°]) the body y axis passes within a few degrees of perpendicular to the
+   component along the wheel axis. Along the reference (3-2-1 angles up to [10°, 20°, 10°];
+   assumed: the paper gives no slew) the body y axis passes within a few degrees of perpendicular to the
    field twice per orbit and the weakest axis's authority falls to ~2e-7 N·m.
-2. **Disturbance scale** (spec §6 item 8). The box of disturbances within the printed
+2. **Disturbance scale**. The box of disturbances within the printed
    per-axis bounds ``d̄_i`` (eq. 39, assumption 4) is rejectable when it lies in ``P``, i.e.
    ``Σ_i d̄_i |ê_i| ≤ authority(ê)`` for the three facet normals. The scale is the largest
    for which this holds everywhere along the reference:
    ``s = min_t min_ê authority(ê)/Σ_i d̄_i |ê_i|``. It holds for any phases within the
-   bounds (the z phases of eq. 39 are a reconstruction, spec §2.8).
+   bounds (the z phases of eq. 39 are garbled in our copy of the paper and reconstructed).
 3. **Uncertainty bound** ``H`` (eqs. 20–22: ``‖A‖ ≤ Hφ`` with ``A = d − F_t − ε``).
    ``ε̄ = max_t ‖ω_bi × ΔJ ω_bi + ΔJ ω̇_bi‖`` along the reference (eq. 15 with the paper's
    ΔJ(t), eq. 35). The plant delivers the commanded torque scaled by at least
@@ -40,10 +40,11 @@ this order (no number is chosen by looking at the results):
    closes the gap ``H − H_healthy`` within one surface time constant ``1/λ``:
    ``μ = (H − H_healthy) λ / ((1 + ρ1) δ)`` (= ``(1 − e_min) J_max λ²/(1 + ρ1)``).
 
-The physically consistent wheel momentum limit (40 mN·m·s, spec §6 item 10) and the
+The physically consistent wheel momentum limit (40 mN·m·s; the printed 40 N·m·s would allow
+a wheel speed of 8e5 rad/s) and the
 ``"exact"`` allocation (the wheel takes the along-b part, so the magnetorquers' whole
 authority serves the demand; :func:`baselines.sliding_mode.allocate_paper`) complete the
-configuration; everything else is as printed or the spec's default.
+configuration; everything else is as printed or, where the paper gives none, assumed.
 """
 
 from __future__ import annotations
@@ -57,7 +58,9 @@ import attitude_envs  # noqa: F401  (registers the env ids)
 from attitude_envs.plants.magnetorquer import E_Y, cross, inertial_rate, orbital_to_body
 from baselines.sliding_mode import SlidingModeGains
 
-SPEC_PROTOTYPE_SCALE = 0.1  # spec 002 §7: the disturbance scale of the spec's prototype
+#: Disturbance scale (× eq. 39) under which an independent prototype of the paper's setup
+#: (MNFTSMC, boundary layer) kept x/z tracking.
+PROTOTYPE_DISTURBANCE_SCALE = 0.1
 
 
 def xz_facet_normals(b_body_t: np.ndarray) -> np.ndarray:
@@ -112,7 +115,7 @@ class ConsistentDesign:
     boundary_layer_rad_s: float  # δ = H/(J_max λ)
     initial_gain_nm: float  # Ĥ(0) = H_healthy/(1 + ρ1)
     adaptation_rate: float  # μ, N·m per (rad/s)·s
-    prototype_excess_fraction: float  # share of the reference where spec §7's 0.1 × eq. (39) is not rejectable
+    prototype_excess_fraction: float  # share of the reference where the prototype's 0.1 × eq. (39) is not rejectable
 
     def controller_gains(self, controller: str, allocation: str = "exact") -> dict:
         """Keyword overrides of :class:`baselines.sliding_mode.SlidingModeGains`."""
@@ -168,7 +171,7 @@ def derive(env_kwargs: dict, effectiveness=(0.9, 0.7, 0.6), step_s: float = 2.0)
     excess = np.mean(
         [
             any(
-                abs(SPEC_PROTOTYPE_SCALE * (d @ e)) > axis_authority_nm(b, e, dipole_limits)
+                abs(PROTOTYPE_DISTURBANCE_SCALE * (d @ e)) > axis_authority_nm(b, e, dipole_limits)
                 for e in xz_facet_normals(b)
             )
             for b, d in zip(frames, d1, strict=True)

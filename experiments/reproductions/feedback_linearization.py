@@ -250,7 +250,11 @@ def reproduce(out_dir: Path, quick: bool = False) -> list[Row]:
     write_csv(evaluation.rows, out_dir / f"{PAPER}-episodes.csv")
     write_json(evaluation.rows, out_dir / f"{PAPER}-episodes.json")
     m1 = {ctrl: evaluation.traces[("maneuver-1", ctrl, 0)] for ctrl in CONTROLLERS}
-    plot_episodes(m1, out_dir / f"{PAPER}-maneuver-1.png", title="Feedback-linearization paper, maneuver 1: [20, −30, −40] deg (3-2-1)")
+    plot_episodes(
+        m1,
+        out_dir / f"{PAPER}-maneuver-1.png",
+        title="Feedback-linearization paper, maneuver 1: [20, −30, −40] deg (3-2-1)",
+    )
     plot_error_overlay(m1, out_dir / f"{PAPER}-maneuver-1-error.png", title="Feedback-linearization paper, maneuver 1")
     plot_metric_bars(evaluation.rows, out_dir / f"{PAPER}-cost.png")
     plot_metric_bars(

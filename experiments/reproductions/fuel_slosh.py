@@ -1,6 +1,6 @@
-"""Reproduction of spec 004 (fuel slosh, Navabi & Davoodi): ``train.py reproduce fuel-slosh``.
+"""Reproduction of Navabi & Davoodi (fuel slosh): ``train.py reproduce fuel-slosh``.
 
-The paper prints no result numbers, only orderings (spec §4.3). This writes, per
+The paper prints no result numbers, only orderings (in its text). This writes, per
 controller and from the paper's initial condition over 1500 s, settling times, peak slosh
 angles, input peaks and the cost J (env cost: paper Q on x, paper R on [a_z, Ω̇]) in two
 setups — the paper's (reduced models, continuous control) and FuelSlosh-v0 (full 5-DOF
@@ -31,7 +31,7 @@ CASE_ENV = "FuelSlosh-v0 (full plant, 0.1 s hold)"
 
 
 def controllers(env, paper_setup: bool) -> list[tuple[object, bool]]:
-    """(policy, simulate on the reduced *linear* model) for each controller (spec §4.2)."""
+    """(policy, simulate on the reduced *linear* model) for each controller, as the paper runs them."""
     disc = "continuous" if paper_setup else "zoh"
     return [
         (SloshPDPolicy(env), True),
@@ -68,7 +68,7 @@ def _overall(m: dict[str, float]) -> float:
 
 
 def claims(ms: dict[str, dict[str, float]]) -> dict[str, bool]:
-    """The paper's qualitative claims (spec §4.3) evaluated on one setup's metrics."""
+    """The paper's qualitative claims (its text and conclusion) evaluated on one setup's metrics."""
     s = {name: m for name, m in ms.items()}
     psi = {n: max(m["settling psi1 (s)"], m["settling psi2 (s)"]) for n, m in s.items()}
     vz = {n: m["settling v_z (s)"] for n, m in s.items()}
@@ -150,7 +150,7 @@ def plot_lyapunov(tr: Trajectory, path: Path) -> None:
     b.plot(tr.t, tr.extra["Vdot"])
     b.set_ylabel("dV/dt")
     b.set_xlabel("time (s)")
-    fig.suptitle("Lyapunov controller (spec §3.4 reconstruction): V and dV/dt")
+    fig.suptitle("Lyapunov controller (reconstructed law): V and dV/dt")
     fig.tight_layout()
     fig.savefig(path, dpi=90)
     plt.close(fig)
@@ -163,17 +163,18 @@ def _fmt_claims(label: str, cl: dict[str, bool]) -> str:
 
 
 NOTES = """\
-The paper (spec 004) reports no numbers, only orderings, so every `paper` cell is empty
-and no tolerance applies; the rows are our measurements from the paper's initial
+The paper (Navabi & Davoodi) reports no numbers, only orderings, so every `paper` cell is
+empty and no tolerance applies; the rows are our measurements from the paper's initial
 condition (v_x 3000 m/s, v_z 100 m/s, θ 2°, ψ1 30°, ψ2 −30°) over 1500 s. Settling =
-last time |v_z| > 1 m/s, |θ| > 0.02°, |ψ| > 0.5° (spec §4.4); inf = not settled by the
-end. J uses the env cost (paper LQR Q on x, paper R on the new inputs [a_z, Ω̇]).
+last time |v_z| > 1 m/s, |θ| > 0.02°, |ψ| > 0.5° (assumed: the paper defines none);
+inf = not settled by the end. J uses the env cost (paper LQR Q on x, paper R on the new inputs [a_z, Ω̇]).
 
-Reconstructions (spec labels): the equations of motion (RECON, verified against a sympy
-Lagrange derivation); PD gain assignment (INFERRED); fuzzy membership functions,
-scaling and third-output rules (OURS, spec §3.3); the Lyapunov law (RECON/OURS: the
-paper's law and its Table 7 mapping are unrecoverable, tuned values of spec §3.4); the
-"feasible" LQR weighting (OURS: Q_θ = 10, R = diag(1e-2, 1e2)). The paper-weight LQR needs
+Reconstructions (our copy of the paper is partly garbled): the equations of motion
+(reconstructed from the surviving fragments, verified against a sympy Lagrange
+derivation); the PD gain assignment (inferred: the only physical assignment of Table 5's
+values); fuzzy membership functions, scaling and third-output rules (ours); the Lyapunov
+law (reconstructed and tuned by us: the paper's law and its Table 7 mapping are
+unrecoverable); the "feasible" LQR weighting (ours: Q_θ = 10, R = diag(1e-2, 1e2)). The paper-weight LQR needs
 |u1| ≈ 106 m/s² against the F/m_t = 2 m/s² authority; in the paper setup its δ comes from
 the linear recovery unclipped (thousands of degrees, physically meaningless); in the env
 it saturates the gimbal at 30° and the moment at 2000 N·m.

@@ -1,9 +1,9 @@
-"""Closed-loop runs for the spec 004 reproduction: the paper's setup (reduced models) and
+"""Closed-loop runs for the Navabi & Davoodi reproduction: the paper's setup (reduced models) and
 the full FuelSlosh-v0 plant, with the metrics the reproduction reports.
 
-Paper setup (spec §4.2): PD and LQR on the reduced *linear* model with v_x(t) = 3000 + 2t
+Paper setup (as the paper runs it): PD and LQR on the reduced *linear* model with v_x(t) = 3000 + 2t
 (δ, M recovered with the linear eqs. 15–17), fuzzy and Lyapunov on the reduced
-*nonlinear* model (δ, M from exact inversion, spec §2.9). Continuous controllers are
+*nonlinear* model (δ, M from exact inversion of eqs. 11–13). Continuous controllers are
 integrated with scipy's LSODA (stiff-safe: the paper LQR has a −448 rad/s pole), max step
 0.5 s, rtol 1e-8; the fuzzy controller (stateful gain schedule) is held over 0.1 s and
 integrated with RK4 at 0.05 s.
@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from attitude_envs.info import policy_view
 from attitude_envs.integrators import rk4_step
 from attitude_envs.plants import slosh
 from attitude_envs.plants.slosh_model import (
@@ -27,7 +28,7 @@ from attitude_envs.plants.slosh_model import (
     reduced_linear,
 )
 
-# Settling thresholds (spec §4.4): last time |v_z| > 1 m/s, |θ| > 0.02°, |ψ| > 0.5°.
+# Settling thresholds (assumed: the paper defines none): last time |v_z| > 1 m/s, |θ| > 0.02°, |ψ| > 0.5°.
 THRESHOLDS = {"v_z": 1.0, "theta": math.radians(0.02), "psi": math.radians(0.5)}
 
 
@@ -149,7 +150,7 @@ def run_env(env, policy, sample_every: int = 5) -> Trajectory:
     total, k, saturated = 0.0, 0, 0
     terminated = truncated = False
     while not (terminated or truncated):
-        action = policy.act(obs, info)
+        action = policy.act(obs, policy_view(info))
         saturated += int(abs(float(action[0])) >= 1.0)
         obs, _, terminated, truncated, info = env.step(action)
         total += info["cost"]
@@ -157,7 +158,7 @@ def run_env(env, policy, sample_every: int = 5) -> Trajectory:
             ts.append(info["time_s"])
             xs.append(info["truth"]["x"])
             vx.append(info["truth"]["state"]["v_x_m_s"])
-            us.append(info["new_inputs"])
+            us.append(info["truth"]["new_inputs"])
             ds.append(info["truth"]["applied"][0])
             ms.append(info["truth"]["applied"][1])
         k += 1

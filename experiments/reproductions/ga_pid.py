@@ -1,17 +1,22 @@
-"""Reproduction of spec 003 (GA-tuned state-dependent PID on an air-bearing simulator).
+"""Reproduction of Ahangarani Farahani et al. (GA-tuned state-dependent PID on an air-bearing
+simulator).
 
 ``python train.py reproduce ga-pid --out DIR`` runs the laboratory test of eq. 25 on
-AirBearing-v0 — [φ, θ, ψ] = [10, −10, 10]°, ω = [1, 1, 0] °/s, regulated to zero (§4.2 REC) —
+AirBearing-v0 — [φ, θ, ψ] = [10, −10, 10]°, ω = [1, 1, 0] °/s, regulated to zero (assumed: the
+paper states neither the setpoint nor the rates' units) —
 and writes ``DIR/ga-pid.{json,md}`` and the gains it tuned, ``DIR/ga-pid-gains-*.json``.
 
-Cases: nominal plant over 20 s (the paper's simulation horizon, §5 A10) and a constant
-disturbance of 0.01 N·m per axis over 60 s (A11). Controllers: the fixed PD of Table 3, the
-state-dependent PID of eq. 24 with the schedule in rad (default) and in deg (A1), and our own
+Cases: nominal plant over 20 s (the paper's simulation horizon; assumed: the lab test's
+duration is not given) and a constant disturbance of 0.01 N·m per axis over 60 s (assumed:
+the paper never quantifies its disturbance). Controllers: the fixed PD of Table 3, the
+state-dependent PID of eq. 24 with the schedule in rad (default) and in deg (the paper does
+not state the units of its arguments), and our own
 GA pipeline (:mod:`agents.ga_tuning`): constant gains tuned on the lab maneuver (Table 2
 settings) and a meta-model schedule fitted on GA-optimal gains of random maneuvers.
 
 Table 4 is a hardware result: its rows carry a null tolerance, except the fixed-PID yaw IAE,
-which an ideal simulation reproduces (spec 003 §6: 45.2 vs 47.4): claimed within 5 %.
+which an ideal simulation reproduces (an independent one gives 45.2 vs the paper's 47.4):
+claimed within 5 %.
 """
 
 from __future__ import annotations
@@ -39,7 +44,8 @@ SEED_FILE = "003_219b58348c5f6b55.txt"
 ENV_ID = "attitude_envs/AirBearing-v0"
 AXES = ("x", "y", "z")
 
-#: Table 4 (decoded, spec 003 §4.4): IAE per axis, deg·s.
+#: Table 4 (decimals and columns decoded from our garbled copy; the printed improvements
+#: 30/47/29 % confirm it): IAE per axis, deg·s.
 TABLE_4 = {"proposed": (54.93, 30.83, 33.51), "fixed": (78.79, 57.96, 47.4)}
 TABLE_4_IMPROVEMENT_PCT = (30.0, 47.0, 29.0)
 
@@ -52,7 +58,7 @@ CASES = {
 }
 NOMINAL = "lab, Td = 0, 20 s"
 
-#: Budget of the meta-model step (the paper gives neither N nor ranges, §5 A9). The full run
+#: Budget of the meta-model step (the paper gives neither N nor ranges). The full run
 #: uses Table 2's population but fewer generations per maneuver than Table 2's 50 (time).
 FULL_BUDGET = {"fixed": GAConfig(), "schedule": GAConfig(generations=20), "maneuvers": 8}
 QUICK_BUDGET = {
@@ -165,17 +171,19 @@ def _notes(results: dict, tuned: dict, quick: bool) -> str:
         "Setup: AirBearing-v0 (Table 1 inertia as the full tensor, offset torque m g r_s = [0.0014, 1.025e-4, 0.3366] "
         "N·m, 3 orthogonal wheels saturating at 0.8 N·m per axis, control and RK4 at 0.01 s), lab test of eq. 25 "
         "regulated to zero; IAE = ∫|e| dt of the 3-2-1 Euler-angle errors in deg·s (eq. 26), trapezoid over the "
-        "control samples. Gains in SI with errors in rad (spec 003 A1).",
+        "control samples. Gains in SI with errors in rad (assumed: the paper states no units; with errors in deg "
+        "Table 3's gains would demand about 26 N·m).",
         "",
         "Table 4 is a hardware (LabVIEW) test with unknown duration and unmodelled disturbances: only the fixed-PID "
-        "yaw IAE is claimed (5 %), as spec 003 §6 predicts; the other rows carry no tolerance.",
+        "yaw IAE is claimed (5 %), as an independent ideal simulation (45.2 deg·s) predicts; the other rows carry "
+        "no tolerance.",
         "",
         f"'Up to 30 % better' in simulation: eq. 24 (rad) vs Table 3, IAE improvement per axis x/y/z = "
         f"{fmt(f'{v:.0f} %' for v in nominal)} without disturbance (20 s) and "
         f"{fmt(f'{v:.0f} %' for v in disturbed)} with 0.01 N·m/axis (60 s) (paper: 30 / 47 / 29 %). "
         + _verdict(nominal, disturbed),
         "",
-        "eq. 24 with the schedule in deg (A1's other reading) moves the gains far from k1: at the lab initial state "
+        "eq. 24 with the schedule in deg (the other reading of the unstated units) moves the gains far from k1: at the lab initial state "
         f"Kd_θ = {kd[1]:.3f} (k1 = 4.22) and Kp_φ = {kp[0]:.2f} (k1 = 4.07) (IAE x/y/z nominal: {fmt(f'{v:.1f}' for v in results[(NOMINAL, 'state-dependent, eq. 24 (deg)')]['iae_deg_s'])} "
         f"deg·s; peak wheel torque {results[(NOMINAL, 'state-dependent, eq. 24 (deg)')]['peak_motor_torque_nm']:.3f} "
         "of 0.8 N·m).",
@@ -187,7 +195,8 @@ def _notes(results: dict, tuned: dict, quick: bool) -> str:
         f"'GA + meta-model' = one GA (population {tuned['_budget']['schedule'].population}, "
         f"{tuned['_budget']['schedule'].generations} generations) per maneuver on {len(tuned['_schedule'].genes)} random maneuvers "
         "(AirBearing-v0's start distribution: roll/pitch ±20°, yaw ±45°, rates ±2 °/s), least-squares fit of eq. 23 "
-        "on the maneuvers' initial states (A6), schedule in rad; residual RMS of the fit per gain (rows Kp, Kd, KI) "
+        "on the maneuvers' initial states (assumed: the paper's final states are all ≈ 0 in a regulation test), "
+        "schedule in rad; residual RMS of the fit per gain (rows Kp, Kd, KI) "
         f"and axis: {np.round(sched.residual_rms, 3).tolist()}, R² of the fit: {np.round(_r2(sched), 2).tolist()} "
         "(R² near 0: the maneuver's initial state explains little of its GA-optimal gains). On the nominal lab test "
         f"our meta-model schedule vs our GA fixed PID: IAE improvement x/y/z = {fmt(f'{v:.0f} %' for v in ours_nominal)}"
@@ -212,7 +221,7 @@ def _verdict(nominal: np.ndarray, disturbed: np.ndarray) -> str:
     return (
         f"So the claim does not hold as a whole in simulation: the scheduled PID is {says(nominal)} without "
         f"disturbance and {says(disturbed)} with it, while its lightly damped yaw channel (Kd_ψ = 2.8, "
-        "ζ ≈ 0.3 by spec 003 §3.6) is worse in both."
+        "ζ ≈ 0.3 on the linearized model) is worse in both."
         if nominal[2] < 0 and disturbed[2] < 0
         else f"Scheduled PID {says(nominal)} without disturbance and {says(disturbed)} with it."
     )

@@ -1,13 +1,12 @@
-"""Reproduction of spec 001 (Heravi & Novinzadeh 2017): model-free Q-learning (value
+"""Reproduction of Heravi & Novinzadeh 2017: model-free Q-learning (value
 iteration on a quadratic Q-function) vs. discrete LQR for a 1000 kg·m² satellite.
 
 ``python train.py reproduce q-learning-lqr --out DIR [--quick]`` writes
 ``DIR/q-learning-lqr.json``/``.md`` and the figures ``DIR/q-learning-lqr-*.png``.
 
-The paper prints no gains or tables (spec 001 §5); its only numbers are "converges in
-3–4×10⁴ iterations" (§3.7) and "peak wheel-4 torque ≈ 0.8 N·m" (Fig. 15). Rows whose
-reference is the spec's own computation (§3.7, §5.3) or the research note's measurement
-(q-learning-lqr §6.2) say so in the case name.
+The paper prints no gains or tables; its only numbers are "converges in 3–4×10⁴
+iterations" and "peak wheel-4 torque ≈ 0.8 N·m" (Fig. 15). Rows whose reference is not the
+paper but an independent computation or prototype measurement say so in the case name.
 """
 
 from __future__ import annotations
@@ -20,18 +19,21 @@ import numpy as np
 from agents import QLearningLQR
 from agents.qlqr.truth import dare_gain, hewer_iterations, relative_error, riccati_gains
 from attitude_envs.envs.linear_system import LinearSystemEnv
+from attitude_envs.info import policy_view
 from experiments.reproduction import Row, write_reproduction
 from experiments.reproductions import q_learning_lqr_plots as plots
 from experiments.reproductions.q_learning_lqr_nonlinear import nonlinear_rows
 
 PAPER = "q-learning-lqr"
 SEED_FILE = "001_005053a09d32d595.txt"
-STATE_STD = np.array([1.0, 1.0, 1.0, 0.05, 0.05, 0.05])  # spec 001 §6 item 3(a): q ~ N(0,1), ω ~ N(0, 0.05²)
-BETA_DEG = 20.0  # spec 001 eq. 75
+STATE_STD = np.array(
+    [1.0, 1.0, 1.0, 0.05, 0.05, 0.05]
+)  # assumed (the paper's sample points): q ~ N(0,1), ω ~ N(0, 0.05²)
+BETA_DEG = 20.0  # the paper's eq. 75
 
 
 def wheel_torques(u_body: np.ndarray, beta_deg: float = BETA_DEG) -> np.ndarray:
-    """Spec 001 eq. 66: ``T = D⁺ [u_x/cos β, u_y/cos β, u_z/sin β]`` (rows of ``u_body``, N·m)."""
+    """Heravi & Novinzadeh 2017, eq. 66: ``T = D⁺ [u_x/cos β, u_y/cos β, u_z/sin β]`` (rows of ``u_body``, N·m)."""
     D = np.array([[1.0, 0.0, -1.0, 0.0], [0.0, 1.0, 0.0, -1.0], [1.0, 1.0, 1.0, 1.0]])
     b = np.radians(beta_deg)
     scaled = np.atleast_2d(u_body) / np.array([np.cos(b), np.cos(b), np.sin(b)])
@@ -55,14 +57,14 @@ class GainSchedule:
 
 
 def simulate(policy, steps: int) -> dict[str, np.ndarray]:
-    """Run ``policy`` on LinearSystem-v0 (spec-001 preset: Euler plant, paper's x₀) for ``steps``."""
+    """Run ``policy`` on LinearSystem-v0 (heravi-2017 preset: Euler plant, paper's x₀) for ``steps``."""
     env = LinearSystemEnv(preset="spec-001", episode_steps=steps, divergence_threshold=1e9)
     obs, info = env.reset(seed=0)
     policy.reset(0)
     X, U, J = [info["truth"]["state"]], [], 0.0
     for _ in range(steps):
-        obs, _, terminated, truncated, info = env.step(policy.act(obs, info))
-        X.append(info["truth"]["next_state"])
+        obs, _, terminated, truncated, info = env.step(policy.act(obs, policy_view(info)))
+        X.append(info["truth"]["state"])
         U.append(info["truth"]["applied"])
         J += info["cost"]
         if terminated or truncated:
@@ -94,7 +96,7 @@ def reproduce(out_dir: Path, quick: bool = False) -> list:
     vi_name = "Q-learning VI (90 samples, σ_η=1 N·m)"
     rows += [
         Row(
-            f"{case}; ref: spec §3.7 (computed)",
+            f"{case}; ref: Riccati recursion from P = 0 (computed)",
             vi_name,
             "rel. gain error vs DARE at 3e4 iterations",
             1.2e-4,
@@ -102,7 +104,7 @@ def reproduce(out_dir: Path, quick: bool = False) -> list:
             0.05,
         ),
         Row(
-            f"{case}; ref: spec §3.7 (computed)",
+            f"{case}; ref: Riccati recursion from P = 0 (computed)",
             vi_name,
             "rel. gain error vs DARE at 4e4 iterations",
             1.7e-5,
@@ -110,7 +112,7 @@ def reproduce(out_dir: Path, quick: bool = False) -> list:
             0.05,
         ),
         Row(
-            f"{case}; ref: spec §7 (≤ 1e-5)",
+            f"{case}; ref: acceptance bound (≤ 1e-5)",
             vi_name,
             "max rel. difference from Riccati recursion (all iterations)",
             None,
@@ -123,7 +125,7 @@ def reproduce(out_dir: Path, quick: bool = False) -> list:
     if first is not None:
         rows.append(
             Row(
-                f"{case}; ref: note §6.2 (measured)",
+                f"{case}; ref: independent prototype (measured)",
                 vi_name,
                 "iterations to rel. gain error 1e-8",
                 63_613,
@@ -133,7 +135,7 @@ def reproduce(out_dir: Path, quick: bool = False) -> list:
         )
     rows.append(Row(case, vi_name, "final rel. gain error vs DARE", None, float(err[-1]), None))
 
-    # --- the paper's own probe (σ = 1e-3 N·m, spec 001 §6 item 2)
+    # --- the paper's own probe (σ = 1e-3 N·m: its n = (0, 10⁻³) read as a standard deviation)
     small = QLearningLQR(env, method="value_iteration", seed=1, state_std=STATE_STD, exploration_std=1e-3, tol=1e-12)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the agent warns that this probe is small: that is the point here
@@ -150,7 +152,7 @@ def reproduce(out_dir: Path, quick: bool = False) -> list:
     )
 
     # --- improvements: LSTD-Q policy iteration (off-policy, one batch) and CE, same plant
-    K0 = np.hstack([0.1 * np.eye(3), 10.0 * np.eye(3)])  # spec 001 §6 item 15 (u = −Kx)
+    K0 = np.hstack([0.1 * np.eye(3), 10.0 * np.eye(3)])  # small stabilizing PD gain (u = −Kx; K = 0 is not)
     lspi = QLearningLQR(env, method="lspi", seed=2, initial_gain=K0, state_std=STATE_STD, exploration_std=1.0)
     lspi.learn(samples_per_iteration=90)
     pi = QLearningLQR(env, method="policy_iteration", seed=3, initial_gain=K0, state_std=STATE_STD, exploration_std=1.0)
@@ -183,7 +185,7 @@ def reproduce(out_dir: Path, quick: bool = False) -> list:
         ),
     ]
 
-    # --- closed loop from the paper's initial condition (scalar-first reading, spec 001 §2.4)
+    # --- closed loop from the paper's initial condition (eq. 74 read scalar-first: it gives the paper's peak torque)
     steps = 10_000 if quick else 100_000  # the peak torques occur near t = 59 s
     sim = {
         "DLQR (DARE K*)": simulate(GainSchedule(K_star[None], 2.0, "dlqr"), steps),
@@ -215,7 +217,7 @@ def reproduce(out_dir: Path, quick: bool = False) -> list:
             )
         rows.append(
             Row(
-                f"{traj_case}; ref: spec §5.3 (computed)",
+                f"{traj_case}; ref: independent simulation (computed)",
                 name,
                 "peak wheel-4 torque [N·m]",
                 ref_t4[name],
@@ -226,7 +228,7 @@ def reproduce(out_dir: Path, quick: bool = False) -> list:
         if not quick:
             rows.append(
                 Row(
-                    f"{traj_case}; ref: spec §5.3 (computed)",
+                    f"{traj_case}; ref: independent simulation (computed)",
                     name,
                     "J = Σ xᵀQx + uᵀRu (1e5 steps)",
                     ref_j[name],
@@ -236,7 +238,7 @@ def reproduce(out_dir: Path, quick: bool = False) -> list:
             )
             rows.append(
                 Row(
-                    f"{traj_case}; ref: spec §5.3 (computed)",
+                    f"{traj_case}; ref: independent simulation (computed)",
                     name,
                     "time to ‖x‖ < 1% ‖x0‖ [s]",
                     {"DLQR (DARE K*)": 309.0}.get(name, 364.0),
@@ -245,9 +247,11 @@ def reproduce(out_dir: Path, quick: bool = False) -> list:
                 )
             )
 
-    # --- nonlinear env (ReactionWheel-v0, spec-001 preset)
+    # --- nonlinear env (ReactionWheel-v0, heravi-2017 preset)
     if not quick:
-        rows += nonlinear_rows(episode_duration_s=600.0)  # the nonlinear maneuver settles in ≈ 500 s (spec §5.3)
+        rows += nonlinear_rows(
+            episode_duration_s=600.0
+        )  # the nonlinear maneuver settles in ≈ 500 s (independent simulation)
 
     out_dir.mkdir(parents=True, exist_ok=True)
     plots.convergence(out_dir / f"{PAPER}-convergence.png", err, ric_err, pi, ce_err, K_star)
@@ -259,11 +263,12 @@ def reproduce(out_dir: Path, quick: bool = False) -> list:
 
 def _notes(quick: bool) -> str:
     return (
-        "Plant: spec 001 §2.3 forward-Euler model (Δt = 0.01 s, J = diag(1000, 1000, 800) kg·m², Q = I6, R = I3), "
-        "LinearSystem-v0 preset 'spec-001'. The learner is `agents.QLearningLQR`; it sees only (x, applied u, cost, x⁺).\n\n"
+        "Plant: the paper's forward-Euler model (eqs. 60–62, Δt = 0.01 s, J = diag(1000, 1000, 800) kg·m², Q = I6, R = I3), "
+        "LinearSystem-v0 preset 'heravi-2017'. The learner is `agents.QLearningLQR`; it sees only (x, applied u, cost, x⁺).\n\n"
         "* The paper prints no gains, kernels or tables. Its only numbers are the convergence in 3–4×10⁴ iterations and "
-        "the peak wheel-4 torque ≈ 0.8 N·m (read off Fig. 15, hence the 10 % tolerance). Rows marked 'spec §… (computed)' "
-        "compare with the spec author's reproduction, rows marked 'note §6.2' with the research note's measurement.\n"
+        "the peak wheel-4 torque ≈ 0.8 N·m (read off Fig. 15, hence the 10 % tolerance). Rows marked '(computed)' "
+        "compare with an independent model-based simulation of the same setup, rows marked 'independent prototype "
+        "(measured)' with a measurement on an independent prototype learner.\n"
         "* Our value iteration reuses ONE batch of 90 one-step samples for every iteration (fitted-Q iteration); the "
         "paper used ≥ 45 fresh samples per iteration for ~10⁵ iterations (≈ 4.5×10⁶ samples). Both follow the Riccati "
         "recursion from P = 0 exactly, so the iteration counts are the same; the data are 5×10⁴ times fewer.\n"
@@ -272,10 +277,10 @@ def _notes(quick: bool) -> str:
         "matches the paper's 0.8 N·m. The simulation applies the gains without exploration noise.\n"
         "* With the paper's probe σ_η = 10⁻³ N·m the regression is less well conditioned; the gain error at 3×10⁴ "
         "iterations still matches the Riccati recursion.\n"
-        "* LSTD-Q policy iteration is reported as numerically ill-posed on this plant in the research note (§6.2, "
-        "cond ≈ 10¹³); with per-coordinate feature scaling and a QR-projected LSTD solve it converges in the Hewer "
+        "* LSTD-Q policy iteration is numerically ill-posed on this plant without scaling (an independent "
+        "prototype measured cond ≈ 10¹³); with per-coordinate feature scaling and a QR-projected LSTD solve it converges in the Hewer "
         "iteration count from K0 = [0.1 I, 10 I] on 90 samples.\n"
-        "* The paper's claim that the method fails on the nonlinear model is not reproduced (spec 001 §5.3): on "
+        "* The paper's claim that the method fails on the nonlinear model is not reproduced: on "
         "ReactionWheel-v0 (exact gyrostat, RK4) the agent learns the ZOH-discretized LQR gain from near-target data "
         "and completes the maneuver with the LQR baseline's cost (rows 'ReactionWheel-v0')."
         + (" Quick mode: shortened runs, nonlinear rows omitted." if quick else "")

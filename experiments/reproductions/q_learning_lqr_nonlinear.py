@@ -1,4 +1,4 @@
-"""Q-learning LQR on the nonlinear ReactionWheel-v0 (spec-001 preset): learned gain vs the
+"""Q-learning LQR on the nonlinear ReactionWheel-v0 (heravi-2017 preset): learned gain vs the
 DARE gain of the env's exact ZOH discretization, and the paper's maneuver vs the LQR baseline."""
 
 from __future__ import annotations
@@ -40,10 +40,10 @@ def nonlinear_rows(episode_duration_s: float = 400.0) -> list:
     agent = learn_on_reaction_wheel(env)
     j_lqr = rollout(env, lqr, seed=0)
     j_q = rollout(env, agent, seed=0)
-    case = f"ReactionWheel-v0 spec-001 (RK4 gyrostat), paper x0, {episode_duration_s:g} s"
+    case = f"ReactionWheel-v0 heravi-2017 (RK4 gyrostat), paper x0, {episode_duration_s:g} s"
     return [
         Row(
-            "ReactionWheel-v0 spec-001; ref: ZOH-DARE gain",
+            "ReactionWheel-v0 heravi-2017; ref: ZOH-DARE gain",
             "Q-learning VI (90 samples near target)",
             "rel. body-torque gain error vs LQR (ZOH) [ref 0]",
             None,

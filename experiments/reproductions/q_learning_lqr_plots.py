@@ -1,4 +1,4 @@
-"""Figures of the spec-001 Q-learning LQR reproduction (matplotlib, Agg backend)."""
+"""Figures of the Q-learning LQR reproduction (Heravi & Novinzadeh 2017) (matplotlib, Agg backend)."""
 
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ def convergence(path: Path, vi_err: np.ndarray, riccati_err: np.ndarray, pi, ce_
     it = np.arange(1, len(vi_err) + 1)
     ax[0, 0].loglog(it, riccati_err, "k-", lw=3, alpha=0.3, label="Riccati recursion from P=0 (model-based)")
     ax[0, 0].loglog(it, np.maximum(vi_err, 1e-16), "C0--", label="Q-learning VI, one batch of 90 samples")
-    ax[0, 0].set(xlabel="iteration", ylabel="‖K − K*‖ / ‖K*‖", title="spec 001 plant: value iteration")
+    ax[0, 0].set(xlabel="iteration", ylabel="‖K − K*‖ / ‖K*‖", title="Heravi & Novinzadeh 2017 plant: value iteration")
     ax[0, 0].legend(fontsize=8)
     paper_samples = 45 * np.arange(1, len(riccati_err) + 1)
     ax[0, 1].loglog(paper_samples, riccati_err, "k-", alpha=0.5, label="paper: VI, 45 fresh samples/iteration")
@@ -54,6 +54,6 @@ def trajectories(path: Path, sims: dict) -> None:
     ax[1, 0].set(ylabel="ω [rad/s]")
     ax[2, 0].set(ylabel="wheel 4 torque [N·m]", xlabel="time [s]")
     ax[2, 0].legend(fontsize=8)
-    ax[0, 0].set_title("spec 001: learned (time-varying VI gain) vs LQR, paper's initial condition")
+    ax[0, 0].set_title("Heravi & Novinzadeh 2017: learned (time-varying VI gain) vs LQR, paper's initial condition")
     fig.tight_layout()
     fig.savefig(path)
