@@ -25,14 +25,15 @@ Evaluations of a generation run in parallel in a process pool (``workers``); eve
 builds its env once. Episodes that end early (the air bearing's tilt stop, tumbling) are
 charged the remaining time at the last error (IAE) or last step cost (J), so the GA avoids them.
 
-Command line: :func:`tune_pid_main` (``attitude-envs tune-pid``): tunes, shows a tqdm progress bar
-and writes a JSON gains file that :func:`baselines.pid.load_gains` / ``PIDPolicy.from_file`` read.
+Command line: :func:`tune_pid_main` (``attitude-envs tune-pid``): tunes, shows a progress bar with
+ETA (one status line every 30 s when not on a terminal) and writes a JSON gains file that :func:`baselines.pid.load_gains` / ``PIDPolicy.from_file`` read.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -43,11 +44,12 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import pygad
-from tqdm import tqdm
 
 import attitude_envs  # noqa: F401  (registers the env ids, also in the pool's workers)
 from attitude_envs import validation
 from attitude_envs.info import TRUTH, policy_view
+from attitude_envs.processes import die_with_parent
+from attitude_envs.progress import Progress
 from baselines.pid import GAIN_NAMES, UNITS, GainSchedule, PIDGains, PIDPolicy, euler_error
 
 OBJECTIVES = ("iae", "cost")
@@ -192,6 +194,11 @@ def _worker_init(env_id: str, env_kwargs: dict[str, Any]) -> None:
     _WORKER["key"] = (env_id, repr(sorted(env_kwargs.items())))
 
 
+def _pool_worker_init(parent_pid: int, env_id: str, env_kwargs: dict[str, Any]) -> None:
+    die_with_parent(parent_pid)  # Ctrl-C is the parent's; the worker dies with it, also on SIGKILL
+    _worker_init(env_id, env_kwargs)
+
+
 def _worker_eval(task: tuple[np.ndarray, list[dict], str]) -> float:
     genes, maneuvers, objective = task
     return maneuver_objective(_WORKER["env"], PIDGains.from_vector(genes), maneuvers, objective)
@@ -214,7 +221,7 @@ class Evaluator:
     def __enter__(self) -> Evaluator:
         if self.workers > 1:
             self._pool = ProcessPoolExecutor(
-                self.workers, initializer=_worker_init, initargs=(self.env_id, self.env_kwargs)
+                self.workers, initializer=_pool_worker_init, initargs=(os.getpid(), self.env_id, self.env_kwargs)
             )
         return self
 
@@ -459,21 +466,21 @@ def _tune_pid(args: argparse.Namespace) -> int:
             "maneuvers": maneuvers,
         }
         if args.mode == "fixed":
-            with tqdm(total=config.generations, desc="GA generations", unit="gen") as bar:
+            with Progress(config.generations, "GA generations", "gen") as bar:
 
                 def progress(gen: int, best: float) -> None:
                     bar.update(1)
-                    bar.set_postfix(best=f"{best:.4g}")
+                    bar.set_postfix(f"best {best:.4g}")
 
                 result = tune_gains(ev, maneuvers, config, args.objective, progress)
             doc.update(gains=result.gains.to_dict(), best_objective=result.objective, history=result.history)
         else:
             total = config.generations * len(maneuvers)
-            with tqdm(total=total, desc="GA generations (all maneuvers)", unit="gen") as bar:
+            with Progress(total, "GA generations (all maneuvers)", "gen") as bar:
 
                 def progress(j: int, gen: int, best: float) -> None:
                     bar.update(1)
-                    bar.set_postfix(maneuver=j, best=f"{best:.4g}")
+                    bar.set_postfix(f"maneuver {j}, best {best:.4g}")
 
                 res = build_schedule(ev, maneuvers, config, args.objective, args.regressor, args.units, progress)
             doc.update(

@@ -1,6 +1,6 @@
 """Gap of the model-free Q-learner to certainty equivalence (CE) on the same noisy data.
 
-    PYTHONPATH=. python benchmarks/q_learning_ce_gap.py [--out benchmarks/q_learning_ce_gap.json]
+    PYTHONPATH=. python benchmarks/q_learning_ce_gap.py [--out results/benchmarks/q_learning_ce_gap.json]
         [--seeds 8] [--systems krauth3x2 dean3x3 rand10x2] [--sigma 0.1 1] [--T 1000 10000 100000]
 
 Set-up (off-policy, single batch): one trajectory of T steps of ``x⁺ = Ax + Bu + w``,
@@ -106,7 +106,8 @@ def one_cell(name: str, system, sigma_w: float, T: int, seeds: int) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", default="benchmarks/q_learning_ce_gap.json")
+    # results/ is git-ignored; benchmarks/q_learning_ce_gap.json (cited in the README) is committed on purpose
+    parser.add_argument("--out", default="results/benchmarks/q_learning_ce_gap.json", help="output JSON file")
     parser.add_argument("--seeds", type=int, default=8)
     parser.add_argument("--systems", nargs="+", default=["krauth3x2", "dean3x3", "rand10x2"])
     parser.add_argument("--sigma", nargs="+", type=float, default=[0.1, 1.0])
@@ -120,6 +121,7 @@ def main(argv: list[str] | None = None) -> int:
                 row = one_cell(name, table[name], sigma_w, T, args.seeds)
                 rows.append(row)
                 print(json.dumps({k: round(v, 4) if isinstance(v, float) else v for k, v in row.items()}), flush=True)
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     with open(args.out, "w", encoding="utf-8") as fh:
         json.dump({"rows": rows}, fh, indent=2)
     return 0

@@ -1,6 +1,6 @@
 """Samples and wall time of the Q-learning LQR learners to 1e-6 relative gain error vs n.
 
-    PYTHONPATH=. python benchmarks/q_learning_lqr.py [--out benchmarks/q_learning_lqr.json] [--sizes 2 4 8 12]
+    PYTHONPATH=. python benchmarks/q_learning_lqr.py [--out results/benchmarks/q_learning_lqr.json] [--sizes 2 4 8 12]
 
 Random systems (seeded): A uniform in [−1, 1] rescaled to ρ(A) = 1.05 (open-loop unstable),
 B uniform, m = 2, Q = I, R = I, LinearSystem-v0, noise-free. Learners: on-policy PI
@@ -149,7 +149,9 @@ def rows(quick: bool = False) -> list[dict]:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--out", default="benchmarks/q_learning_lqr.json")
+    parser.add_argument(
+        "--out", default="results/benchmarks/q_learning_lqr.json", help="output JSON file (git-ignored)"
+    )
     parser.add_argument("--sizes", type=int, nargs="+", default=[2, 4, 6, 8, 10, 12])
     args = parser.parse_args(argv)
     rows = run(args.sizes)

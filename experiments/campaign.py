@@ -5,7 +5,8 @@ A campaign file (shipped presets: ``quick``, ``full`` in ``experiments/campaigns
     name: quick
     seeds: [0, 1, 2, 3, 4]            # evaluation episode seeds (>= 5 for the report's IQM)
     metrics: {settling_band_deg: 1.0}  # episode_metrics keyword arguments
-    success_error_deg: 2.0            # success: finite, not terminated, final error below this
+    success_error_deg: 2.0            # success (attitude envs): finite J, not terminated, final error below this
+    success_state_fraction: 0.1       # success (other envs): final state norm <= this × the initial one
     envs:
       - name: rw                       # short name used in tables and paths
         id: attitude_envs/ReactionWheel-v0
@@ -37,13 +38,16 @@ functions of their key, so the table does not depend on the executor or the work
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import hashlib
 import json
 import multiprocessing as mp
 import os
+import signal
 import sys
 import time
+import uuid
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
@@ -61,6 +65,8 @@ from attitude_envs.evaluation.trace import record_episode
 from attitude_envs.info import policy_view
 from attitude_envs.make import check_env_id, make_checked
 from attitude_envs.plants.gyrostat_model import ReactionWheelModel
+from attitude_envs.processes import die_with_parent
+from attitude_envs.progress import Progress, status_interval_s
 from experiments.policies import POLICIES, PolicyUnavailable, _import, build_policy, check_policy_name
 from experiments.sb3.hyperparams import read_yaml
 from experiments.sb3.registry import algorithm_class, check_algorithm
@@ -99,6 +105,7 @@ class Campaign:
     agents: list[AgentSpec]
     metrics: dict[str, Any] = field(default_factory=dict)
     success_error_deg: float = 2.0
+    success_state_fraction: float = 0.1
     video: bool = False
     source: str = ""
     fingerprint: str = ""
@@ -125,6 +132,14 @@ def _name(where: str, value: Any) -> str:
     return value
 
 
+def _fraction(value: Any) -> float:
+    _require(
+        isinstance(value, int | float) and 0.0 < float(value) <= 1.0,
+        f"success_state_fraction must be a number in (0, 1], got {value!r}",
+    )
+    return float(value)
+
+
 def load_campaign(config: str | Path | dict) -> Campaign:
     """A campaign from a preset name (``quick``, ``full``), a YAML path or a dict; ``ValueError``
     naming the offending entry otherwise."""
@@ -141,7 +156,8 @@ def load_campaign(config: str | Path | dict) -> Campaign:
     else:
         data = copy.deepcopy(config)
     _require(isinstance(data, dict), f"campaign {source!r} must be a mapping, got {type(data).__name__}")
-    accepted = ["name", "description", "seeds", "envs", "agents", "metrics", "success_error_deg", "video"]
+    accepted = ["name", "description", "seeds", "envs", "agents", "metrics", "success_error_deg"]
+    accepted += ["success_state_fraction", "video"]
     unknown = set(data) - set(accepted)
     _require(not unknown, f"campaign has unknown keys {sorted(unknown)}; accepted: {accepted}")
     seeds = data.get("seeds", list(range(5)))
@@ -213,6 +229,7 @@ def load_campaign(config: str | Path | dict) -> Campaign:
         agents=agents,
         metrics=dict(data.get("metrics") or {}),
         success_error_deg=float(data.get("success_error_deg", 2.0)),
+        success_state_fraction=_fraction(data.get("success_state_fraction", 0.1)),
         video=bool(data.get("video", False)),
         source=source,
         fingerprint=hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16],
@@ -299,6 +316,7 @@ def episode_jobs(campaign: Campaign, out_dir: Path, skip_agents: Iterable[str] =
                                     "policy": spec,
                                     "metrics": dict(campaign.metrics),
                                     "success_error_deg": campaign.success_error_deg,
+                                    "success_state_fraction": campaign.success_state_fraction,
                                 }
                             )
     return jobs
@@ -340,7 +358,7 @@ def run_job(job: dict[str, Any]) -> dict[str, Any]:
 
 def _run_training(job: dict[str, Any]) -> dict[str, Any]:
     # optional: the sb3 extra (importing stable-baselines3 and torch costs seconds; episode workers skip it)
-    from experiments.sb3.callbacks import latest_checkpoint
+    from experiments.sb3.checkpoint import latest_checkpoint
     from experiments.sb3.training import train
 
     out_dir = Path(job["out_dir"])
@@ -359,6 +377,7 @@ def _run_training(job: dict[str, Any]) -> dict[str, Any]:
         checkpoint_freq=job["checkpoint_freq"],
         eval_freq=job["eval_freq"],
         resume=latest_checkpoint(out_dir) is not None,
+        progress=job.get("progress", False),
     )
     return {
         "kind": "train",
@@ -411,23 +430,53 @@ def _attitude_metrics(env, policy, job: dict[str, Any]) -> dict[str, Any]:
     return m
 
 
+def _state_norm(info: dict[str, Any]) -> float:
+    """Norm of the true state the cost weighs: ``truth["x"]`` where the env has one (FuelSlosh-v0's
+    reduced states), else ``truth["state"]`` (an array, or a mapping of arrays, flattened)."""
+    truth = info["truth"]
+    state = truth["x"] if "x" in truth else truth["state"]
+    if isinstance(state, dict):
+        state = np.concatenate([np.ravel(np.asarray(v, dtype=float)) for v in state.values()])
+    return float(np.linalg.norm(np.asarray(state, dtype=float)))
+
+
+def success_criterion(env_id: str, env_kwargs: dict[str, Any], campaign: Campaign) -> str:
+    """The success criterion of an episode of ``env_id`` (as the report states it)."""
+    env = gym.make(env_id, **env_kwargs)
+    try:
+        _, info = env.reset(seed=0)
+        attitude = "error_angle_deg" in info["truth"]
+    finally:
+        env.close()
+    if attitude:
+        return f"final attitude error ≤ {campaign.success_error_deg:g}°, not terminated, J finite"
+    return (
+        f"final state norm ≤ {campaign.success_state_fraction:g} × the initial state norm (true state), "
+        "not terminated, J finite"
+    )
+
+
 def _generic_metrics(env, policy, job: dict[str, Any]) -> dict[str, Any]:
+    """Any env: J, and success by the final attitude error where the env reports one
+    (``truth["error_angle_deg"]``), else by the final state norm relative to the initial one."""
     obs, info = env.reset(seed=job["key"]["seed"], options=copy.deepcopy(job["options"]) or None)
     policy.reset(job["key"]["seed"])
+    initial = _state_norm(info)
     total, steps, terminated, truncated = 0.0, 0, False, False
     while not (terminated or truncated):
         obs, _, terminated, truncated, info = env.step(policy.act(obs, policy_view(info)))
         total += float(info["cost"])
         steps += 1
-    final = float(np.linalg.norm(obs))
-    return {
-        "J": total,
-        "steps": steps,
-        "terminated": bool(terminated),
-        "final_state_norm": final,
-        "success": bool(np.isfinite(total) and not terminated),
-        "recovery_time_s": float("nan"),
-    }
+    final = _state_norm(info)
+    ok = bool(np.isfinite(total) and not terminated)
+    m = {"J": total, "steps": steps, "terminated": bool(terminated)}
+    if "error_angle_deg" in info["truth"]:
+        m["final_error_deg"] = float(info["truth"]["error_angle_deg"])
+        ok = ok and m["final_error_deg"] <= job["success_error_deg"]
+    else:
+        ok = ok and final <= job.get("success_state_fraction", 0.1) * initial
+    m |= {"initial_state_norm": initial, "final_state_norm": final, "success": ok, "recovery_time_s": float("nan")}
+    return m
 
 
 # --------------------------------------------------------------------------- executors
@@ -443,26 +492,62 @@ def _mp_context(mp):
 
 
 class LocalExecutor:
-    """Runs jobs in a local process pool (``workers`` > 1) or inline (``workers`` = 1)."""
+    """Runs jobs in a local process pool (``workers`` > 1) or inline (``workers`` = 1).
+
+    The workers die with this process, also on SIGKILL (:func:`attitude_envs.processes.die_with_parent`). On an interrupt
+    (Ctrl-C) or any other exception, and on :meth:`close`, pending jobs are cancelled and the
+    workers terminated at once instead of finishing their jobs."""
 
     def __init__(self, workers: int | None = None) -> None:
         self.workers = max(1, int(workers or os.cpu_count() or 1))
         self.name = f"local-pool[{self.workers}]"
+        self._pool: ProcessPoolExecutor | None = None
+        self._children: list = []
 
     def map_unordered(self, fn: Callable, jobs: list[dict[str, Any]]) -> Iterator[dict[str, Any]]:
         if self.workers == 1 or len(jobs) <= 1:
             for job in jobs:
                 yield fn(job)
             return
-        with ProcessPoolExecutor(max_workers=min(self.workers, len(jobs)), mp_context=_mp_context(mp)) as pool:
+        before = {p.pid for p in mp.active_children()}
+        self._pool = pool = ProcessPoolExecutor(
+            max_workers=min(self.workers, len(jobs)),
+            mp_context=_mp_context(mp),
+            initializer=die_with_parent,  # Ctrl-C is ours to handle; the workers die with this process
+            initargs=(os.getpid(),),
+        )
+        try:
             pending = {pool.submit(fn, job) for job in jobs}
+            self._children = [p for p in mp.active_children() if p.pid not in before]
             while pending:
                 done, pending = wait(pending, return_when=FIRST_COMPLETED)
                 for fut in done:
                     yield fut.result()
+        except BaseException:  # interrupt, a failed job, or the consumer stopped (GeneratorExit)
+            self._terminate()
+            raise
+        pool.shutdown(wait=True)
+        self._pool = None
+
+    def _terminate(self) -> None:
+        """Cancel what is queued and end the workers now (SIGTERM, then SIGKILL after 1 s)."""
+        pool, self._pool = self._pool, None
+        if pool is None:
+            return
+        pool.shutdown(wait=False, cancel_futures=True)
+        for p in self._children:
+            if p.is_alive():
+                p.terminate()
+        deadline = time.monotonic() + 1.0
+        for p in self._children:
+            p.join(max(0.0, deadline - time.monotonic()))
+            if p.is_alive():
+                p.kill()
+                p.join(0.5)
+        self._children = []
 
     def close(self) -> None:
-        pass
+        self._terminate()
 
 
 class RayExecutor:
@@ -494,10 +579,15 @@ class RayExecutor:
         ray = self._ray
         remote = ray.remote(num_cpus=1)(fn)
         pending = [remote.remote(job) for job in jobs]
-        while pending:
-            done, pending = ray.wait(pending, num_returns=1)
-            for ref in done:
-                yield ray.get(ref)
+        try:
+            while pending:
+                done, pending = ray.wait(pending, num_returns=1)
+                for ref in done:
+                    yield ray.get(ref)
+        except BaseException:  # interrupt or a failed job: cancel what is still queued or running
+            for ref in pending:
+                ray.cancel(ref, force=True)
+            raise
 
     def close(self) -> None:
         if self._started:
@@ -512,9 +602,15 @@ def make_executor(ray_address: str | None = None, workers: int | None = None):
 
 
 def _append_line(path: Path, record: dict[str, Any]) -> None:
-    """Append one JSON line and fsync it (a crash can cut at most this line)."""
-    with path.open("a", encoding="utf-8") as fh:
-        fh.write(json.dumps(record, allow_nan=True) + "\n")
+    """Append one JSON line and fsync it (a crash can cut at most this line; a line a crash
+    cut before is ended first, so this one stays readable)."""
+    with path.open("a+b") as fh:
+        size = fh.seek(0, os.SEEK_END)
+        cut = False
+        if size:
+            fh.seek(size - 1)
+            cut = fh.read(1) != b"\n"
+        fh.write((("\n" if cut else "") + json.dumps(record, allow_nan=True) + "\n").encode("utf-8"))
         fh.flush()
         os.fsync(fh.fileno())
 
@@ -532,6 +628,65 @@ def _read_lines(path: Path) -> list[dict[str, Any]]:
     return records
 
 
+RUN_STATUSES = ("completed", "interrupted", "failed", "killed")
+
+
+class RunLog:
+    """One run of a campaign in ``runs.jsonl``: an fsynced ``start`` line before any work,
+    ``progress`` lines at most every ``ATTITUDE_ENVS_PROGRESS_S`` seconds (default 30) and an
+    ``end`` line with the status (``completed``, ``interrupted`` by Ctrl-C, ``failed``). A run
+    killed with SIGKILL leaves its start line (and progress lines) without an end:
+    :func:`read_runs` counts it as ``killed``."""
+
+    def __init__(self, path: Path, executor: str) -> None:
+        self.path = Path(path)
+        self.run = uuid.uuid4().hex[:12]
+        self.start = self.last = time.perf_counter()
+        self.interval_s = status_interval_s()
+        record = {"event": "start", "run": self.run, "started_at": round(time.time(), 3), "executor": executor}
+        _append_line(self.path, record | {"pid": os.getpid()})
+
+    def elapsed_s(self) -> float:
+        return time.perf_counter() - self.start
+
+    def progress(self) -> None:
+        """A progress line (the wall time so far) if the last one is an interval old."""
+        now = time.perf_counter()
+        if now - self.last >= self.interval_s:
+            self.last = now
+            _append_line(self.path, {"event": "progress", "run": self.run, "wall_time_s": round(now - self.start, 3)})
+
+    def end(self, status: str, **counts: Any) -> float:
+        """The end line; returns the run's wall time, s."""
+        elapsed = self.elapsed_s()
+        _append_line(
+            self.path,
+            {"event": "end", "run": self.run, "status": status, "wall_time_s": round(elapsed, 3)} | counts,
+        )
+        return elapsed
+
+
+def read_runs(path: str | Path) -> list[dict[str, Any]]:
+    """The runs of ``runs.jsonl`` (start, progress and end lines paired by run id), in start
+    order: ``run``, ``status`` (one of :data:`RUN_STATUSES`; ``killed``: a start line without
+    an end), ``wall_time_s`` (of a killed run: up to its last progress line, a lower bound)
+    and the end line's counts. A line of the older one-line-per-run format is one run."""
+    runs: dict[str, dict[str, Any]] = {}
+    for i, rec in enumerate(_read_lines(Path(path))):
+        event = rec.pop("event", None)
+        rid = str(rec.get("run", f"line-{i}"))
+        run = runs.setdefault(rid, {"run": rid, "status": "killed", "wall_time_s": 0.0})
+        if event == "progress":
+            run["wall_time_s"] = max(run["wall_time_s"], float(rec.get("wall_time_s", 0.0)))
+        elif event == "end" or event is None:
+            if event is None:  # the older format: one line per finished or interrupted run
+                rec.setdefault("status", "completed" if rec.get("completed") else "interrupted")
+            run.update(rec)
+        else:
+            run.update({k: v for k, v in rec.items() if k not in run})
+    return list(runs.values())
+
+
 class ResultStore:
     """``episodes.jsonl`` (append log, one fsynced line per episode) + ``episodes.csv`` (sorted, atomic)."""
 
@@ -540,6 +695,7 @@ class ResultStore:
         self.log = self.out_dir / "episodes.jsonl"
         self.csv = self.out_dir / "episodes.csv"
         self.rows: dict[tuple, dict[str, Any]] = {}
+        self.logged_before = 0  # lines in the log when this store opened it
         if self.log.is_file():
             good = _read_lines(self.log)  # an episode whose line a crash cut is simply run again
             self.rows = {key_of(row): row for row in good}
@@ -547,6 +703,7 @@ class ResultStore:
             tmp = self.log.with_name(self.log.name + ".tmp")
             tmp.write_text("".join(json.dumps(row, allow_nan=True) + "\n" for row in good), encoding="utf-8")
             os.replace(tmp, self.log)
+            self.logged_before = len(good)
 
     def done(self, key: dict[str, Any]) -> bool:
         return key_of(key) in self.rows
@@ -587,6 +744,16 @@ class CampaignResult:
     executor: str
     total_wall_time_s: float = 0.0  # this run and every earlier one logged in runs.jsonl
     runs: int = 1
+    run_statuses: dict[str, int] = field(default_factory=dict)  # status → count over runs.jsonl
+
+
+def executor_name(ray_address: str | None = None, workers: int | None = None) -> str:
+    """The name :func:`make_executor` gives its executor (without starting it)."""
+    return f"ray[{ray_address}]" if ray_address else LocalExecutor(workers).name
+
+
+def _n_trained(trained: list[dict[str, Any]]) -> int:
+    return sum(r["status"] == "trained" for r in trained)
 
 
 def available(agent: AgentSpec) -> str | None:
@@ -655,38 +822,60 @@ def run_campaign(
         json.dumps({"name": campaign.name, "fingerprint": campaign.fingerprint, "source": campaign.source}) + "\n"
     )
     os.replace(tmp, marker)
-    start = time.perf_counter()
-    executor = make_executor(ray_address, workers)
+    log = RunLog(out_dir / "runs.jsonl", executor_name(ray_address, workers))  # first: a killed run leaves it
     trained: list[dict[str, Any]] = []
     todo: list[dict[str, Any]] = []
-    ran, completed = 0, False
+    ran, status, executor, sigint, store = 0, "failed", None, None, None
     try:
+        executor = make_executor(ray_address, workers)
         train_jobs = training_jobs(campaign, out_dir, skip_agents=skipped)
         if train_jobs:
             say(f"training {len(train_jobs)} agent run(s)")
-            for res in executor.map_unordered(run_job, train_jobs):
-                trained.append(res)
-                say(f"  {res['status']}: {res['out_dir']}")
+            for job in train_jobs:  # each training reports its steps (status lines from the workers)
+                job["progress"] = progress is not None and f"train {Path(job['out_dir']).relative_to(out_dir)}"
+            with (
+                Progress(len(train_jobs), "campaign training runs", "run", enabled=progress is not None) as bar,
+                contextlib.closing(executor.map_unordered(run_job, train_jobs)) as results,
+            ):
+                for res in results:
+                    trained.append(res)
+                    bar.update()
+                    log.progress()
+                    say(f"  {res['status']}: {res['out_dir']}")
         store = ResultStore(out_dir)
         jobs = episode_jobs(campaign, out_dir, skip_agents=skipped)
         todo = [j for j in jobs if not store.done(j["key"])]
         say(f"{len(jobs)} episodes, {len(jobs) - len(todo)} already done, running {len(todo)} on {executor.name}")
-        for row in executor.map_unordered(run_job, todo):
-            store.append(row)
-            ran += 1
+        with (
+            Progress(len(todo), "campaign episodes", "episode", enabled=progress is not None and bool(todo)) as bar,
+            contextlib.closing(executor.map_unordered(run_job, todo)) as results,
+        ):
+            for row in results:
+                store.append(row)
+                bar.update()
+                log.progress()
         if not todo:
             store.write_csv()
-        completed = True
+        status = "completed"
+    except KeyboardInterrupt:
+        status = "interrupted"
+        with contextlib.suppress(ValueError):  # a second Ctrl-C must not cut the shutdown (main thread only)
+            sigint = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        raise
     finally:
-        executor.close()
-        elapsed = time.perf_counter() - start
-        run = {"wall_time_s": round(elapsed, 3), "executor": executor.name}
-        run |= {"trained": sum(r["status"] == "trained" for r in trained), "episodes_run": ran, "completed": completed}
-        _append_line(out_dir / "runs.jsonl", run)  # also when interrupted: the report sums all runs
+        if executor is not None:
+            executor.close()
+        if store is not None:  # from the log itself: exact also when an interrupt cut the bookkeeping
+            ran = len(_read_lines(store.log)) - store.logged_before
+        counts = {"executor": executor.name if executor is not None else executor_name(ray_address, workers)}
+        counts |= {"trained": _n_trained(trained), "episodes_run": ran, "completed": status == "completed"}
+        elapsed = log.end(status, **counts)  # also when interrupted or failed: the report sums all runs
+        if status == "interrupted" and sigint is not None:
+            signal.signal(signal.SIGINT, sigint)
     wanted = {key_of(j["key"]) for j in jobs}
     rows = [r for r in store.sorted_rows() if key_of(r) in wanted]
     write_json([_for_table(r) for r in rows], out_dir / "episodes.json")
-    past_runs = _read_lines(out_dir / "runs.jsonl")
+    past_runs = read_runs(out_dir / "runs.jsonl")
     return CampaignResult(
         campaign=campaign,
         out_dir=out_dir,
@@ -699,4 +888,5 @@ def run_campaign(
         executor=executor.name,
         total_wall_time_s=sum(r["wall_time_s"] for r in past_runs),
         runs=len(past_runs),
+        run_statuses={s: n for s in RUN_STATUSES if (n := sum(r["status"] == s for r in past_runs))},
     )

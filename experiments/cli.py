@@ -9,13 +9,16 @@ attitude-envs demo [--seeds N] [--preset NAME]       # LQR baselines table
 attitude-envs reproduce <paper> --out DIR            # paper vs. ours, JSON + markdown
 attitude-envs envs                                   # registered env ids and presets
 attitude-envs tune-pid [--help]                      # GA-tune PID gains (Ahangarani Farahani et al.)
+attitude-envs optimum --env ID --seeds 0,1,2 --out DIR  # the oracle optimum J* per seed (casadi)
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import json
 import re
+import shlex
 import sys
 import time
 from pathlib import Path
@@ -28,15 +31,17 @@ import attitude_envs  # registers the env ids
 from agents.ga_tuning import tune_pid_main
 from attitude_envs import presets
 from attitude_envs.evaluation import rollout
-from attitude_envs.scenarios import load_scenario
+from attitude_envs.progress import Heartbeat
+from attitude_envs.scenarios import list_scenarios, load_scenario
 from baselines.base import ZeroPolicy
 from baselines.lqr import LQRPolicy
-from experiments.campaign import run_campaign
-from experiments.policies import check_policy_name
+from experiments.campaign import SELECT, run_campaign
+from experiments.policies import POLICIES, check_policy_name
 from experiments.report import leaderboard_markdown, leaderboards, write_campaign_report
 from experiments.reproduction import markdown_table
 from experiments.reproductions import REPRODUCTIONS
 from experiments.sb3.hyperparams import parse_overrides, read_yaml
+from experiments.sb3.registry import ALGORITHMS
 
 
 def _demo(args: argparse.Namespace) -> int:
@@ -72,11 +77,35 @@ def _envs(args: argparse.Namespace) -> int:
     return 0
 
 
+#: typical wall time of each reproduction, s (full, quick), on this project's 2-core machines
+REPRODUCTION_TIME_S = {
+    "feedback-linearization": (60, 30),
+    "fuel-slosh": (120, 15),
+    "q-learning-lqr": (120, 10),
+    "ga-pid": (900, 5),
+    "fault-tolerant-smc": (240, 10),
+}
+
+
+def check_out_dir(out: str | Path, option: str = "--out") -> Path:
+    """``out`` as a directory path to write into: ``ValueError`` (before any work) when it,
+    or a folder above it, is an existing file."""
+    path = Path(out)
+    for p in (path, *path.parents):
+        if p.exists() and not p.is_dir():
+            where = "is" if p == path else f"cannot be created: {str(p)!r} is"
+            raise ValueError(f"{option} {str(path)!r} {where} an existing file; {option} names a directory")
+    return path
+
+
 def _reproduce(args: argparse.Namespace) -> int:
     if args.paper not in REPRODUCTIONS:
         raise ValueError(f"unknown reproduction {args.paper!r}; accepted: {sorted(REPRODUCTIONS)}")
+    out = check_out_dir(args.out)  # before the work, not after it
     module, func = REPRODUCTIONS[args.paper].split(":")
-    rows = getattr(importlib.import_module(module), func)(Path(args.out), quick=args.quick)
+    typical = REPRODUCTION_TIME_S.get(args.paper, (None, None))[1 if args.quick else 0]
+    with Heartbeat(f"reproduce {args.paper}{' --quick' if args.quick else ''}", typical):
+        rows = getattr(importlib.import_module(module), func)(out, quick=args.quick)
     print(markdown_table(rows))
     print(f"wrote {Path(args.out) / (args.paper + '.json')} and .md")
     return 0
@@ -107,8 +136,14 @@ def _env_kwargs(args: argparse.Namespace) -> dict:
 
 
 def _train(args: argparse.Namespace) -> int:
+    check_out_dir(args.out)
     from experiments.sb3.training import train  # optional: the sb3 extra (stable-baselines3, torch)
 
+    if args.progress_bar:
+        try:
+            import rich  # noqa: F401  (optional: SB3's progress bar needs it; in the sb3 extra)
+        except ImportError as exc:
+            raise ValueError("--progress-bar needs the package 'rich' (pip install 'attitude-envs[sb3]')") from exc
     result = train(
         args.algo,
         args.env,
@@ -123,15 +158,25 @@ def _train(args: argparse.Namespace) -> int:
         eval_episodes=args.eval_episodes,
         resume=args.resume,
         progress_bar=args.progress_bar,
+        progress=not args.quiet,
         tensorboard=True if args.tensorboard else None,
         verbose=args.verbose,
     )
+    if result.already_complete:
+        print(f"run already complete at {result.timesteps} steps; model: {result.model_path}")
+        return 0
     resumed = f" (resumed at {result.resumed_from} steps)" if result.resumed_from is not None else ""
     ev = result.last_eval or {}
     print(f"trained {args.algo} on {args.env}: {result.timesteps} steps{resumed} in {result.wall_time_s:.1f} s")
     print(
         f"eval J = {ev.get('J_mean', float('nan')):.3f} ± {ev.get('J_std', float('nan')):.3f}; model: {result.model_path}"
     )
+    best = Path(args.out) / "best" / "best.json"
+    if best.is_file():  # what `evaluate --model RUN` and campaigns load by default (--select best)
+        b = json.loads(best.read_text(encoding="utf-8"))
+        print(
+            f"best snapshot (evaluated by default): {best.parent / 'model.zip'}, eval J = {b['J_mean']:.3f} at {b['timesteps']} steps"
+        )
     return 0
 
 
@@ -144,11 +189,47 @@ def _policy_specs(args: argparse.Namespace) -> list[dict]:
             raise ValueError("use --model PATH for a saved Stable-Baselines3 model")
         label = re.sub(r"[^A-Za-z0-9._]+", "-", text).strip("-")  # e.g. pid:gains:/x/g.json → pid-gains-x-g.json
         specs.append({"name": label, "policy": name, "params": parse_overrides([p for p in params.split(",") if p])})
-    for i, path in enumerate(args.model or []):
-        specs.append({"name": f"model{i}" if len(args.model) > 1 else "model", "policy": "sb3", "model": path})
+    models = [_model_snapshot(path, args.select) for path in args.model or []]
+    labels = [_algo_label(m) for m in models]
+    for i, (model, label) in enumerate(zip(models, labels, strict=True)):
+        if labels.count(label) > 1:  # the same algorithm twice: ppo-1, ppo-2
+            label = f"{label}-{labels[:i].count(label) + 1}"
+        specs.append({"name": label, "policy": "sb3", "model": str(model)})
     if not specs:
         raise ValueError("evaluate needs at least one --policy NAME[:key:value,...] or --model PATH")
     return specs
+
+
+def _model_snapshot(path: str, select: str) -> Path:
+    """The model file ``evaluate --model PATH`` loads, chosen like a campaign chooses a trained
+    agent's snapshot: a run directory gives ``best/model.zip`` (``--select best``, the default,
+    when the run saved one) or ``final/model.zip``; a snapshot folder or a ``.zip`` is taken as is."""
+    p = Path(path)
+    if p.is_file():
+        return p
+    if not p.is_dir():
+        raise ValueError(f"--model {path!r} does not exist (a run directory, a snapshot folder or a model .zip)")
+    if (p / "model.zip").is_file():
+        return p / "model.zip"
+    best, final = p / "best" / "model.zip", p / "final" / "model.zip"
+    if select == "best" and best.is_file():
+        return best
+    if final.is_file():
+        return final
+    if best.is_file():
+        return best
+    raise ValueError(f"--model {path!r} holds no final/model.zip or best/model.zip (is the run finished?)")
+
+
+def _algo_label(model: Path) -> str:
+    """The agent's name in the tables: the run's algorithm (``config.json``), else ``sb3``."""
+    for config in (model.parent / "config.json", model.parent.parent / "config.json"):
+        if config.is_file():
+            try:
+                return str(json.loads(config.read_text(encoding="utf-8"))["algo"])
+            except (ValueError, KeyError):
+                break
+    return "sb3"
 
 
 def _print_campaign(result, report) -> None:
@@ -160,6 +241,7 @@ def _print_campaign(result, report) -> None:
 
 
 def _evaluate(args: argparse.Namespace) -> int:
+    check_out_dir(args.out)
     faults = _yaml_arg("--fault-grid", args.fault_grid) or {"none": []}
     scenarios = _yaml_arg("--scenarios", args.scenarios) or [{"name": "default"}]
     kwargs = _env_kwargs(args)
@@ -177,11 +259,12 @@ def _evaluate(args: argparse.Namespace) -> int:
         "video": False,
     }
     result = run_campaign(config, args.out, ray_address=args.ray, workers=args.workers, progress=print)
-    _print_campaign(result, write_campaign_report(result))
+    _print_campaign(result, write_campaign_report(result, command=shlex.join(["attitude-envs", *args.argv])))
     return 0
 
 
 def _benchmark(args: argparse.Namespace) -> int:
+    check_out_dir(args.out)
     result = run_campaign(args.config, args.out, ray_address=args.ray, workers=args.workers, progress=print)
     report = write_campaign_report(result, video=False if args.no_video else None)
     _print_campaign(result, report)
@@ -191,8 +274,34 @@ def _benchmark(args: argparse.Namespace) -> int:
 ENV_DEFAULT = "attitude_envs/ReactionWheel-v0"
 
 
+class OneLineErrorParser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line (``error: argument --seeds: ...``,
+    exit status 2) that names the subcommand's ``--help``, not the whole usage text."""
+
+    def error(self, message: str):
+        print(f"error: {message} (see {self.prog} --help)", file=sys.stderr)
+        raise SystemExit(2)
+
+
+def int_at_least(low: int, high: int | None = None):
+    """An argparse ``type``: an integer in [low, high] (high: no bound when None)."""
+    accepted = f"an integer >= {low}" if high is None else f"an integer in [{low}, {high}]"
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be {accepted}, got {text!r}") from None
+        if value < low or (high is not None and value > high):
+            raise argparse.ArgumentTypeError(f"must be {accepted}, got {value}")
+        return value
+
+    parse.__name__ = accepted  # argparse names the type in some messages
+    return parse
+
+
 def _add_env_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--env", default=ENV_DEFAULT, help="registered env id")
+    p.add_argument("--env", default=ENV_DEFAULT, help=f"registered env id: {', '.join(attitude_envs.ENV_IDS)}")
     p.add_argument(
         "--env-kwargs", help="env keyword arguments as YAML/JSON (or @FILE), e.g. '{preset: pyramid-4wheel}'"
     )
@@ -203,24 +312,76 @@ def _tune_pid(args: argparse.Namespace) -> int:
     return tune_pid_main(args.rest)
 
 
+def _seed_list(text: str) -> list[int]:
+    """``"0,1,2"`` or ``"0-4"`` (inclusive ranges), comma-separated, each >= 0."""
+    seeds: list[int] = []
+    for part in text.split(","):
+        lo, sep, hi = part.strip().partition("-")
+        try:
+            seeds += list(range(int(lo), int(hi) + 1)) if sep else [int(lo)]
+        except ValueError:
+            raise ValueError(f"--seeds must be comma-separated integers or ranges like 0-4, got {text!r}") from None
+    if not seeds or min(seeds) < 0:
+        raise ValueError(f"--seeds must list at least one seed, each >= 0, got {text!r}")
+    return seeds
+
+
+def _optimum(args: argparse.Namespace) -> int:
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out must be a directory, got the file {str(out)!r}")
+    seeds = _seed_list(args.seed_list)
+    kwargs = _env_kwargs(args)
+    if args.max_iter < 1:
+        raise ValueError(f"--max-iter must be >= 1, got {args.max_iter}")
+    try:
+        from experiments import optimum  # optional: the 'optimal' extra (casadi)
+    except ImportError as exc:
+        raise ValueError(str(exc)) from exc
+    optimum.check_env(args.env)
+    out.mkdir(parents=True, exist_ok=True)
+    warm = None if args.warm_start == "none" else args.warm_start
+    print(f"J* of {args.env} (oracle: the solver knows the fault schedule), seeds {seeds}")
+    results = optimum.solve_episodes(
+        args.env,
+        kwargs,
+        seeds,
+        progress=print,
+        warm_start=warm,
+        max_iter=args.max_iter,
+        cache=not args.no_cache,
+        jit=args.jit,
+    )
+    path = optimum.write_results(out, results)
+    print(optimum.markdown_table(results))
+    print(f"wrote {path} and optimum.md")
+    return 0
+
+
 def _add_executor_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--ray", metavar="ADDRESS", help="run on Ray: 'local' or a cluster address (optional extra 'ray')")
-    p.add_argument("--workers", type=int, help="local process-pool size (default: CPU count; 1 = inline)")
+    p.add_argument(
+        "--workers", type=int_at_least(1), help="local process-pool size (>= 1; default: CPU count; 1 = inline)"
+    )
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="attitude-envs", description=__doc__.split("\n")[0])
+    parser = OneLineErrorParser(prog="attitude-envs", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command")
     demo = sub.add_parser("demo", help="evaluate the LQR baselines on ReactionWheel-v0 and print a table")
-    demo.add_argument("--seeds", type=int, default=5, help="episodes per policy (>= 1)")
+    demo.add_argument("--seeds", type=int_at_least(1), default=5, help="episodes per policy (>= 1)")
     demo.add_argument(
         "--preset",
         default="pyramid-4wheel",
-        help="ReactionWheel-v0 preset (pyramid-4wheel or heravi-2017; aliases spec-000, spec-001)",
+        help="ReactionWheel-v0 preset (pyramid-4wheel or heravi-2017)",
     )
     demo.set_defaults(func=_demo)
-    rep = sub.add_parser("reproduce", help="reproduce a paper's results: writes DIR/<paper>.json and .md")
-    rep.add_argument("paper", help="reproduction id (see experiments.reproductions)")
+    rep = sub.add_parser(
+        "reproduce",
+        help="reproduce a paper's results: writes DIR/<paper>.json and .md",
+        description=f"Reproduce a paper's results. Reproduction ids: {', '.join(sorted(REPRODUCTIONS))}.",
+    )
+    rep.add_argument("paper", metavar="ID", help=f"reproduction id: {', '.join(sorted(REPRODUCTIONS))}")
     rep.add_argument("--out", default="results", help="output directory")
     rep.add_argument("--quick", action="store_true", help="a shortened run (for tests)")
     rep.set_defaults(func=_reproduce)
@@ -230,33 +391,69 @@ def build_parser() -> argparse.ArgumentParser:
     tr = sub.add_parser(
         "train", help="train a Stable-Baselines3 agent (Zoo-format hyperparameters, checkpoints, --resume)"
     )
-    tr.add_argument("--algo", required=True, help="ppo, sac, td3, a2c, ddpg, tqc, recurrentppo")
+    tr.add_argument("--algo", required=True, help=f"algorithm: {', '.join(ALGORITHMS)}")
     _add_env_options(tr)
     tr.add_argument("--out", required=True, help="run directory (checkpoints, evaluations.csv, final/model.zip)")
-    tr.add_argument("--seed", type=int, default=0, help="training seed (>= 0)")
-    tr.add_argument("--timesteps", type=int, help="total env steps (default: n_timesteps of the hyperparameter file)")
+    tr.add_argument("--seed", type=int_at_least(0), default=0, help="training seed (>= 0)")
+    tr.add_argument(
+        "--timesteps", type=int_at_least(1), help="total env steps (default: n_timesteps of the hyperparameter file)"
+    )
     tr.add_argument("--hyperparams", help="Zoo-format YAML (default: experiments/sb3/hyperparams/<algo>.yml)")
     tr.add_argument("--params", nargs="*", help="hyperparameter overrides key:value (Zoo syntax)")
-    tr.add_argument("--checkpoint-freq", type=int, default=10_000, help="env steps between checkpoints")
-    tr.add_argument("--eval-freq", type=int, default=10_000, help="env steps between evaluations of J")
-    tr.add_argument("--eval-episodes", type=int, default=5, help="episodes per evaluation (seeds 10000+i)")
+    tr.add_argument("--checkpoint-freq", type=int_at_least(1), default=10_000, help="env steps between checkpoints")
+    tr.add_argument("--eval-freq", type=int_at_least(1), default=10_000, help="env steps between evaluations of J")
+    tr.add_argument("--eval-episodes", type=int_at_least(1), default=5, help="episodes per evaluation (seeds 10000+i)")
     tr.add_argument("--resume", action="store_true", help="continue a killed run from its last checkpoint")
-    tr.add_argument("--progress-bar", action="store_true", help="show a progress bar (needs tqdm and rich)")
+    tr.add_argument(
+        "--progress-bar",
+        action="store_true",
+        help="Stable-Baselines3's own progress bar (needs rich, in the sb3 extra) instead of the default progress",
+    )
+    tr.add_argument(
+        "--quiet",
+        action="store_true",
+        help="no progress (default: a bar with ETA on a terminal, else a line every 30 s)",
+    )
     tr.add_argument("--tensorboard", action="store_true", help="TensorBoard logs in DIR/tensorboard (optional package)")
-    tr.add_argument("--verbose", type=int, default=0, help="SB3 verbosity (0, 1, 2)")
+    tr.add_argument("--verbose", type=int_at_least(0, 2), default=0, help="SB3 verbosity (0, 1, 2)")
     tr.set_defaults(func=_train)
 
-    ev = sub.add_parser("evaluate", help="evaluate policies on an env × scenario × fault × seed grid")
+    ev = sub.add_parser(
+        "evaluate",
+        help="evaluate policies on an env × scenario × fault × seed grid",
+        description=(
+            "Evaluate policies on an env × scenario × fault × seed grid. "
+            f"Policies: {', '.join(p for p in POLICIES if p != 'sb3')} (saved SB3 models: --model). "
+            f"Env ids: {', '.join(attitude_envs.ENV_IDS)}. Scenario presets: {', '.join(list_scenarios())}."
+        ),
+    )
     _add_env_options(ev)
-    ev.add_argument("--policy", action="append", help="baseline by name with parameters, e.g. lqr:discretization:zoh")
-    ev.add_argument("--model", action="append", help="a saved SB3 model (.zip or run directory)")
+    ev.add_argument(
+        "--policy",
+        action="append",
+        metavar="NAME[:key:value,...]",
+        help=f"a baseline with parameters, e.g. lqr:discretization:zoh; NAME one of: "
+        f"{', '.join(p for p in POLICIES if p != 'sb3')}",
+    )
+    ev.add_argument(
+        "--model",
+        action="append",
+        help="a saved SB3 model: a training run directory (snapshot chosen by --select), a snapshot folder or a .zip",
+    )
+    ev.add_argument(
+        "--select",
+        choices=SELECT,
+        default="best",
+        help="snapshot of a run directory, as campaigns choose: best (lowest eval J; the default) or final",
+    )
     ev.add_argument("--scenarios", help="YAML list of {name, options, env_kwargs}, or @FILE")
     ev.add_argument("--fault-grid", help="YAML mapping fault-name → fault list, or @FILE")
     ev.add_argument(
-        "--scenario", help="a packaged scenario preset (wheel-failure, stuck-wheel, ...): env, kwargs and faults"
+        "--scenario",
+        help=f"a packaged scenario preset (its env, kwargs and faults): {', '.join(list_scenarios())}",
     )
-    ev.add_argument("--seeds", type=int, default=5, help="episodes per cell (>= 1)")
-    ev.add_argument("--seed-offset", type=int, default=0, help="first episode seed")
+    ev.add_argument("--seeds", type=int_at_least(1), default=5, help="episodes per cell (>= 1)")
+    ev.add_argument("--seed-offset", type=int_at_least(0), default=0, help="first episode seed (>= 0)")
     ev.add_argument("--out", required=True, help="output directory (episodes.csv/json, report.md, figures)")
     _add_executor_options(ev)
     ev.set_defaults(func=_evaluate)
@@ -275,25 +472,58 @@ def build_parser() -> argparse.ArgumentParser:
     )
     tp.add_argument("rest", nargs=argparse.REMAINDER)
     tp.set_defaults(func=_tune_pid)
+
+    op = sub.add_parser(
+        "optimum", help="the optimal-control yardstick J* per seed (oracle: knows the faults): DIR/optimum.json"
+    )
+    _add_env_options(op)
+    op.add_argument("--seeds", dest="seed_list", default="0", help="seeds, e.g. 0,1,2 or 0-4 (default 0)")
+    op.add_argument("--out", required=True, help="output directory (optimum.json, optimum.md)")
+    op.add_argument(
+        "--warm-start", default="lqr", choices=["lqr", "best", "none"], help="baseline rollout to start from"
+    )
+    op.add_argument("--max-iter", type=int, default=1000, help="IPOPT iterations (>= 1)")
+    op.add_argument("--no-cache", action="store_true", help="neither read nor write the on-disk cache")
+    op.add_argument("--jit", action="store_true", help="compile the step with the C compiler (long horizons)")
+    op.set_defaults(func=_optimum)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["tune-pid"]:  # its own argument parser (agents.ga_tuning), options passed through
-        return _tune_pid(argparse.Namespace(rest=argv[1:]))
+        try:
+            return _tune_pid(argparse.Namespace(rest=argv[1:]))
+        except KeyboardInterrupt:
+            print("interrupted: no gains were written; rerun the command", file=sys.stderr)
+            return 130
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:
         args = parser.parse_args(["demo", *(argv or [])])
-    if getattr(args, "seeds", 1) < 1:
-        parser.error(f"--seeds must be >= 1, got {args.seeds}")
+    args.argv = argv
     try:
         return args.func(args)
     except ValueError as exc:
         message = " ".join(str(exc).split())
         print(f"error: {message}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # Ctrl-C: the commands shut down cleanly; one line, no traceback
+        print(f"interrupted: {_interrupted_hint(args)}", file=sys.stderr)
+        return 130
+
+
+def _interrupted_hint(args: argparse.Namespace) -> str:
+    if args.command in ("benchmark", "evaluate"):
+        return (
+            f"finished episodes are kept and the run is logged in {str(Path(args.out) / 'runs.jsonl')!r}; "
+            "rerun the same command to resume"
+        )
+    if args.command == "train":
+        return f"rerun with --resume to continue {str(args.out)!r} from its last checkpoint"
+    if args.command == "reproduce":
+        return f"{args.paper} was not written (its files come at the end); rerun the command"
+    return "stopped"
 
 
 if __name__ == "__main__":

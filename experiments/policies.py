@@ -7,6 +7,10 @@ name                controller                                                  
 ==================  ==========================================================  =================
 zero                no torque (free drift)                                       —
 lqr                 ``baselines.lqr.LQRPolicy`` on the nominal linearization     discretization, Q, R
+lqr-ft              fault-tolerant LQR: IMM FDI + redesign over the healthy       discretization,
+                    wheels (``baselines.fault_tolerant``)                        degraded_effectiveness, fdi
+mpc                 nonlinear MPC on the nominal gyrostat (``baselines.mpc``;    horizon_steps, max_iter,
+                    needs CasADi: ``pip install 'attitude-envs[optimal]'``)      tol, solver_options
 quaternion-lqr      quaternion LQR law of the feedback-linearization paper       Q, R, stiffness, saturation
 feedback-linearization  that paper's feedback linearization + LQR outer loop      Q, R, output, q4_min, ...
 linear-lqr          discrete LQR on a LinearSystem-v0 env's (A, B, Q, R)         —
@@ -36,6 +40,8 @@ from experiments.sb3.policy import SB3Policy
 POLICIES: dict[str, str] = {
     "zero": "baselines.base:ZeroPolicy",
     "lqr": "baselines.lqr:LQRPolicy",
+    "lqr-ft": "baselines.fault_tolerant:FaultTolerantLQRPolicy",
+    "mpc": "baselines.mpc:MPCPolicy",
     "quaternion-lqr": "baselines.quaternion_lqr:QuaternionLQRPolicy",
     "feedback-linearization": "baselines.feedback_linearization:FeedbackLinearizationPolicy",
     "linear-lqr": "baselines.linear_lqr:LinearLQRPolicy",

@@ -4,7 +4,10 @@ Statistics are over episodes (evaluation seeds × training seeds) of one agent i
 env × scenario × fault cell: the mean of J with a percentile bootstrap 95 % confidence
 interval (``n_boot`` resamples, fixed RNG seed, so the report is reproducible) and the
 interquartile mean (mean of the middle 50 %, ``scipy.stats.trim_mean(J, 0.25)``; Agarwal
-et al. 2021). A cell with fewer than ``MIN_EPISODES`` episodes is flagged.
+et al. 2021). A cell with fewer than ``MIN_EPISODES`` episodes is flagged; a cell whose
+episodes all have the same J (a deterministic agent from a fixed start) has no CI: the
+report prints "deterministic". Success is per env, stated in the report
+(:func:`experiments.campaign.success_criterion`).
 """
 
 from __future__ import annotations
@@ -13,6 +16,7 @@ import copy
 import json
 import os
 import subprocess
+import zipfile
 from collections.abc import Mapping, Sequence
 from importlib import metadata as importlib_metadata
 from pathlib import Path
@@ -26,7 +30,7 @@ from scipy import stats
 from attitude_envs.evaluation.trace import record_episode
 from attitude_envs.info import policy_view
 from attitude_envs.plants.gyrostat_model import ReactionWheelModel
-from experiments.campaign import episode_jobs
+from experiments.campaign import episode_jobs, success_criterion
 from experiments.policies import build_policy
 
 MIN_EPISODES = 5
@@ -59,6 +63,12 @@ def _finite_mean(values: Sequence[Any]) -> float:
     return float(x.mean()) if len(x) else float("nan")
 
 
+def is_deterministic(values: Sequence[float]) -> bool:
+    """More than one value and all equal: every seed gave the same J (e.g. a fixed start)."""
+    x = np.asarray(values, dtype=float)
+    return len(x) > 1 and bool(np.all(x == x[0]))
+
+
 def leaderboards(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str, str], list[dict[str, Any]]]:
     """``(env, scenario, fault)`` → one entry per agent, best (lowest J mean) first."""
     cells: dict[tuple[str, str, str], dict[str, list[Mapping[str, Any]]]] = {}
@@ -69,7 +79,8 @@ def leaderboards(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str, str]
         board = []
         for agent, rs in agents.items():
             J = [float(r["J"]) for r in rs]
-            lo, hi = bootstrap_ci(J)
+            deterministic = is_deterministic(J)
+            lo, hi = (float("nan"), float("nan")) if deterministic else bootstrap_ci(J)
             entry = {
                 "agent": agent,
                 "episodes": len(rs),
@@ -77,6 +88,7 @@ def leaderboards(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str, str]
                 "J_mean": _finite_mean(J),
                 "J_ci_low": lo,
                 "J_ci_high": hi,
+                "deterministic": deterministic,
                 "J_iqm": iqm(J),
                 "success_rate": float(np.mean([bool(r.get("success")) for r in rs])),
                 "recovery_time_s": _finite_mean([r.get("recovery_time_s") for r in rs]),
@@ -113,7 +125,7 @@ def leaderboard_markdown(boards: Mapping[tuple[str, str, str], list[dict[str, An
                 e["agent"],
                 f"{e['episodes']}{flag}",
                 _fmt(e["J_mean"]),
-                f"[{_fmt(e['J_ci_low'])}, {_fmt(e['J_ci_high'])}]",
+                _ci_cell(e),
                 _fmt(e["J_iqm"]),
                 f"{100 * e['success_rate']:.0f} %",
                 _fmt(e["recovery_time_s"]),
@@ -122,6 +134,14 @@ def leaderboard_markdown(boards: Mapping[tuple[str, str, str], list[dict[str, An
             lines.append("| " + " | ".join(cells) + " |")
         parts.append("\n".join(lines))
     return "\n\n".join(parts) + "\n"
+
+
+def _ci_cell(e: Mapping[str, Any]) -> str:
+    if e.get("deterministic"):
+        return "deterministic"
+    if not (np.isfinite(e["J_ci_low"]) and np.isfinite(e["J_ci_high"])):
+        return "—"
+    return f"[{_fmt(e['J_ci_low'])}, {_fmt(e['J_ci_high'])}]"
 
 
 def _plots():
@@ -223,6 +243,7 @@ def write_report(
     for key in (
         "campaign",
         "source",
+        "command",
         "package_version",
         "git_revision",
         "seeds",
@@ -231,12 +252,17 @@ def write_report(
         "wall_time_s",
         "wall_time_all_runs_s",
     ):
-        if key in metadata:
+        if key in metadata and metadata[key] not in (None, "", "<dict>"):
             lines.append(f"| {key} | {metadata[key]} |")
     for agent, budget in (metadata.get("training_budget") or {}).items():
         lines.append(f"| training budget: {agent} | {budget} |")
-    lines += ["", "J = ∫(xᵀQx + uᵀRu) dt per episode (lower is better); CI: 95 % percentile bootstrap of the mean;"]
-    lines += ["IQM: interquartile mean; success: not terminated and final error within the campaign's bound;"]
+    for agent, model in (metadata.get("models") or {}).items():
+        lines.append(f"| model: {agent} | {model} |")
+    for env, criterion in (metadata.get("success_criteria") or {}).items():
+        lines.append(f"| success: {env} | {criterion} |")
+    lines += ["", "J = ∫(xᵀQx + uᵀRu) dt per episode (lower is better); CI: 95 % percentile bootstrap of the mean"]
+    lines += ['("deterministic": every episode of the cell gave the same J, so there is no interval);']
+    lines += ["IQM: interquartile mean; success: the env's criterion above;"]
     lines += ["recovery: time from the fault onset until the error stays within the settling band.", ""]
     lines += ["## Leaderboards", "", leaderboard_markdown(boards)]
     if notes:
@@ -323,10 +349,38 @@ def _training_summary(result, agent) -> str:
     return f"{t['algo']}, {steps} steps × seeds {t.get('seeds', [0])}, evaluated: {snapshot}"
 
 
-def write_campaign_report(result, video: bool | None = None) -> Path:
+def snapshot_description(model: str | Path) -> str:
+    """Which snapshot a saved model is: ``best snapshot at N steps`` / ``final snapshot at N
+    steps`` (of a training run) or ``checkpoint at N steps``, else ``model file``."""
+    model = Path(model)
+    steps = None
+    best = model.parent / "best.json"
+    if model.parent.name == "best" and best.is_file():
+        steps = json.loads(best.read_text(encoding="utf-8")).get("timesteps")
+    if steps is None:
+        try:
+            with zipfile.ZipFile(model) as zf:
+                steps = json.loads(zf.read("data").decode("utf-8")).get("num_timesteps")
+        except (OSError, KeyError, ValueError, zipfile.BadZipFile):
+            steps = None
+    kind = {"best": "best snapshot", "final": "final snapshot"}.get(model.parent.name)
+    if kind is None:
+        kind = "checkpoint" if model.parent.parent.name == "checkpoints" else "model file"
+    return f"{kind} at {steps} steps" if steps is not None else kind
+
+
+def _all_runs(result) -> str:
+    """``12.3 over 3 run(s) (runs.jsonl; 1 interrupted, 1 killed)``."""
+    others = {k: n for k, n in getattr(result, "run_statuses", {}).items() if k != "completed"}
+    detail = "".join(f", {n} {k}" for k, n in others.items())
+    killed = " — a killed run counts up to its last progress line" if "killed" in others else ""
+    return f"{result.total_wall_time_s:.1f} over {result.runs} run(s) (runs.jsonl{detail}){killed}"
+
+
+def write_campaign_report(result, video: bool | None = None, command: str | None = None) -> Path:
     """The full report of a :class:`~experiments.campaign.CampaignResult`:
     leaderboards, J-with-CI plot, fault heatmaps, example time histories and (with moviepy)
-    an episode video of the best agent per env."""
+    an episode video of the best agent per env. ``command``: the command line, for the record."""
     out_dir = Path(result.out_dir)
     video = result.campaign.video if video is None else bool(video)
     rows = result.rows
@@ -368,17 +422,26 @@ def write_campaign_report(result, video: bool | None = None) -> Path:
                     "episode videos off for this campaign (video: false; rendering a 60 s episode takes minutes)"
                 )
     budget = {a.name: _training_summary(result, a) for a in result.campaign.agents if a.train is not None}
+    models = {
+        a.name: f"{a.spec['model']} ({snapshot_description(a.spec['model'])})"
+        for a in result.campaign.agents
+        if a.train is None and a.spec.get("policy") == "sb3" and a.name not in result.skipped_agents
+    }
+    criteria = {e.name: success_criterion(e.id, e.kwargs, result.campaign) for e in result.campaign.envs}
     metadata = {
         "campaign": result.campaign.name,
         "source": result.campaign.source,
+        "command": command,
         "package_version": package_version(),
         "git_revision": git_revision(),
         "seeds": result.campaign.seeds,
         "executor": result.executor,
         "episodes": len(rows),
         "wall_time_s": round(result.wall_time_s, 1),
-        "wall_time_all_runs_s": f"{result.total_wall_time_s:.1f} over {result.runs} run(s) (runs.jsonl)",
+        "wall_time_all_runs_s": _all_runs(result),
         "training_budget": budget,
+        "models": models,
+        "success_criteria": criteria,
         "trained": result.trained,
     }
     return write_report(out_dir, rows, metadata, figures, notes)

@@ -2,9 +2,12 @@
 
 Schema (one for all papers)::
 
-    {"paper": id, "seed_file": name, "rows": [{"case": str, "controller": str,
+    {"paper": id, "source": citation, "rows": [{"case": str, "controller": str,
      "metric": str, "paper": float|null, "ours": float, "tolerance": float|null}],
      "notes": str}
+
+``source`` is the reproduced paper's citation (authors, year, title, journal as far as our
+copy shows them; the paper pages under ``docs/papers/`` give the full entries).
 
 ``tolerance`` is the relative tolerance claimed (``null`` where the paper's figure cannot
 be reproduced; the notes say why).
@@ -72,14 +75,17 @@ def _atomic_write(path: Path, text: str) -> None:
     os.replace(tmp, path)
 
 
-def write_reproduction(out_dir: str | Path, paper: str, seed_file: str, rows: list[Row], notes: str) -> dict:
-    """Write ``<out>/<paper>.json`` and ``<out>/<paper>.md`` (atomically); return the JSON dict."""
+def write_reproduction(out_dir: str | Path, paper: str, source: str, rows: list[Row], notes: str) -> dict:
+    """Write ``<out>/<paper>.json`` and ``<out>/<paper>.md`` (atomically); return the JSON dict.
+
+    ``source``: the citation of the reproduced paper, printed on the markdown's "Source:" line.
+    """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    doc = {"paper": paper, "seed_file": seed_file, "rows": [asdict(r) for r in rows], "notes": notes}
+    doc = {"paper": paper, "source": source, "rows": [asdict(r) for r in rows], "notes": notes}
     _atomic_write(out / f"{paper}.json", json.dumps(doc, indent=2, allow_nan=True) + "\n")
     _atomic_write(
         out / f"{paper}.md",
-        f"# Reproduction: {paper}\n\nSource: `{seed_file}`\n\n{markdown_table(rows)}\n\n## Notes\n\n{notes}\n",
+        f"# Reproduction: {paper}\n\nSource: {source}\n\n{markdown_table(rows)}\n\n## Notes\n\n{notes}\n",
     )
     return doc

@@ -1,4 +1,4 @@
-"""Benchmark LQR instances of the q-learning-lqr note §6 and random stabilizable systems."""
+"""Benchmark LQR instances from the learning-LQR literature (Kiumarsi et al., Krauth et al., Dean et al.) and random stabilizable systems."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from attitude_envs.envs.linear_system import LinearSystemEnv
 
 
 def benchmark_systems() -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
-    """(A, B, Q, R) of kiumarsi2x1, krauth3x2, dean3x3, kashima-free set (note §6 table)."""
+    """(A, B, Q, R) of kiumarsi2x1, krauth3x2, dean3x3, kashima-free set."""
     nb3 = np.eye(3, k=1) + np.eye(3, k=-1)
     return {
         "kiumarsi2x1": (np.array([[-1.0, 2.0], [2.2, 1.7]]), np.array([[2.0], [1.6]]), np.eye(2), np.eye(1)),
@@ -33,7 +33,7 @@ def random_system(seed: int, n: int, m: int, spectral_radius: float):
 
 
 def stabilizing_gain(A: np.ndarray, B: np.ndarray) -> np.ndarray:
-    """K₀ for PI: zero when A is stable, else pole placement at linspace(−0.5, 0.5, n) (note §6)."""
+    """K₀ for PI: zero when A is stable, else pole placement at linspace(−0.5, 0.5, n)."""
     if np.max(np.abs(np.linalg.eigvals(A))) < 1.0:
         return np.zeros((B.shape[1], A.shape[0]))
     return scipy.signal.place_poles(A, B, np.linspace(-0.5, 0.5, A.shape[0])).gain_matrix

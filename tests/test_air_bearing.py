@@ -141,7 +141,7 @@ def test_standard_env_api():
         {"tilt_limit_deg": 95.0},
         {"offset_torque_nm": [0.0, 1.0]},
         {"initial_euler_max_deg": [45.0, 0.0, 0.0]},
-        {"preset": "spec-000"},
+        {"preset": "pyramid-4wheel"},
         {"max_wheel_torque_nm": -1.0},
     ],
 )

@@ -2,11 +2,15 @@
 
 import csv
 import json
+import os
+import subprocess
+import sys
+import time
 
 import numpy as np
 import pytest
 
-from experiments.campaign import load_campaign, run_campaign
+from experiments.campaign import load_campaign, read_runs, run_campaign
 from experiments.report import bootstrap_ci, iqm, leaderboards, write_campaign_report
 
 SMALL = {
@@ -16,7 +20,7 @@ SMALL = {
         {
             "name": "rw",
             "id": "attitude_envs/ReactionWheel-v0",
-            "kwargs": {"preset": "spec-000", "episode_duration_s": 8.0},
+            "kwargs": {"preset": "pyramid-4wheel", "episode_duration_s": 8.0},
             "scenarios": [{"name": "random-60deg"}],
             "faults": {"none": [], "w0-out": [{"kind": "outage", "target": "actuator", "index": 0, "onset_s": 2.0}]},
         }
@@ -81,8 +85,9 @@ def test_partial_csv_is_readable_mid_campaign(tmp_path, monkeypatch):
         run_campaign(SMALL, tmp_path, workers=1)
     rows = _csv(tmp_path / "episodes.csv")
     assert len(rows) == 5 and all(np.isfinite(float(r["J"])) for r in rows)
-    (run,) = [json.loads(line) for line in (tmp_path / "runs.jsonl").read_text().splitlines()]
-    assert run["completed"] is False and run["episodes_run"] == 5 and run["wall_time_s"] > 0
+    (run,) = read_runs(tmp_path / "runs.jsonl")  # a start line, then the end line of the failed run
+    assert run["status"] == "failed" and run["completed"] is False
+    assert run["episodes_run"] == 5 and run["wall_time_s"] > 0
 
 
 def test_different_campaign_in_the_same_directory_is_refused(tmp_path):
@@ -149,3 +154,115 @@ def test_episode_rows_carry_recovery_after_the_fault(tmp_path):
     assert rows[("zero", "w0-out")]["success"] is False
     data = json.loads((tmp_path / "episodes.json").read_text())
     assert len(data) == 4
+
+
+KILL_DRIVER = """
+import sys, types
+if sys.argv[2] == "forkserver":
+    sys.modules["torch"] = types.ModuleType("torch")  # as once torch is imported: the pool starts by forkserver
+from experiments.campaign import run_campaign
+config = {"name": "k", "seeds": 400, "envs": [{"name": "rw", "id": "attitude_envs/ReactionWheel-v0"}],
+          "agents": [{"name": "zero", "policy": "zero"}]}
+run_campaign(config, sys.argv[1], workers=2)
+"""
+
+
+def _proc_table() -> dict[int, tuple[int, str]]:
+    """pid → (parent pid, state) of every process, from /proc."""
+    table = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/stat") as fh:
+                    fields = fh.read().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            table[int(entry)] = (int(fields[1]), fields[0])
+    return table
+
+
+def _descendants(pid: int) -> set[int]:
+    table, found = _proc_table(), {pid}
+    while True:
+        more = {p for p, (parent, _) in table.items() if parent in found} - found
+        if not more:
+            return found - {pid}
+        found |= more
+
+
+def _running(pid: int) -> bool:
+    state = _proc_table().get(pid, (0, "X"))[1]
+    return state not in ("Z", "X")  # a zombie is dead, only not yet reaped
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="reads the process table from /proc")
+@pytest.mark.parametrize("start", ["fork", "forkserver"])
+def test_sigkill_of_a_campaign_leaves_no_child_process_and_a_killed_run(start, tmp_path):
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-c", KILL_DRIVER, str(out), start])
+    try:
+        deadline = time.monotonic() + 60
+        log = out / "episodes.jsonl"
+        while not (log.is_file() and log.read_text().count("\n") >= 2):  # the pool's workers are busy
+            assert proc.poll() is None and time.monotonic() < deadline
+            time.sleep(0.05)
+        children = _descendants(proc.pid)
+        assert len(children) >= 2  # the two workers (+ forkserver and resource tracker)
+        proc.kill()
+        proc.wait()
+        deadline = time.monotonic() + 5.0
+        while any(_running(c) for c in children) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not [c for c in children if _running(c)]
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    (run,) = read_runs(out / "runs.jsonl")
+    assert run["status"] == "killed" and run["executor"] == "local-pool[2]"
+
+
+def test_runs_log_pairs_start_and_end_lines_and_counts_killed_runs(tmp_path):
+    log = tmp_path / "runs.jsonl"
+    log.write_text(
+        '{"wall_time_s": 2.0, "executor": "x", "completed": true}\n'  # the older one-line format
+        '{"event": "start", "run": "a", "executor": "x"}\n'
+        '{"event": "progress", "run": "a", "wall_time_s": 30.5}\n'  # then SIGKILL: no end line
+        '{"event": "start", "run": "b", "executor": "x"}\n'
+        '{"event": "end", "run": "b", "status": "interrupted", "wall_time_s": 4.0, "completed": false}\n'
+        '{"event": "start", "run": "c", "exec'  # cut by a crash
+    )
+    runs = read_runs(log)
+    assert [r["status"] for r in runs] == ["completed", "killed", "interrupted"]
+    assert [r["wall_time_s"] for r in runs] == [2.0, 30.5, 4.0]
+    result = run_campaign({**SMALL, "seeds": [0], "agents": SMALL["agents"][:1]}, tmp_path, workers=1)
+    assert result.runs == 4 and result.run_statuses == {"completed": 2, "interrupted": 1, "killed": 1}
+    lines = log.read_text().splitlines()
+    assert lines[5].endswith('"exec') and json.loads(lines[6])["event"] == "start"  # the cut line was ended
+    report = write_campaign_report(result).read_text()
+    assert "over 4 run(s) (runs.jsonl, 1 interrupted, 1 killed)" in report
+
+
+def test_success_is_per_env_and_a_deterministic_cell_has_no_ci(tmp_path):
+    config = {
+        "name": "ls",
+        "seeds": [0, 1],
+        "envs": [{"name": "ls", "id": "attitude_envs/LinearSystem-v0", "kwargs": {"episode_steps": 20000}}],
+        "agents": [{"name": "zero", "policy": "zero"}, {"name": "lqr-dare", "policy": "linear-lqr"}],
+    }
+    result = run_campaign(config, tmp_path, workers=1)
+    rows = {r["agent"]: r for r in result.rows if r["seed"] == 0}
+    assert rows["zero"]["final_state_norm"] > rows["zero"]["initial_state_norm"] and not rows["zero"]["success"]
+    assert rows["lqr-dare"]["final_state_norm"] < 0.1 * rows["lqr-dare"]["initial_state_norm"]
+    assert rows["lqr-dare"]["success"]
+    report = write_campaign_report(result).read_text()
+    assert "| success: ls | final state norm ≤ 0.1 × the initial state norm (true state), not terminated" in report
+    assert (
+        "| zero | 2 (< 5 episodes) |" in report
+        and "| deterministic |" in report
+        and "[" not in report.split("## Leaderboards")[1].split("## ")[0]
+    )
+    board = leaderboards(result.rows)[("ls", "default", "none")]
+    assert all(e["deterministic"] for e in board) and {e["agent"]: e["success_rate"] for e in board} == {
+        "lqr-dare": 1.0,
+        "zero": 0.0,
+    }

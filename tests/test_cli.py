@@ -18,7 +18,7 @@ def test_demo_prints_a_table_where_lqr_beats_free_drift(capsys):
 def test_bad_preset_is_a_one_line_error_with_exit_code_2():
     proc = subprocess.run([sys.executable, "train.py", "demo", "--preset", "nope"], capture_output=True, text=True)
     assert proc.returncode == 2
-    assert "preset must be one of [" in proc.stderr and "'spec-000', 'spec-001']" in proc.stderr
+    assert "preset must be one of [" in proc.stderr and "'heravi-2017', 'pyramid-4wheel'" in proc.stderr
     assert "Traceback" not in proc.stderr
 
 

@@ -70,12 +70,15 @@ def test_benchmark_trains_evaluates_and_reports(benchmark_run, capsys):
     assert "0 episodes run, 20 already done" in printed and "| lqr | 5 |" in printed
 
 
-def test_train_and_evaluate_commands(benchmark_run, tmp_path, capsys):
+def test_train_and_evaluate_commands(benchmark_run, tmp_path, capsys, monkeypatch):
     run = tmp_path / "run"
     argv = ["train", "--algo", "a2c", "--env-kwargs", "{episode_duration_s: 2.0}", "--out", str(run)]
     argv += ["--timesteps", "40", "--params", "n_envs:1", "n_steps:8", "--eval-freq", "20", "--eval-episodes", "1"]
+    monkeypatch.setenv("ATTITUDE_ENVS_PROGRESS_S", "0")  # a status line per step (not on a terminal)
     assert cli.main(argv) == 0
-    assert "trained a2c on attitude_envs/ReactionWheel-v0: 40 steps" in capsys.readouterr().out
+    out = capsys.readouterr()
+    assert "trained a2c on attitude_envs/ReactionWheel-v0: 40 steps" in out.out
+    assert "train a2c ReactionWheel-v0: 8/40 steps (20 %)" in out.err and "ETA" in out.err
     resume = ["train", "--algo", "a2c", "--env-kwargs", "{episode_duration_s: 2.0}", "--out", str(run)]
     resume += ["--timesteps", "60", "--params", "n_envs:1", "n_steps:8", "--eval-freq", "20", "--eval-episodes", "1"]
     assert cli.main([*resume, "--resume"]) == 0  # continues the finished 40-step run to 60 steps
@@ -91,6 +94,26 @@ def test_train_and_evaluate_commands(benchmark_run, tmp_path, capsys):
     rows = (ev / "episodes.csv").read_text().splitlines()
     assert len(rows) == 1 + 15 and rows[0].startswith("env,scenario,fault,agent,train_seed,seed,J")
     assert (ev / "episodes.json").is_file() and (ev / "report.md").is_file()
+    # like a campaign, evaluate loads the run's best snapshot; the report names it and the algorithm
+    report = (ev / "report.md").read_text()
+    best = json.loads((run / "best" / "best.json").read_text())
+    assert f"| model: a2c | {run / 'best' / 'model.zip'} (best snapshot at {best['timesteps']} steps) |" in report
+    assert "| a2c | 5 |" in report and "| model |" not in report and "<dict>" not in report
+    assert "| command | attitude-envs evaluate --env-kwargs '{episode_duration_s: 2.0}' --model" in report
+    final = tmp_path / "ev-final"
+    argv = ["evaluate", "--env-kwargs", "{episode_duration_s: 2.0}", "--model", str(run), "--model", str(run)]
+    assert cli.main([*argv, "--select", "final", "--seeds", "1", "--out", str(final), "--workers", "1"]) == 0
+    report = (final / "report.md").read_text()
+    assert f"| model: a2c-1 | {run / 'final' / 'model.zip'} (final snapshot at 64 steps) |" in report
+    assert "| model: a2c-2 |" in report
+
+
+def test_train_progress_bar_works_with_the_sb3_extra(tmp_path, capsys):
+    pytest.importorskip("rich")  # SB3's progress bar needs it; it is in the sb3 extra
+    argv = ["train", "--algo", "a2c", "--env-kwargs", "{episode_duration_s: 1.0}", "--out", str(tmp_path / "r")]
+    argv += ["--timesteps", "16", "--params", "n_envs:1", "n_steps:8", "--eval-freq", "16", "--eval-episodes", "1"]
+    assert cli.main([*argv, "--progress-bar"]) == 0
+    assert "trained a2c on attitude_envs/ReactionWheel-v0: 16 steps" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize(
@@ -98,7 +121,7 @@ def test_train_and_evaluate_commands(benchmark_run, tmp_path, capsys):
     [
         (["train", "--algo", "dqn", "--out", "X"], "algorithm must be one of ['a2c', 'ddpg', 'ppo', 'recurrentppo'"),
         (["train", "--algo", "ppo", "--env", "Nope-v9", "--out", "X"], "unknown env id 'Nope-v9'; accepted:"),
-        (["evaluate", "--policy", "mpc", "--out", "X"], "unknown policy 'mpc'; accepted: ['amnftsmc'"),
+        (["evaluate", "--policy", "mpc2", "--out", "X"], "unknown policy 'mpc2'; accepted: ['amnftsmc'"),
         (["evaluate", "--policy", "lqr", "--env-kwargs", "{preset: x}", "--out", "X"], "preset must be one of"),
         (
             ["evaluate", "--policy", "zero", "--env-kwargs", "{wheels: 3}", "--out", "X"],

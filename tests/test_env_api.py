@@ -12,7 +12,7 @@ import attitude_envs
 
 CONFIGS = [
     ("attitude_envs/ReactionWheel-v0", {}),
-    ("attitude_envs/ReactionWheel-v0", {"preset": "spec-001", "control_dt_s": 0.1}),
+    ("attitude_envs/ReactionWheel-v0", {"preset": "heravi-2017", "control_dt_s": 0.1}),
     (
         "attitude_envs/ReactionWheel-v0",
         {
@@ -37,8 +37,8 @@ CONFIGS = [
 ]
 # configurations that start from a paper's fixed initial condition (no draw)
 FIXED_START = {
-    ("attitude_envs/ReactionWheel-v0", "spec-001"),
-    ("attitude_envs/LinearSystem-v0", "spec-001"),
+    ("attitude_envs/ReactionWheel-v0", "heravi-2017"),
+    ("attitude_envs/LinearSystem-v0", "heravi-2017"),
     ("attitude_envs/FuelSlosh-v0", "default"),
 }
 
@@ -46,7 +46,7 @@ FIXED_START = {
 def starts_fixed(env_id: str, kwargs: dict) -> bool:
     if env_id.endswith("FuelSlosh-v0"):
         return (env_id, "default" if not kwargs.get("randomize_initial_state") else "random") in FIXED_START
-    preset = kwargs.get("preset", "spec-001" if env_id.endswith("LinearSystem-v0") else "spec-000")
+    preset = kwargs.get("preset", "heravi-2017" if env_id.endswith("LinearSystem-v0") else "pyramid-4wheel")
     return (env_id, preset) in FIXED_START
 
 

@@ -1,4 +1,4 @@
-"""The derived `consistent` configuration of the spec-002 reproduction (authority, gains)."""
+"""The derived `consistent` configuration of the Sadigh et al. 2022 reproduction (authority, gains)."""
 
 import itertools
 
@@ -62,11 +62,11 @@ def _along_reference(scale: float, step_s: float):
     return np.array(need), np.array(have)
 
 
-def test_derived_scale_keeps_the_disturbance_rejectable_and_the_spec_prototype_scale_does_not(design):
+def test_derived_scale_keeps_the_disturbance_rejectable_and_the_prototype_scale_does_not(design):
     assert 0.005 < design.disturbance_scale < 0.02  # ~60× below the printed disturbance
     need, have = _along_reference(design.disturbance_scale, 7.0)
     assert np.all(need < have)
-    # spec §7's scale 0.1: the printed disturbance exceeds what the faulty magnetorquers can make
+    # an independent prototype's scale 0.1: the printed disturbance exceeds what the faulty magnetorquers can make
     # about some x/z axis for part of the run (why the earlier `consistent` lost x/z)
     need, have = _along_reference(0.1, 7.0)
     outside = np.mean(np.any(need > have, axis=1))

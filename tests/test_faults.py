@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 RW = "attitude_envs/ReactionWheel-v0"
-MAX = 0.5  # spec-000 wheel torque limit, N·m
+MAX = 0.5  # pyramid-4wheel wheel torque limit, N·m
 CMD = np.array([0.4, -0.6, 0.2, 0.8])  # normalized; physical = CMD * MAX
 
 

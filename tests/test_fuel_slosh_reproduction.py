@@ -1,5 +1,5 @@
-"""Navabi & Davoodi reproduction: the paper setup's numbers (the sanity targets of our
-reconstruction notes' independent prototype), the
+"""Navabi & Davoodi reproduction: the paper setup's numbers (the sanity targets of an
+independent prototype of the paper's set-up), the
 paper's qualitative claims where our reconstruction supports them, and the output files.
 
 The full-plant (env) half of the reproduction takes ≈ 1–2 min and is not run here:
@@ -31,7 +31,7 @@ def _at(tr, t_s: float, row: int) -> float:
 
 
 def test_pd_matches_the_reconstructed_reference_trajectory(runs):
-    """The reconstruction notes' independent prototype: PD on the linear reduced model."""
+    """An independent prototype's set-up: PD on the linear reduced model."""
     pd = runs["pd"]
     np.testing.assert_allclose([_at(pd, t, 0) for t in (250, 500, 1000)], [-31.1, -28.1, 7.7], atol=0.1)
     np.testing.assert_allclose(
@@ -51,7 +51,7 @@ def test_other_controllers_match_the_reconstructed_reference_numbers(runs):
     assert lyap["settling v_z (s)"] == pytest.approx(556, abs=2)
     assert lyap["settling theta (s)"] == pytest.approx(270, abs=2)
     assert lyap["min v_z (m/s)"] == pytest.approx(-24.6, abs=0.1)
-    # fuzzy: our scikit-fuzzy build vs the notes' prototype (both the notes' defaults; the
+    # fuzzy: our scikit-fuzzy build vs an independent prototype (both with the same defaults; the
     # prototype's inference details are not given): v_z 1312 s there
     assert fuzzy["settling theta (s)"] == pytest.approx(999, abs=5)
     assert fuzzy["settling psi1 (s)"] == pytest.approx(833, abs=5)
@@ -84,7 +84,7 @@ def test_reproduce_quick_writes_schema_and_plots(runs, tmp_path, monkeypatch):
     monkeypatch.setattr(fuel_slosh, "run_paper_setup", lambda: runs)
     rows = fuel_slosh.reproduce(tmp_path, quick=True)
     doc = json.loads((tmp_path / "fuel-slosh.json").read_text())
-    assert doc["paper"] == "fuel-slosh" and doc["seed_file"] == "004_9171e9ccce2e68c4.txt"
+    assert doc["paper"] == "fuel-slosh" and doc["source"].startswith("Navabi, M. and Davoodi, A.")
     assert len(doc["rows"]) == len(rows) == 5 * 11 + 1
     assert {r["controller"] for r in doc["rows"]} == {"pd", "lqr-paper", "lqr-feasible", "fuzzy", "lyapunov"}
     assert all(r["paper"] is None for r in doc["rows"])  # the paper prints no numbers

@@ -1,4 +1,4 @@
-"""Spec 003 PID baselines, GA tuning, meta-model fit, tune-pid command and reproduction."""
+"""Ahangarani Farahani et al.'s PID baselines, GA tuning, meta-model fit, tune-pid command and reproduction."""
 
 import json
 import math
@@ -29,7 +29,7 @@ def test_schedule_evaluates_eq_24_exactly():
     angle = np.radians([10.0, -10.0, 10.0])
     rate = np.radians([1.0, 1.0, 0.0])
     kp, kd, ki = paper_schedule("deg").at(angle, rate)
-    # by hand from eq. 24 with degrees: Kd_θ = 4.22 + 0.4·(−10) − 0.2·1 (spec 003 A1)
+    # by hand from eq. 24 with degrees: Kd_θ = 4.22 + 0.4·(−10) − 0.2·1
     assert kd[1] == pytest.approx(4.22 + 0.4 * -10 - 0.2 * 1, abs=1e-12)
     assert kp[0] == pytest.approx(4.07 + 0.023 * 10 + 0.13 * 1, abs=1e-12)
     assert kp[2] == pytest.approx(1.83 - 0.03 * 10 + 0.03 * 0, abs=1e-12)
@@ -58,9 +58,9 @@ def test_pid_policy_torque_and_integral():
     np.testing.assert_allclose(policy.act(obs, info), [0.0, 0.0, 3.0 * 0.1 / 0.8], atol=1e-6)
 
 
-def test_pid_regulates_lab_test_and_fixed_yaw_matches_spec():
-    """Table 3 on the lab test: settles; IAE within 5 % of the spec's independent check (§6:
-    28.6 / 27.7 / 45.2 deg·s) and of the paper's yaw value 47.4."""
+def test_pid_regulates_lab_test_and_fixed_yaw_matches_the_paper():
+    """Table 3 on the lab test: settles; IAE within 5 % of an independent simulation
+    (28.6 / 27.7 / 45.2 deg·s) and of the paper's yaw value 47.4."""
     env = gym.make(ENV_ID)
     r = pid_episode(env, PIDPolicy(env, PAPER_FIXED), seed=0, options=LAB_MANEUVER)
     assert not r["terminated"]

@@ -47,7 +47,7 @@ def test_body_input_linearization_is_the_allocated_wheel_one():
     assert np.allclose(body.B, wheel.B @ model.allocation)
     # with the minimum-norm allocation the body receives exactly the demanded torque
     assert np.allclose(-model.params.wheel_axes @ model.allocation, np.eye(3))
-    # small-wheel limit: B_ω ≈ I⁻¹ of spec 000 (I_eff differs by J_s A Aᵀ = 6.7e-4 I)
+    # small-wheel limit: B_ω ≈ I⁻¹ of the feedback-linearization paper (I_eff differs by J_s A Aᵀ = 6.7e-4 I)
     assert np.allclose(body.B[3:6], np.linalg.inv(np.diag([4.0, 4.0, 3.0])), rtol=3e-4)
 
 
@@ -95,10 +95,10 @@ def test_env_step_matches_discrete_model_near_the_target():
     assert reward == -info["cost"]
 
 
-def test_lqr_gain_of_spec000_reproduces_the_papers_gains():
-    model = model_of(wheel_inertia_kg_m2=1e-12)  # spec 000 designs with the small-wheel model
+def test_lqr_gain_of_the_pyramid_preset_reproduces_the_papers_gains():
+    model = model_of(wheel_inertia_kg_m2=1e-12)  # the paper designs with the small-wheel model
     K = model.linearize().lqr_gain()
-    # spec 000 eqs. 77-78 (gains on ω and q_v); here x is ordered (q_v, ω) and u = −K x
+    # the paper's eqs. 77-78 (gains on ω and q_v); here x is ordered (q_v, ω) and u = −K x
     assert np.allclose(np.diag(K[:, :3]), 0.2608, atol=5e-5)
     assert np.allclose(np.diag(K[:, 3:]), [2.5091, 2.5091, 2.4566], atol=5e-5)
 

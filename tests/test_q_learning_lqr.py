@@ -1,5 +1,5 @@
 """Q-learning LQR agent on LinearSystem-v0: exact answers from noise-free data
-(q-learning-lqr note §9.5 deterministic acceptance), API, guards."""
+(to the DARE gain, in the Riccati or Hewer iteration count), API, guards."""
 
 from __future__ import annotations
 
@@ -34,7 +34,7 @@ def test_svec_roundtrip_and_quadratic_form():
     assert np.isclose(np.linalg.norm(svec(H)), np.linalg.norm(H))  # isometry
     z = rng.normal(size=(4, 5))
     assert np.allclose(quadratic_features(z) @ svec(H), np.einsum("ki,ij,kj->k", z, H, z))
-    assert n_features(9) == 45  # spec 001 §3.4: 45 unknowns for n = 6, m = 3
+    assert n_features(9) == 45  # Heravi & Novinzadeh 2017: 45 unknowns for n = 6, m = 3
 
 
 @pytest.mark.parametrize("name", sorted(CASES))
@@ -81,7 +81,7 @@ def test_vi_follows_riccati_recursion_iteration_by_iteration():
         for j, h in enumerate(agent.history[1:], 1)
     ]
     assert max(errs) < 1e-9
-    assert np.linalg.norm(agent.history[0]["gain"]) < 1e-12  # H₁ = blkdiag(Q, R) ⇒ K₁ = 0 (spec 001 §6 item 6)
+    assert np.linalg.norm(agent.history[0]["gain"]) < 1e-12  # H₁ = blkdiag(Q, R) ⇒ K₁ = 0
 
 
 @pytest.mark.parametrize("method", ["policy_iteration", "lspi"])
@@ -127,7 +127,7 @@ def test_rls_exact_initialization_matches_batch_and_ridge_init_is_biased():
     assert relative_error(exact.gain, K_star) <= 1e-8
     vi = QLearningLQR(env, estimator="rls", seed=0, exploration_std=1.0).learn(samples_per_iteration=30)
     assert relative_error(vi.gain, K_star) <= 1e-8
-    # P₀ = 10·I is ridge regression with penalty 0.1 (note §6.5: 0.3 at β = 10): biased
+    # P₀ = 10·I is ridge regression with penalty 0.1 (an independent prototype: 0.3 at β = 10): biased
     ridge = QLearningLQR(
         env,
         method="policy_iteration",
@@ -143,12 +143,12 @@ def test_rls_exact_initialization_matches_batch_and_ridge_init_is_biased():
 
 
 def test_spacecraft_plant_lstd_pi_and_vi():
-    """Spec 001 §2.3 plant (Euler, Δt = 0.01 s, J ≈ 10³ kg·m²). The note (§6.2) measured
+    """Heravi & Novinzadeh 2017's plant (Euler, Δt = 0.01 s, J ≈ 10³ kg·m²). An independent prototype measured
     LSTD-Q PI failing here (cond ≈ 1e13); with per-coordinate feature scaling it is exact."""
-    env = LinearSystemEnv(preset="spec-001")
+    env = LinearSystemEnv(preset="heravi-2017")
     A, B, Q, R = env.model.A, env.model.B, env.model.Q, env.model.R
     K_star, _ = dare_gain(A, B, Q, R)
-    K0 = np.hstack([0.1 * np.eye(3), 10.0 * np.eye(3)])  # spec 001 §6 item 15
+    K0 = np.hstack([0.1 * np.eye(3), 10.0 * np.eye(3)])  # a stabilizing initial gain for this plant
     std = [1.0, 1.0, 1.0, 0.05, 0.05, 0.05]
     pi = QLearningLQR(env, method="lspi", seed=0, initial_gain=K0, state_std=std, exploration_std=1.0)
     pi.learn(samples_per_iteration=90)
@@ -249,8 +249,8 @@ def test_discounted_gain_matches_scaled_dare():
 
 
 def test_value_iteration_with_fresh_batches_like_the_paper():
-    """``reuse_data=False``: a fresh batch of N ≥ p samples per iteration (spec 001 §3.5,
-    eq. 29/31); same iterates as the reused batch, N× the samples."""
+    """``reuse_data=False``: a fresh batch of N ≥ p samples per iteration (the paper's
+    eqs. 29/31); same iterates as the reused batch, N× the samples."""
     A, B, Q, R = CASES["kiumarsi2x1"]
     K_star, _ = dare_gain(A, B, Q, R)
     agent = QLearningLQR(linear_env(A, B, Q, R), seed=0, exploration_std=1.0, reuse_data=False)
@@ -261,7 +261,7 @@ def test_value_iteration_with_fresh_batches_like_the_paper():
 
 
 def test_row_normalization_on_unstable_trajectory_data():
-    """Note §6.6: one trajectory of an unstable plant under u = η spans ~10²⁶ in ‖z‖²; raw least
+    """One trajectory of an unstable plant under u = η spans ~10²⁶ in ‖z‖²; raw least
     squares is swamped by the last rows, equations divided by ‖z_k‖² stay exact."""
     A, B, Q, R = CASES["kiumarsi2x1"]  # ρ(A) = 2.84
     K_star, _ = dare_gain(A, B, Q, R)

@@ -1,5 +1,4 @@
-"""Q-learning LQR under process noise (q-learning-lqr note §6.3–6.4, §9.5 stochastic
-acceptance): LSTD-Q with the constant feature is consistent, the legacy estimators are
+"""Q-learning LQR under process noise: LSTD-Q with the constant feature is consistent, the legacy estimators are
 biased, and the matrix-Bellman evaluation reaches certainty equivalence."""
 
 from __future__ import annotations
@@ -65,8 +64,8 @@ def sigma_01():
 
 def test_lstdq_with_constant_is_consistent(sigma_01):
     small, large = np.median(sigma_01[1_000]["lstd+c"]), np.median(sigma_01[10_000]["lstd+c"])
-    assert large <= 0.5 * small  # T^-1/2 would give 0.32 per decade (note §9.5: ratio ≤ 0.5)
-    assert large <= 0.05  # note §6.3: 0.027 (40 seeds) at T = 1e4, σ_w = 0.1
+    assert large <= 0.5 * small  # T^-1/2 would give 0.32 per decade (accepted: ratio ≤ 0.5)
+    assert large <= 0.05  # an independent prototype: 0.027 (40 seeds) at T = 1e4, σ_w = 0.1
 
 
 def test_fitted_q_value_iteration_reaches_the_lspi_fixed_point(sigma_01):
@@ -77,7 +76,7 @@ def test_fitted_q_value_iteration_reaches_the_lspi_fixed_point(sigma_01):
 def test_ols_bellman_residual_is_biased(sigma_01):
     ols_small, ols_large = np.median(sigma_01[1_000]["ols"]), np.median(sigma_01[10_000]["ols"])
     lstd_large = np.median(sigma_01[10_000]["lstd+c"])
-    assert ols_large > 0.15  # a bias floor (note §6.4: 0.54–0.56 on-policy)
+    assert ols_large > 0.15  # a bias floor (an independent prototype: 0.54–0.56 on-policy)
     assert ols_large > 0.6 * ols_small  # does not shrink like T^-1/2
     assert ols_large > 4.0 * lstd_large
 
@@ -104,12 +103,12 @@ def test_feasible_gls_lstdq_narrows_the_ce_gap(sigma_01):
 
 def test_missing_constant_feature_leaves_a_bias_floor():
     e = _errors(1.0, 30_000, range(4), {"lstd+c": {}, "lstd": {"constant_feature": False}})
-    assert np.median(e["lstd"]) > 0.3  # note §9.5: no-constant LSPI stays > 0.3 at σ_w = 1
-    assert np.median(e["lstd+c"]) < 0.5 * np.median(e["lstd"])  # note §6.3: 0.09 at T = 1e5
+    assert np.median(e["lstd"]) > 0.3  # no-constant LSPI stays > 0.3 at σ_w = 1
+    assert np.median(e["lstd+c"]) < 0.5 * np.median(e["lstd"])  # an independent prototype: 0.09 at T = 1e5
 
 
 def test_on_policy_bradtke_ols_stays_biased_lstd_does_not():
-    """Note §6.4 / §9.5 bias detection: on-policy PI with fresh batches (Bradtke style),
+    """Bias detection: on-policy PI with fresh batches (Bradtke style),
     krauth3x2, σ_w = 0.1, N = 1500 per iteration, 6 iterations: OLS residual ≈ 0.56 (must stay
     > 0.3), LSTD-Q + constant ≈ 0.18."""
     errors: dict[str, list[float]] = {"ols": [], "lstd+c": []}

@@ -1,4 +1,4 @@
-"""``train.py reproduce q-learning-lqr --quick``: spec 001's numbers within their tolerances."""
+"""``train.py reproduce q-learning-lqr --quick``: Heravi & Novinzadeh 2017's numbers within their tolerances."""
 
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ def test_reproduce_q_learning_lqr_quick(tmp_path, capsys):
     def ours(metric: str, controller_prefix: str) -> float:
         return next(r["ours"] for r in rows if r["metric"] == metric and r["controller"].startswith(controller_prefix))
 
-    # spec 001 §7: the learned gains follow the Riccati recursion from P = 0 at every iteration
+    # the learned gains follow the Riccati recursion from P = 0 at every iteration
     assert ours("max rel. difference from Riccati recursion (all iterations)", "Q-learning VI") <= 1e-5
     assert ours("env samples used", "Q-learning VI") == 90
     assert ours("final rel. gain error vs DARE", "Q-learning LSPI") <= 1e-8

@@ -18,7 +18,7 @@ def test_to_matrix_and_euler_match_scipy(rng):
     ours = quaternion.from_euler_321_deg(20.0, -30.0, -40.0)
     ref = Rotation.from_euler("ZYX", [-40.0, -30.0, 20.0], degrees=True).as_quat()
     assert np.allclose(ours, ref, atol=1e-14)
-    # spec 000 Table 1, maneuver 1 target
+    # the feedback-linearization paper's Table 1, maneuver 1 target
     assert np.allclose(ours, [0.07044, -0.29688, -0.28311, 0.90926], atol=1e-5)
     assert np.allclose(quaternion.to_euler_321_deg(ours), [20.0, -30.0, -40.0], atol=1e-10)
 

@@ -70,21 +70,43 @@ def _sac(out, total, resume=False, seed=3):
         overrides=SAC_TINY,
         total_timesteps=total,
         checkpoint_freq=100,
-        eval_freq=10_000,
+        eval_freq=100,
         eval_episodes=1,
         resume=resume,
     )
 
 
-def test_resume_continues_a_killed_run_with_its_replay_buffer(tmp_path):
+def _weights(run):
+    import zipfile
+
+    with zipfile.ZipFile(run / "final" / "model.zip") as zf:  # tensors and optimizer states (not "data": times)
+        return {name: zf.read(name) for name in zf.namelist() if name.endswith(".pth")}
+
+
+@pytest.fixture(scope="module")
+def sac_400(tmp_path_factory):
+    """An uninterrupted 400-step SAC run: evaluations and checkpoints every 100 steps."""
+    out = tmp_path_factory.mktemp("sac") / "reference"
+    result = _sac(out, 400)
+    assert result.timesteps == 400 and result.resumed_from is None and not result.already_complete
+    return out
+
+
+def _same_run(out, ref):
+    for name in ("evaluations.csv", "best/best.json", "final/final.json", "checkpoints/latest.json"):
+        assert (out / name).read_bytes() == (ref / name).read_bytes(), name
+    assert _weights(out) == _weights(ref)
+
+
+def test_resume_continues_a_killed_run_with_its_replay_buffer(tmp_path, sac_400):
     out = tmp_path / "run"
-    first = _sac(out, 250)  # checkpoints at 100 and 200 steps
+    first = _sac(out, 250)  # checkpoints at 100, 200 and 250 (the budget)
     assert first.timesteps == 250 and first.resumed_from is None
     checkpoints = out / "checkpoints"
     assert sorted(p.name for p in checkpoints.glob("step_*")) == ["step_000000000200", "step_000000000250"]
     assert json.loads((checkpoints / "latest.json").read_text())["timesteps"] == 250  # the finished run
-    assert (checkpoints / "step_000000000200" / "replay_buffer.pkl").is_file()
-    assert (checkpoints / "step_000000000200" / "vecnormalize.pkl").is_file()  # obs normalization saved
+    for name in ("state.pkl", "model.zip", "vecnormalize.pkl"):  # exact state, portable model, obs normalization
+        assert (checkpoints / "step_000000000200" / name).is_file()
     # "Kill" at step 230: what the disk holds then is the 200-step checkpoint and its pointer.
     import shutil
 
@@ -98,16 +120,19 @@ def test_resume_continues_a_killed_run_with_its_replay_buffer(tmp_path):
     second = _sac(out, 400, resume=True)
     assert second.resumed_from == 200  # lost at most one checkpoint interval
     assert second.timesteps == 400
-    # The 400-step checkpoint holds the buffer of before the kill plus the new transitions. SB3
-    # calls the callback before it stores the step's transition: a checkpoint at step n holds
-    # n - 1 of them, so 199 + 199 (199 alone had the buffer not been restored).
-    from stable_baselines3 import SAC
+    # Bitwise the uninterrupted run: the 250-step row of the killed run is gone, the replay buffer,
+    # generators, optimizer and env states continued. The buffer holds 200 + 200 transitions.
+    _same_run(out, sac_400)
+    from experiments.sb3.checkpoint import read_checkpoint
 
-    model = SAC.load(out / "checkpoints" / "step_000000000400" / "model.zip")
-    model.load_replay_buffer(out / "checkpoints" / "step_000000000400" / "replay_buffer.pkl")
-    assert model.replay_buffer.size() == 398
+    model = read_checkpoint(checkpoints / "step_000000000400")[0]
+    assert model.replay_buffer.size() == 400
     rows = (out / "evaluations.csv").read_text().splitlines()
-    assert rows[0] == "timesteps,J_mean,J_std" and len(rows) >= 3
+    assert rows[0] == "timesteps,J_mean,J_std" and [r.split(",")[0] for r in rows[1:]] == ["100", "200", "300", "400"]
+    # A finished run resumed again: nothing to do (was an AttributeError).
+    again = _sac(out, 400, resume=True)
+    assert again.already_complete and again.timesteps == 400
+    _same_run(out, sac_400)
     # The saved model is a Policy for the same env and refuses an env with other spaces.
     predictor = load_trained(out, gym.make(RW, **SHORT))
     action, _ = predictor.predict(np.zeros(6, dtype=np.float32))
@@ -116,9 +141,68 @@ def test_resume_continues_a_killed_run_with_its_replay_buffer(tmp_path):
         load_trained(out, gym.make(RW, wheel_axes=np.eye(3)))
 
 
+class _Killed(Exception):
+    pass
+
+
+@pytest.mark.parametrize("when, step", [("before-the-pointer-moves", 300), ("after-the-pointer-before-best", 100)])
+def test_kill_around_a_checkpoint_resumes_to_the_same_run(tmp_path, monkeypatch, sac_400, when, step):
+    """The two windows of an evaluation step: its row is in evaluations.csv but the checkpoint
+    pointer has not moved (the step is evaluated again), or the pointer moved but best/ was not
+    yet written (it is written from the checkpoint). Step 100 is the reference's best."""
+    import experiments.sb3.training as training
+
+    assert json.loads((sac_400 / "best" / "best.json").read_text())["timesteps"] == 100
+    real = training.write_checkpoint
+
+    def write_checkpoint(root, model, *args, **kwargs):
+        if model.num_timesteps == step and when == "before-the-pointer-moves":
+            raise _Killed
+        directory = real(root, model, *args, **kwargs)
+        if model.num_timesteps == step:
+            raise _Killed
+        return directory
+
+    out = tmp_path / "run"
+    monkeypatch.setattr(training, "write_checkpoint", write_checkpoint)
+    with pytest.raises(_Killed):
+        _sac(out, 400)
+    rows = (out / "evaluations.csv").read_text().splitlines()
+    assert rows[-1].startswith(f"{step},")  # fsynced before the checkpoint
+    pointer = json.loads((out / "checkpoints" / "latest.json").read_text())["timesteps"]
+    assert pointer == (step - 100 if when == "before-the-pointer-moves" else step)
+    assert (out / "best" / "best.json").is_file() == (when == "before-the-pointer-moves")
+    monkeypatch.setattr(training, "write_checkpoint", real)
+    assert _sac(out, 400, resume=True).resumed_from == pointer
+    _same_run(out, sac_400)
+
+
 def test_resume_without_a_checkpoint_is_an_error(tmp_path):
     with pytest.raises(ValueError, match="no complete checkpoint"):
         _sac(tmp_path / "empty", 100, resume=True)
+
+
+def test_budget_is_rounded_up_to_whole_rollouts_the_same_way_when_resumed(tmp_path):
+    """PPO trains in rollouts of n_steps × n_envs = 300 steps: 1000 asked → 1200 trained, with or without a kill."""
+
+    def ppo(out, resume=False):
+        overrides = {"n_envs": 2, "n_steps": 150, "batch_size": 150, "n_epochs": 1}
+        kwargs = {"env_kwargs": SHORT, "overrides": overrides, "total_timesteps": 1000, "eval_episodes": 1}
+        return train("ppo", RW, out, checkpoint_freq=400, eval_freq=500, resume=resume, **kwargs)
+
+    ref = ppo(tmp_path / "ref")
+    assert ref.timesteps == 1200
+    rows = (tmp_path / "ref" / "evaluations.csv").read_text().splitlines()
+    assert [r.split(",")[0] for r in rows[1:]] == ["600", "1200"]  # first rollout ends at or after 500, 1000
+    import shutil
+
+    shutil.copytree(tmp_path / "ref", tmp_path / "killed")  # killed after the 600-step checkpoint
+    checkpoints = tmp_path / "killed" / "checkpoints"
+    shutil.rmtree(tmp_path / "killed" / "final")
+    (checkpoints / "latest.json").write_text(json.dumps({"timesteps": 900, "dir": "step_000000000900"}))
+    resumed = ppo(tmp_path / "killed", resume=True)
+    assert (resumed.resumed_from, resumed.timesteps) == (900, 1200)
+    _same_run(tmp_path / "killed", tmp_path / "ref")
 
 
 def test_rl_zoo3_trains_on_the_envs_with_the_shipped_file(tmp_path):

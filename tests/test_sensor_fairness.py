@@ -19,6 +19,7 @@ from attitude_envs.evaluation import Scenario, evaluate, record_episode, rollout
 from attitude_envs.evaluation.tracking_metrics import run_traced
 from attitude_envs.info import MEASURED, TRUTH, policy_view
 from baselines.bdot import BDotPolicy
+from baselines.fault_tolerant import FaultTolerantLQRPolicy
 from baselines.feedback_linearization import FeedbackLinearizationPolicy
 from baselines.fuzzy_slosh import FuzzySloshPDPolicy
 from baselines.linear_lqr import LinearLQRPolicy
@@ -40,10 +41,21 @@ GYRO_STAR = {"gyro": {"noise_std": 1e-3}, "star_tracker": {"noise_std": 1e-3}}  
 STATE = {"state": {"noise_std": 1e-3}}
 MAGNETOMETER = {"magnetometer": {"noise_std": 1e-7}}  # T (the field is ~3e-5 T)
 
+
+def mpc_policy(env):
+    """The MPC baseline (CasADi is optional: skip without it)."""
+    pytest.importorskip("casadi")
+    from baselines.mpc import MPCPolicy  # optional dependency: imported once CasADi is known to be there
+
+    return MPCPolicy(env, horizon_steps=5)
+
+
 # name -> (env id, env kwargs, sensors, policy factory): every baseline mapping state -> action
 BASELINES = {
     "quaternion-lqr": (RW, {}, GYRO_STAR, QuaternionLQRPolicy),
     "lqr": (RW, {}, GYRO_STAR, LQRPolicy),
+    "lqr-ft": (RW, {}, GYRO_STAR, FaultTolerantLQRPolicy),
+    "mpc": (RW, {}, GYRO_STAR, mpc_policy),
     "feedback-linearization": (RW, {}, GYRO_STAR, FeedbackLinearizationPolicy),
     "pid-fixed": (AB, {}, GYRO_STAR, lambda env: PIDPolicy(env, PAPER_FIXED)),
     "pid-state-dependent": (AB, {}, GYRO_STAR, lambda env: PIDPolicy(env, paper_schedule("rad"))),

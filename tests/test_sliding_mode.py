@@ -1,4 +1,4 @@
-"""Spec 002 baselines (AMNFTSMC, MNFTSMC, FTSMC stand-in, allocation, B-dot) and metrics."""
+"""Sadigh et al. 2022 baselines (AMNFTSMC, MNFTSMC, FTSMC stand-in, allocation, B-dot) and metrics."""
 
 import gymnasium as gym
 import numpy as np

@@ -22,42 +22,94 @@ from attitude_envs.euler import euler_321_rad
 
 
 class AirBearingEnv(ReactionWheelEnv):
-    """Three-axis air-bearing platform with three orthogonal reaction wheels.
+    """Three-axis air-bearing attitude simulator with three orthogonal reaction wheels.
 
-    Plant: the exact gyrostat of :mod:`attitude_envs.plants.gyrostat` plus the torque of the
+    **Description.** The 85 kg laboratory platform of Ahangarani Farahani, Adami &
+    Arefkhani, on which they tested a PID with state-dependent, GA-tuned gains. The plant is
+    ReactionWheel-v0's exact gyrostat (the same compiled RK4 step) plus the torque of the
     centre-of-mass offset about the bearing's centre of rotation, ``p × K(q)`` with
     ``p = m g r_s`` (the paper's Table 1) and ``K`` the gravity direction in body axes (the
-    paper's eqs. 6–9; restoring in roll and pitch: stiffness ``p_z = 0.3366 N·m/rad``,
-    periods ≈ 28–30 s).
+    paper's eqs. 6–9): restoring in roll and pitch (stiffness ``p_z = 0.3366 N·m/rad``,
+    periods ≈ 28–30 s), none in yaw. With idle wheels the total energy including the
+    gravity potential is conserved. Roll and pitch are limited by the bearing's mechanical
+    stops at ±40°; yaw is unlimited. The paper gives no wheel data: the wheel inertia
+    (0.01 kg·m²) and speed limit (6000 rpm) are assumed.
 
-    ================  ==========================================================  ==========
-    Quantity          Meaning                                                     Units
-    ================  ==========================================================  ==========
-    State (truth)     q (scalar last), ω body rate, Ω wheel speeds rel. body     -, rad/s
-    Observation       float32 ``x = [q_e,vec (3), ω (3)]``, q_e = q_T*⊗q, w ≥ 0   -, rad/s
-    Action            3 normalized wheel motor torques in [-1, 1] (x, y, z        -
-                      wheels); ``u = 0.8 a`` N·m; body torque ``T_c = −u``        N·m
-    Reward            −∫ (xᵀQx + T_cᵀR T_c) dt, Q = diag(4·I3, I3), R = I3        (cost)
-    Start state       3-2-1 Euler angles uniform in ±``initial_euler_max_deg``    deg
-                      (20, 20, 45), ω uniform in ±2 °/s, wheels at rest, target
-                      identity; ``reset(options={"euler_321_deg": [φ, θ, ψ]})``
-                      or ``"attitude"``, ``"rate_rad_s"``, ...
-    Termination       roll or pitch beyond ±``tilt_limit_deg`` (40°): the         deg
-                      platform hits its mechanical stop (not modelled as a
-                      collision: the episode ends, ``truth["tilt_limit_hit"]``);
-                      non-finite state; ``max|ω| > max_rate_rad_s``
-    Truncation        simulated time reaches ``episode_duration_s`` (20 s)        s
-    ================  ==========================================================  ==========
+    **Action space.** ``Box(-1, 1, (3,), float32)``, clipped: the x, y and z wheels' motor
+    torques ``u = 0.8 a`` N·m; the body torque is ``T_c = −u``. With ``action_frame="body"``
+    the action is the body-torque demand ``T_c = 0.8 a`` N·m instead.
 
-    Yaw is unlimited. ``info`` is ReactionWheel-v0's plus ``truth["euler_321_deg"]``
-    ([φ, θ, ψ] of the true attitude, deg). Parameters: every ReactionWheel-v0 keyword (the
-    preset ``"air-bearing-85kg"`` sets the paper's values, including ``offset_torque_nm``
-    and ``tilt_limit_deg``; ``disturbance={"kind": "constant", "torque_nm": [0.01] * 3}``
-    is the paper's constant-disturbance run) plus ``initial_euler_max_deg`` (roll and pitch
-    below ``tilt_limit_deg``, yaw up to 180). Wheel inertia (0.01 kg·m²) and speed limit
-    (6000 rpm) are assumed: the paper gives none. ``env.unwrapped.model.params`` carries
-    ``offset_torque_nm``; the model's ``linearize()`` is the free body's (it leaves out the
-    offset's roll/pitch stiffness ``p_z``, the paper's eq. 17).
+    **Observation space.** ``Box(float32)`` of ``x = [q_e,vec (3), ω (3, rad/s)]``,
+    ``q_e = q_T* ⊗ q`` (w ≥ 0), target identity; the options of ReactionWheel-v0
+    (``observe_wheel_speeds``, ``fault_hint``, sensors) apply unchanged.
+
+    **Reward.** ``−∫ (xᵀQx + T_cᵀR T_c) dt`` over the step with ``Q = diag(4·I3, I3)``,
+    ``R = I3`` (assumed: the paper scores the integral of absolute error, IAE;
+    ``4|q_e,vec|²`` is about the squared error angle in rad²).
+
+    **Starting state.** 3-2-1 Euler angles uniform in ±``initial_euler_max_deg``
+    (20°, 20°, 45°), body rate uniform in ±2 °/s per axis, wheels at rest, target identity.
+    ``reset(options={"euler_321_deg": [φ, θ, ψ]})`` pins the start angles (degrees);
+    ``"attitude"``, ``"rate_rad_s"``, ``"wheel_speed_rad_s"`` and ``"faults"`` work as
+    in ReactionWheel-v0.
+
+    **Episode end.** Terminated when roll or pitch passes ±``tilt_limit_deg`` (40°): the
+    platform hits its mechanical stop (not modelled as a collision: the episode ends and
+    ``info["truth"]["tilt_limit_hit"]`` is set); also on a non-finite state or
+    ``max|ω| > max_rate_rad_s``. Truncated when the simulated time reaches
+    ``episode_duration_s`` (20 s, the paper's runs).
+
+    **Arguments.** Every ReactionWheel-v0 keyword, with the preset's values as defaults,
+    plus ``initial_euler_max_deg``:
+
+    =========================  ========  ==================  =====  ==================================================
+    name                       type      default             unit   description
+    =========================  ========  ==================  =====  ==================================================
+    ``preset``                 str       "air-bearing-85kg"  —      parameter set (see Presets)
+    ``initial_euler_max_deg``  3 floats  (20, 20, 45)        deg    random start: 3-2-1 Euler angles uniform in ±
+                                                                    these; roll and pitch below ``tilt_limit_deg``,
+                                                                    yaw up to 180
+    ``inertia_kg_m2``          3×3       Table 1             kg·m²  the platform's full inertia tensor
+    ``wheel_axes``             3×3       identity            —      three orthogonal wheels, one per body axis
+    ``wheel_inertia_kg_m2``    float     0.01                kg·m²  wheel spin inertia (assumed: the paper gives none)
+    ``max_wheel_torque_nm``    float     0.8                 N·m    motor torque limit (Table 1)
+    ``max_wheel_speed_rad_s``  float     6000 rpm            rad/s  wheel speed limit (assumed)
+    ``offset_torque_nm``       3 floats  Table 1             N·m    p = m g r_s = [0.0014, 1.025e-4, 0.3366]: the
+                                                                    centre-of-mass offset torque p × K(q)
+    ``tilt_limit_deg``         float     40                  deg    roll/pitch stop: the episode ends beyond it
+                                                                    (required)
+    ``control_dt_s``           float     0.01                s      100 Hz control (assumed)
+    ``integrator_dt_s``        float     0.01                s      one RK4 step per control period
+    ``episode_duration_s``     float     20                  s      the paper's 20 s runs
+    ``Q``, ``R``               6×6, 3×3  diag(4·I3, I3), I3  —      cost weights (assumed: the paper scores IAE)
+    ``disturbance``            dict      None                N·m    ``{"kind": "constant", "torque_nm": [0.01] * 3}``
+                                                                    is the paper's constant-disturbance run
+    (every other)                                                   ReactionWheel-v0's keywords and defaults
+                                                                    (:mod:`attitude_envs.envs.reaction_wheel`):
+                                                                    ``faults``, ``sensors``, ``fault_hint``,
+                                                                    ``action_frame``, ``true_offset_torque_nm``,
+                                                                    ``render_mode``, ...
+    =========================  ========  ==================  =====  ==================================================
+
+
+    **Presets.** ``"air-bearing-85kg"`` (default): the paper's Table 1 platform. Every
+    value not printed in the paper is marked "assumed" with its reason.
+
+    **Faults and sensors.** As ReactionWheel-v0: actuator i is the wheel on body axis i;
+    sensor channels ``gyro``, ``star_tracker`` and ``tachometer``
+    (:mod:`attitude_envs.sensors`); faults through :mod:`attitude_envs.faults`.
+
+    **Info.** ReactionWheel-v0's (:mod:`attitude_envs.info`) plus
+    ``info["truth"]["euler_321_deg"]`` ([φ, θ, ψ] of the true attitude, deg) and
+    ``info["truth"]["tilt_limit_hit"]``.
+
+    **Model.** ``env.unwrapped.model.params`` carries ``offset_torque_nm``; the model's
+    ``linearize()`` is the free body's (it leaves out the offset's roll/pitch stiffness
+    ``p_z``, the paper's eq. 17).
+
+    **Version history.** v0: the paper's platform as ReactionWheel-v0's gyrostat with the
+    offset torque and tilt stop in the compiled step; a natively batched env; the preset
+    through :mod:`attitude_envs.presets`; infos split into ``truth`` and ``measured``.
     """
 
     env_name = "AirBearing-v0"

@@ -20,6 +20,8 @@ here and on each env (no private attribute of another object).
 
 from __future__ import annotations
 
+import functools
+import inspect
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
@@ -33,6 +35,43 @@ from attitude_envs.info import MEASURED, TRUTH
 from attitude_envs.sensors import Channel, SensorSuite
 
 _NOT_KEYWORDS = {"self", "preset", "__class__", "render_mode"}
+_KEYWORDS: dict[type, frozenset[str]] = {}  # per env class: the keyword arguments its constructor accepts
+
+
+def constructor_keywords(cls: type) -> frozenset[str]:
+    """The keyword arguments ``cls(...)`` accepts: the named parameters of each ``__init__``
+    along its MRO, as long as each passes ``**kwargs`` on (cached per class)."""
+    if cls not in _KEYWORDS:
+        names: set[str] = set()
+        for klass in inspect.getmro(cls):
+            if "__init__" not in klass.__dict__:
+                continue
+            params = inspect.signature(klass.__dict__["__init__"]).parameters.values()
+            names |= {p.name for p in params if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
+            if not any(p.kind == p.VAR_KEYWORD for p in params):
+                break
+        _KEYWORDS[cls] = frozenset(names - {"self"})
+    return _KEYWORDS[cls]
+
+
+def _checking_unknown_keywords(init):
+    """``init`` that first rejects keyword arguments the env does not accept: a one-line
+    ``ValueError`` naming the env id and the closest accepted name (also through plain
+    ``gymnasium.make``, which would otherwise pass Python's bare ``TypeError`` on)."""
+
+    @functools.wraps(init)
+    def checked(self, *args: Any, **kwargs: Any) -> None:
+        accepted = constructor_keywords(type(self))
+        for key in kwargs:
+            if key not in accepted:
+                env_id = f"attitude_envs/{self.env_name}" if self.env_name else type(self).__name__
+                raise ValueError(
+                    f"bad keyword arguments for env {env_id!r}: it has no keyword argument {key!r}"
+                    f"{presets.suggest(key, accepted)} (accepted: {sorted(accepted)})"
+                )
+        init(self, *args, **kwargs)
+
+    return checked
 
 
 class AttitudeEnv(gym.Env):
@@ -45,6 +84,11 @@ class AttitudeEnv(gym.Env):
     #: parameter set (ReactionWheel, AirBearing, Magnetorquer) then take this default;
     #: FuelSlosh-v0 and LinearSystem-v0 take no preset (every value given explicitly).
     default_preset: ClassVar[str | None] = None
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if "__init__" in cls.__dict__:  # every env's constructor rejects unknown keywords by name
+            cls.__init__ = _checking_unknown_keywords(cls.__dict__["__init__"])
 
     # ------------------------------------------------------------------ construction
     def _configure(self, preset: str | None, given: Mapping[str, Any]) -> dict[str, Any]:

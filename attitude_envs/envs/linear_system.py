@@ -77,7 +77,7 @@ class LinearSystemEnv(AttitudeEnv):
     ``fault_hint``            bool            False        —       append the active-fault flags
     ========================  ==============  ===========  ======  ==============================================
 
-    **Presets.** ``heravi-2017`` (default, alias ``"spec-001"``): Heravi & Novinzadeh
+    **Presets.** ``heravi-2017`` (default): Heravi & Novinzadeh
     (2017), A and B of eq. 59 by forward Euler (eqs. 61–62, Δt = 0.01 s) with
     J = diag(1000, 1000, 800) kg·m² (eq. 71), Q = I₆, R = I₃, the fixed initial state of
     eqs. 72 and 74 (the quaternion read scalar-first and normalized), ``action_scale`` 2

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any
 
@@ -49,74 +50,142 @@ _REQUIRED = (
 
 
 class ReactionWheelEnv(AttitudeEnv):
-    """Rigid spacecraft with N reaction wheels driven to a target attitude.
+    """Rigid spacecraft with N reaction wheels driven to a target attitude (rest-to-rest maneuvers).
 
-    Plant: the exact gyrostat equations of :mod:`attitude_envs.plants.gyrostat` (no
-    small-wheel approximation), scalar-last quaternion kinematics, fixed-step RK4 with
-    ``integrator_dt_s`` sub-steps inside each ``control_dt_s`` period, quaternion
-    renormalized after every sub-step. Presets (:mod:`attitude_envs.presets`):
-    ``"pyramid-4wheel"`` (default; the feedback-linearization paper's 4 kg·m² spacecraft,
-    alias ``"spec-000"``) and ``"heravi-2017"`` (Heravi & Novinzadeh 2017, alias
-    ``"spec-001"``). AirBearing-v0 (:mod:`attitude_envs.envs.air_bearing`) is this env
-    with the air-bearing platform's preset.
+    **Description.** The plant is the exact gyrostat of :mod:`attitude_envs.plants.gyrostat`,
+    ``(I − Σ J_s aᵢaᵢᵀ) ω̇ = −ω × (Iω + Σ J_s Ωᵢ aᵢ) − Σ uᵢ aᵢ + T_ext`` and
+    ``J_s (Ω̇ᵢ + aᵢ·ω̇) = uᵢ`` (the papers' ``ω̇ = I⁻¹[−ω × (Iω + h_w) + T_c]`` is its
+    small-wheel special case), with scalar-last quaternion kinematics (body to inertial, as
+    scipy's ``Rotation``). ``inertia_kg_m2`` is the whole spacecraft's inertia *including*
+    the wheels' spin inertia; wheel speeds are relative to the body (tachometer). Fixed-step
+    RK4 with ``integrator_dt_s`` sub-steps inside each ``control_dt_s`` period, the stage
+    cost integrated as an extra state, the quaternion renormalized after every sub-step; each
+    step is one compiled call (:mod:`attitude_envs.plants.gyrostat_kernels`), the same source
+    as the batched env's, so single and batched trajectories are bitwise identical. The
+    default preset is the feedback-linearization paper's 4 kg·m² spacecraft with a pyramid of
+    four wheels; AirBearing-v0 (:mod:`attitude_envs.envs.air_bearing`) is this env with the
+    air-bearing platform's preset. Bad input (an inertia that is not symmetric, positive
+    definite or violates the triangle inequality, a rank-deficient wheel matrix, negative
+    limits, non-unit quaternions, wrong-shaped or non-finite actions) raises a
+    ``ValueError`` naming the parameter and the accepted range.
 
-    ================  ==========================================================  ==========
-    Quantity          Meaning                                                     Units
-    ================  ==========================================================  ==========
-    State (truth)     q (scalar last), ω body rate, Ω wheel speeds rel. body     -, rad/s
-    Observation       float32 ``x = [q_e,vec (3), ω (3)]`` with q_e = q_T*⊗q,    -, rad/s
-                      w ≥ 0; ``+ h_w = J_s Ω (N)`` when wheel momentum is        N·m·s
-                      weighted; ``+ Ω / Ω_max (N)`` if ``observe_wheel_speeds``   -
-    Action            N normalized motor torques in [-1, 1] (clipped: actuator    -
-                      saturation); physical ``u = a · max_wheel_torque_nm``;      N·m
-                      positive spins wheel i up about a_i, body gets −a_i u_i.
-                      ``action_frame="body"``: 3 normalized body torques        -
-                      ``T = a · max_wheel_torque_nm``, allocated ``u = −A⁺T``    N·m
-                      (minimum norm), each wheel clipped at its limit
-    Reward            −∫ (xᵀQx + u_cᵀRu_c) dt over the step (RK4, augmented        (cost)
-                      state); u_c = body torque −A u or wheel torques u
-    Start state       q within ``initial_angle_deg`` of identity, ω uniform in    deg, rad/s
-                      ±``initial_rate_max_rad_s``, wheels at rest; target within
-                      ``target_angle_deg``; all pinned by ``reset(options=...)``
-    Termination       non-finite state, or tumbling: ``max|ω| > max_rate_rad_s``  rad/s
-                      (default 2π rad/s, one revolution per second); roll or
-                      pitch beyond ``tilt_limit_deg`` when it is set
-    Truncation        simulated time reaches ``episode_duration_s``               s
-    ================  ==========================================================  ==========
+    **Action space.** ``Box(-1, 1, (N,), float32)``, clipped (the actuator's saturation):
+    motor torques ``u = a · max_wheel_torque_nm`` (N·m). Positive ``uᵢ`` spins wheel i up
+    about its axis ``aᵢ``; the body receives ``−aᵢ uᵢ``. A wheel at
+    ``max_wheel_speed_rad_s`` gets no further torque outwards (motor driver speed limit).
+    With ``action_frame="body"`` the action is ``Box(-1, 1, (3,), float32)``: a body-torque
+    demand ``T = a · max_wheel_torque_nm`` that the env allocates like the analytic
+    baselines do (minimum norm ``u = −A⁺T``, each wheel clipped). Use the body frame for
+    reinforcement learning: with one action per wheel, exploration noise drives momentum
+    into the wheels' null space, which the cost does not see, until a wheel saturates.
 
-    Parameters (``None`` takes the preset's value, or where the preset sets none the
-    default named here): ``preset`` (name or alias; None: the env's
-    :attr:`default_preset`), ``inertia_kg_m2`` (3×3, whole spacecraft incl. wheel spin
-    inertia), ``wheel_axes`` (3×N unit columns), ``wheel_inertia_kg_m2``,
-    ``max_wheel_torque_nm``, ``max_wheel_speed_rad_s`` (motor driver blocks torque beyond
-    it), ``control_dt_s``, ``integrator_dt_s``, ``episode_duration_s``, ``Q``, ``R`` (these
-    ten: from the preset or the caller), ``cost_input`` (``"body"``/``"wheel"``; "body"),
-    ``wheel_momentum_weight`` (adds ``h_w`` to x, weight per (N·m·s)²; 0),
-    ``target_attitude``, ``target_angle_deg`` (0), ``initial_attitude``,
-    ``initial_angle_deg`` (0), ``initial_rate_rad_s``, ``initial_rate_max_rad_s`` (0),
-    ``offset_torque_nm`` (``m g r_s``, N·m, body axes: the torque of a centre-of-mass
-    offset about an air bearing's centre of rotation, see
-    :func:`~attitude_envs.plants.gyrostat.gravity_torque_nm`; none),
-    ``tilt_limit_deg`` (roll/pitch stop in (0, 90) deg that ends the episode; none),
-    ``inertia_uncertainty`` (see :mod:`attitude_envs.uncertainty`), ``disturbance`` (see
-    :mod:`attitude_envs.disturbances`), ``max_rate_rad_s`` (2π), ``observe_wheel_speeds``
-    (False), ``action_frame`` (``"wheel"``, default: one action per wheel; ``"body"``: a
-    body-torque demand through the minimum-norm allocation — no action reaches the wheels'
-    null space, whose momentum the cost does not see), ``faults`` (list of fault dicts, see
-    :mod:`attitude_envs.faults`; also per episode as ``reset(options={"faults": [...]})``;
-    ``"target": "sensor"`` entries are sensor faults), ``sensors`` (dict, see
-    :mod:`attitude_envs.sensors`: channels ``gyro`` (rad/s), ``star_tracker`` (rad),
-    ``tachometer`` (rad/s); None: the truth is observed), ``fault_hint`` (False; True
-    appends N + 3 flags to the observation: 1.0 per actuator, then per sensor gyro/star
-    tracker/tachometer, with an active fault).
+    **Observation space.** ``Box(float32)`` of the error state ``x = [q_e,vec (3),
+    ω (3, rad/s)]`` with ``q_e = q_T* ⊗ q`` (w ≥ 0); plus the wheel momentum
+    ``h_w = J_s Ω`` (N, N·m·s) when ``wheel_momentum_weight > 0``; plus ``Ω / Ω_max`` (N)
+    with ``observe_wheel_speeds``; plus N + 3 fault flags with ``fault_hint`` (1.0 per
+    actuator, then per sensor gyro, star tracker, tachometer, with an active fault).
+    Bounds: ``|q_e,vec| ≤ 1``, rates within 2 × ``max_rate_rad_s``. With sensors (or sensor
+    faults) the observation is the error state of the *measured* attitude, rate and wheel
+    speeds (a dropout in ``"nan"`` mode puts NaN in it, outside the bounds by design).
 
-    With sensors (or sensor faults) the observation is the error state of the *measured*
-    attitude, rate and wheel speeds (a dropout in ``"nan"`` mode puts NaN in it, outside
-    the observation bounds by design).
+    **Reward.** ``−∫ (xᵀQx + u_cᵀRu_c) dt`` over the step, integrated by the same RK4 as the
+    plant; ``u_c`` is the body torque ``−A u`` (``cost_input="body"``, the papers' presets)
+    or the motor torques ``u`` (``"wheel"``). ``info["cost"]`` is the positive step cost.
 
-    ``env.unwrapped.model`` is the *nominal* :class:`ReactionWheelModel` (inertia,
-    wheels, cost, linearization); the true inertia and disturbance stay in the env.
-    ``info`` follows :mod:`attitude_envs.info`: ``info["truth"]`` holds ``state``
+    **Starting state.** Attitude uniformly random within ``initial_angle_deg`` of identity,
+    body rate uniform in ±``initial_rate_max_rad_s`` per axis, wheels at rest; target
+    uniformly random within ``target_angle_deg`` of identity. ``initial_attitude``,
+    ``initial_rate_rad_s`` and ``target_attitude`` fix them; ``reset(options=...)`` pins
+    ``attitude``, ``rate_rad_s``, ``wheel_speed_rad_s``, ``target_attitude`` and this
+    episode's ``faults``.
+
+    **Episode end.** Terminated on a non-finite state, on tumbling (``max|ω| >
+    max_rate_rad_s``, default 2π rad/s: one revolution per second) and, when
+    ``tilt_limit_deg`` is set, on roll or pitch beyond it. Truncated when the simulated
+    time reaches ``episode_duration_s`` (inside the env: no ``TimeLimit`` wrapper, so the
+    limit does not depend on ``control_dt_s``).
+
+    **Arguments.** ``None`` (the default of every physical keyword) takes the preset's
+    value; where the preset sets none, the default named here. "preset" in the default
+    column: the keyword must come from the preset or the caller.
+
+    ==========================  ==========  ================  ==========  ==================================================
+    name                        type        default           unit        description
+    ==========================  ==========  ================  ==========  ==================================================
+    ``preset``                  str         "pyramid-4wheel"  —           parameter set or alias (see Presets); None: the
+                                                                          env's default preset
+    ``inertia_kg_m2``           3×3         preset            kg·m²       whole spacecraft, wheels' spin inertia included
+                                                                          (symmetric, positive definite, triangle
+                                                                          inequality)
+    ``wheel_axes``              3×N         preset            —           unit spin axes as columns (rank 3)
+    ``wheel_inertia_kg_m2``     float       preset            kg·m²       spin inertia J_s of each wheel
+    ``max_wheel_torque_nm``     float       preset            N·m         motor torque limit (the action's scale)
+    ``max_wheel_speed_rad_s``   float       preset            rad/s       speed limit: the motor driver blocks torque that
+                                                                          would spin a wheel beyond it
+    ``control_dt_s``            float       preset            s           control period (zero-order hold)
+    ``integrator_dt_s``         float       preset            s           RK4 sub-step; must divide ``control_dt_s`` (one
+                                                                          sub-step when only ``control_dt_s`` is given and
+                                                                          the preset's does not divide it)
+    ``episode_duration_s``      float       preset            s           simulated time limit (truncation)
+    ``Q``, ``R``                6×6, 3×3    preset            —           cost weights on x and on u_c (R is N×N with
+                                                                          ``cost_input="wheel"``)
+    ``cost_input``              str         "body"            —           ``"body"``: u_c is the body torque −A u;
+                                                                          ``"wheel"``: the motor torques u
+    ``wheel_momentum_weight``   float ≥ 0   0                 1/(N·m·s)²  > 0 appends the wheel momentum h_w to x (and the
+                                                                          observation) with this weight
+    ``target_attitude``         4 floats    preset / None     —           fixed target quaternion (scalar last); None: drawn
+    ``target_angle_deg``        float       preset / 0        deg         random target within this angle of identity
+    ``initial_attitude``        4 floats    None              —           fixed start quaternion; None: drawn
+    ``initial_angle_deg``       float       preset / 0        deg         random start within this angle of identity
+    ``initial_rate_rad_s``      3 floats    None              rad/s       fixed start body rate; None: drawn
+    ``initial_rate_max_rad_s``  float       preset / 0        rad/s       start rate uniform in ± this per axis
+    ``offset_torque_nm``        3 floats    None              N·m         m g r_s of a centre-of-mass offset about an air
+                                                                          bearing's centre of rotation (body axes; torque p
+                                                                          × K(q), see
+                                                                          :func:`~attitude_envs.plants.gyrostat.gravity_torque_nm`);
+                                                                          the nominal model's
+    ``true_offset_torque_nm``   3 floats    None              N·m         the true plant's offset torque where it differs
+                                                                          from the nominal ``offset_torque_nm`` that
+                                                                          ``env.unwrapped.model`` carries; None: the same
+    ``tilt_limit_deg``          float       None              deg         roll/pitch stop in (0, 90) that ends the episode;
+                                                                          None: no stop
+    ``inertia_uncertainty``     dict        None              —           true inertia drawn per episode
+                                                                          (:mod:`attitude_envs.uncertainty`)
+    ``disturbance``             dict        None              N·m         external torque
+                                                                          (:mod:`attitude_envs.disturbances`), e.g.
+                                                                          ``{"kind": "constant", "torque_nm": [1e-3, 0,
+                                                                          0]}``
+    ``max_rate_rad_s``          float       2π                rad/s       tumbling limit (terminates)
+    ``observe_wheel_speeds``    bool        False             —           append Ω / Ω_max to the observation
+    ``action_frame``            str         "wheel"           —           ``"wheel"``: one action per wheel; ``"body"``: a
+                                                                          body-torque demand through the minimum-norm
+                                                                          allocation
+    ``faults``                  list[dict]  None              —           actuator and sensor faults
+                                                                          (:mod:`attitude_envs.faults`); also per episode in
+                                                                          ``reset(options={"faults": [...]})``
+    ``sensors``                 dict        None              —           sensor models (:mod:`attitude_envs.sensors`):
+                                                                          ``gyro``, ``star_tracker``, ``tachometer``; None:
+                                                                          the truth is observed
+    ``fault_hint``              bool        False             —           append N + 3 active-fault flags to the observation
+    ``render_mode``             str         None              —           ``"rgb_array"`` or ``"human"`` (matplotlib)
+    ==========================  ==========  ================  ==========  ==================================================
+
+
+    **Presets.** ``"pyramid-4wheel"`` (default): the feedback-linearization paper's 4 kg·m²
+    spacecraft with four wheels in a pyramid, rest-to-rest maneuvers to random targets
+    within 60°. ``"heravi-2017"``: Heravi & Novinzadeh (2017)'s 1000 kg·m² satellite with
+    four wheels tilted 20°, regulation from the paper's initial state. AirBearing-v0's
+    ``"air-bearing-85kg"`` is a preset of the subclass.
+
+    **Faults and sensors.** Actuator i is wheel i (motor torque, N·m; also with
+    ``action_frame="body"``). Faults (:mod:`attitude_envs.faults`) act on the commanded
+    motor torques; ``"target": "sensor"`` entries act on the sensors. Sensor channels
+    (:mod:`attitude_envs.sensors`): ``gyro`` (body rate, rad/s), ``star_tracker``
+    (attitude; errors are a body rotation vector, rad) and ``tachometer`` (wheel speeds,
+    rad/s). ``inertia_uncertainty`` draws the true inertia per episode and ``disturbance``
+    adds an external torque; the controllers' model ``env.unwrapped.model`` stays nominal.
+
+    **Info** (:mod:`attitude_envs.info`). ``info["truth"]`` holds ``state``
     (``attitude``, ``rate_rad_s``, ``wheel_speed_rad_s``, ``target_attitude``),
     ``applied`` (mean motor torque actually delivered over the step, N·m), ``faults``
     (every fault of the episode with its draws and whether it is active),
@@ -125,15 +194,27 @@ class ReactionWheelEnv(AttitudeEnv):
     ``info["measured"]`` has the keys of ``truth["state"]`` from the star tracker, gyro and
     tachometer readings (when sensors are off it is ``truth["state"]`` itself;
     ``target_attitude`` is the commanded target; replace its entries, do not modify them in
-    place: they are shared with ``truth`` or ``sensors``); top level: ``cost``, ``time_s``, ``commanded`` (motor torques the
-    action asked for, N·m) and, with sensors, ``sensors`` (raw ``star_tracker``
-    quaternion, ``gyro``, ``tachometer``).
+    place: they are shared with ``truth`` or ``sensors``). Top level: ``cost``, ``time_s``,
+    ``commanded`` (motor torques the action asked for, N·m) and, with sensors, ``sensors``
+    (raw ``star_tracker`` quaternion, ``gyro``, ``tachometer``).
 
-    Batched envs and tools use the public members :attr:`kernel_constants`,
-    :attr:`kernel_matrices`, :attr:`n_substeps`, :attr:`state_row`,
-    :attr:`target_attitude`, :attr:`observation_size`, :meth:`disturbance_stages`,
-    :meth:`commanded_torques`, :meth:`reset_episode` and the base's ``fault_layer``,
-    ``sensor_layer`` and ``disturbance``.
+    **Model.** ``env.unwrapped.model`` is the *nominal* :class:`ReactionWheelModel`
+    (inertia, wheels, cost, allocation, linearization and the exact zero-order-hold
+    discretization ``discrete()``); the true inertia, offset torque and disturbance stay in
+    the env.
+
+    **Public extension interface.** Batched envs and tools use the public members
+    :attr:`kernel_constants`, :attr:`kernel_matrices`, :attr:`n_substeps`,
+    :attr:`state_row`, :attr:`target_attitude`, :attr:`observation_size`,
+    :meth:`disturbance_stages`, :meth:`commanded_torques`, :meth:`reset_episode` and the
+    base's ``fault_layer``, ``sensor_layer`` and ``disturbance``.
+
+    **Version history.** v0: the exact gyrostat with RK4 sub-steps and the integrated
+    cost; actuator faults, sensors and ``fault_hint``; one compiled step shared with the
+    natively batched env (bitwise identical); ``action_frame="body"``; the air-bearing
+    offset torque and tilt stop (for AirBearing-v0), ``true_offset_torque_nm``; presets
+    through :mod:`attitude_envs.presets` (``"spec-000"`` and ``"spec-001"`` kept as
+    aliases); infos split into ``truth`` and ``measured`` (:mod:`attitude_envs.info`).
     """
 
     env_name = "ReactionWheel-v0"
@@ -162,6 +243,7 @@ class ReactionWheelEnv(AttitudeEnv):
         initial_rate_rad_s=None,
         initial_rate_max_rad_s: float | None = None,
         offset_torque_nm=None,
+        true_offset_torque_nm=None,
         tilt_limit_deg: float | None = None,
         inertia_uncertainty: dict | None = None,
         disturbance: dict | None = None,
@@ -265,7 +347,12 @@ class ReactionWheelEnv(AttitudeEnv):
         self._action_map = self.model.allocation * params.max_wheel_torque_nm if self.action_frame == "body" else None
         self.action_space = spaces.Box(-1.0, 1.0, shape=(3 if self._action_map is not None else n_w,), dtype=np.float32)
 
-        self._plant = params
+        true_offset = cfg.get("true_offset_torque_nm")
+        if true_offset is not None:
+            true_offset = validation.finite_array("true_offset_torque_nm", true_offset, (3,))
+        # the true plant: the nominal one but for the offset torque (and a drawn inertia, at reset)
+        self._true_params = params if true_offset is None else dataclasses.replace(params, offset_torque_nm=true_offset)
+        self._plant = self._true_params
         # State, target and outputs as one-column struct-of-arrays views for the compiled
         # step (the batched env's kernel with one lane; updated in place).
         self._y = np.zeros(7 + n_w)
@@ -315,6 +402,13 @@ class ReactionWheelEnv(AttitudeEnv):
         matrix column (:func:`~attitude_envs.plants.gyrostat_kernels.pack_matrices`, a view;
         it changes at reset with ``inertia_uncertainty``). Do not modify."""
         return self._mats[0, :, 0]
+
+    @property
+    def true_offset_torque_nm(self) -> np.ndarray:
+        """The true plant's offset torque ``m g r_s`` (N·m, body axes; zeros: none), which
+        ``true_offset_torque_nm=`` may set apart from the nominal model's. Truth, for
+        batched envs and tools: controllers use ``model.params.offset_torque_nm``."""
+        return self._true_params.offset_torque_nm
 
     @property
     def n_substeps(self) -> int:
@@ -374,7 +468,7 @@ class ReactionWheelEnv(AttitudeEnv):
         rng = self.np_random
         n_w = self._plant.n_wheels
         if self._uncertainty is not None:
-            self._plant = self.model.params.with_inertia(self._uncertainty.draw(self.model.params.inertia_kg_m2, rng))
+            self._plant = self._true_params.with_inertia(self._uncertainty.draw(self.model.params.inertia_kg_m2, rng))
             self._pack_matrices()
         q0 = self._draw_attitude(self._initial_fixed, self._initial_angle)
         target = self._draw_attitude(self._target_fixed, self._target_angle)
@@ -460,7 +554,7 @@ class ReactionWheelEnv(AttitudeEnv):
     def _pack_kernel_arguments(self) -> None:
         """The compiled step, its constants and the plant's matrices."""
         p = self._plant
-        self._kernel = kernels.kernel_for(self.model, 1)
+        self._kernel = kernels.kernel_for(self.model, 1, p.offset_torque_nm)
         self._pack_matrices()
         self._constants = kernels.pack_constants(
             p.wheel_axes,

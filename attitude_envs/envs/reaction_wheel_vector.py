@@ -45,7 +45,7 @@ class ReactionWheelVectorEnv(BatchedEnv):
         self._observe_wheels = first.observe_wheel_speeds
         self._n_obs = first.observation_size
         include_h, body_input = self.model.include_wheel_momentum, self.model.cost_input == "body"
-        self._kernel = kernels.kernel_for(self.model, lanes)
+        self._kernel = kernels.kernel_for(self.model, lanes, first.true_offset_torque_nm)
         self._work = np.zeros(kernels.work_size(n, lanes, include_h, body_input))
         self._constants = first.kernel_constants  # shared by all sub-envs (same keywords)
         self._substeps = first.n_substeps

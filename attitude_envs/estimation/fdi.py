@@ -9,8 +9,8 @@ gyrostat (``attitude_envs.plants.gyrostat``) over one control step,
     B = Δt [−I_eff⁻¹ A ; J_s⁻¹ I + Aᵀ I_eff⁻¹ A],   d = Δt [I_eff⁻¹ g ; −Aᵀ I_eff⁻¹ g],
 
 with ``u`` the *commanded* motor torques (N·m, known to the FDI), ``E_h`` the hypothesis'
-effectiveness, and the gyroscopic torque ``g = −ω × (I ω + J_s A Ω)`` evaluated at the
-latest measurement and held over the step. Measurements: gyro (and tachometers unless
+effectiveness, and the gyroscopic torque ``g = −ω × (I ω + J_s A Ω)`` (plus a known external
+torque, when given) evaluated at the latest estimate and held over the step. Measurements: gyro (and tachometers unless
 ``use_tachometer=False``). An :class:`filterpy.kalman.IMMEstimator` mixes the bank with a
 Markov switching matrix (healthy → each fault ``p_fault / (N L)`` per step for L levels,
 fault → healthy ``p_recover``); its mode probabilities are computed from the filters' log-likelihoods
@@ -67,7 +67,9 @@ class ActuatorFDI:
     in [0, 1)), ``p_fault`` and
     ``p_recover`` (per-step switching probabilities), ``threshold`` in (0.5, 1),
     ``confirm_steps`` ≥ 1, ``rate_process_std`` / ``wheel_process_std`` (model error per
-    step, rad/s), ``use_tachometer``.
+    step, rad/s), ``use_tachometer``, ``known_effectiveness`` (N values in [0, 1], default
+    all 1: faults already isolated, part of every hypothesis; actuators below 1 get no
+    hypothesis of their own, so a second fault can be isolated after the first).
     """
 
     def __init__(
@@ -84,6 +86,7 @@ class ActuatorFDI:
         rate_process_std: float = 1e-5,
         wheel_process_std: float = 1e-2,
         use_tachometer: bool = True,
+        known_effectiveness: Sequence[float] | None = None,
     ) -> None:
         p = model.params
         self.n = p.n_wheels
@@ -117,11 +120,17 @@ class ActuatorFDI:
         self._p_init = np.diag([r_rate**2] * 3 + [r_wheel**2] * self.n)
         q_rate = validation.nonnegative("rate_process_std", rate_process_std)
         q_wheel = validation.nonnegative("wheel_process_std", wheel_process_std)
-        self.effectiveness = [np.ones(self.n)]
+        known = np.ones(self.n) if known_effectiveness is None else np.asarray(known_effectiveness, dtype=float)
+        if known.shape != (self.n,) or np.any((known < 0) | (known > 1)) or np.all(known < 1):
+            raise ValueError(
+                f"known_effectiveness must be {self.n} values in [0, 1], at least one 1, got {known_effectiveness!r}"
+            )
+        self.known_effectiveness = known.copy()
+        self.effectiveness = [known.copy()]
         owner = [-1]  # actuator of each hypothesis (-1: healthy)
-        for i in range(self.n):
+        for i in np.flatnonzero(known == 1.0):
             for e in levels:
-                eff = np.ones(self.n)
+                eff = known.copy()
                 eff[i] = e
                 self.effectiveness.append(eff)
                 owner.append(i)
@@ -169,12 +178,23 @@ class ActuatorFDI:
         self.detection = None
         self._streak = (None, 0)
 
-    def update(self, commanded_nm: np.ndarray, rate_rad_s: np.ndarray, wheel_speed_rad_s: np.ndarray, t_s: float):
+    def update(
+        self,
+        commanded_nm: np.ndarray,
+        rate_rad_s: np.ndarray,
+        wheel_speed_rad_s: np.ndarray,
+        t_s: float,
+        external_torque_nm: np.ndarray | None = None,
+    ):
         """One control step: ``commanded_nm`` was held over the step that ended at ``t_s``
-        (s) with the given measurements. Returns the mode probabilities."""
+        (s) with the given measurements; ``external_torque_nm`` (N·m, body axes; default
+        none) is a known external torque over the step, e.g. an air bearing's nominal
+        offset torque. Returns the mode probabilities."""
         x = self.imm.x
         w, wheel = x[:3], x[3:]
         g = -np.cross(w, self._inertia @ w + self._js * self._axes @ wheel)
+        if external_torque_nm is not None:
+            g = g + np.asarray(external_torque_nm, dtype=float)
         w_dot = self._ieff_inv @ g
         d = self.dt_s * np.r_[w_dot, -self._axes.T @ w_dot]
         for kf, eff in zip(self.filters, self.effectiveness, strict=True):

@@ -310,8 +310,10 @@ def work_size(n_wheels: int, lanes: int, include_h: bool, body_input: bool) -> i
     return _Rows(n_wheels, lanes, include_h, body_input).n_rows * lanes
 
 
-def kernel_for(model, lanes: int):
-    """:func:`step_kernel` for a :class:`~attitude_envs.plants.gyrostat_model.ReactionWheelModel`."""
+def kernel_for(model, lanes: int, offset_torque_nm: np.ndarray | None = None):
+    """:func:`step_kernel` for a :class:`~attitude_envs.plants.gyrostat_model.ReactionWheelModel`
+    whose true plant has the offset torque ``offset_torque_nm`` (N·m; None: the model's)."""
+    offset = model.params.offset_torque_nm if offset_torque_nm is None else offset_torque_nm
     q = model.cost.Q
     return step_kernel(
         model.params.n_wheels,
@@ -319,7 +321,7 @@ def kernel_for(model, lanes: int):
         model.include_wheel_momentum,
         model.cost_input == "body",
         bool(np.array_equal(q, np.diag(np.diag(q)))),
-        bool(np.any(model.params.offset_torque_nm != 0.0)),
+        bool(np.any(np.asarray(offset) != 0.0)),
     )
 
 

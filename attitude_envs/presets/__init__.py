@@ -12,8 +12,8 @@ keyword arguments override single values (see :func:`resolve`).
 >>> presets.get("ReactionWheel-v0", "heravi-2017").source("inertia_kg_m2")  # doctest: +SKIP
 'Heravi & Novinzadeh 2017, eq. 71'
 
-Older names (``"spec-000"``, ``"spec-001"``, the slosh fills ``"i"`` … ``"iv"``) are kept
-as aliases, so saved configurations keep loading.
+Older names are kept as aliases (each preset's ``aliases``, e.g. the slosh fills ``"i"`` …
+``"iv"``), so saved configurations keep loading.
 """
 
 from __future__ import annotations

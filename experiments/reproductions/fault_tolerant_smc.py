@@ -45,7 +45,12 @@ from experiments.reproduction import Row, write_reproduction
 from experiments.reproductions.fault_tolerant_smc_design import ConsistentDesign, derive
 
 PAPER = "fault-tolerant-smc"
-SEED_FILE = "002_7b19fb18a362e12d.txt"
+#: the reproduced paper's citation, on the outputs' "Source:" line
+SOURCE = (
+    "Sadigh, S. M., Kashaninia, A. and Dehghan, S. M. M. (2022). Fault tolerant nano-satellite attitude "
+    "control by adaptive modified nonsingular fast terminal sliding mode control. Journal of Control 15(4), "
+    "49–58, doi:10.52547/joc.15.4.49 (in Persian; title translated)"
+)
 CONTROLLERS = ("AMNFTSMC", "MNFTSMC", "FTSMC")
 # Table 2 (its layout garbled in our copy, reconstructed): RMS (√s), AST (N·m·s), ASM (A·m²·s)
 TABLE2 = {
@@ -210,7 +215,7 @@ def reproduce(out_dir: Path, quick: bool = False) -> list[Row]:
             claims.append(f"{config}: {label}: {'holds' if ok else 'does NOT hold'}")
     plots = _plot(results, out_dir)
     notes = _notes(duration, claims, plots, by, design)
-    write_reproduction(out_dir, PAPER, SEED_FILE, rows, notes)
+    write_reproduction(out_dir, PAPER, SOURCE, rows, notes)
     return rows
 
 

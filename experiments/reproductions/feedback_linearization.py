@@ -29,7 +29,12 @@ from experiments.plots import plot_episodes, plot_error_overlay, plot_metric_bar
 from experiments.reproduction import Row, write_reproduction
 
 PAPER = "feedback-linearization"
-SEED_FILE = "000_ced8a40d3c3fa3d2.txt"
+#: the reproduced paper's citation, on the outputs' "Source:" line
+SOURCE = (
+    "(authors, year and title not in our copy) quaternion input–output feedback linearization vs. a "
+    "stand-alone LQR for a rigid spacecraft with four reaction wheels in a pyramid. "
+    "Modares Mechanical Engineering (in Persian)"
+)
 ENV_ID = "attitude_envs/ReactionWheel-v0"
 
 #: Table 1: final [φ, θ, ψ] in degrees (3-2-1), every maneuver from [0, 0, 0] at rest.
@@ -65,7 +70,7 @@ EULERINT_TOLERANCE = 0.05
 EULERINT_TOLERANCE_MANEUVER_4 = 0.10
 DESIGN_WHEEL_SPEED_LIMIT_RAD_S = 5000.0 / RPM_PER_RAD_S  # the paper's design limit (rated: 5400 rpm)
 ENV_KWARGS = {
-    "preset": "spec-000",
+    "preset": "pyramid-4wheel",
     "control_dt_s": 0.01,
     "integrator_dt_s": 0.01,
     "episode_duration_s": 60.0,
@@ -246,7 +251,7 @@ def reproduce(out_dir: Path, quick: bool = False) -> list[Row]:
         )
     notes = notes.replace(" LIMITED_RUN", "")
     out_dir = Path(out_dir)
-    write_reproduction(out_dir, PAPER, SEED_FILE, rows, notes)
+    write_reproduction(out_dir, PAPER, SOURCE, rows, notes)
     write_csv(evaluation.rows, out_dir / f"{PAPER}-episodes.csv")
     write_json(evaluation.rows, out_dir / f"{PAPER}-episodes.json")
     m1 = {ctrl: evaluation.traces[("maneuver-1", ctrl, 0)] for ctrl in CONTROLLERS}

@@ -24,7 +24,11 @@ from experiments.reproduction import Row, write_reproduction
 from experiments.reproductions.fuel_slosh_runs import Trajectory, metrics, run_env, simulate_reduced
 
 PAPER_ID = "fuel-slosh"
-SEED_FILE = "004_9171e9ccce2e68c4.txt"
+#: the reproduced paper's citation, on the outputs' "Source:" line
+SOURCE = (
+    "Navabi, M. and Davoodi, A. (year and journal not in our copy; 2012 or later). Modelling and control "
+    "of fuel slosh and its effect on spacecraft attitude (in Persian; title translated)"
+)
 T_FINAL_S = 1500.0
 CASE_PAPER = "paper setup (reduced models)"
 CASE_ENV = "FuelSlosh-v0 (full plant, 0.1 s hold)"
@@ -206,7 +210,7 @@ def reproduce(out_dir: Path, quick: bool = False) -> list[Row]:
         plot(env_runs, out / "fuel-slosh-env.png", "Fuel slosh, FuelSlosh-v0 (full plant, 0.1 s hold)")
     else:
         notes += "\n\n(--quick: the FuelSlosh-v0 runs were skipped.)"
-    write_reproduction(out, PAPER_ID, SEED_FILE, rows, notes)
+    write_reproduction(out, PAPER_ID, SOURCE, rows, notes)
     return rows
 
 

@@ -40,7 +40,12 @@ from baselines.pid import PAPER_FIXED, PIDPolicy, paper_schedule
 from experiments.reproduction import Row, write_reproduction
 
 PAPER = "ga-pid"
-SEED_FILE = "003_219b58348c5f6b55.txt"
+#: the reproduced paper's citation, on the outputs' "Source:" line
+SOURCE = (
+    "Ahangarani Farahani, A., Adami, A. and Arefkhani, H. (year and journal not in our copy). Laboratory "
+    "test of a nonlinear attitude-control algorithm for a satellite simulator based on gain coefficients "
+    "dependent on the state variables (in Persian; title translated)"
+)
 ENV_ID = "attitude_envs/AirBearing-v0"
 AXES = ("x", "y", "z")
 
@@ -145,7 +150,7 @@ def reproduce(out_dir: Path, quick: bool = False) -> list[Row]:
                 improvement = 100.0 * (before[i] - after[i]) / before[i]
                 rows.append(Row(case, label, f"improvement {axis} (%)", paper[i], improvement, None))
     notes = _notes(results, tuned, quick)
-    write_reproduction(out_dir, PAPER, SEED_FILE, rows, notes)
+    write_reproduction(out_dir, PAPER, SOURCE, rows, notes)
     return rows
 
 

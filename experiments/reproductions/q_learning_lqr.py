@@ -25,7 +25,11 @@ from experiments.reproductions import q_learning_lqr_plots as plots
 from experiments.reproductions.q_learning_lqr_nonlinear import nonlinear_rows
 
 PAPER = "q-learning-lqr"
-SEED_FILE = "001_005053a09d32d595.txt"
+#: the reproduced paper's citation, on the outputs' "Source:" line
+SOURCE = (
+    "Taji Heravi, F. and Basohbat Novinzadeh, A. (2017). Design of satellite attitude control using a "
+    "model-free optimal control method. Journal of Space Science and Technology 10(3) (in Persian; title translated)"
+)
 STATE_STD = np.array(
     [1.0, 1.0, 1.0, 0.05, 0.05, 0.05]
 )  # assumed (the paper's sample points): q ~ N(0,1), ω ~ N(0, 0.05²)
@@ -58,7 +62,7 @@ class GainSchedule:
 
 def simulate(policy, steps: int) -> dict[str, np.ndarray]:
     """Run ``policy`` on LinearSystem-v0 (heravi-2017 preset: Euler plant, paper's x₀) for ``steps``."""
-    env = LinearSystemEnv(preset="spec-001", episode_steps=steps, divergence_threshold=1e9)
+    env = LinearSystemEnv(preset="heravi-2017", episode_steps=steps, divergence_threshold=1e9)
     obs, info = env.reset(seed=0)
     policy.reset(0)
     X, U, J = [info["truth"]["state"]], [], 0.0
@@ -78,7 +82,7 @@ def simulate(policy, steps: int) -> dict[str, np.ndarray]:
 def reproduce(out_dir: Path, quick: bool = False) -> list:
     """Run the reproduction; returns the rows written (``quick``: shorter runs, no nonlinear case)."""
     out_dir = Path(out_dir)
-    env = LinearSystemEnv(preset="spec-001")
+    env = LinearSystemEnv(preset="heravi-2017")
     A, B, Q, R = env.model.A, env.model.B, env.model.Q, env.model.R
     K_star, _ = dare_gain(A, B, Q, R)
     iterations = 40_000 if quick else 100_000
@@ -257,7 +261,7 @@ def reproduce(out_dir: Path, quick: bool = False) -> list:
     plots.convergence(out_dir / f"{PAPER}-convergence.png", err, ric_err, pi, ce_err, K_star)
     plots.trajectories(out_dir / f"{PAPER}-trajectories.png", sim)
     notes = _notes(quick)
-    write_reproduction(out_dir, PAPER, SEED_FILE, rows, notes)
+    write_reproduction(out_dir, PAPER, SOURCE, rows, notes)
     return rows
 
 

@@ -35,7 +35,7 @@ def learn_on_reaction_wheel(env, amplitude: float = 1e-3, seed: int = 0, samples
 
 def nonlinear_rows(episode_duration_s: float = 400.0) -> list:
     """Rows: gain error vs the ZOH-DARE gain, and J of the paper's maneuver, learned vs LQR."""
-    env = ReactionWheelEnv(preset="spec-001", episode_duration_s=episode_duration_s)
+    env = ReactionWheelEnv(preset="heravi-2017", episode_duration_s=episode_duration_s)
     lqr = LQRPolicy(env, "zoh")
     agent = learn_on_reaction_wheel(env)
     j_lqr = rollout(env, lqr, seed=0)

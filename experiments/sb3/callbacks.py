@@ -1,8 +1,9 @@
-"""Training callbacks: periodic evaluation on the shared cost J, and resumable checkpoints."""
+"""Training bookkeeping: evaluation on the shared cost J and its log, snapshots, durable writes, progress."""
 
 from __future__ import annotations
 
 import csv
+import io
 import json
 import os
 import shutil
@@ -10,21 +11,30 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from stable_baselines3.common.callbacks import BaseCallback
 
 from attitude_envs.evaluation.rollout import rollout
 from experiments.sb3.policy import SB3Policy
 
 
+def fsync_dir(path: Path) -> None:
+    """Make a rename or a new file in directory ``path`` durable."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
 def atomic_write_text(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` via a temporary file and ``os.replace`` (never half-written)."""
+    """Write ``text`` to ``path`` via a fsynced temporary file and ``os.replace`` (never half-written)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp")
-    with tmp.open("w", encoding="utf-8") as fh:
+    with tmp.open("w", encoding="utf-8", newline="") as fh:
         fh.write(text)
         fh.flush()
         os.fsync(fh.fileno())
     os.replace(tmp, path)
+    fsync_dir(path.parent)
 
 
 class NormalizedPredictor:
@@ -47,116 +57,71 @@ def evaluate_cost(predictor, env, seeds: list[int], name: str = "sb3") -> dict[s
     return {"J_mean": float(costs.mean()), "J_std": float(costs.std())}
 
 
-class EvalCostCallback(BaseCallback):
-    """Every ``eval_freq`` environment steps, runs the deterministic policy on a separate,
-    seeded eval env (episode ``i`` seeded ``eval_seed + i``, the same episodes every time)
-    and appends ``timesteps, J_mean, J_std`` to ``evaluations.csv``; keeps the best model."""
+class EvalLog:
+    """``evaluations.csv`` (``timesteps, J_mean, J_std``): each row appended and fsynced before the
+    checkpoint that follows it; :meth:`restore` puts back the text a checkpoint recorded (a run
+    killed after an evaluation but before its checkpoint evaluates that step again)."""
 
-    def __init__(self, eval_env, out_dir: Path, eval_freq: int, n_episodes: int = 5, eval_seed: int = 10_000) -> None:
-        super().__init__()
-        if eval_freq < 1 or n_episodes < 1:
-            raise ValueError(f"eval_freq and eval episodes must be >= 1, got {eval_freq} and {n_episodes}")
-        self.eval_env = eval_env
-        self.out_dir = Path(out_dir)
-        self.eval_freq = int(eval_freq)
-        self.seeds = [int(eval_seed) + i for i in range(int(n_episodes))]
-        self._last = 0
-        self.best_J = np.inf
-        self.history: list[dict[str, float]] = []
+    FIELDS = ("timesteps", "J_mean", "J_std")
 
-    def _init_callback(self) -> None:
-        self._last = int(self.model.num_timesteps)  # the callback's own counter is only set on the first step
-        best = self.out_dir / "best" / "best.json"
-        if best.is_file():
-            self.best_J = float(json.loads(best.read_text())["J_mean"])
+    def __init__(self, out_dir: Path) -> None:
+        self.path = Path(out_dir) / "evaluations.csv"
 
-    def _on_step(self) -> bool:
-        if self.num_timesteps - self._last >= self.eval_freq:
-            self._last = self.num_timesteps
-            self.run_evaluation()
-        return True
+    def row_text(self, row: dict[str, Any], header: bool) -> str:
+        buffer = io.StringIO()
+        writer = csv.DictWriter(buffer, fieldnames=list(self.FIELDS))
+        if header:
+            writer.writeheader()
+        writer.writerow({k: row[k] for k in self.FIELDS})
+        return buffer.getvalue()
 
-    def run_evaluation(self) -> dict[str, float]:
-        vecnorm = self.model.get_vec_normalize_env()
-        result = evaluate_cost(NormalizedPredictor(self.model, vecnorm), self.eval_env, self.seeds)
-        row = {"timesteps": self.num_timesteps, **result}
-        self.history.append(row)
-        path = self.out_dir / "evaluations.csv"
-        new = not path.is_file()
-        with path.open("a", newline="", encoding="utf-8") as fh:
-            writer = csv.DictWriter(fh, fieldnames=list(row))
-            if new:
-                writer.writeheader()
-            writer.writerow(row)
-        self.logger.record("eval/J_mean", result["J_mean"])
-        if result["J_mean"] < self.best_J:
-            self.best_J = result["J_mean"]
-            save_snapshot(self.model, self.out_dir / "best", replay_buffer=False)
-            atomic_write_text(self.out_dir / "best" / "best.json", json.dumps(row) + "\n")
-        if self.verbose or self.model.verbose:
-            print(f"eval at {self.num_timesteps} steps: J = {result['J_mean']:.3f} ± {result['J_std']:.3f}")
-        return result
+    def append(self, text: str) -> None:
+        new = not self.path.is_file()
+        with self.path.open("a", newline="", encoding="utf-8") as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
+        if new:
+            fsync_dir(self.path.parent)
+
+    def restore(self, text: str) -> None:
+        if text:
+            atomic_write_text(self.path, text)
+        else:
+            self.path.unlink(missing_ok=True)
 
 
-def save_snapshot(model, directory: Path, replay_buffer: bool) -> None:
-    """Model (+ VecNormalize statistics, + replay buffer) into ``directory`` (written via a temp dir)."""
+def write_model_files(model, directory: Path) -> None:
+    """``model.zip`` (SB3's portable format) and, with normalization, ``vecnormalize.pkl``."""
+    model.save(Path(directory) / "model.zip")
+    vecnorm = model.get_vec_normalize_env()
+    if vecnorm is not None:
+        vecnorm.save(str(Path(directory) / "vecnormalize.pkl"))
+
+
+def save_snapshot(model, directory: Path, meta: dict[str, str] | None = None) -> None:
+    """Model (+ VecNormalize statistics, + ``meta`` text files) into ``directory``, written as a
+    temporary directory that replaces the old one."""
     directory = Path(directory)
     tmp = directory.with_name(directory.name + ".tmp")
     if tmp.exists():
         shutil.rmtree(tmp)
     tmp.mkdir(parents=True)
-    model.save(tmp / "model.zip")
-    vecnorm = model.get_vec_normalize_env()
-    if vecnorm is not None:
-        vecnorm.save(str(tmp / "vecnormalize.pkl"))
-    if replay_buffer and getattr(model, "replay_buffer", None) is not None:
-        model.save_replay_buffer(tmp / "replay_buffer.pkl")
+    write_model_files(model, tmp)
+    for name, text in (meta or {}).items():
+        (tmp / name).write_text(text, encoding="utf-8")
+    old = directory.with_name(directory.name + ".old")
+    if old.exists():
+        shutil.rmtree(old)
     if directory.exists():
-        shutil.rmtree(directory)
+        os.replace(directory, old)
     os.replace(tmp, directory)
+    shutil.rmtree(old, ignore_errors=True)
 
 
-class ResumableCheckpointCallback(BaseCallback):
-    """Every ``save_freq`` environment steps, saves model, VecNormalize statistics and (off-policy)
-    the replay buffer to ``checkpoints/step_<n>/`` and only then points ``checkpoints/latest.json``
-    at it, so a run killed at any moment resumes from its last complete checkpoint.
-    Keeps the ``keep`` newest checkpoints."""
-
-    def __init__(self, out_dir: Path, save_freq: int, replay_buffer: bool, keep: int = 2) -> None:
-        super().__init__()
-        if save_freq < 1:
-            raise ValueError(f"checkpoint frequency must be >= 1 step, got {save_freq}")
-        self.root = Path(out_dir) / "checkpoints"
-        self.save_freq = int(save_freq)
-        self.replay_buffer = bool(replay_buffer)
-        self.keep = max(1, int(keep))
-        self._last = 0
-
-    def _init_callback(self) -> None:
-        self._last = int(self.model.num_timesteps)  # the callback's own counter is only set on the first step
-
-    def _on_step(self) -> bool:
-        if self.num_timesteps - self._last >= self.save_freq:
-            self._last = self.num_timesteps
-            self.save()
-        return True
-
-    def save(self) -> Path:
-        steps = int(self.model.num_timesteps)
-        directory = self.root / f"step_{steps:012d}"
-        save_snapshot(self.model, directory, self.replay_buffer)
-        atomic_write_text(self.root / "latest.json", json.dumps({"timesteps": steps, "dir": directory.name}) + "\n")
-        done = sorted(p for p in self.root.glob("step_*") if p.is_dir() and not p.name.endswith(".tmp"))
-        for old in done[: -self.keep]:
-            shutil.rmtree(old, ignore_errors=True)
-        return directory
-
-
-def latest_checkpoint(out_dir: Path) -> dict[str, Any] | None:
-    """``{"timesteps", "path"}`` of the last complete checkpoint of a run, or None."""
-    pointer = Path(out_dir) / "checkpoints" / "latest.json"
-    if not pointer.is_file():
+def read_json(path: Path) -> Any:
+    """A JSON file's content, or None if it is missing or cut."""
+    try:
+        return json.loads(Path(path).read_text(encoding="utf-8"))
+    except (FileNotFoundError, json.JSONDecodeError):
         return None
-    data = json.loads(pointer.read_text(encoding="utf-8"))
-    path = pointer.parent / data["dir"]
-    return {"timesteps": int(data["timesteps"]), "path": path} if (path / "model.zip").is_file() else None

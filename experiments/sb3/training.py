@@ -2,17 +2,19 @@
 
 Run directory layout (``out_dir``)::
 
-    config.json            algorithm, env id, env kwargs, seed, resolved hyperparameters
-    checkpoints/           step_<n>/{model.zip, vecnormalize.pkl, replay_buffer.pkl}, latest.json
+    config.json            algorithm, env id, env kwargs, seed, resolved hyperparameters, budget, eval settings
+    checkpoints/           step_<n>/{state.pkl, model.zip, vecnormalize.pkl}, latest.json (the 2 newest)
     evaluations.csv        timesteps, J_mean, J_std of the periodic evaluations
-    best/                  the snapshot with the lowest evaluation J
-    final/                 model.zip (+ vecnormalize.pkl) when training completed
+    best/                  the snapshot with the lowest evaluation J (+ best.json)
+    final/                 model.zip (+ vecnormalize.pkl, final.json) when training completed
 """
 
 from __future__ import annotations
 
 import json
 import pickle
+import shutil
+import sys
 import time
 import zipfile
 from dataclasses import dataclass
@@ -28,15 +30,24 @@ from stable_baselines3.common.vec_env import VecNormalize
 
 from attitude_envs.make import check_env_id, make_checked
 from experiments.sb3.callbacks import (
-    EvalCostCallback,
+    EvalLog,
     NormalizedPredictor,
-    ResumableCheckpointCallback,
     atomic_write_text,
-    latest_checkpoint,
+    evaluate_cost,
+    read_json,
     save_snapshot,
 )
+from experiments.sb3.checkpoint import (
+    BudgetSchedule,
+    RunClock,
+    latest_checkpoint,
+    read_checkpoint,
+    restore_rng,
+    write_checkpoint,
+)
 from experiments.sb3.hyperparams import load_hyperparams, split_hyperparams
-from experiments.sb3.registry import algorithm_class, check_algorithm, is_off_policy
+from experiments.sb3.progress import ProgressCallback
+from experiments.sb3.registry import algorithm_class, check_algorithm
 
 
 @dataclass
@@ -49,6 +60,7 @@ class TrainResult:
     resumed_from: int | None
     wall_time_s: float
     last_eval: dict[str, float] | None
+    already_complete: bool = False  # resumed at or past its budget: nothing trained
 
 
 def _json_safe(value: Any) -> Any:
@@ -66,7 +78,8 @@ def _json_safe(value: Any) -> Any:
 
 
 def _make_vec_env(env_id: str, env_kwargs: dict, n_envs: int, seed: int):
-    return make_vec_env(env_id, n_envs=n_envs, seed=seed, env_kwargs=dict(env_kwargs))
+    # make_vec_env asks for render_mode="rgb_array", which envs without a renderer refuse
+    return make_vec_env(env_id, n_envs=n_envs, seed=seed, env_kwargs={"render_mode": None, **env_kwargs})
 
 
 def _tensorboard_dir(out_dir: Path, tensorboard: bool | None) -> str | None:
@@ -101,20 +114,37 @@ def train(
     progress_bar: bool = False,
     tensorboard: bool | None = None,
     verbose: int = 0,
+    progress: bool | str = False,
 ) -> TrainResult:
     """Train (or with ``resume`` continue) an agent; returns where the final model was saved.
 
     ``total_timesteps`` (env steps over all parallel envs) defaults to the hyperparameter
-    file's ``n_timesteps``. ``checkpoint_freq`` and ``eval_freq`` are in env steps (a killed
-    run loses at most one checkpoint interval). The eval env uses ``eval_env_kwargs``
-    (default: the training kwargs) and seeds ``eval_seed + i``.
+    file's ``n_timesteps``. Training runs in whole rollouts (PPO/A2C: ``n_steps × n_envs`` env
+    steps; off-policy: ``train_freq × n_envs``), so it stops at the end of the first rollout at or
+    after ``total_timesteps`` (a multiple of the rollout when the budget is one), and evaluations
+    and checkpoints happen at the end of the first rollout at or after each multiple of
+    ``eval_freq`` and ``checkpoint_freq`` (the final step is always evaluated and checkpointed).
+    Every evaluation is followed by a checkpoint; a run killed at any moment and resumed
+    (``resume``) continues from its last checkpoint bitwise like an uninterrupted one: same
+    ``evaluations.csv``, best snapshot and final step (see :mod:`experiments.sb3.checkpoint`).
+    Resuming a run whose checkpoint already reached the budget does no training
+    (``TrainResult.already_complete``); a larger budget extends it. The eval env uses
+    ``eval_env_kwargs`` (default: the training kwargs) and seeds ``eval_seed + i``.
+    ``progress``: True a bar with ETA on a terminal, else a status line every 30 s; a string is
+    its label and means status lines (campaign workers); ``progress_bar``: SB3's own bar instead
+    (one per segment).
     """
     algo = check_algorithm(algo)
     check_env_id(env_id)
     if int(seed) < 0:
         raise ValueError(f"seed must be >= 0, got {seed}")
+    if int(checkpoint_freq) < 1 or int(eval_freq) < 1 or int(eval_episodes) < 1:
+        raise ValueError(
+            f"checkpoint_freq, eval_freq and eval_episodes must be >= 1, got {checkpoint_freq}, {eval_freq} and {eval_episodes}"
+        )
     out_dir = Path(out_dir)
     env_kwargs = dict(env_kwargs or {})
+    eval_kwargs = dict(eval_env_kwargs if eval_env_kwargs is not None else env_kwargs)
     entry = load_hyperparams(algo, env_id, hyperparams_file, overrides)
     probe = make_checked(env_id, **env_kwargs)  # validates the env kwargs before anything is written
     n_actions = int(np.prod(probe.action_space.shape))
@@ -131,82 +161,167 @@ def train(
         "seed": int(seed),
         "hyperparams": _json_safe(entry),
         "total_timesteps": total,
+        "evaluation": {
+            "freq": int(eval_freq),
+            "episodes": int(eval_episodes),
+            "seed": int(eval_seed),
+            "env_kwargs": _json_safe(eval_kwargs),
+        },
+        "checkpoint_freq": int(checkpoint_freq),
     }
-    checkpoint = latest_checkpoint(out_dir) if resume else None
-    if resume and checkpoint is None:
-        raise ValueError(f"--resume: no complete checkpoint under {str(out_dir / 'checkpoints')!r}")
-    if checkpoint is None and (out_dir / "checkpoints" / "latest.json").is_file():
-        raise ValueError(f"{str(out_dir)!r} already holds a run; pass --resume to continue it or choose another --out")
-    if checkpoint is not None:
-        saved = json.loads((out_dir / "config.json").read_text(encoding="utf-8"))
-        for key in ("algo", "env_id", "env_kwargs", "seed"):
-            if saved[key] != config[key]:
-                raise ValueError(f"--resume: {key} {config[key]!r} differs from the run's {saved[key]!r}")
-    out_dir.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(out_dir / "config.json", json.dumps(config, indent=2) + "\n")
-
-    set_random_seed(int(seed))
-    torch.set_num_threads(1)
-    cls = algorithm_class(algo)
-    venv = _make_vec_env(env_id, env_kwargs, hp["n_envs"], int(seed))
-    resumed_from = None
+    checkpoint = latest_checkpoint(out_dir)
+    saved = read_json(out_dir / "config.json")
     if checkpoint is None:
-        if hp["normalize"] is not None:
-            venv = VecNormalize(venv, gamma=float(entry.get("gamma", 0.99)), **hp["normalize"])
-        try:
-            model = cls(
-                hp["policy"],
-                venv,
-                seed=int(seed),
-                verbose=verbose,
-                tensorboard_log=_tensorboard_dir(out_dir, tensorboard),
-                **hp["kwargs"],
+        if resume and saved is None:
+            raise ValueError(
+                f"--resume: no complete checkpoint under {str(out_dir / 'checkpoints')!r} and no run there"
             )
-        except (TypeError, AssertionError, KeyError) as exc:  # SB3 reports bad hyperparameters this way
-            venv.close()
-            raise ValueError(f"bad hyperparameters for {algo} ({sorted(hp['kwargs'])}): {exc}") from exc
-    else:
-        path = checkpoint["path"]
-        if (path / "vecnormalize.pkl").is_file():
-            venv = VecNormalize.load(str(path / "vecnormalize.pkl"), venv)
-        model = cls.load(path / "model.zip", env=venv, custom_objects=_schedules(hp["kwargs"]))
-        if is_off_policy(algo) and (path / "replay_buffer.pkl").is_file():
-            model.load_replay_buffer(path / "replay_buffer.pkl")
-        resumed_from = int(model.num_timesteps)
+    elif not resume:
+        raise ValueError(f"{str(out_dir)!r} already holds a run; pass --resume to continue it or choose another --out")
+    if resume and saved is not None:
+        for key in ("algo", "env_id", "env_kwargs", "seed", "hyperparams", "evaluation"):
+            if key in saved and saved[key] != config[key]:
+                raise ValueError(f"--resume: {key} {config[key]!r} differs from the run's {saved[key]!r}")
 
-    eval_env = gym.make(env_id, **dict(eval_env_kwargs if eval_env_kwargs is not None else env_kwargs))
-    evaluator = EvalCostCallback(eval_env, out_dir, eval_freq, eval_episodes, eval_seed)
-    checkpointer = ResumableCheckpointCallback(out_dir, checkpoint_freq, replay_buffer=is_off_policy(algo))
+    torch.set_num_threads(1)  # one thread: bitwise repeatable (and small networks gain nothing from more)
+    evaluations = EvalLog(out_dir)
+    if checkpoint is None:  # a new run, or one killed before its first checkpoint: start (again) from scratch
+        _discard_partial_run(out_dir)
+        out_dir.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(out_dir / "config.json", json.dumps(config, indent=2) + "\n")
+        set_random_seed(int(seed))
+        clock = RunClock(total)
+        model = _new_model(algo, env_id, env_kwargs, int(seed), hp, entry, clock, out_dir, tensorboard, verbose)
+        run: dict[str, Any] = {"eval_log": "", "best": None, "last_eval": None}
+        rng = None
+        resumed_from = None
+    else:
+        model, clock, run, rng = read_checkpoint(checkpoint["path"])
+        clock.total = total
+        model.verbose = verbose
+        evaluations.restore(run["eval_log"])  # drops rows written after this checkpoint by the killed run
+        _reconcile_best(out_dir / "best", run["best"], model)
+        atomic_write_text(out_dir / "config.json", json.dumps(config, indent=2) + "\n")
+        resumed_from = int(model.num_timesteps)
+    already_complete = int(model.num_timesteps) >= total
+
+    eval_env = gym.make(env_id, **eval_kwargs)
+    seeds = [int(eval_seed) + i for i in range(int(eval_episodes))]
+    callback = None
+    label = progress if isinstance(progress, str) else f"train {algo} {env_id.split('/')[-1]}"
+    if progress and resumed_from is not None and not already_complete:
+        print(f"{label}: resuming at {resumed_from} steps ({checkpoint['path']})", file=sys.stderr, flush=True)
+    if progress and not progress_bar and not already_complete:
+        callback = ProgressCallback(total, label, bar=None if progress is True else False)
     start = time.perf_counter()
-    remaining = total - int(model.num_timesteps)
-    if remaining > 0:
-        model.learn(
-            remaining,
-            callback=[checkpointer, evaluator],
-            reset_num_timesteps=checkpoint is None,
-            progress_bar=progress_bar,
-            tb_log_name=algo,
-        )
-    last_eval = evaluator.run_evaluation() if not evaluator.history else evaluator.history[-1]
-    done = latest_checkpoint(out_dir)
-    if done is None or done["timesteps"] != int(model.num_timesteps):
-        checkpointer.save()  # a finished run can be extended with --resume and a larger budget
-    save_snapshot(model, out_dir / "final", replay_buffer=False)
+    if rng is not None:
+        restore_rng(rng)  # last: nothing may draw from the global generators between here and learn()
+    try:
+        while int(model.num_timesteps) < total:
+            done = int(model.num_timesteps)
+            target = min(_next_multiple(done, eval_freq), _next_multiple(done, checkpoint_freq), total)
+            clock.segment_end = target
+            model.learn(
+                target - done,
+                callback=callback,
+                reset_num_timesteps=done == 0,
+                tb_log_name=algo,
+                progress_bar=progress_bar,
+            )
+            steps = int(model.num_timesteps)
+            if steps <= done:
+                raise RuntimeError(f"{algo}.learn() made no progress at {done} steps")
+            new_best = False
+            if steps // eval_freq > done // eval_freq or steps >= total:
+                row = {"timesteps": steps, **evaluate_cost(_predictor(model), eval_env, seeds)}
+                text = evaluations.row_text(row, header=not run["eval_log"])
+                evaluations.append(text)  # fsynced before the checkpoint below moves the pointer
+                run["eval_log"] += text
+                run["last_eval"] = row
+                if run["best"] is None or row["J_mean"] < run["best"]["J_mean"]:
+                    run["best"], new_best = row, True
+                model.logger.record("eval/J_mean", row["J_mean"])  # TensorBoard, when on
+                model.logger.dump(step=steps)
+                if verbose:
+                    print(f"eval at {steps} steps: J = {row['J_mean']:.3f} ± {row['J_std']:.3f}")
+            write_checkpoint(out_dir / "checkpoints", model, clock, run)
+            if new_best:  # after the pointer: a resume from an older checkpoint never sees a newer best
+                save_snapshot(model, out_dir / "best", meta={"best.json": json.dumps(run["best"]) + "\n"})
+    finally:
+        if callback is not None:
+            callback.close()
+    final = out_dir / "final"
+    marker = {"timesteps": int(model.num_timesteps)}
+    if read_json(final / "final.json") != marker or not (final / "model.zip").is_file():
+        save_snapshot(model, final, meta={"final.json": json.dumps(marker) + "\n"})
     eval_env.close()
-    venv.close()
+    model.get_env().close()
     return TrainResult(
         out_dir=out_dir,
-        model_path=out_dir / "final" / "model.zip",
+        model_path=final / "model.zip",
         timesteps=int(model.num_timesteps),
         resumed_from=resumed_from,
         wall_time_s=time.perf_counter() - start,
-        last_eval=last_eval,
+        last_eval=run["last_eval"],
+        already_complete=already_complete,
     )
 
 
-def _schedules(kwargs: dict[str, Any]) -> dict[str, Any]:
-    """Custom objects for ``load``: the run's own schedules (lambdas are not pickled portably)."""
-    return {k: kwargs[k] for k in ("learning_rate", "clip_range", "clip_range_vf") if k in kwargs}
+def _next_multiple(steps: int, every: int) -> int:
+    return (steps // int(every) + 1) * int(every)
+
+
+def _predictor(model) -> NormalizedPredictor:
+    return NormalizedPredictor(model, model.get_vec_normalize_env())
+
+
+def _new_model(algo, env_id, env_kwargs, seed, hp, entry, clock, out_dir, tensorboard, verbose):
+    kwargs = dict(hp["kwargs"])
+    for key in ("learning_rate", "clip_range", "clip_range_vf"):
+        if callable(kwargs.get(key)):
+            kwargs[key] = BudgetSchedule(kwargs[key], clock)  # progress over the whole run, not one segment
+    venv = _make_vec_env(env_id, env_kwargs, hp["n_envs"], seed)
+    if hp["normalize"] is not None:
+        venv = VecNormalize(venv, gamma=float(entry.get("gamma", 0.99)), **hp["normalize"])
+    try:
+        return algorithm_class(algo)(
+            hp["policy"],
+            venv,
+            seed=seed,
+            verbose=verbose,
+            tensorboard_log=_tensorboard_dir(out_dir, tensorboard),
+            **kwargs,
+        )
+    except (TypeError, AssertionError, KeyError) as exc:  # SB3 reports bad hyperparameters this way
+        venv.close()
+        raise ValueError(f"bad hyperparameters for {algo} ({sorted(hp['kwargs'])}): {exc}") from exc
+
+
+def _discard_partial_run(out_dir: Path) -> None:
+    """What a run killed before its first checkpoint left (nothing to continue from)."""
+    for name in ("evaluations.csv", "evaluations.csv.tmp"):
+        (out_dir / name).unlink(missing_ok=True)
+    for name in ("best", "best.tmp", "best.old", "final", "final.tmp", "final.old", "checkpoints"):
+        if (out_dir / name).is_dir():
+            shutil.rmtree(out_dir / name)
+
+
+def _reconcile_best(best_dir: Path, best: dict[str, Any] | None, model) -> None:
+    """Make ``best/`` the snapshot the checkpoint says is best. ``best/`` is written only after
+    the checkpoint of its step, so it can lag behind (killed in between): then that checkpoint's
+    model is the best one. A ``best/`` without a recorded best is from a killed run: removed."""
+    if best is None:
+        if best_dir.exists():
+            shutil.rmtree(best_dir)
+        return
+    if read_json(best_dir / "best.json") == best and (best_dir / "model.zip").is_file():
+        return
+    if int(best["timesteps"]) != int(model.num_timesteps):
+        raise ValueError(
+            f"{str(best_dir)!r} does not hold the best snapshot its checkpoint records ({best}); "
+            "the run directory was changed by hand: start it again in an empty --out"
+        )
+    save_snapshot(model, best_dir, meta={"best.json": json.dumps(best) + "\n"})
 
 
 def load_trained(model_path: str | Path, env: gym.Env | None = None):

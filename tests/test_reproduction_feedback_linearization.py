@@ -1,4 +1,4 @@
-"""Spec 000 reproduction: EULERINT vs Table 2, ranking, wheel-speed limit, output files."""
+"""The feedback-linearization reproduction: EULERINT vs Table 2, ranking, wheel-speed limit, output files."""
 
 import json
 
@@ -44,7 +44,7 @@ def test_flc_beats_lqr_on_eulerint_in_every_maneuver(episodes):
 
 def test_flc_eulerint_depends_on_the_initial_angle_only(episodes):
     """From rest at identity the FLC maneuver is an eigen-axis rotation with
-    α(t) = α0 − 2 asin((1 − φ(t)) sin(α0/2)) (spec 000 §3.1), whatever the axis and inertia."""
+    α(t) = α0 − 2 asin((1 − φ(t)) sin(α0/2)) (the designed double integrator's closed form), whatever the axis and inertia."""
     K = outer_loop_gain()
     k1, k2 = K[0, 0], K[0, 3]
     t = np.linspace(0.0, 60.0, 6001)
@@ -61,7 +61,7 @@ def test_flc_eulerint_depends_on_the_initial_angle_only(episodes):
 
 def test_wheel_speed_design_limit_violation_is_reported(episodes):
     flagged = {key for key, r in episodes.items() if r["wheel_speed_violation"]}
-    assert flagged == {("maneuver-3", "feedback-linearization")}  # spec 000 §6.3: ≈ 5430 rpm
+    assert flagged == {("maneuver-3", "feedback-linearization")}  # an independent re-simulation: ≈ 5430 rpm
     assert episodes[("maneuver-3", "feedback-linearization")]["peak_wheel_speed_rpm"] > 5400
     # maneuver 1: "approximately 3000 rpm for both methods" (paper §4.4)
     for c in ("feedback-linearization", "quaternion-lqr"):
@@ -76,8 +76,8 @@ def test_reproduce_command_writes_the_shared_schema(tmp_path):
     assert "feedback-linearization" in REPRODUCTIONS
     rows = reproduce(tmp_path, quick=True)
     doc = json.loads((tmp_path / "feedback-linearization.json").read_text())
-    assert set(doc) == {"paper", "seed_file", "rows", "notes"}
-    assert doc["paper"] == "feedback-linearization" and doc["seed_file"].startswith("000_")
+    assert set(doc) == {"paper", "source", "rows", "notes"}
+    assert doc["paper"] == "feedback-linearization" and "Modares Mechanical Engineering" in doc["source"]
     assert len(doc["rows"]) == len(rows)
     assert set(doc["rows"][0]) == {"case", "controller", "metric", "paper", "ours", "tolerance"}
     metrics = {r["metric"] for r in doc["rows"]}

@@ -1,4 +1,4 @@
-"""Spec 000 baselines: gains from the paper's weights, exact linearization, singularity guard."""
+"""The feedback-linearization paper's baselines: gains from the paper's weights, exact linearization, singularity guard."""
 
 import gymnasium as gym
 import numpy as np
@@ -32,7 +32,7 @@ def make_env(**kw):
 def test_outer_loop_gains_match_paper_and_closed_form():
     K = outer_loop_gain()
     k1, k2 = K[0, 0], K[0, 3]
-    assert round(k1, 4) == 0.0316 and round(k2, 4) == 0.2535  # spec 000 eqs. 81-82
+    assert round(k1, 4) == 0.0316 and round(k2, 4) == 0.2535  # the paper's eqs. 81-82
     assert k1 == pytest.approx(np.sqrt(0.001), rel=1e-10)
     assert k2 == pytest.approx(np.sqrt(0.001 + 2 * np.sqrt(0.001)), rel=1e-10)
     assert np.allclose(K, np.hstack([k1 * np.eye(3), k2 * np.eye(3)]), atol=1e-12)
@@ -88,7 +88,7 @@ def test_flc_makes_output_acceleration_equal_v_exactly():
 
 
 def test_flc_closed_loop_tracks_designed_double_integrator():
-    """Continuous-time control on the exact nominal gyrostat: q_vec(t) = (1 − φ(t)) q_T,vec (spec 000 §3.1)."""
+    """Continuous-time control on the exact nominal gyrostat: q_vec(t) = (1 − φ(t)) q_T,vec (the designed double integrator)."""
     env = make_env()
     pol = FeedbackLinearizationPolicy(env)
     params = env.unwrapped.model.params
@@ -164,7 +164,7 @@ def test_flc_error_output_mode_converges_from_any_start():
 
 
 def test_quaternion_lqr_is_the_paper_law_in_paper_convention():
-    """T = 2K q_E,vec q_E4 − K_d ω with q_E = q_S* ⊗ q_T (spec 000 eqs. 60-61)."""
+    """T = 2K q_E,vec q_E4 − K_d ω with q_E = q_S* ⊗ q_T (the paper's eqs. 60-61)."""
     pol = QuaternionLQRPolicy(make_env())
     rng = np.random.default_rng(0)
     for _ in range(10):

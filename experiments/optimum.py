@@ -1,0 +1,398 @@
+"""The optimal-control yardstick J*: the best cost any controller could reach on an episode.
+
+:func:`solve_episode` builds the env's own discrete optimal-control problem for one episode
+(:func:`attitude_envs.symbolic.problem_for`: the exact step, cost and limits of the env) and
+solves it by direct multiple shooting (Bock & Plitt 1984) with IPOPT (Wächter & Biegler
+2006) through CasADi (Andersson et al. 2019), warm-started with the states and actions of a
+baseline's rollout on the same episode. The solver is an **oracle**: it knows the episode's
+start state, target, true inertia, disturbance and the full fault schedule in advance (no
+feedback controller can), so J* is a lower bound on what a causal controller reaches (up to
+IPOPT's local optimality), not a competitor; every output says ``"oracle": true``.
+
+``j_star`` is the cost of replaying the optimal actions open loop through the real env
+(the sum of ``info["cost"]``), ``j_nlp`` the NLP's objective; they agree to rounding when the
+solve converged. Results are cached on disk (:func:`cache_dir`), keyed by a hash of the env
+id, keyword arguments, seed, reset options, solver settings and package versions, so
+repeated campaign cells are free.
+
+Requires CasADi: ``pip install 'attitude-envs[optimal]'``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+import attitude_envs
+from attitude_envs.info import policy_view
+from attitude_envs.symbolic import BUILDERS, DiscreteProblem, problem_for
+from experiments.policies import build_policy
+
+try:
+    import casadi
+except ImportError as exc:  # the optional extra
+    raise ImportError("the optimal-control yardstick needs CasADi: pip install 'attitude-envs[optimal]'") from exc
+
+#: the baselines that apply to each env (registry name, parameters), compared with J* and
+#: used for the warm start; the first is the default warm start (the LQR where one applies)
+BASELINES: dict[str, list[tuple[str, dict]]] = {
+    "LinearSystem-v0": [("linear-lqr", {})],
+    "ReactionWheel-v0": [
+        ("lqr", {"discretization": "zoh"}),
+        ("lqr", {"discretization": "continuous"}),
+        ("quaternion-lqr", {}),
+        ("feedback-linearization", {}),
+        ("pid", {}),
+    ],
+    "AirBearing-v0": [("lqr", {"discretization": "zoh"}), ("lqr", {"discretization": "continuous"}), ("pid", {})],
+    "FuelSlosh-v0": [("slosh-lqr", {}), ("slosh-pd", {})],
+    "Magnetorquer-v0": [("amnftsmc", {})],
+}
+#: IPOPT's return statuses that mean a (locally) optimal point was found
+SOLVED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+_QUIET = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": 0}
+
+
+@dataclass
+class OptimumResult:
+    """One episode's optimum (an oracle's: the fault schedule was known to the solver).
+
+    ``j_star``: cost of the optimal actions replayed through the real env; ``j_nlp``: the
+    NLP objective; ``j_warm``: the warm start's cost in the env (``warm_start`` names it);
+    ``solve_s``: IPOPT wall time, s; ``total_s``: the whole solve (problem build, warm
+    start, NLP construction, IPOPT, replay), s; ``status``: IPOPT's return status; ``terminated``:
+    the replay ended before the time limit; ``actions``: (n_steps, n_u) normalized actions.
+    """
+
+    env_id: str
+    env_kwargs: dict
+    seed: int
+    options: dict | None
+    j_star: float
+    j_nlp: float
+    j_warm: float
+    warm_start: str
+    solve_s: float
+    total_s: float
+    status: str
+    iterations: int
+    terminated: bool
+    notes: str
+    actions: np.ndarray = field(repr=False)
+    oracle: bool = True
+    cached: bool = False
+
+    @property
+    def solved(self) -> bool:
+        return self.status in SOLVED
+
+    def row(self) -> dict[str, Any]:
+        """The JSON row of ``optimum.json`` (everything but the actions)."""
+        d = asdict(self)
+        d.pop("actions")
+        return _jsonable(d)
+
+
+def env_name(env_id: str) -> str:
+    """``"ReactionWheel-v0"`` of ``"attitude_envs/ReactionWheel-v0"`` or of itself."""
+    return env_id.split("/")[-1]
+
+
+def full_id(env_id: str) -> str:
+    """The registered id (``attitude_envs/`` namespace added when missing)."""
+    return env_id if "/" in env_id else f"attitude_envs/{env_id}"
+
+
+def check_env(env_id: str) -> str:
+    """The env name of ``env_id``; ValueError when no symbolic model exists for it."""
+    name = env_name(env_id)
+    if name not in BUILDERS:
+        raise ValueError(f"--env / env_id must be one of {sorted(BUILDERS)} for J*, got {env_id!r}")
+    return name
+
+
+def cache_dir() -> Path:
+    """``$ATTITUDE_ENVS_CACHE/optimum`` when that variable is set, else
+    ``~/.cache/attitude-envs/optimum`` (``$XDG_CACHE_HOME`` replaces ``~/.cache``)."""
+    root = os.environ.get("ATTITUDE_ENVS_CACHE")
+    if root:
+        return Path(root) / "optimum"
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "attitude-envs" / "optimum"
+
+
+def _jsonable(value):
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _jsonable(value.tolist())
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def _cache_key(env_id, env_kwargs, seed, options, settings) -> str:
+    payload = {
+        "env_id": env_name(env_id),
+        "env_kwargs": _jsonable(env_kwargs),
+        "seed": seed,
+        "options": _jsonable(options),
+        "settings": settings,
+        "version": attitude_envs.__version__,
+        "casadi": casadi.__version__,
+    }
+    text = json.dumps(payload, sort_keys=True, default=repr)
+    return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+
+def replay(env, actions: np.ndarray, seed: int | None, options: dict | None) -> tuple[float, bool]:
+    """``(J, terminated)``: the open-loop ``actions`` through the real env from
+    ``reset(seed=, options=)`` (J = sum of ``info["cost"]``)."""
+    env.reset(seed=seed, options=options)
+    total = 0.0
+    for a in actions:
+        _, _, terminated, truncated, info = env.step(np.asarray(a, dtype=float))
+        total += float(info["cost"])
+        if terminated or truncated:
+            return total, bool(terminated)
+    return total, False
+
+
+def baseline_rollout(env, spec: tuple[str, dict], seed: int | None, options: dict | None, n_steps: int):
+    """``(actions (n_steps, n_u), J)`` of the baseline ``spec`` (registry name, parameters) on
+    the episode; the policy sees :func:`policy_view` of each info (no ground truth). Steps after
+    an early end are zero actions."""
+    name, params = spec
+    policy = build_policy({"policy": name, "params": dict(params)}, env)
+    obs, info = env.reset(seed=seed, options=options)
+    policy.reset(seed)
+    actions = np.zeros((n_steps, env.action_space.shape[0]))
+    total = 0.0
+    for k in range(n_steps):
+        a = np.asarray(policy.act(obs, policy_view(info)), dtype=float)
+        actions[k] = a
+        obs, _, terminated, truncated, info = env.step(a)
+        total += float(info["cost"])
+        if terminated or truncated:
+            break
+    return actions, total
+
+
+def _warm_start(env, problem: DiscreteProblem, warm_start, seed, options) -> tuple[np.ndarray, float, str]:
+    """Warm-start actions, their J in the env and a label."""
+    name = env_name(problem.env_id)
+    if warm_start is None:
+        actions = np.zeros((problem.n_steps, problem.n_u))
+        return actions, replay(env, actions, seed, options)[0], "zero"
+    if not isinstance(warm_start, str):
+        actions = np.asarray(warm_start, dtype=float)
+        if actions.shape != (problem.n_steps, problem.n_u):
+            raise ValueError(
+                f"warm_start actions must have shape {(problem.n_steps, problem.n_u)}, got {actions.shape}"
+            )
+        return actions, replay(env, actions, seed, options)[0], "actions"
+    specs = BASELINES.get(name, [])
+    if warm_start == "lqr":
+        chosen = specs[:1]
+    elif warm_start == "best":
+        chosen = specs
+    else:
+        raise ValueError(f"warm_start must be None, 'lqr', 'best' or an actions array, got {warm_start!r}")
+    if not chosen:
+        raise ValueError(f"warm_start {warm_start!r}: no baseline applies to {name}; pass None or an actions array")
+    best = None
+    for spec in chosen:
+        actions, total = baseline_rollout(env, spec, seed, options, problem.n_steps)
+        label = spec[0] + "".join(f":{k}:{v}" for k, v in spec[1].items())
+        if best is None or total < best[1]:
+            best = (actions, total, label)
+    return best
+
+
+def solve_problem(
+    problem: DiscreteProblem,
+    actions0: np.ndarray,
+    max_iter: int = 1000,
+    tol: float = 1e-10,
+    ipopt_options: dict | None = None,
+    jit: bool = False,
+    scale_states: bool = True,
+) -> tuple[np.ndarray, float, str, int, float]:
+    """Multiple shooting + IPOPT from the warm start ``actions0`` (states from its rollout
+    through ``problem.step``). ``jit``: compile the step and its derivatives with the system's
+    C compiler (CasADi's ``"shell"`` compiler; a few seconds up front, faster iterations on
+    long horizons). ``scale_states``: scale each state by its largest warm-start magnitude (at
+    least 1) for IPOPT. Returns ``(actions, objective, status, iterations, solve_s)``."""
+    n, nx, nu = problem.n_steps, problem.n_x, problem.n_u
+    states0, _ = problem.rollout(actions0)
+    step = problem.step
+    if jit:
+        ins = step.sx_in()
+        jit_opts = {"jit": True, "compiler": "shell", "jit_options": {"flags": ["-O0"]}, "jit_cleanup": True}
+        step = casadi.Function("step_jit", ins, step.call(ins), step.name_in(), step.name_out(), jit_opts)
+    # states scaled by their warm-start magnitude (e.g. wheel speeds of hundreds of rad/s next
+    # to unit quaternions), defects likewise: IPOPT sees O(1) variables and constraints
+    scale = np.maximum(np.max(np.abs(states0), axis=0), 1.0) if scale_states else np.ones(nx)
+    xs_scaled = casadi.MX.sym("X", nx, n)  # x_1 … x_N / scale (x_0 is fixed)
+    xs = casadi.diag(casadi.DM(scale)) @ xs_scaled
+    us = casadi.MX.sym("A", nu, n)
+    previous = casadi.horzcat(casadi.DM(problem.x0), xs[:, : n - 1])
+    x_next, costs = step.map(n)(previous, us, casadi.DM(problem.step_inputs()))
+    constraints = [casadi.vec(casadi.diag(casadi.DM(1.0 / scale)) @ x_next - xs_scaled)]
+    lbg, ubg = [np.zeros(nx * n)], [np.zeros(nx * n)]
+    if problem.g is not None:
+        path = casadi.vec(problem.g.map(n)(xs))
+        constraints.append(path)
+        lbg.append(np.full(path.shape[0], -np.inf))
+        ubg.append(np.zeros(path.shape[0]))
+    w = casadi.vertcat(casadi.vec(xs_scaled), casadi.vec(us))
+    nlp = {"x": w, "f": casadi.sum2(costs), "g": casadi.vertcat(*constraints)}
+    opts = {
+        **_QUIET,
+        "expand": False,  # the mapped step keeps the graph small: a fast build, one derivative per step
+        "ipopt.max_iter": int(max_iter),
+        "ipopt.tol": float(tol),
+        "ipopt.bound_relax_factor": 0.0,  # actions stay in [a_lb, a_ub] exactly (the env clips)
+        "ipopt.mu_strategy": "adaptive",
+        **(ipopt_options or {}),
+    }
+    solver = casadi.nlpsol("optimum", "ipopt", nlp, opts)
+    lbx = np.concatenate([np.full(nx * n, -np.inf), np.tile(problem.a_lb, n)])
+    ubx = np.concatenate([np.full(nx * n, np.inf), np.tile(problem.a_ub, n)])
+    w0 = np.concatenate([(states0[1:] / scale).ravel(), np.clip(actions0, problem.a_lb, problem.a_ub).ravel()])
+    start = time.perf_counter()
+    sol = solver(x0=w0, lbx=lbx, ubx=ubx, lbg=np.concatenate(lbg), ubg=np.concatenate(ubg))
+    solve_s = time.perf_counter() - start
+    stats = solver.stats()
+    w_opt = np.asarray(sol["x"]).ravel()
+    actions = w_opt[nx * n :].reshape(n, nu)
+    return actions, float(sol["f"]), str(stats.get("return_status")), int(stats.get("iter_count", -1)), solve_s
+
+
+def solve_episode(
+    env_id: str,
+    env_kwargs: dict | None = None,
+    seed: int = 0,
+    options: dict | None = None,
+    warm_start: str | np.ndarray | None = "lqr",
+    max_iter: int = 1000,
+    tol: float = 1e-10,
+    cache: bool = True,
+    jit: bool = False,
+) -> OptimumResult:
+    """J* of one episode (``reset(seed=seed, options=options)`` of ``env_id`` built with
+    ``env_kwargs``): an **oracle** optimum, the fault schedule and every episode draw known.
+
+    ``warm_start``: ``"lqr"`` (default: the first of :data:`BASELINES` for the env, the LQR
+    where one applies, rolled out on the same episode), ``"best"`` (the cheapest of the
+    env's baselines), None (zero actions) or an (n_steps, n_u) actions array; states and
+    actions are initialized from that rollout. ``max_iter``, ``tol``: IPOPT's. ``cache``:
+    read and write the on-disk cache (:func:`cache_dir`; array warm starts are not cached).
+    ``jit``: compile the step (see :func:`solve_problem`; the result is the same).
+    Raises ValueError for an env, fault or disturbance without a symbolic model."""
+    check_env(env_id)
+    env_kwargs = dict(env_kwargs or {})
+    settings = {"warm_start": warm_start, "max_iter": int(max_iter), "tol": float(tol)}
+    use_cache = cache and (warm_start is None or isinstance(warm_start, str))
+    path = cache_dir() / f"{_cache_key(env_id, env_kwargs, seed, options, settings)}.json" if use_cache else None
+    if path is not None and path.is_file():
+        try:
+            data = json.loads(path.read_text())
+            data["actions"] = np.asarray(data["actions"], dtype=float)
+            return OptimumResult(**{**data, "cached": True})
+        except (ValueError, TypeError, KeyError):
+            pass  # an unreadable or outdated entry: solve again and overwrite it
+    start = time.perf_counter()
+    env = gym.make(full_id(env_id), **env_kwargs)
+    try:
+        problem = problem_for(env, seed=seed, options=options)
+        actions0, j_warm, label = _warm_start(env, problem, warm_start, seed, options)
+        actions, j_nlp, status, iterations, solve_s = solve_problem(problem, actions0, max_iter, tol, jit=jit)
+        actions = np.clip(actions, problem.a_lb, problem.a_ub)
+        j_star, terminated = replay(env, actions, seed, options)
+    finally:
+        env.close()
+    result = OptimumResult(
+        env_id=env_name(env_id),
+        env_kwargs=env_kwargs,
+        seed=seed,
+        options=options,
+        j_star=j_star,
+        j_nlp=j_nlp,
+        j_warm=j_warm,
+        warm_start=label,
+        solve_s=solve_s,
+        total_s=time.perf_counter() - start,
+        status=status,
+        iterations=iterations,
+        terminated=terminated,
+        notes=problem.notes,
+        actions=actions,
+    )
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        data = {**result.row(), "actions": actions.tolist()}
+        data.pop("cached")
+        tmp = path.with_suffix(".tmp")
+        tmp.write_text(json.dumps(data))
+        tmp.replace(path)
+    return result
+
+
+def solve_episodes(
+    env_id: str,
+    env_kwargs: dict | None,
+    seeds: Sequence[int],
+    progress: Callable[[str], None] | None = None,
+    **kwargs: Any,
+) -> list[OptimumResult]:
+    """:func:`solve_episode` for each seed, with a progress line per seed."""
+    results = []
+    for i, seed in enumerate(seeds):
+        r = solve_episode(env_id, env_kwargs, seed, **kwargs)
+        results.append(r)
+        if progress is not None:
+            ratio = r.j_star / r.j_warm if r.j_warm else float("nan")
+            progress(
+                f"[{i + 1}/{len(seeds)}] seed {seed}: J* = {r.j_star:.6g} (J*/J[{r.warm_start}] = {ratio:.4f}), "
+                f"{r.status}, {r.iterations} it, {r.solve_s:.1f} s{' (cached)' if r.cached else ''}"
+            )
+    return results
+
+
+def markdown_table(results: Sequence[OptimumResult]) -> str:
+    """A short markdown table of the results (one row per seed)."""
+    lines = [
+        "J* is an oracle optimum (the solver knows the fault schedule and every episode draw).",
+        "",
+        "| env | seed | J* | J_nlp | warm start | J warm | J*/J warm | status | solve s |",
+        "|---|---:|---:|---:|---|---:|---:|---|---:|",
+    ]
+    for r in results:
+        ratio = r.j_star / r.j_warm if r.j_warm else float("nan")
+        lines.append(
+            f"| {r.env_id} | {r.seed} | {r.j_star:.6g} | {r.j_nlp:.6g} | {r.warm_start} | {r.j_warm:.6g} | "
+            f"{ratio:.4f} | {r.status} | {r.solve_s:.1f} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def write_results(out: str | Path, results: Sequence[OptimumResult]) -> Path:
+    """``out/optimum.json`` (one row per seed, ``"oracle": true``) and ``out/optimum.md``."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / "optimum.json"
+    path.write_text(json.dumps([r.row() for r in results], indent=2) + "\n")
+    (out / "optimum.md").write_text(markdown_table(results))
+    return path

@@ -1,0 +1,175 @@
+"""Exact-resume checkpoints of a training run: everything its continuation depends on.
+
+:func:`experiments.sb3.training.train` runs ``learn()`` in segments that end at rollout
+boundaries (where SB3 holds no half-collected data) and checkpoints between two segments, so a
+resumed run continues bitwise like an uninterrupted one. ``checkpoints/step_<n>/`` holds
+
+* ``state.pkl``: the whole algorithm object (policy and optimizer tensors, off-policy replay
+  buffer, last observations and episode starts, episode-info buffers, the action space's
+  generator, action noise, update counters, schedules and their :class:`RunClock`), the
+  training envs in full (every sub-env with its generator and physical state, Monitor counters,
+  VecNormalize statistics and running returns), the global torch / numpy / ``random``
+  generators, and the run's bookkeeping (``evaluations.csv`` up to this step, best so far);
+* ``model.zip`` and ``vecnormalize.pkl``: the portable SB3 snapshot of the same model.
+
+The directory is written under a temporary name, fsynced and renamed; only then does
+``latest.json`` (fsynced, atomic rename) point at it. The pickles are tied to the installed
+SB3/torch versions: they resume a run, they are not an exchange format (``model.zip`` is).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pickle
+import random
+import shutil
+from pathlib import Path
+from typing import Any
+
+import cloudpickle
+import numpy as np
+import torch
+from stable_baselines3.common.logger import Logger
+from stable_baselines3.common.vec_env import VecNormalize
+
+from experiments.sb3.callbacks import atomic_write_text, fsync_dir, write_model_files
+
+STATE_FILE = "state.pkl"
+
+
+class RunClock:
+    """The run's step budget as the schedules see it.
+
+    ``train`` calls ``learn()`` once per segment, and SB3 computes a schedule's
+    ``progress_remaining`` as ``1 - n / (end of the segment)``. :meth:`progress_remaining` maps it
+    back to ``1 - n / total``, bit for bit what one ``learn(total)`` call would pass."""
+
+    def __init__(self, total: int) -> None:
+        self.total = int(total)
+        self.segment_end = int(total)
+
+    def progress_remaining(self, segment_progress: float) -> float:
+        steps = round((1.0 - float(segment_progress)) * self.segment_end)  # n, exactly (an integer)
+        return 1.0 - steps / self.total
+
+
+class BudgetSchedule:
+    """A hyperparameter schedule (``lin_3e-4`` …) evaluated on the run's true progress (:class:`RunClock`)."""
+
+    def __init__(self, schedule, clock: RunClock) -> None:
+        self.schedule = schedule
+        self.clock = clock
+
+    def __call__(self, progress_remaining: float) -> float:
+        return self.schedule(self.clock.progress_remaining(progress_remaining))
+
+
+def capture_rng() -> dict[str, Any]:
+    """The global generators SB3 draws from (torch: policy noise, gSDE; numpy: minibatch
+    permutations, replay sampling; ``random``)."""
+    numpy_state = np.random.get_state()  # noqa: NPY002  (SB3 draws from numpy's legacy global generator)
+    state = {"python": random.getstate(), "numpy": numpy_state, "torch": torch.get_rng_state()}
+    if torch.cuda.is_available():
+        state["cuda"] = torch.cuda.get_rng_state_all()
+    return state
+
+
+def restore_rng(state: dict[str, Any]) -> None:
+    random.setstate(state["python"])
+    np.random.set_state(state["numpy"])  # noqa: NPY002  (SB3 draws from numpy's legacy global generator)
+    torch.set_rng_state(state["torch"])
+    if "cuda" in state and torch.cuda.is_available():
+        torch.cuda.set_rng_state_all(state["cuda"])
+
+
+class _RunPickler(cloudpickle.Pickler):
+    """Pickles the algorithm object whole (env included, in the same pass so that objects the
+    model and the env share stay shared), except its logger, which the next ``learn()`` rebuilds."""
+
+    def persistent_id(self, obj):
+        return "logger" if isinstance(obj, Logger) else None
+
+
+class _RunUnpickler(pickle.Unpickler):
+    def persistent_load(self, pid):
+        if pid != "logger":
+            raise pickle.UnpicklingError(f"unknown persistent id {pid!r}")
+        return None
+
+
+def _env_state(venv) -> dict[str, Any]:
+    """The training env in full. VecNormalize pickles itself without its wrapped env and its
+    running discounted returns (reward normalization), so both are saved beside it."""
+    if isinstance(venv, VecNormalize):
+        return {"normalize": venv, "envs": venv.venv, "returns": np.array(venv.returns)}
+    return {"normalize": None, "envs": venv, "returns": None}
+
+
+def _restore_env(state: dict[str, Any]) -> None:
+    if state["normalize"] is not None:
+        state["normalize"].set_venv(state["envs"])
+        state["normalize"].returns = state["returns"]
+
+
+def _fsync_file(path: Path) -> None:
+    with path.open("rb") as fh:
+        os.fsync(fh.fileno())
+
+
+def write_checkpoint(root: Path, model, clock: RunClock, run: dict[str, Any], keep: int = 2) -> Path:
+    """Checkpoint ``model`` (with its env, the global generators and ``run`` bookkeeping) to
+    ``root/step_<n>/``, then point ``root/latest.json`` at it; keeps the ``keep`` newest."""
+    steps = int(model.num_timesteps)
+    directory = root / f"step_{steps:012d}"
+    for stale in root.glob("step_*.tmp"):  # left by a run killed while writing a checkpoint
+        shutil.rmtree(stale)
+    tmp = directory.with_name(directory.name + ".tmp")
+    tmp.mkdir(parents=True)
+    write_model_files(model, tmp)  # portable model.zip (+ vecnormalize.pkl)
+    state = {"env": _env_state(model.get_env()), "model": model, "clock": clock, "rng": capture_rng(), "run": run}
+    with (tmp / STATE_FILE).open("wb") as fh:
+        _RunPickler(fh, protocol=pickle.HIGHEST_PROTOCOL).dump(state)
+    for path in tmp.iterdir():
+        _fsync_file(path)
+    if directory.exists():  # a checkpoint of the same step from a run killed before its pointer moved
+        shutil.rmtree(directory)
+    os.replace(tmp, directory)
+    fsync_dir(root)
+    atomic_write_text(root / "latest.json", json.dumps({"timesteps": steps, "dir": directory.name}) + "\n")
+    done = sorted(p for p in root.glob("step_*") if p.is_dir() and not p.name.endswith(".tmp"))
+    for old in done[: -max(1, int(keep))]:
+        shutil.rmtree(old, ignore_errors=True)
+    return directory
+
+
+def read_checkpoint(directory: Path) -> tuple[Any, RunClock, dict[str, Any], dict[str, Any]]:
+    """``(model, clock, run, rng)`` of a checkpoint; the model has its training env back.
+    Restore ``rng`` (:func:`restore_rng`) last, right before training continues."""
+    path = Path(directory) / STATE_FILE
+    try:
+        with path.open("rb") as fh:
+            state = _RunUnpickler(fh).load()
+    except (pickle.UnpicklingError, EOFError, AttributeError, ImportError, TypeError) as exc:
+        raise ValueError(
+            f"checkpoint {str(path)!r} cannot be read ({type(exc).__name__}: {exc}); it is tied to the "
+            "stable-baselines3/torch versions that wrote it"
+        ) from exc
+    _restore_env(state["env"])  # the model's env, reconnected to its sub-envs
+    return state["model"], state["clock"], state["run"], state["rng"]
+
+
+def latest_checkpoint(out_dir: Path) -> dict[str, Any] | None:
+    """``{"timesteps", "path"}`` of the last complete checkpoint of a run, or None. ``ValueError``
+    for a checkpoint without ``state.pkl`` (written by an earlier version: not resumable exactly)."""
+    pointer = Path(out_dir) / "checkpoints" / "latest.json"
+    if not pointer.is_file():
+        return None
+    data = json.loads(pointer.read_text(encoding="utf-8"))
+    path = pointer.parent / data["dir"]
+    if not (path / STATE_FILE).is_file():
+        raise ValueError(
+            f"checkpoint {str(path)!r} has no {STATE_FILE} (written by an earlier version, or deleted); "
+            "it cannot be resumed exactly: start the run again in an empty --out"
+        )
+    return {"timesteps": int(data["timesteps"]), "path": path}
