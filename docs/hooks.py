@@ -571,9 +571,11 @@ def on_page_markdown(markdown, page, config, files):
         rid = src.split("/")[1]
         if rid in _PAPER_PAGES:
             markdown = _SOURCE_LINE.sub(
-                lambda m: f"Source: {m.group(1)}. The paper's [page](../../papers/{_PAPER_PAGES[rid]}) has the full "
-                "citation, the reconstruction decisions and which claims hold; this page is the raw output of "
-                f"`attitude-envs reproduce {rid}`.",
+                lambda m: (
+                    f"Source: {m.group(1)}. The paper's [page](../../papers/{_PAPER_PAGES[rid]}) has the full "
+                    "citation, the reconstruction decisions and which claims hold; this page is the raw output of "
+                    f"`attitude-envs reproduce {rid}`."
+                ),
                 markdown,
                 count=1,
             )

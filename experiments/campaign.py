@@ -7,6 +7,7 @@ A campaign file (shipped presets: ``quick``, ``full`` in ``experiments/campaigns
     metrics: {settling_band_deg: 1.0}  # episode_metrics keyword arguments
     success_error_deg: 2.0            # success (attitude envs): finite J, not terminated, final error below this
     success_state_fraction: 0.1       # success (other envs): final state norm <= this × the initial one
+    optimum: {solve: true}            # J* per episode: shipped table, solver cache, else solve (casadi)
     envs:
       - name: rw                       # short name used in tables and paths
         id: attitude_envs/ReactionWheel-v0
@@ -34,6 +35,12 @@ is rewritten atomically, sorted by key, after every episode: a crash leaves a re
 partial table, and a rerun skips the episodes already done. Each run (finished or
 interrupted) appends its wall time to ``runs.jsonl``; the report sums them. Episodes are deterministic
 functions of their key, so the table does not depend on the executor or the worker count.
+
+J*: before the episodes, each distinct episode key (env id, kwargs with faults, seed, reset
+options; shared by all agents) gets its oracle optimum J* (:mod:`experiments.optimum_table`:
+the shipped table, the solver's cache, else a solve job on the same pool when
+``optimum.solve``), logged to ``optimum.jsonl`` (a rerun resumes it); rows carry ``j_star``,
+``j_over_j_star`` = J / J* and ``j_star_source``.
 """
 
 from __future__ import annotations
@@ -67,6 +74,7 @@ from attitude_envs.make import check_env_id, make_checked
 from attitude_envs.plants.gyrostat_model import ReactionWheelModel
 from attitude_envs.processes import die_with_parent
 from attitude_envs.progress import Progress, status_interval_s
+from experiments.optimum_table import episode_specs, resolve, solve_by_default, solve_job
 from experiments.policies import POLICIES, PolicyUnavailable, _import, build_policy, check_policy_name
 from experiments.sb3.hyperparams import read_yaml
 from experiments.sb3.registry import algorithm_class, check_algorithm
@@ -109,6 +117,8 @@ class Campaign:
     video: bool = False
     source: str = ""
     fingerprint: str = ""
+    optimum_solve: bool = True  # solve J* on demand for episodes outside the shipped table (casadi)
+    optimum_table: str | None = None  # a J* table in place of the shipped one (tests, private cells)
 
     def agents_for(self, env: EnvSpec) -> list[AgentSpec]:
         return [a for a in self.agents if a.envs is None or env.name in a.envs]
@@ -157,7 +167,7 @@ def load_campaign(config: str | Path | dict) -> Campaign:
         data = copy.deepcopy(config)
     _require(isinstance(data, dict), f"campaign {source!r} must be a mapping, got {type(data).__name__}")
     accepted = ["name", "description", "seeds", "envs", "agents", "metrics", "success_error_deg"]
-    accepted += ["success_state_fraction", "video"]
+    accepted += ["success_state_fraction", "video", "optimum"]
     unknown = set(data) - set(accepted)
     _require(not unknown, f"campaign has unknown keys {sorted(unknown)}; accepted: {accepted}")
     seeds = data.get("seeds", list(range(5)))
@@ -222,6 +232,12 @@ def load_campaign(config: str | Path | dict) -> Campaign:
         agents.append(AgentSpec(name, spec, only, bool(a.get("optional", False)), train))
     _require(bool(agents), "campaign needs at least one entry under agents")
     _require(len({a.name for a in agents}) == len(agents), "agent names must be distinct")
+    opt = data.get("optimum") or {}
+    _require(
+        isinstance(opt, dict) and not set(opt) - {"solve", "table"},
+        f"optimum must be a mapping with keys solve (true/false), table (a J* table path), got {opt!r}",
+    )
+    _require(isinstance(opt.get("solve", True), bool), f"optimum.solve must be true or false, got {opt.get('solve')!r}")
     return Campaign(
         name=_name("name", data.get("name", "campaign")),
         seeds=list(seeds),
@@ -231,6 +247,8 @@ def load_campaign(config: str | Path | dict) -> Campaign:
         success_error_deg=float(data.get("success_error_deg", 2.0)),
         success_state_fraction=_fraction(data.get("success_state_fraction", 0.1)),
         video=bool(data.get("video", False)),
+        optimum_solve=bool(opt.get("solve", solve_by_default())),
+        optimum_table=str(opt["table"]) if opt.get("table") is not None else None,
         source=source,
         fingerprint=hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16],
     )
@@ -346,7 +364,9 @@ def _fault_onset_s(faults: list[dict[str, Any]], env) -> float | None:
 
 
 def run_job(job: dict[str, Any]) -> dict[str, Any]:
-    """Run one job (``kind`` ``train`` or ``episode``) in this process; returns its result row."""
+    """Run one job (``kind`` ``train``, ``optimum`` or ``episode``) in this process; returns its result row."""
+    if job["kind"] == "optimum":  # J* of one episode key (experiments.optimum_table)
+        return solve_job(job)
     if job["kind"] == "train" or job.get("policy", {}).get("policy") == "sb3":
         import torch  # only for jobs that need it: importing torch costs seconds per worker
 
@@ -704,6 +724,12 @@ class ResultStore:
             tmp.write_text("".join(json.dumps(row, allow_nan=True) + "\n" for row in good), encoding="utf-8")
             os.replace(tmp, self.log)
             self.logged_before = len(good)
+        # J* per episode key (experiments.optimum_table): its own append log, joined into the rows
+        self.optimum_log = self.out_dir / "optimum.jsonl"
+        self.optimum: dict[str, dict[str, Any]] = {}
+        self._optimum_cells: dict[tuple, dict[str, Any]] = {}  # (env, scenario, fault, seed) → J* row
+        for r in _read_lines(self.optimum_log):
+            self._add_optimum(r)
 
     def done(self, key: dict[str, Any]) -> bool:
         return key_of(key) in self.rows
@@ -714,8 +740,34 @@ class ResultStore:
         self.rows[key_of(row)] = row
         self.write_csv()
 
+    def optimum_done(self, key_hash: str) -> bool:
+        return key_hash in self.optimum
+
+    def optimum_row(self, key_hash: str) -> dict[str, Any]:
+        return self.optimum[key_hash]
+
+    def _add_optimum(self, row: dict[str, Any]) -> None:
+        self.optimum[row["hash"]] = row
+        for cell in row["cells"]:
+            self._optimum_cells[tuple(cell)] = row
+
+    def append_optimum(self, row: dict[str, Any]) -> None:
+        self.out_dir.mkdir(parents=True, exist_ok=True)
+        _append_line(self.optimum_log, row)
+        self._add_optimum(row)
+
+    def with_optimum(self, row: dict[str, Any]) -> dict[str, Any]:
+        """``row`` with ``j_star`` (its episode's oracle optimum; NaN when unknown),
+        ``j_over_j_star`` (J / J*) and ``j_star_source`` (table, cache, solved, unsupported, missing)."""
+        found = self._optimum_cells.get((row["env"], row["scenario"], row["fault"], row["seed"]))
+        j_star = float(found["j_star"]) if found is not None else float("nan")
+        J = float(row["J"])
+        ratio = J / j_star if np.isfinite(j_star) and j_star > 0 and not np.isnan(J) else float("nan")
+        source = found["source"] if found is not None else "missing"
+        return {**row, "j_star": j_star, "j_over_j_star": ratio, "j_star_source": source}
+
     def sorted_rows(self) -> list[dict[str, Any]]:
-        return [self.rows[k] for k in sorted(self.rows, key=_sort_key)]
+        return [self.with_optimum(self.rows[k]) for k in sorted(self.rows, key=_sort_key)]
 
     def write_csv(self) -> Path:
         tmp = self.csv.with_name(self.csv.name + ".tmp")
@@ -743,6 +795,7 @@ class CampaignResult:
     wall_time_s: float
     executor: str
     total_wall_time_s: float = 0.0  # this run and every earlier one logged in runs.jsonl
+    optimum_notes: list[str] = field(default_factory=list)  # episodes without J* (why), for the report
     runs: int = 1
     run_statuses: dict[str, int] = field(default_factory=dict)  # status → count over runs.jsonl
 
@@ -825,7 +878,7 @@ def run_campaign(
     log = RunLog(out_dir / "runs.jsonl", executor_name(ray_address, workers))  # first: a killed run leaves it
     trained: list[dict[str, Any]] = []
     todo: list[dict[str, Any]] = []
-    ran, status, executor, sigint, store = 0, "failed", None, None, None
+    ran, status, executor, sigint, store, optimum_notes = 0, "failed", None, None, None, []
     try:
         executor = make_executor(ray_address, workers)
         train_jobs = training_jobs(campaign, out_dir, skip_agents=skipped)
@@ -844,6 +897,10 @@ def run_campaign(
                     say(f"  {res['status']}: {res['out_dir']}")
         store = ResultStore(out_dir)
         jobs = episode_jobs(campaign, out_dir, skip_agents=skipped)
+        # J* once per episode key (not per agent): table, solver cache, else solved on the pool
+        optimum_notes = resolve(
+            episode_specs(jobs), store, executor, campaign.optimum_solve, campaign.optimum_table, progress
+        )
         todo = [j for j in jobs if not store.done(j["key"])]
         say(f"{len(jobs)} episodes, {len(jobs) - len(todo)} already done, running {len(todo)} on {executor.name}")
         with (
@@ -889,4 +946,5 @@ def run_campaign(
         total_wall_time_s=sum(r["wall_time_s"] for r in past_runs),
         runs=len(past_runs),
         run_statuses={s: n for s in RUN_STATUSES if (n := sum(r["status"] == s for r in past_runs))},
+        optimum_notes=optimum_notes,
     )

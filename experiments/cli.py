@@ -10,6 +10,7 @@ attitude-envs reproduce <paper> --out DIR            # paper vs. ours, JSON + ma
 attitude-envs envs                                   # registered env ids and presets
 attitude-envs tune-pid [--help]                      # GA-tune PID gains (Ahangarani Farahani et al.)
 attitude-envs optimum --env ID --seeds 0,1,2 --out DIR  # the oracle optimum J* per seed (casadi)
+attitude-envs optimum --write-table                  # regenerate the shipped J* table of the standard campaigns
 """
 
 from __future__ import annotations
@@ -35,7 +36,8 @@ from attitude_envs.progress import Heartbeat
 from attitude_envs.scenarios import list_scenarios, load_scenario
 from baselines.base import ZeroPolicy
 from baselines.lqr import LQRPolicy
-from experiments.campaign import SELECT, run_campaign
+from experiments import optimum_table
+from experiments.campaign import SELECT, episode_jobs, load_campaign, make_executor, run_campaign
 from experiments.policies import POLICIES, check_policy_name
 from experiments.report import leaderboard_markdown, leaderboards, write_campaign_report
 from experiments.reproduction import markdown_table
@@ -326,7 +328,61 @@ def _seed_list(text: str) -> list[int]:
     return seeds
 
 
+def _table_specs(cells: list[str]) -> list[dict]:
+    """J* specs of campaign cells ``NAME[:ENV,...[:FAULT,...]]`` (NAME: a preset or a campaign
+    file; all envs and faults when not named)."""
+    specs: dict[str, dict] = {}
+    for item in cells:
+        name, _, rest = item.partition(":")
+        only_envs, _, only_faults = rest.partition(":")
+        campaign = load_campaign(name)
+        envs = {e.name for e in campaign.envs}
+        faults = {f for e in campaign.envs for f in e.faults}
+        wanted = set(only_envs.split(",")) if only_envs else envs
+        wanted_faults = set(only_faults.split(",")) if only_faults else faults
+        if wanted - envs or wanted_faults - faults:
+            raise ValueError(
+                f"--campaign {item!r}: unknown env(s) or fault(s) {sorted((wanted - envs) | (wanted_faults - faults))}; "
+                f"envs: {sorted(envs)}, faults: {sorted(faults)}"
+            )
+        jobs = [
+            j
+            for j in episode_jobs(campaign, Path("unused"))
+            if j["key"]["env"] in wanted and j["key"]["fault"] in wanted_faults
+        ]
+        for spec in optimum_table.episode_specs(jobs, label=campaign.name):
+            if spec["hash"] in specs:
+                specs[spec["hash"]]["labels"] += [c for c in spec["labels"] if c not in specs[spec["hash"]]["labels"]]
+            else:
+                specs[spec["hash"]] = spec
+    return list(specs.values())
+
+
+def _write_table(args: argparse.Namespace) -> int:
+    cells = args.campaign or list(optimum_table.SHIPPED)
+    path = Path(args.table) if args.table else optimum_table.shipped_table_path()
+    start = time.perf_counter()
+    specs = _table_specs(cells)
+    print(f"J* table ({optimum_table.COMMAND}): {len(specs)} episode key(s) of {', '.join(cells)} → {path}")
+    executor = make_executor(None, args.workers)
+    try:
+        path, failed = optimum_table.write_table(specs, path, executor, cache=not args.no_cache, progress=print)
+    finally:
+        executor.close()
+    data = json.loads(path.read_text())
+    print(f"wrote {path}: {len(data['entries'])} entries ({time.perf_counter() - start:.0f} s)")
+    for spec in failed:
+        print(f"left out (no converged solve): {spec['labels'][0]}", file=sys.stderr)
+    return 1 if failed else 0
+
+
 def _optimum(args: argparse.Namespace) -> int:
+    if args.write_table or args.campaign or args.table:
+        if not args.write_table:
+            raise ValueError("--campaign and --table go with --write-table")
+        return _write_table(args)
+    if args.out is None:
+        raise ValueError("optimum needs --out DIR (or --write-table)")
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out must be a directory, got the file {str(out)!r}")
@@ -478,13 +534,30 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _add_env_options(op)
     op.add_argument("--seeds", dest="seed_list", default="0", help="seeds, e.g. 0,1,2 or 0-4 (default 0)")
-    op.add_argument("--out", required=True, help="output directory (optimum.json, optimum.md)")
+    op.add_argument("--out", help="output directory (optimum.json, optimum.md); not with --write-table")
     op.add_argument(
         "--warm-start", default="lqr", choices=["lqr", "best", "none"], help="baseline rollout to start from"
     )
     op.add_argument("--max-iter", type=int, default=1000, help="IPOPT iterations (>= 1)")
     op.add_argument("--no-cache", action="store_true", help="neither read nor write the on-disk cache")
     op.add_argument("--jit", action="store_true", help="compile the step with the C compiler (long horizons)")
+    op.add_argument(
+        "--write-table",
+        action="store_true",
+        help="solve J* of every episode of the standard campaign cells and write the shipped table "
+        "experiments/optimum_table.json (campaigns read it first)",
+    )
+    op.add_argument(
+        "--campaign",
+        action="append",
+        metavar="NAME[:ENV,...[:FAULT,...]]",
+        help="with --write-table: the cells to cover (a preset or campaign file, optionally only some envs "
+        "and faults); default: " + " ".join(optimum_table.SHIPPED),
+    )
+    op.add_argument("--table", help="with --write-table: the table file to write (default: the shipped one)")
+    op.add_argument(
+        "--workers", type=int_at_least(1), help="with --write-table: solves in parallel (default: CPU count)"
+    )
     op.set_defaults(func=_optimum)
     return parser
 

@@ -23,6 +23,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import tempfile
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
@@ -239,7 +240,14 @@ def solve_problem(
     step = problem.step
     if jit:
         ins = step.sx_in()
-        jit_opts = {"jit": True, "compiler": "shell", "jit_options": {"flags": ["-O0"]}, "jit_cleanup": True}
+        # the compiler's sources and objects go to a temporary directory, never the working one
+        build_dir = tempfile.mkdtemp(prefix="attitude-envs-jit-")
+        jit_opts = {
+            "jit": True,
+            "compiler": "shell",
+            "jit_options": {"flags": ["-O0"], "directory": build_dir},
+            "jit_cleanup": True,
+        }
         step = casadi.Function("step_jit", ins, step.call(ins), step.name_in(), step.name_out(), jit_opts)
     # states scaled by their warm-start magnitude (e.g. wheel speeds of hundreds of rad/s next
     # to unit quaternions), defects likewise: IPOPT sees O(1) variables and constraints
@@ -348,6 +356,29 @@ def solve_episode(
         tmp.write_text(json.dumps(data))
         tmp.replace(path)
     return result
+
+
+def cached_result(
+    env_id: str,
+    env_kwargs: dict | None = None,
+    seed: int = 0,
+    options: dict | None = None,
+    warm_start: str | None = "lqr",
+    max_iter: int = 1000,
+    tol: float = 1e-10,
+) -> OptimumResult | None:
+    """The on-disk cache's result of :func:`solve_episode` with these arguments, or None when
+    it was never solved (nothing is solved here)."""
+    settings = {"warm_start": warm_start, "max_iter": int(max_iter), "tol": float(tol)}
+    path = cache_dir() / f"{_cache_key(env_id, dict(env_kwargs or {}), seed, options, settings)}.json"
+    if not path.is_file():
+        return None
+    try:
+        data = json.loads(path.read_text())
+        data["actions"] = np.asarray(data["actions"], dtype=float)
+        return OptimumResult(**{**data, "cached": True})
+    except (ValueError, TypeError, KeyError):
+        return None
 
 
 def solve_episodes(

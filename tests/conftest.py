@@ -1,7 +1,14 @@
+import os
+
 import numpy as np
 import pytest
 
 import attitude_envs  # noqa: F401  (registers the ids)
+
+# Campaigns in tests take J* from the shipped table or the solver's cache only (solving each
+# test campaign's episodes would add minutes); tests that solve say so in their config.
+# Set at import so module- and session-scoped fixtures and subprocesses see it too.
+os.environ.setdefault("ATTITUDE_ENVS_OPTIMUM_SOLVE", "0")
 
 
 @pytest.fixture

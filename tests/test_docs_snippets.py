@@ -121,7 +121,9 @@ def _swept_files() -> list[Path]:
     files = [ROOT / name for name in SWEPT if (ROOT / name).is_file()]
     for folder in SWEPT_DIRS:
         files += sorted(
-            p for p in (ROOT / folder).rglob("*") if p.is_file() and p.suffix in SWEPT_SUFFIXES and "__pycache__" not in p.parts
+            p
+            for p in (ROOT / folder).rglob("*")
+            if p.is_file() and p.suffix in SWEPT_SUFFIXES and "__pycache__" not in p.parts
         )
     return files
 

@@ -10,6 +10,7 @@ import shutil
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
 from attitude_envs.evaluation.rollout import rollout
@@ -51,10 +52,42 @@ class NormalizedPredictor:
 
 
 def evaluate_cost(predictor, env, seeds: list[int], name: str = "sb3") -> dict[str, float]:
-    """Mean and std of the episode cost J (sum of ``info["cost"]``) over ``seeds`` (one episode each)."""
-    policy = SB3Policy(predictor, deterministic=True, name=name)
-    costs = np.array([rollout(env, policy, seed=s)["J"] for s in seeds])
+    """Mean and std of the episode cost J (sum of ``info["cost"]``) over ``seeds`` (one episode
+    each): on a single env one episode after the other, on a batched env (one sub-env per seed,
+    :func:`episode_costs_batched`) all at once."""
+    costs = episode_costs(predictor, env, seeds, name)
     return {"J_mean": float(costs.mean()), "J_std": float(costs.std())}
+
+
+def episode_costs(predictor, env, seeds: list[int], name: str = "sb3") -> np.ndarray:
+    """The cost J of one episode per seed (see :func:`evaluate_cost`)."""
+    if isinstance(env, gym.vector.VectorEnv):
+        return episode_costs_batched(predictor, env, seeds)
+    policy = SB3Policy(predictor, deterministic=True, name=name)
+    return np.array([rollout(env, policy, seed=s)["J"] for s in seeds])
+
+
+def episode_costs_batched(predictor, env, seeds: list[int]) -> np.ndarray:
+    """J of ``len(seeds)`` episodes run as one batch: sub-env ``i`` of ``env`` (a natively batched
+    env with ``autoreset_mode="next_step"`` and one sub-env per seed) plays the episode of seed
+    ``seeds[i]``, one ``predict`` call per step for all of them; a sub-env whose episode ended
+    stops contributing (its cost is summed in the single env's order, so J is the single env's
+    given the same actions). The actions equal the one-by-one evaluation's up to the policy
+    network's float rounding: a batched matrix product need not round each row as a single one."""
+    n = int(env.num_envs)
+    if len(seeds) != n:
+        raise ValueError(f"the batched eval env has {n} sub-envs for {len(seeds)} seeds")
+    obs, _ = env.reset(seed=[int(s) for s in seeds])
+    totals = np.zeros(n)
+    running = np.ones(n, dtype=bool)
+    state, episode_start = None, np.ones(n, dtype=bool)
+    while running.any():
+        action, state = predictor.predict(obs, state=state, episode_start=episode_start, deterministic=True)
+        episode_start = np.zeros(n, dtype=bool)
+        obs, _, terminated, truncated, infos = env.step(np.asarray(action, dtype=np.float32))
+        totals[running] += infos["cost"][running]
+        running &= ~(terminated | truncated)
+    return totals
 
 
 class EvalLog:

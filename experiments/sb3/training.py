@@ -24,7 +24,6 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import torch
-from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.utils import set_random_seed
 from stable_baselines3.common.vec_env import VecNormalize
 
@@ -48,6 +47,7 @@ from experiments.sb3.checkpoint import (
 from experiments.sb3.hyperparams import load_hyperparams, split_hyperparams
 from experiments.sb3.progress import ProgressCallback
 from experiments.sb3.registry import algorithm_class, check_algorithm
+from experiments.sb3.vec_envs import batched_supported, make_eval_env, make_training_env
 
 
 @dataclass
@@ -75,11 +75,6 @@ def _json_safe(value: Any) -> Any:
     if callable(value) or isinstance(value, type):
         return repr(value)
     return value
-
-
-def _make_vec_env(env_id: str, env_kwargs: dict, n_envs: int, seed: int):
-    # make_vec_env asks for render_mode="rgb_array", which envs without a renderer refuse
-    return make_vec_env(env_id, n_envs=n_envs, seed=seed, env_kwargs={"render_mode": None, **env_kwargs})
 
 
 def _tensorboard_dir(out_dir: Path, tensorboard: bool | None) -> str | None:
@@ -130,6 +125,9 @@ def train(
     Resuming a run whose checkpoint already reached the budget does no training
     (``TrainResult.already_complete``); a larger budget extends it. The eval env uses
     ``eval_env_kwargs`` (default: the training kwargs) and seeds ``eval_seed + i``.
+    Training and evaluation run on the natively batched env of ``env_id``
+    (:mod:`experiments.sb3.vec_envs`; evaluation plays its episodes as one batch); kwargs it
+    does not support (sensors, ``fault_hint``) fall back to single envs.
     ``progress``: True a bar with ETA on a terminal, else a status line every 30 s; a string is
     its label and means status lines (campaign workers); ``progress_bar``: SB3's own bar instead
     (one per segment).
@@ -148,6 +146,10 @@ def train(
     entry = load_hyperparams(algo, env_id, hyperparams_file, overrides)
     probe = make_checked(env_id, **env_kwargs)  # validates the env kwargs before anything is written
     n_actions = int(np.prod(probe.action_space.shape))
+    batched = batched_supported(env_id, probe)
+    probe.close()
+    probe = make_checked(env_id, **eval_kwargs)
+    eval_batched = batched_supported(env_id, probe)
     probe.close()
     hp = split_hyperparams(entry, n_actions)
     total = int(total_timesteps if total_timesteps is not None else hp["n_timesteps"])
@@ -191,7 +193,9 @@ def train(
         atomic_write_text(out_dir / "config.json", json.dumps(config, indent=2) + "\n")
         set_random_seed(int(seed))
         clock = RunClock(total)
-        model = _new_model(algo, env_id, env_kwargs, int(seed), hp, entry, clock, out_dir, tensorboard, verbose)
+        model = _new_model(
+            algo, env_id, env_kwargs, int(seed), hp, entry, clock, out_dir, tensorboard, verbose, batched
+        )
         run: dict[str, Any] = {"eval_log": "", "best": None, "last_eval": None}
         rng = None
         resumed_from = None
@@ -205,7 +209,7 @@ def train(
         resumed_from = int(model.num_timesteps)
     already_complete = int(model.num_timesteps) >= total
 
-    eval_env = gym.make(env_id, **eval_kwargs)
+    eval_env = make_eval_env(env_id, eval_kwargs, int(eval_episodes), eval_batched)
     seeds = [int(eval_seed) + i for i in range(int(eval_episodes))]
     callback = None
     label = progress if isinstance(progress, str) else f"train {algo} {env_id.split('/')[-1]}"
@@ -275,12 +279,12 @@ def _predictor(model) -> NormalizedPredictor:
     return NormalizedPredictor(model, model.get_vec_normalize_env())
 
 
-def _new_model(algo, env_id, env_kwargs, seed, hp, entry, clock, out_dir, tensorboard, verbose):
+def _new_model(algo, env_id, env_kwargs, seed, hp, entry, clock, out_dir, tensorboard, verbose, batched):
     kwargs = dict(hp["kwargs"])
     for key in ("learning_rate", "clip_range", "clip_range_vf"):
         if callable(kwargs.get(key)):
             kwargs[key] = BudgetSchedule(kwargs[key], clock)  # progress over the whole run, not one segment
-    venv = _make_vec_env(env_id, env_kwargs, hp["n_envs"], seed)
+    venv = make_training_env(env_id, env_kwargs, hp["n_envs"], seed, batched)
     if hp["normalize"] is not None:
         venv = VecNormalize(venv, gamma=float(entry.get("gamma", 0.99)), **hp["normalize"])
     try:
