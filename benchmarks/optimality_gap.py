@@ -31,9 +31,11 @@ run time (seconds per step × steps × seeds) exceeds ``--mpc-budget-s`` (defaul
 output says so. Its solve time per step (median over the episode's steps) is recorded.
 
 Jobs (one J* solve, or one controller on one seed) run on a process pool (``--workers``, default
-2). Writes the JSON to ``--out`` (default ``results/benchmarks/optimality_gap.json``, git-ignored)
-and a markdown summary next to it (``.md``); the committed copies are
-``benchmarks/optimality_gap.json`` and ``benchmarks/optimality_gap.md``.
+2). Each finished job is appended to a journal next to the output (``.journal.jsonl``);
+``--resume`` reuses it (and the J* cache) after an interrupted run. Writes the JSON to ``--out``
+(default ``results/benchmarks/optimality_gap.json``, git-ignored) and a markdown summary next to
+it (``.md``); the committed copies are ``benchmarks/optimality_gap.json`` and
+``benchmarks/optimality_gap.md``.
 """
 
 from __future__ import annotations
@@ -241,8 +243,9 @@ def job_optimum(task: Task, seed: int, warm_actions: np.ndarray | None = None) -
     return row
 
 
-def job_controller(task: Task, seed: int, label: str, name: str, params: dict) -> dict:
-    """One controller on one episode; the MPC's per-step solve times summarized."""
+def job_controller(task: Task, seed: int, label: str, name: str, params: dict, keep_actions: bool = False) -> dict:
+    """One controller on one episode; the MPC's per-step solve times summarized; its actions
+    (``"actions"``) with ``keep_actions``."""
     env = make_env(task)
     try:
         policy = RecordingPolicy(build_policy({"policy": name, "params": dict(params)}, env, name=label))
@@ -256,14 +259,21 @@ def job_controller(task: Task, seed: int, label: str, name: str, params: dict) -
         row["solve_ms_per_step_median"] = 1e3 * statistics.median(times)
         row["solve_ms_per_step_mean"] = 1e3 * statistics.fmean(times)
         row["solve_failures"] = int(getattr(policy.policy, "failures", 0))
-    row["actions"] = np.asarray(policy.actions)
+    if keep_actions:
+        row["actions"] = np.asarray(policy.actions)
     return row
+
+
+def job_refine(task: Task, seed: int, label: str, name: str, params: dict) -> dict:
+    """J* of one episode warm-started from the actions of controller ``label`` (not cached)."""
+    actions = job_controller(task, seed, label, name, params, keep_actions=True)["actions"]
+    return job_optimum(task, seed, actions)
 
 
 def run_job(kind: str, args: tuple) -> dict:
     """Pool entry point; errors come back as ``{"error": ...}`` rows."""
     try:
-        return job_optimum(*args) if kind == "optimum" else job_controller(*args)
+        return {"optimum": job_optimum, "controller": job_controller, "refine": job_refine}[kind](*args)
     except Exception as exc:  # noqa: BLE001 - reported in the output, the benchmark goes on
         return {"error": f"{type(exc).__name__}: {exc}"}
 
@@ -416,11 +426,44 @@ def markdown(report: dict) -> str:
     ]
     if failures:
         lines += ["", "## Failures", "", *failures]
+    lines += [
+        "",
+        "## Notes",
+        "",
+        "- J* is the optimum of the episode as the env scores it: a finite horizon. It stops paying for the "
+        "error at the episode's end, so its own final error can exceed the success band where a controller's "
+        "does not (the J\\* row's success).",
+        "- Seed-independent tasks (a fixed start state, no noise: the first controller's J is equal for every "
+        "seed) are solved and rolled out once; their [min, max] is one episode.",
+        "- `mpc` is the nonlinear MPC on the nominal model (no fault knowledge), 20-step horizon; `lqr-ft` is the "
+        "LQR with IMM fault detection and redesign; `zero (reference)` is free drift, not a controller.",
+        "- J* solve times are IPOPT wall times on one core of this machine (the cache keeps the time of the "
+        "solve that filled it); J* total adds the problem build, the warm-start rollouts and the replay.",
+    ]
     return "\n".join(lines) + "\n"
 
 
 def _g(value) -> str:
     return "—" if value is None else f"{value:.4g}"
+
+
+def read_journal(path: Path, seeds: list[int]) -> dict:
+    """Finished work of an earlier run: ``{("plan", task): plan, (kind, task, seed, label): row}``;
+    plans made for other seeds are dropped."""
+    rows: dict = {}
+    if not path.is_file():
+        return rows
+    for line in path.read_text().splitlines():
+        try:
+            entry = json.loads(line)
+        except ValueError:
+            continue  # a line cut short by a killed run
+        if entry["type"] == "plan":
+            if entry["seeds"] == seeds:
+                rows[("plan", entry["task"])] = entry["row"]
+        else:
+            rows[(entry["type"], entry["task"], entry["seed"], entry["label"])] = entry["row"]
+    return rows
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -434,6 +477,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=2, help="process-pool size (default 2)")
     parser.add_argument("--mpc-budget-s", type=float, default=600.0, help="leave the MPC out above this (s per task)")
     parser.add_argument("--mpc-probe-steps", type=int, default=20, help="MPC steps timed to estimate its run time")
+    parser.add_argument(
+        "--resume", action="store_true", help="reuse the plans and finished jobs of OUT's journal (.journal.jsonl)"
+    )
     args = parser.parse_args(argv)
     chosen = all_tasks
     if args.tasks:
@@ -444,28 +490,40 @@ def main(argv: list[str] | None = None) -> int:
         chosen = [known[k] for k in args.tasks]
     seeds = list(range(args.seeds))
     wall = time.perf_counter()
+    out_path = Path(args.out)
+
+    journal = out_path.with_suffix(".journal.jsonl")
+    done_rows = read_journal(journal, seeds) if args.resume else {}
+    if not args.resume:
+        journal.parent.mkdir(parents=True, exist_ok=True)
+        journal.write_text("")
+
+    def record(entry: dict) -> None:
+        with journal.open("a") as fh:
+            fh.write(json.dumps(entry, default=_json_default) + "\n")
 
     plans = {}
     for task in chosen:
-        run_seeds, independent = distinct_seeds(task, seeds)
-        plan = {"run_seeds": run_seeds, "seed_independent": independent, "mpc": {}}
-        if any(name == "mpc" for _, name, _ in task.controllers):
-            probe = mpc_probe(task, seeds[0], args.mpc_probe_steps)
-            estimate = probe["s_per_step"] * probe["episode_steps"] * len(run_seeds)
-            probe["estimated_task_s"] = estimate
-            probe["run"] = estimate <= args.mpc_budget_s
-            if not probe["run"]:
-                probe["note"] = (
-                    f"MPC left out: {probe['s_per_step'] * 1e3:.0f} ms/step × {probe['episode_steps']} steps × "
-                    f"{len(run_seeds)} seeds ≈ {estimate / 60:.0f} min > {args.mpc_budget_s / 60:.0f} min"
-                )
-                task.controllers = [c for c in task.controllers if c[1] != "mpc"]
-            plan["mpc"] = probe
+        plan = done_rows.get(("plan", task.key))
+        if plan is None:
+            run_seeds, independent = distinct_seeds(task, seeds)
+            plan = {"run_seeds": run_seeds, "seed_independent": independent, "mpc": {}}
+            if any(name == "mpc" for _, name, _ in task.controllers):
+                probe = mpc_probe(task, seeds[0], args.mpc_probe_steps)
+                estimate = probe["s_per_step"] * probe["episode_steps"] * len(run_seeds)
+                probe["estimated_task_s"] = estimate
+                probe["run"] = estimate <= args.mpc_budget_s
+                if not probe["run"]:
+                    probe["note"] = (
+                        f"MPC left out: {probe['s_per_step'] * 1e3:.0f} ms/step × {probe['episode_steps']} steps × "
+                        f"{len(run_seeds)} seeds ≈ {estimate / 60:.0f} min > {args.mpc_budget_s / 60:.0f} min"
+                    )
+                plan["mpc"] = probe
+            record({"type": "plan", "task": task.key, "seeds": seeds, "row": plan})
+        if plan["mpc"] and not plan["mpc"]["run"]:
+            task.controllers = [c for c in task.controllers if c[1] != "mpc"]
         plans[task.key] = plan
-        print(
-            f"[plan] {task.key}: seeds {run_seeds}{' (seed-independent)' if independent else ''} {plan['mpc']}",
-            flush=True,
-        )
+        print(f"[plan] {task.key}: seeds {plan['run_seeds']} {plan['mpc']}", flush=True)
 
     # long jobs first: J* solves of the long episodes, then the MPC, then the rest
     jobs = []
@@ -478,24 +536,40 @@ def main(argv: list[str] | None = None) -> int:
     optimum: dict[str, dict[int, dict]] = {t.key: {} for t in chosen}
     results: dict[str, dict[str, dict[int, dict]]] = {t.key: {c[0]: {} for c in t.controllers} for t in chosen}
 
+    def store(kind: str, task: Task, seed: int, ctrl, row: dict) -> None:
+        (optimum[task.key] if kind == "optimum" else results[task.key][ctrl[0]])[seed] = row
+
+    todo = []
+    for job in jobs:
+        _, kind, task, seed, ctrl = job
+        key = (kind, task.key, seed, None if ctrl is None else ctrl[0])
+        if key in done_rows:
+            store(kind, task, seed, ctrl, done_rows[key])
+        else:
+            todo.append(job)
+    if len(todo) < len(jobs):
+        print(f"[resume] {len(jobs) - len(todo)} of {len(jobs)} jobs read from {journal}", flush=True)
+
     ctx = multiprocessing.get_context("spawn")
     with cf.ProcessPoolExecutor(max_workers=args.workers, mp_context=ctx) as pool:
         futures = {}
-        for _, kind, task, seed, ctrl in jobs:
+        for _, kind, task, seed, ctrl in todo:
             job_args = (task, seed) if kind == "optimum" else (task, seed, *ctrl)
             futures[pool.submit(run_job, kind, job_args)] = (kind, task, seed, ctrl)
         for done, fut in enumerate(cf.as_completed(futures), 1):
             kind, task, seed, ctrl = futures[fut]
             row = fut.result()
-            who = "J*" if kind == "optimum" else ctrl[0]
-            (optimum[task.key] if kind == "optimum" else results[task.key][ctrl[0]])[seed] = row
+            store(kind, task, seed, ctrl, row)
+            label = None if ctrl is None else ctrl[0]
+            if "error" not in row:
+                record({"type": kind, "task": task.key, "seed": seed, "label": label, "row": row})
             what = row.get("error") or (
                 f"J* = {row['j_star']:.6g} {row['status']} {row['solve_s']:.1f} s"
                 if kind == "optimum"
                 else f"J = {row['J']:.6g}"
             )
             print(
-                f"[{done}/{len(jobs)} {time.perf_counter() - wall:.0f} s] {task.key} seed {seed} {who}: {what}",
+                f"[{done}/{len(todo)} {time.perf_counter() - wall:.0f} s] {task.key} seed {seed} {label or 'J*'}: {what}",
                 flush=True,
             )
 
@@ -506,33 +580,32 @@ def main(argv: list[str] | None = None) -> int:
                 opt = optimum[task.key].get(seed)
                 if opt is None or "error" in opt:
                     continue
-                rows = [r for r in (results[task.key][c][seed] for c in results[task.key]) if "error" not in r]
-                cheaper = [r for r in rows if r["J"] < opt["j_star"] * (1 - 1e-9) and not r["terminated"]]
+                rows = [
+                    (label, r)
+                    for label, per_seed in results[task.key].items()
+                    if (r := per_seed.get(seed)) is not None and "error" not in r and not r["terminated"]
+                ]
+                cheaper = [(label, r) for label, r in rows if r["J"] < opt["j_star"] * (1 - 1e-9)]
                 if cheaper:
-                    best = min(cheaper, key=lambda r: r["J"])
-                    refine.append((task, seed, best["actions"]))
+                    label = min(cheaper, key=lambda lr: lr[1]["J"])[0]
+                    ctrl = next(c for c in task.controllers if c[0] == label)
+                    refine.append((task, seed, ctrl))
         refined = {
-            pool.submit(run_job, "optimum", (task, seed, actions)): (task, seed) for task, seed, actions in refine
+            pool.submit(run_job, "refine", (task, seed, *ctrl)): (task, seed, ctrl) for task, seed, ctrl in refine
         }
         for fut in cf.as_completed(refined):
-            task, seed = refined[fut]
+            task, seed, ctrl = refined[fut]
             row, old = fut.result(), optimum[task.key][seed]
             if "error" not in row and row["j_star"] < old["j_star"]:
-                row["refined"] = True
+                row["refined"] = f"warm-started from {ctrl[0]}"
                 row["solve_s"] += old["solve_s"]
                 row["total_s"] += old["total_s"]
                 row["unrefined_j_star"] = old["j_star"]
                 optimum[task.key][seed] = row
             else:
-                old["refine_attempt"] = (
-                    row.get("error") or f"J* {row['j_star']:.6g} from the cheaper controller's actions"
-                )
+                old["refine_attempt"] = row.get("error") or f"J* {row['j_star']:.6g} from {ctrl[0]}'s actions"
             print(f"[refine] {task.key} seed {seed}: {optimum[task.key][seed]['j_star']:.6g}", flush=True)
 
-    for per_task in results.values():
-        for per_ctrl in per_task.values():
-            for row in per_ctrl.values():
-                row.pop("actions", None)
     report = {
         "meta": {
             "command": "python -m benchmarks.optimality_gap " + " ".join(argv if argv is not None else sys.argv[1:]),
@@ -566,7 +639,7 @@ def main(argv: list[str] | None = None) -> int:
                 **aggregate(task, plan["run_seeds"], optimum[task.key], results[task.key]),
             }
         )
-    out = Path(args.out)
+    out = out_path
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(report, indent=1, default=_json_default) + "\n")
     out.with_suffix(".md").write_text(markdown(report))
