@@ -29,6 +29,15 @@ from attitude_envs import validation
 SATURATION_MODES = {"scale", "clip"}
 
 
+def wheel_model(env):
+    """The nominal model of a reaction-wheel env (``env.unwrapped.model`` with ``params.wheel_axes``:
+    ReactionWheel-v0, AirBearing-v0); a ``ValueError`` for any other env."""
+    model = getattr(env.unwrapped, "model", None)
+    if not hasattr(getattr(model, "params", None), "wheel_axes"):
+        raise ValueError("env must be ReactionWheel-v0 or AirBearing-v0 (a nominal model with wheel_axes)")
+    return model
+
+
 class WheelAllocator:
     """Maps a body torque demand (N·m, body axes) to the env's normalized wheel action.
 

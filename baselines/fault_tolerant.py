@@ -40,6 +40,7 @@ import numpy as np
 from attitude_envs.estimation.fdi import ActuatorFDI, measurements
 from attitude_envs.linearization import LinearModel
 from attitude_envs.plants.gyrostat import gravity_torque_nm
+from baselines.allocation import wheel_model
 from baselines.lqr import LQRPolicy
 
 _RANK_TOL = 1e-9
@@ -85,9 +86,7 @@ class FaultTolerantLQRPolicy:
         name: str | None = None,
     ) -> None:
         base = env.unwrapped
-        model = getattr(base, "model", None)
-        if not hasattr(getattr(model, "params", None), "wheel_axes"):
-            raise ValueError("env must be ReactionWheel-v0 or AirBearing-v0 (a nominal model with wheel_axes)")
+        model = wheel_model(env)
         self.name = name or "lqr-ft"
         self._lqr = LQRPolicy(env, discretization)
         self._discretization = discretization

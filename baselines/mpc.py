@@ -37,6 +37,7 @@ import numpy as np
 import scipy.linalg
 
 from attitude_envs import validation
+from baselines.allocation import wheel_model
 from baselines.lqr import LQRPolicy
 
 try:
@@ -144,9 +145,7 @@ class MPCPolicy:
         name: str | None = None,
     ) -> None:
         base = env.unwrapped
-        model = getattr(base, "model", None)
-        if not hasattr(getattr(model, "params", None), "wheel_axes"):
-            raise ValueError("env must be ReactionWheel-v0 or AirBearing-v0 (a nominal model with wheel_axes)")
+        model = wheel_model(env)
         if int(horizon_steps) < 1:
             raise ValueError(f"horizon_steps must be an integer >= 1, got {horizon_steps!r}")
         self.name = name or "mpc"

@@ -67,8 +67,13 @@ def test_fuel_slosh_step_matches_the_env(faults):
 
 @pytest.mark.parametrize(
     "kwargs",
-    [{}, {"gravity_gradient": True, "integrator_dt_s": 0.05, "disturbance_second_harmonic": True}],
-    ids=["paper", "gravity-gradient-substeps"],
+    [
+        {},
+        {"gravity_gradient": True, "integrator_dt_s": 0.05, "disturbance_second_harmonic": True},
+        # a full (non-diagonal) Q and R: the kernel's general cost path
+        {"Q": np.diag([1.0] * 3 + [1e3] * 3) + 0.1, "R": 1e4 * np.eye(3) + 10.0},
+    ],
+    ids=["paper", "gravity-gradient-substeps", "full-weights"],
 )
 @pytest.mark.parametrize("faults", [None, MAGNETORQUER_FAULTS], ids=["healthy", "faults"])
 def test_magnetorquer_step_matches_the_env(kwargs, faults):

@@ -35,23 +35,21 @@ from attitude_envs.info import MEASURED, TRUTH
 from attitude_envs.sensors import Channel, SensorSuite
 
 _NOT_KEYWORDS = {"self", "preset", "__class__", "render_mode"}
-_KEYWORDS: dict[type, frozenset[str]] = {}  # per env class: the keyword arguments its constructor accepts
 
 
+@functools.cache
 def constructor_keywords(cls: type) -> frozenset[str]:
     """The keyword arguments ``cls(...)`` accepts: the named parameters of each ``__init__``
     along its MRO, as long as each passes ``**kwargs`` on (cached per class)."""
-    if cls not in _KEYWORDS:
-        names: set[str] = set()
-        for klass in inspect.getmro(cls):
-            if "__init__" not in klass.__dict__:
-                continue
-            params = inspect.signature(klass.__dict__["__init__"]).parameters.values()
-            names |= {p.name for p in params if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
-            if not any(p.kind == p.VAR_KEYWORD for p in params):
-                break
-        _KEYWORDS[cls] = frozenset(names - {"self"})
-    return _KEYWORDS[cls]
+    names: set[str] = set()
+    for klass in inspect.getmro(cls):
+        if "__init__" not in klass.__dict__:
+            continue
+        params = inspect.signature(klass.__dict__["__init__"]).parameters.values()
+        names |= {p.name for p in params if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
+        if not any(p.kind == p.VAR_KEYWORD for p in params):
+            break
+    return frozenset(names - {"self"})
 
 
 def _checking_unknown_keywords(init):
@@ -96,7 +94,7 @@ class AttitudeEnv(gym.Env):
         in ``given`` (the constructor's ``locals()``) that is not None."""
         overrides = {k: v for k, v in given.items() if k not in _NOT_KEYWORDS and not k.startswith("_")}
         self.preset = preset
-        return presets.resolve(self.env_name, preset, overrides, overrides.keys())
+        return presets.resolve(self.env_name, preset, overrides, constructor_keywords(type(self)))
 
     def _init_layers(
         self,

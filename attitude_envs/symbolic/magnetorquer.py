@@ -36,6 +36,7 @@ import numpy as np
 
 from attitude_envs.plants import magnetorquer_kernels as kernels
 from attitude_envs.symbolic import actuators
+from attitude_envs.symbolic.cost import quad_form
 from attitude_envs.symbolic.problem import DiscreteProblem
 
 # the time context entries the step reads (indices into a kernels context, layout CX_*)
@@ -71,14 +72,7 @@ def _stage_cost(q_mat: np.ndarray, r_mat: np.ndarray, x: list, u: list):
             if r_mat[i, i] != 0.0:
                 total = total + float(r_mat[i, i]) * u[i] * u[i]
         return total
-    for mat, v in ((q_mat, x), (r_mat, u)):
-        for i in range(len(v)):
-            acc = 0.0
-            for j in range(len(v)):
-                if mat[i, j] != 0.0:
-                    acc = acc + float(mat[i, j]) * v[j]
-            total = total + v[i] * acc
-    return total
+    return quad_form(r_mat, u, quad_form(q_mat, x))
 
 
 class _Plant:

@@ -22,6 +22,7 @@ import numpy as np
 from attitude_envs.plants import slosh
 from attitude_envs.plants import slosh_kernels as kernels
 from attitude_envs.symbolic import actuators
+from attitude_envs.symbolic.cost import quad_form
 from attitude_envs.symbolic.problem import DiscreteProblem
 
 
@@ -114,25 +115,13 @@ def derivative(pk: np.ndarray, y, sin_d, cos_d, moment) -> list:
     ]
 
 
-def _quad_form(M: np.ndarray, v: list):
-    """``vᵀ M v`` in :func:`attitude_envs.plants.kernel_math.quad_form`'s order (zeros skipped)."""
-    total = 0.0
-    for i in range(len(v)):
-        acc = 0.0
-        for j in range(len(v)):
-            if M[i, j] != 0.0:
-                acc = acc + float(M[i, j]) * v[j]
-        total = total + v[i] * acc
-    return total
-
-
 def _augmented(pk, Q, R, aug, sin_d, cos_d, moment) -> list:
     """ẏ (10) and the stage cost xᵀQx + u_cᵀRu_c, u_c = [a_z, Ω̇] (the kernel's augmented state
     without the new-input integrals)."""
     dy = derivative(pk, aug, sin_d, cos_d, moment)
     a_z = dy[6] - aug[7] * aug[5]
     x = [aug[6], aug[2], aug[7], aug[3], aug[8], aug[4], aug[9]]
-    return [*dy, _quad_form(Q, x) + _quad_form(R, [a_z, dy[7]])]
+    return [*dy, quad_form(Q, x) + quad_form(R, [a_z, dy[7]])]
 
 
 def step_function(env) -> casadi.Function:
