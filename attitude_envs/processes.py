@@ -62,3 +62,19 @@ def die_with_parent(parent_pid: int) -> None:
     if not alive(parent_pid):
         _kill_self()
     threading.Thread(target=_watch, args=(parent_pid, ppid), daemon=True, name="watch-parent").start()
+
+
+def pin_to_one_core(index: int) -> int | None:
+    """Restrict this process to one CPU: the ``index``-th (cyclically) of those it may run on.
+
+    Campaign pool workers call it (worker ``i`` → CPU ``i``), because JAX sizes its CPU thread
+    pool from the process's CPU affinity and has no setting for it (XLA_FLAGS thread options
+    are ignored by its current CPU runtime): unpinned, each SBX worker runs its updates on about
+    1.5 cores and two workers on two cores contend. Returns the CPU, or None where the platform
+    has no affinity call (macOS)."""
+    if not hasattr(os, "sched_setaffinity"):
+        return None
+    cpus = sorted(os.sched_getaffinity(0))
+    cpu = cpus[int(index) % len(cpus)]
+    os.sched_setaffinity(0, {cpu})
+    return cpu

@@ -72,15 +72,17 @@ from attitude_envs.evaluation.trace import record_episode
 from attitude_envs.info import policy_view
 from attitude_envs.make import check_env_id, make_checked
 from attitude_envs.plants.gyrostat_model import ReactionWheelModel
-from attitude_envs.processes import die_with_parent
+from attitude_envs.processes import die_with_parent, pin_to_one_core
 from attitude_envs.progress import Progress, status_interval_s
 from experiments.optimum_table import episode_specs, resolve, solve_by_default, solve_job
 from experiments.policies import POLICIES, PolicyUnavailable, _import, build_policy, check_policy_name
+from experiments.sb3.backends import check_backend
 from experiments.sb3.hyperparams import read_yaml
 from experiments.sb3.registry import algorithm_class, check_algorithm
 
 KEY_COLUMNS = ("env", "scenario", "fault", "agent", "train_seed", "seed")
-PRESETS = ("quick", "full")
+PLANT_CAMPAIGNS = ("wheel", "air-bearing", "magnetorquer", "slosh", "linear")  # `--config all`, in this order
+PRESETS = ("quick", "full", *PLANT_CAMPAIGNS)
 SELECT = ("best", "final")  # which snapshot of a trained agent is evaluated
 
 
@@ -150,9 +152,10 @@ def _fraction(value: Any) -> float:
     return float(value)
 
 
-def load_campaign(config: str | Path | dict) -> Campaign:
-    """A campaign from a preset name (``quick``, ``full``), a YAML path or a dict; ``ValueError``
-    naming the offending entry otherwise."""
+def load_campaign(config: str | Path | dict, backend: str | None = None) -> Campaign:
+    """A campaign from a preset name (:data:`PRESETS`), a YAML path or a dict; ``ValueError``
+    naming the offending entry otherwise. ``backend`` (``sb3`` / ``sbx``) replaces every trained
+    agent's ``train.backend`` (a different campaign: its own fingerprint)."""
     source = str(config) if not isinstance(config, dict) else "<dict>"
     if isinstance(config, str) and config in PRESETS:
         data = read_yaml(preset_path(config))
@@ -166,6 +169,10 @@ def load_campaign(config: str | Path | dict) -> Campaign:
     else:
         data = copy.deepcopy(config)
     _require(isinstance(data, dict), f"campaign {source!r} must be a mapping, got {type(data).__name__}")
+    if backend is not None:
+        for agent in data.get("agents") or []:
+            if isinstance(agent, dict) and isinstance(agent.get("train"), dict):
+                agent["train"]["backend"] = backend
     accepted = ["name", "description", "seeds", "envs", "agents", "metrics", "success_error_deg"]
     accepted += ["success_state_fraction", "video", "optimum"]
     unknown = set(data) - set(accepted)
@@ -208,7 +215,7 @@ def load_campaign(config: str | Path | dict) -> Campaign:
         if train is not None:
             _require(a["policy"] == "sb3", f"agents[{i}] ({name}): train is only for policy sb3")
             _require(isinstance(train, dict) and "algo" in train, f"agents[{i}].train needs an algo, got {train!r}")
-            check_algorithm(train["algo"])
+            check_backend(train.get("backend", "sb3"), check_algorithm(train["algo"]))
             tseeds = train.get("seeds", [0])
             _require(
                 isinstance(tseeds, list) and tseeds and all(isinstance(s, int) and s >= 0 for s in tseeds),
@@ -268,6 +275,11 @@ def _trained_model(train_dir: Path, select: str) -> Path:
     return best if select == "best" and best.is_file() else train_dir / "final" / "model.zip"
 
 
+def _backend_override(train: dict[str, Any]) -> dict[str, Any]:
+    """``train.backend`` of an agent as a hyperparameter override (absent: the entry's own)."""
+    return {"backend": train["backend"]} if "backend" in train else {}
+
+
 def training_jobs(campaign: Campaign, out_dir: Path, skip_agents: Iterable[str] = ()) -> list[dict[str, Any]]:
     """One job per SB3 agent with ``train`` × env × training seed."""
     skip = set(skip_agents)
@@ -286,7 +298,7 @@ def training_jobs(campaign: Campaign, out_dir: Path, skip_agents: Iterable[str] 
                         "env_kwargs": {**env.kwargs, **dict(t.get("env_kwargs") or {})},
                         "seed": int(seed),
                         "timesteps": t.get("timesteps"),
-                        "overrides": dict(t.get("overrides") or {}),
+                        "overrides": {**dict(t.get("overrides") or {}), **_backend_override(t)},
                         "hyperparams_file": t.get("hyperparams_file"),
                         "checkpoint_freq": int(t.get("checkpoint_freq", 10_000)),
                         "eval_freq": int(t.get("eval_freq", 10_000)),
@@ -511,6 +523,17 @@ def _mp_context(mp):
     return mp.get_context("forkserver" if "forkserver" in methods else "spawn")
 
 
+def _init_worker(parent_pid: int, counter) -> None:
+    """Pool-worker initializer: Ctrl-C is the parent's and the worker dies with it
+    (:func:`die_with_parent`); worker ``i`` runs on CPU ``i`` of the allowed ones
+    (:func:`pin_to_one_core`: one JAX thread pool per worker, no contention between workers)."""
+    die_with_parent(parent_pid)
+    with counter.get_lock():
+        index = counter.value
+        counter.value += 1
+    pin_to_one_core(index)
+
+
 class LocalExecutor:
     """Runs jobs in a local process pool (``workers`` > 1) or inline (``workers`` = 1).
 
@@ -530,11 +553,12 @@ class LocalExecutor:
                 yield fn(job)
             return
         before = {p.pid for p in mp.active_children()}
+        context = _mp_context(mp)
         self._pool = pool = ProcessPoolExecutor(
             max_workers=min(self.workers, len(jobs)),
-            mp_context=_mp_context(mp),
-            initializer=die_with_parent,  # Ctrl-C is ours to handle; the workers die with this process
-            initargs=(os.getpid(),),
+            mp_context=context,
+            initializer=_init_worker,
+            initargs=(os.getpid(), context.Value("i", 0)),
         )
         try:
             pending = {pool.submit(fn, job) for job in jobs}
@@ -814,7 +838,7 @@ def available(agent: AgentSpec) -> str | None:
     try:
         _import(POLICIES[agent.spec["policy"]])
         if agent.train is not None:
-            algorithm_class(agent.train["algo"])
+            algorithm_class(agent.train["algo"], agent.train.get("backend", "sb3"))
     except (PolicyUnavailable, ValueError) as exc:
         return str(exc)
     return None
@@ -847,9 +871,11 @@ def run_campaign(
     ray_address: str | None = None,
     workers: int | None = None,
     progress: Callable[[str], None] | None = None,
+    backend: str | None = None,
 ) -> CampaignResult:
-    """Train what needs training, run every episode not yet in ``out_dir``, return all rows."""
-    campaign = load_campaign(config)
+    """Train what needs training, run every episode not yet in ``out_dir``, return all rows.
+    ``backend`` overrides the training backend of every trained agent (:func:`load_campaign`)."""
+    campaign = load_campaign(config, backend)
     out_dir = Path(out_dir)
     marker = out_dir / "campaign.json"
     if marker.is_file():

@@ -37,11 +37,20 @@ from attitude_envs.scenarios import list_scenarios, load_scenario
 from baselines.base import ZeroPolicy
 from baselines.lqr import LQRPolicy
 from experiments import optimum_table
-from experiments.campaign import SELECT, episode_jobs, load_campaign, make_executor, run_campaign
+from experiments.campaign import (
+    PLANT_CAMPAIGNS,
+    PRESETS,
+    SELECT,
+    episode_jobs,
+    load_campaign,
+    make_executor,
+    run_campaign,
+)
 from experiments.policies import POLICIES, check_policy_name
-from experiments.report import leaderboard_markdown, leaderboards, write_campaign_report
+from experiments.report import leaderboard_markdown, leaderboards, write_campaign_index, write_campaign_report
 from experiments.reproduction import markdown_table
 from experiments.reproductions import REPRODUCTIONS
+from experiments.sb3.backends import BACKENDS
 from experiments.sb3.hyperparams import parse_overrides, read_yaml
 from experiments.sb3.registry import ALGORITHMS
 
@@ -159,6 +168,7 @@ def _train(args: argparse.Namespace) -> int:
         eval_freq=args.eval_freq,
         eval_episodes=args.eval_episodes,
         resume=args.resume,
+        backend=args.backend,
         progress_bar=args.progress_bar,
         progress=not args.quiet,
         tensorboard=True if args.tensorboard else None,
@@ -169,7 +179,10 @@ def _train(args: argparse.Namespace) -> int:
         return 0
     resumed = f" (resumed at {result.resumed_from} steps)" if result.resumed_from is not None else ""
     ev = result.last_eval or {}
-    print(f"trained {args.algo} on {args.env}: {result.timesteps} steps{resumed} in {result.wall_time_s:.1f} s")
+    backend = json.loads((Path(args.out) / "config.json").read_text(encoding="utf-8"))["backend"]
+    print(
+        f"trained {args.algo} ({backend}) on {args.env}: {result.timesteps} steps{resumed} in {result.wall_time_s:.1f} s"
+    )
     print(
         f"eval J = {ev.get('J_mean', float('nan')):.3f} ± {ev.get('J_std', float('nan')):.3f}; model: {result.model_path}"
     )
@@ -267,9 +280,23 @@ def _evaluate(args: argparse.Namespace) -> int:
 
 def _benchmark(args: argparse.Namespace) -> int:
     check_out_dir(args.out)
-    result = run_campaign(args.config, args.out, ray_address=args.ray, workers=args.workers, progress=print)
-    report = write_campaign_report(result, video=False if args.no_video else None)
-    _print_campaign(result, report)
+    names = PLANT_CAMPAIGNS if args.config == "all" else (args.config,)
+    outs = [Path(args.out) / Path(name).stem for name in names] if args.config == "all" else [Path(args.out)]
+    for out in outs:
+        check_out_dir(out)
+    results = []
+    for config, out in zip(names, outs, strict=True):
+        if len(outs) > 1:
+            print(f"== campaign {config} → {out}")
+        result = run_campaign(
+            config, out, ray_address=args.ray, workers=args.workers, progress=print, backend=args.backend
+        )
+        report = write_campaign_report(result, video=False if args.no_video else None)
+        _print_campaign(result, report)
+        results.append((Path(config).stem, result))
+    if len(outs) > 1:
+        index = write_campaign_index(Path(args.out), results)
+        print(f"all campaigns: {index}")
     return 0
 
 
@@ -417,7 +444,11 @@ def _optimum(args: argparse.Namespace) -> int:
 def _add_executor_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--ray", metavar="ADDRESS", help="run on Ray: 'local' or a cluster address (optional extra 'ray')")
     p.add_argument(
-        "--workers", type=int_at_least(1), help="local process-pool size (>= 1; default: CPU count; 1 = inline)"
+        "--workers",
+        "--jobs",
+        "-j",
+        type=int_at_least(1),
+        help="local process-pool size (>= 1; default: CPU count; 1 = inline)",
     )
 
 
@@ -456,6 +487,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     tr.add_argument("--hyperparams", help="Zoo-format YAML (default: experiments/sb3/hyperparams/<algo>.yml)")
     tr.add_argument("--params", nargs="*", help="hyperparameter overrides key:value (Zoo syntax)")
+    tr.add_argument(
+        "--backend",
+        choices=BACKENDS,
+        help="sb3 (PyTorch) or sbx (JAX: pip install 'attitude-envs[sbx]'); default: the hyperparameter entry's backend, else sb3",
+    )
     tr.add_argument("--checkpoint-freq", type=int_at_least(1), default=10_000, help="env steps between checkpoints")
     tr.add_argument("--eval-freq", type=int_at_least(1), default=10_000, help="env steps between evaluations of J")
     tr.add_argument("--eval-episodes", type=int_at_least(1), default=5, help="episodes per evaluation (seeds 10000+i)")
@@ -515,7 +551,16 @@ def build_parser() -> argparse.ArgumentParser:
     ev.set_defaults(func=_evaluate)
 
     bm = sub.add_parser("benchmark", help="run a campaign (agents × envs × scenarios × faults × seeds) → report")
-    bm.add_argument("--config", default="quick", help="quick, full or a campaign YAML path")
+    bm.add_argument(
+        "--config",
+        default="quick",
+        help=f"{', '.join(PRESETS)}, all (the five plant campaigns, each in OUT/<name>) or a campaign YAML path",
+    )
+    bm.add_argument(
+        "--backend",
+        choices=BACKENDS,
+        help="training backend of every trained agent (default: each agent's train.backend, else its hyperparameters')",
+    )
     bm.add_argument("--out", required=True, help="output directory (rerun to resume; completed episodes are skipped)")
     bm.add_argument("--no-video", action="store_true", help="skip the episode video even if the campaign asks for it")
     _add_executor_options(bm)

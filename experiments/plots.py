@@ -14,7 +14,7 @@ import numpy as np  # noqa: E402
 
 from attitude_envs import quaternion  # noqa: E402
 from attitude_envs.evaluation.metrics import RPM_PER_RAD_S  # noqa: E402
-from attitude_envs.evaluation.trace import EpisodeTrace  # noqa: E402
+from attitude_envs.evaluation.trace import EpisodeTrace, StateTrace  # noqa: E402
 
 
 def plot_episodes(traces: Mapping[str, EpisodeTrace], path: str | Path, title: str = "") -> Path:
@@ -57,12 +57,48 @@ def plot_episodes(traces: Mapping[str, EpisodeTrace], path: str | Path, title: s
         ax.set_ylabel("wheel speed [rpm]")
         ax.set_xlabel("time [s]")
         ax.legend(fontsize=7, loc="best", ncol=2)
-    for ax in axes.flat:
-        ax.grid(True, alpha=0.3)
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    return save_figure(fig, path)
+    return _finish_grid(fig, axes, path, title)
+
+
+def plot_state_histories(traces: Mapping[str, StateTrace], path: str | Path, title: str = "") -> Path:
+    """Any env: one column per controller (label → :class:`StateTrace`), rows: the error angle
+    (attitude envs), each true state channel (the attitude quaternion and target left out where
+    the error angle stands for them), the applied actuation and the running cost J. Shared y
+    axes per row, so the columns compare directly. Saved as PNG at ``path``."""
+    if not traces:
+        raise ValueError("traces must contain at least one episode")
+    first = next(iter(traces.values()))
+    skip = {"attitude", "target_attitude"} if first.error_angle_deg is not None else set()
+    channels = [k for k in first.state if k not in skip]
+    rows = (first.error_angle_deg is not None) + len(channels) + 2
+    labels = list(traces)
+    fig, axes = plt.subplots(
+        rows, len(labels), figsize=(5.2 * len(labels), 2.0 * rows), sharex="col", sharey="row", squeeze=False
+    )
+    for col, label in enumerate(labels):
+        tr, r = traces[label], 0
+        t = tr.time_s
+        axes[0, col].set_title(label)
+        if tr.error_angle_deg is not None:
+            axes[r, col].plot(t, tr.error_angle_deg, color="k")
+            axes[r, col].set_ylabel("error angle [deg]")
+            r += 1
+        for name in channels:
+            values = tr.state[name].reshape(len(t), -1)
+            for i in range(values.shape[1]):
+                axes[r, col].plot(t, values[:, i], lw=1.0, label=f"{name}[{i}]" if values.shape[1] > 1 else name)
+            axes[r, col].set_ylabel(name, fontsize=8)
+            if values.shape[1] > 1:
+                axes[r, col].legend(fontsize=6, loc="best", ncol=2)
+            r += 1
+        for i in range(tr.applied.shape[1]):
+            axes[r, col].step(t[:-1], tr.applied[:, i], where="post", lw=1.0, label=f"u[{i}]")
+        axes[r, col].set_ylabel("applied actuation")
+        axes[r, col].legend(fontsize=6, loc="best", ncol=2)
+        axes[r + 1, col].plot(t, np.concatenate([[0.0], np.cumsum(tr.cost)]), color="k")
+        axes[r + 1, col].set_ylabel("running cost J")
+        axes[r + 1, col].set_xlabel("time [s]")
+    return _finish_grid(fig, axes, path, title)
 
 
 def plot_error_overlay(traces: Mapping[str, EpisodeTrace], path: str | Path, title: str = "") -> Path:
@@ -112,6 +148,16 @@ def plot_metric_bars(
     ax.set_ylabel(ylabel)
     ax.legend()
     ax.grid(True, axis="y", alpha=0.3)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def _finish_grid(fig, axes, path: str | Path, title: str) -> Path:
+    """Grid lines on every panel, the title, tight layout; saved at ``path``."""
+    for ax in axes.flat:
+        ax.grid(True, alpha=0.3)
+    if title:
+        fig.suptitle(title)
     fig.tight_layout()
     return save_figure(fig, path)
 

@@ -27,7 +27,7 @@ import numpy as np
 from gymnasium.wrappers import RecordVideo
 from scipy import stats
 
-from attitude_envs.evaluation.trace import record_episode
+from attitude_envs.evaluation.trace import record_episode, record_state_trace
 from attitude_envs.info import policy_view
 from attitude_envs.plants.gyrostat_model import ReactionWheelModel
 from experiments.campaign import episode_jobs, success_criterion
@@ -331,8 +331,9 @@ def write_report(
     return atomic_write(out_dir / "report.md", "\n".join(lines))
 
 
-def _example_traces(result, env_spec, scenario: dict, fault: str, agents: Sequence[str]) -> dict:
-    """Re-run seed ``campaign.seeds[0]`` of ``agents`` (first training seed) and record their traces."""
+def _example_traces(result, env_spec, scenario: dict, fault: str, agents: Sequence[str], record=record_episode) -> dict:
+    """Re-run seed ``campaign.seeds[0]`` of ``agents`` (first training seed) and record their
+    traces with ``record`` (:func:`record_episode` for wheel envs, :func:`record_state_trace` for any)."""
     jobs = episode_jobs(result.campaign, result.out_dir, skip_agents=result.skipped_agents)
     traces = {}
     for agent in agents:
@@ -352,9 +353,7 @@ def _example_traces(result, env_spec, scenario: dict, fault: str, agents: Sequen
         env = gym.make(job["env_id"], **job["env_kwargs"])
         try:
             policy = build_policy(job["policy"], env, name=agent)
-            traces[agent] = record_episode(
-                env, policy, seed=job["key"]["seed"], options=copy.deepcopy(job["options"]) or None
-            )
+            traces[agent] = record(env, policy, seed=job["key"]["seed"], options=copy.deepcopy(job["options"]) or None)
         finally:
             env.close()
     return traces
@@ -386,23 +385,42 @@ def _record_video(result, env_spec, agent: str, path_dir: Path) -> Path | None:
     return videos[0] if videos else None
 
 
+def learned_agents(campaign) -> set[str]:
+    """Names of the agents that learn (SB3 models, trained or given, and the Q-learning LQR)."""
+    return {a.name for a in campaign.agents if a.spec.get("policy") in ("sb3", "q-learning-lqr")}
+
+
+def history_agents(board: Sequence[Mapping[str, Any]], learned: set[str]) -> list[str]:
+    """The agents whose time histories a report shows for a cell: the best analytic controller
+    and the best learned agent (free drift is no controller); the best two when only one kind ran."""
+    analytic, trained = _best(board, False, learned), _best(board, True, learned)
+    picked = [e["agent"] for e in (analytic, trained) if e is not None]
+    if len(picked) < 2:
+        picked = [e["agent"] for e in board if e["agent"] != "zero"][:2]
+    return picked
+
+
 def _training_summary(result, agent) -> str:
     """A trained agent's budget (``config.json`` of each run) and the snapshot its episodes
     ran: ``best snapshot at N steps`` (per run, from ``best/best.json``) or ``final snapshot``."""
     jobs = episode_jobs(result.campaign, result.out_dir)
     runs = sorted({Path(j["policy"]["model"]) for j in jobs if j["key"]["agent"] == agent.name})
     budgets, best_steps = set(), []
+    backends = set()
     for model in runs:
         config = model.parent.parent / "config.json"
         if config.is_file():
-            budgets.add(json.loads(config.read_text())["total_timesteps"])
+            saved = json.loads(config.read_text())
+            budgets.add(saved["total_timesteps"])
+            backends.add(saved.get("backend", "sb3"))
         best = model.parent / "best.json"
         if model.parent.name == "best" and best.is_file():
             best_steps.append(str(json.loads(best.read_text())["timesteps"]))
     t = agent.train
     steps = ", ".join(map(str, sorted(budgets))) or t.get("timesteps", "file default")
     snapshot = f"best snapshot at {', '.join(best_steps)} steps" if best_steps else "final snapshot"
-    return f"{t['algo']}, {steps} steps × seeds {t.get('seeds', [0])}, evaluated: {snapshot}"
+    backend = "/".join(sorted(backends)) or t.get("backend", "sb3")
+    return f"{t['algo']} ({backend}), {steps} steps × seeds {t.get('seeds', [0])}, evaluated: {snapshot}"
 
 
 def snapshot_description(model: str | Path) -> str:
@@ -459,15 +477,23 @@ def write_campaign_report(result, video: bool | None = None, command: str | None
         is_rw = isinstance(getattr(probe.unwrapped, "model", None), ReactionWheelModel)
         probe.close()
         best = boards[cell][0]["agent"]
-        if is_rw:
-            scenario = env_spec.scenarios[0]
-            fault = list(env_spec.faults)[-1]
-            agents = [e["agent"] for e in boards[(env_spec.name, scenario["name"], fault)]][:4]
-            traces = _example_traces(result, env_spec, scenario, fault, agents)
+        scenario = env_spec.scenarios[0]
+        fault = list(env_spec.faults)[-1]
+        board = boards.get((env_spec.name, scenario["name"], fault), [])
+        agents = history_agents(board, learned_agents(result.campaign))
+        if agents:
+            record = record_episode if is_rw else record_state_trace
+            traces = _example_traces(result, env_spec, scenario, fault, agents, record)
             if traces:
                 name = f"figures/history-{env_spec.name}-{scenario['name']}-{fault}.png"
-                _plots().plot_episodes(traces, out_dir / name, title=f"{env_spec.name} · {scenario['name']} · {fault}")
-                figures[f"{env_spec.name}: time histories ({fault})"] = name
+                plot = _plots().plot_episodes if is_rw else _plots().plot_state_histories
+                plot(
+                    traces,
+                    out_dir / name,
+                    title=f"{env_spec.name} · {scenario['name']} · {fault} · seed {result.campaign.seeds[0]}",
+                )
+                figures[f"{env_spec.name}: time histories, best analytic vs best learned ({fault})"] = name
+        if is_rw:
             if video:
                 path = _record_video(result, env_spec, best, out_dir / "videos")
                 if path is not None:
@@ -502,3 +528,36 @@ def write_campaign_report(result, video: bool | None = None, command: str | None
         "trained": result.trained,
     }
     return write_report(out_dir, rows, metadata, figures, notes)
+
+
+def _best(board: Sequence[Mapping[str, Any]], learned: bool, trained: set[str]) -> Mapping[str, Any] | None:
+    """The lowest-J entry among the learned (``trained``) or the other agents; free drift is no controller."""
+    pick = [e for e in board if (e["agent"] in trained) == learned and e["agent"] != "zero"]
+    return pick[0] if pick else None
+
+
+def _best_cell(e: Mapping[str, Any] | None) -> str:
+    if e is None:
+        return "—"
+    return f"{e['agent']}: J {_fmt(e['J_mean'])}, J/J* {_ratio_cell(e)}"
+
+
+def write_campaign_index(out_dir: str | Path, results: Sequence[tuple[str, Any]]) -> Path:
+    """``OUT/report.md`` of ``--config all``: per campaign its envs (id and kwargs), wall time
+    and report, and per leaderboard cell the best analytic controller and the best learned
+    agent (mean J and J/J*); the leaderboards themselves are in each campaign's report."""
+    out_dir = Path(out_dir)
+    lines = ["# All plant campaigns", "", f"Package {package_version()}, git {git_revision()}.", ""]
+    lines += ["| campaign | env (id, kwargs) | episodes | wall time s (all runs) | report |", "|---|---|---:|---|---|"]
+    for name, result in results:
+        envs = "; ".join(f"`{e.id}` {json.dumps(e.kwargs)}" for e in result.campaign.envs)
+        lines.append(
+            f"| {name} | {envs} | {len(result.rows)} | {_all_runs(result)} | [{name}/report.md]({name}/report.md) |"
+        )
+    lines += ["", "| campaign | env · scenario · fault | best analytic | best learned |", "|---|---|---|---|"]
+    for name, result in results:
+        trained = learned_agents(result.campaign)
+        for cell, board in leaderboards(result.rows).items():
+            analytic, learned = _best(board, False, trained), _best(board, True, trained)
+            lines.append(f"| {name} | {' · '.join(cell)} | {_best_cell(analytic)} | {_best_cell(learned)} |")
+    return atomic_write(out_dir / "report.md", "\n".join(lines) + "\n")

@@ -5,6 +5,7 @@ Every run is a subprocess (``python train.py ...``) in its own process group; th
 are found by polling the run directory. The chains of killed runs and their uninterrupted
 references all run at once (a module fixture), the two tests check the bytes."""
 
+import importlib.util
 import json
 import os
 import signal
@@ -15,9 +16,11 @@ import zipfile
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 pytest.importorskip("stable_baselines3")
+SBX = importlib.util.find_spec("sbx") is not None
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
@@ -105,11 +108,21 @@ def _weights(model_zip: Path) -> dict[str, bytes]:
         return {name: zf.read(name) for name in zf.namelist() if name.endswith(".pth")}
 
 
+def _actions(model_zip: Path) -> bytes:
+    """The deterministic actions of a saved model on fixed observations (an SBX model keeps its
+    parameters in the zip's "data", beside wall times)."""
+    from experiments.sb3.training import load_trained
+
+    obs = np.random.default_rng(0).normal(size=(64, 6)).astype(np.float32)
+    return load_trained(model_zip).predict(obs, deterministic=True)[0].tobytes()
+
+
 def _assert_same_training(run: Path, ref: Path) -> None:
     for name in ("evaluations.csv", "best/best.json", "final/final.json", "checkpoints/latest.json"):
         assert (run / name).read_bytes() == (ref / name).read_bytes(), name
     for snapshot in ("best", "final"):
         assert _weights(run / snapshot / "model.zip") == _weights(ref / snapshot / "model.zip"), snapshot
+        assert _actions(run / snapshot / "model.zip") == _actions(ref / snapshot / "model.zip"), snapshot
 
 
 def _chain(args: list[str], rerun: list[str], log: Path, kills, probe) -> list[tuple[bool, object, str]]:
@@ -123,7 +136,7 @@ def _chain(args: list[str], rerun: list[str], log: Path, kills, probe) -> list[t
     return done + [(False, probe(), _finish(rerun, log))]
 
 
-def _training_chain(tmp: Path):
+def _training_chain(tmp: Path, backend: str = "sb3"):
     """One training run killed four times (each rerun with --resume), beside an uninterrupted one."""
     run, start = tmp / "killed", {}
 
@@ -139,8 +152,8 @@ def _training_chain(tmp: Path):
         (new_eval_row, 0.0),
         (lambda: _pointer_steps(run) >= 2000, 0.0),  # after the last checkpoint, before or while final/ is written
     ]
-    args = [*TRAIN, "--out", str(run)]
-    reference = ([*TRAIN, "--out", str(tmp / "reference")], tmp / "reference.log")
+    args = [*TRAIN, "--backend", backend, "--out", str(run)]
+    reference = ([*TRAIN, "--backend", backend, "--out", str(tmp / "reference")], tmp / "reference.log")
     return reference, (args, [*args, "--resume"], tmp / "killed.log", kills, lambda: _pointer_steps(run))
 
 
@@ -168,10 +181,14 @@ def _campaign_chain(tmp: Path):
 
 @pytest.fixture(scope="module")
 def chaos(tmp_path_factory) -> dict[str, tuple[Path, list]]:
-    """Both chains and both references at once (four processes at a time keep two cores busy)."""
-    tmp = {name: tmp_path_factory.mktemp(name) for name in ("training", "campaign")}
+    """All chains and their references at once (the processes wait on disk and process start-up
+    much of the time: more of them than cores keep two cores busy)."""
+    names = ["training", "campaign"] + (["training-sbx"] if SBX else [])
+    tmp = {name: tmp_path_factory.mktemp(name) for name in names}
     setups = {"training": _training_chain(tmp["training"]), "campaign": _campaign_chain(tmp["campaign"])}
-    with ThreadPoolExecutor(4) as pool:
+    if SBX:
+        setups["training-sbx"] = _training_chain(tmp["training-sbx"], "sbx")
+    with ThreadPoolExecutor(2 * len(setups)) as pool:
         futures = {
             name: (pool.submit(_finish, *ref), pool.submit(_chain, *chain)) for name, (ref, chain) in setups.items()
         }
@@ -182,8 +199,11 @@ def chaos(tmp_path_factory) -> dict[str, tuple[Path, list]]:
     return results
 
 
-def test_training_killed_anywhere_resumes_to_the_same_bytes(chaos):
-    tmp, results = chaos["training"]
+@pytest.mark.parametrize("backend", ["sb3", "sbx"])
+def test_training_killed_anywhere_resumes_to_the_same_bytes(chaos, backend):
+    if backend == "sbx" and not SBX:
+        pytest.skip("the optional sbx extra is not installed")
+    tmp, results = chaos["training" if backend == "sb3" else "training-sbx"]
     ref, run = tmp / "reference", tmp / "killed"
     rows = (ref / "evaluations.csv").read_text().splitlines()
     assert [r.split(",")[0] for r in rows] == ["timesteps", "500", "1000", "1500", "2000"]  # exactly the budget

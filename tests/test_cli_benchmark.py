@@ -61,7 +61,7 @@ def test_benchmark_trains_evaluates_and_reports(benchmark_run, capsys):
     # the campaign evaluates the best eval snapshot (eval seeds 10000+), not the final one
     best = json.loads((out / "models" / "rw" / "ppo" / "seed0" / "best" / "best.json").read_text())
     assert (
-        f"training budget: ppo | ppo, 128 steps × seeds [0], evaluated: best snapshot at {best['timesteps']} steps"
+        f"training budget: ppo | ppo (sb3), 128 steps × seeds [0], evaluated: best snapshot at {best['timesteps']} steps"
         in report
     )
     # Rerun: nothing to train or evaluate again, same leaderboard printed.
@@ -77,7 +77,7 @@ def test_train_and_evaluate_commands(benchmark_run, tmp_path, capsys, monkeypatc
     monkeypatch.setenv("ATTITUDE_ENVS_PROGRESS_S", "0")  # a status line per step (not on a terminal)
     assert cli.main(argv) == 0
     out = capsys.readouterr()
-    assert "trained a2c on attitude_envs/ReactionWheel-v0: 40 steps" in out.out
+    assert "trained a2c (sb3) on attitude_envs/ReactionWheel-v0: 40 steps" in out.out
     assert "train a2c ReactionWheel-v0: 8/40 steps (20 %)" in out.err and "ETA" in out.err
     resume = ["train", "--algo", "a2c", "--env-kwargs", "{episode_duration_s: 2.0}", "--out", str(run)]
     resume += ["--timesteps", "60", "--params", "n_envs:1", "n_steps:8", "--eval-freq", "20", "--eval-episodes", "1"]
@@ -113,7 +113,7 @@ def test_train_progress_bar_works_with_the_sb3_extra(tmp_path, capsys):
     argv = ["train", "--algo", "a2c", "--env-kwargs", "{episode_duration_s: 1.0}", "--out", str(tmp_path / "r")]
     argv += ["--timesteps", "16", "--params", "n_envs:1", "n_steps:8", "--eval-freq", "16", "--eval-episodes", "1"]
     assert cli.main([*argv, "--progress-bar"]) == 0
-    assert "trained a2c on attitude_envs/ReactionWheel-v0: 16 steps" in capsys.readouterr().out
+    assert "trained a2c (sb3) on attitude_envs/ReactionWheel-v0: 16 steps" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize(
@@ -127,7 +127,10 @@ def test_train_progress_bar_works_with_the_sb3_extra(tmp_path, capsys):
             ["evaluate", "--policy", "zero", "--env-kwargs", "{wheels: 3}", "--out", "X"],
             "bad keyword arguments for env",
         ),
-        (["benchmark", "--config", "medium", "--out", "X"], "--config must be one of ['quick', 'full'] or a YAML"),
+        (
+            ["benchmark", "--config", "medium", "--out", "X"],
+            "--config must be one of ['quick', 'full', 'wheel', 'air-bearing', 'magnetorquer', 'slosh', 'linear'] or a YAML",
+        ),
         (["train", "--algo", "ppo", "--env-kwargs", "{a: [", "--out", "X"], "--env-kwargs is malformed YAML"),
         (["train", "--algo", "ppo", "--params", "gamma=0.9", "--out", "X"], "override must look like key:value"),
         (["train", "--algo", "ppo", "--params", "n_envs:1", "gama:0.9", "--out", "X"], "bad hyperparameters for ppo"),

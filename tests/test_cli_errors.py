@@ -86,7 +86,7 @@ def test_seeds_0_is_a_one_line_error_naming_seeds_not_the_usage():
     [
         (["demo", "--seeds", "0"], "argument --seeds: must be an integer >= 1, got 0"),
         (["evaluate", "--policy", "lqr", "--seeds", "two", "--out", "X"], "must be an integer >= 1, got 'two'"),
-        (["benchmark", "--workers", "0", "--out", "X"], "argument --workers: must be an integer >= 1, got 0"),
+        (["benchmark", "--workers", "0", "--out", "X"], "argument --workers/--jobs/-j: must be an integer >= 1, got 0"),
         (
             ["train", "--algo", "ppo", "--out", "X", "--verbose", "3"],
             "argument --verbose: must be an integer in [0, 2]",

@@ -1,10 +1,12 @@
 """train() on the natively batched env: every env id, bitwise the single envs, pickled whole for
 exact resume, and batched evaluation (all episodes in one policy call per step)."""
 
+import json
 import pickle
 import zipfile
 
 import cloudpickle
+import gymnasium as gym
 import numpy as np
 import pytest
 
@@ -53,6 +55,19 @@ def test_train_runs_on_the_native_batched_env_of_every_env_id(tmp_path, env_id):
     assert model.ep_info_buffer and {"r", "l", "t"} <= set(model.ep_info_buffer[0])  # Monitor's statistics
 
 
+@pytest.mark.parametrize("env_id", sorted(VECTOR_ENTRY_POINTS))
+def test_sbx_trains_on_every_env_id_and_loads_back(tmp_path, env_id):
+    pytest.importorskip("sbx")
+    result = _train(tmp_path / "run", env_id, backend="sbx")
+    assert result.timesteps == 500 and np.isfinite(result.last_eval["J_mean"])
+    assert json.loads((tmp_path / "run" / "config.json").read_text())["backend"] == "sbx"
+    predictor = load_trained(result.model_path, gym.make(env_id, **SHORT[env_id]))
+    assert type(predictor.model).__module__.startswith("sbx.")
+    obs = np.zeros((3, predictor.model.observation_space.shape[0]), dtype=np.float32)
+    actions, _ = predictor.predict(obs, deterministic=True)
+    assert actions.shape == (3, *predictor.model.action_space.shape) and np.all(np.isfinite(actions))
+
+
 _SAME_RUN = """
 import sys, pathlib
 sys.path.insert(0, "tests")
@@ -88,7 +103,6 @@ def test_sensors_fall_back_to_single_envs(tmp_path):
     from experiments.sb3.vec_envs import batched_supported
 
     kwargs = {**SHORT[RW], "sensors": {"gyro": {"noise_std": 1e-3}}}
-    import gymnasium as gym
 
     assert not batched_supported(RW, gym.make(RW, **kwargs)) and batched_supported(RW, gym.make(RW))
     result = _train(tmp_path / "run", RW, env_kwargs=kwargs)

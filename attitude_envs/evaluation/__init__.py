@@ -6,16 +6,18 @@ from attitude_envs.evaluation.metrics import episode_metrics
 from attitude_envs.evaluation.policy import Policy
 from attitude_envs.evaluation.rollout import rollout
 from attitude_envs.evaluation.runner import Evaluation, Scenario, evaluate, write_csv, write_json
-from attitude_envs.evaluation.trace import EpisodeTrace, record_episode
+from attitude_envs.evaluation.trace import EpisodeTrace, StateTrace, record_episode, record_state_trace
 
 __all__ = [
     "EpisodeTrace",
     "Evaluation",
     "Policy",
     "Scenario",
+    "StateTrace",
     "episode_metrics",
     "evaluate",
     "record_episode",
+    "record_state_trace",
     "rollout",
     "write_csv",
     "write_json",

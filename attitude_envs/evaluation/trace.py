@@ -84,3 +84,51 @@ def record_episode(env, policy: Policy, seed: int | None = None, options: dict[s
         terminated=bool(terminated),
         max_wheel_torque_nm=float(env.unwrapped.model.params.max_wheel_torque_nm),
     )
+
+
+@dataclass(frozen=True)
+class StateTrace:
+    """Time series of one episode of any env (ground truth); ``K`` steps.
+
+    ``time_s`` (K+1, s); ``state``: each channel of ``info["truth"]["state"]`` (the array itself
+    for an env whose state is one array, under ``"state"``) as (K+1, n) in the env's units;
+    ``error_angle_deg`` (K+1) for attitude envs, else None; ``applied`` (K, m: the actuator
+    outputs after faults, the env's units); ``cost`` (K, the env's J increments)."""
+
+    time_s: np.ndarray
+    state: dict[str, np.ndarray]
+    error_angle_deg: np.ndarray | None
+    applied: np.ndarray
+    cost: np.ndarray
+
+
+def _channels(state: Any) -> dict[str, np.ndarray]:
+    if isinstance(state, dict):
+        return {k: np.atleast_1d(np.asarray(v, dtype=float)) for k, v in state.items()}
+    return {"state": np.atleast_1d(np.asarray(state, dtype=float))}
+
+
+def record_state_trace(
+    env, policy: Policy, seed: int | None = None, options: dict[str, Any] | None = None
+) -> StateTrace:
+    """Run one episode of ``policy`` on any env (it acts on :func:`~attitude_envs.info.policy_view`
+    of each info) and record the truth: state channels, error angle, applied actuation, cost."""
+    obs, info = env.reset(seed=seed, options=options)
+    policy.reset(seed)
+    samples, times, errors = [_channels(info[TRUTH]["state"])], [info["time_s"]], [info[TRUTH].get("error_angle_deg")]
+    applied, costs = [], []
+    terminated = truncated = False
+    while not (terminated or truncated):
+        obs, _, terminated, truncated, info = env.step(np.asarray(policy.act(obs, policy_view(info)), dtype=float))
+        samples.append(_channels(info[TRUTH]["state"]))
+        times.append(info["time_s"])
+        errors.append(info[TRUTH].get("error_angle_deg"))
+        applied.append(np.atleast_1d(np.asarray(info[TRUTH]["applied"], dtype=float)))
+        costs.append(info["cost"])
+    return StateTrace(
+        time_s=np.array(times, dtype=float),
+        state={k: np.array([s[k] for s in samples]) for k in samples[0]},
+        error_angle_deg=None if errors[0] is None else np.array(errors, dtype=float),
+        applied=np.array(applied),
+        cost=np.array(costs, dtype=float),
+    )

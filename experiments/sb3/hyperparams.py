@@ -11,6 +11,7 @@ One YAML file per algorithm (``hyperparams/<algo>.yml``), keyed by gymnasium env
       policy_kwargs: "dict(net_arch=[64, 64], log_std_init=-1)"
       noise_type: 'normal'                                      # TD3 / DDPG / SAC action noise
       noise_std: 0.1
+      backend: sbx                                              # optional: train on SBX (JAX)
 
 The Zoo evaluates ``policy_kwargs`` and ``normalize`` strings with ``eval``; here they are
 parsed without executing code (literals, ``dict(...)`` and ``nn.<Activation>`` only).
@@ -27,10 +28,12 @@ from typing import Any
 import numpy as np
 import yaml
 
+from experiments.sb3.backends import check_backend, policy_kwargs_for
 from experiments.sb3.registry import check_algorithm
 
 # Keys the Zoo reads itself (not passed to the algorithm's constructor).
 ZOO_KEYS = ("n_timesteps", "policy", "normalize", "n_envs", "noise_type", "noise_std", "frame_stack", "env_wrapper")
+# ``backend`` (sb3 | sbx) is this project's addition; rl_zoo3 ignores it.
 _UNSUPPORTED = ("frame_stack", "env_wrapper", "callback", "vec_env_wrapper")
 
 
@@ -137,8 +140,8 @@ def _schedule(name: str, value: Any) -> Any:
     return value
 
 
-def split_hyperparams(entry: dict[str, Any], n_actions: int) -> dict[str, Any]:
-    """Zoo entry → ``{"n_timesteps", "n_envs", "normalize" (dict | None), "policy", "kwargs"}``.
+def split_hyperparams(entry: dict[str, Any], n_actions: int, algo: str) -> dict[str, Any]:
+    """Zoo entry → ``{"n_timesteps", "n_envs", "normalize" (dict | None), "policy", "backend", "kwargs"}``.
 
     ``kwargs`` go to the algorithm's constructor (schedules, ``policy_kwargs`` and action
     noise built); ``normalize`` holds VecNormalize arguments when observation/reward
@@ -150,6 +153,7 @@ def split_hyperparams(entry: dict[str, Any], n_actions: int) -> dict[str, Any]:
     if n_timesteps < 1 or n_envs < 1:
         raise ValueError(f"n_timesteps and n_envs must be >= 1, got {n_timesteps} and {n_envs}")
     policy = entry.pop("policy", "MlpPolicy")
+    backend = check_backend(entry.pop("backend", "sb3"), check_algorithm(algo))
     normalize = parse_python_literal("normalize", entry.pop("normalize", False))
     if normalize is True:
         normalize = {"norm_obs": True, "norm_reward": True}
@@ -161,6 +165,9 @@ def split_hyperparams(entry: dict[str, Any], n_actions: int) -> dict[str, Any]:
     noise_std = float(entry.pop("noise_std", 0.1))
     if "policy_kwargs" in entry:
         entry["policy_kwargs"] = parse_python_literal("policy_kwargs", entry["policy_kwargs"])
+    policy_kwargs = policy_kwargs_for(backend, algo, entry.get("policy_kwargs"))
+    if policy_kwargs is not None:
+        entry["policy_kwargs"] = policy_kwargs
     for key in ("learning_rate", "clip_range", "clip_range_vf"):
         if key in entry:
             entry[key] = _schedule(key, entry[key])
@@ -172,4 +179,11 @@ def split_hyperparams(entry: dict[str, Any], n_actions: int) -> dict[str, Any]:
         if noise_type not in kinds:
             raise ValueError(f"noise_type must be one of {sorted(kinds)}, got {noise_type!r}")
         entry["action_noise"] = kinds[noise_type](np.zeros(n_actions), noise_std * np.ones(n_actions))
-    return {"n_timesteps": n_timesteps, "n_envs": n_envs, "normalize": normalize, "policy": policy, "kwargs": entry}
+    return {
+        "n_timesteps": n_timesteps,
+        "n_envs": n_envs,
+        "normalize": normalize,
+        "policy": policy,
+        "backend": backend,
+        "kwargs": entry,
+    }

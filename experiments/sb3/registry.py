@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import importlib
 
+from experiments.sb3.backends import sbx_class
+
 # name → (module, class, off_policy)
 ALGORITHMS: dict[str, tuple[str, str, bool]] = {
     "ppo": ("stable_baselines3", "PPO", False),
@@ -24,8 +26,11 @@ def check_algorithm(name: str) -> str:
     return key
 
 
-def algorithm_class(name: str):
-    """The SB3 class of ``name`` (``ValueError`` if unknown or its package is not installed)."""
+def algorithm_class(name: str, backend: str = "sb3"):
+    """The class of ``name`` on ``backend`` (``"sb3"``: Stable-Baselines3 or sb3-contrib; ``"sbx"``:
+    its JAX port); ``ValueError`` if unknown or its package is not installed."""
+    if backend != "sb3":
+        return sbx_class(check_algorithm(name))
     module, cls, _ = ALGORITHMS[check_algorithm(name)]
     try:
         return getattr(importlib.import_module(module), cls)

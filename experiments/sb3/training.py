@@ -106,6 +106,7 @@ def train(
     eval_seed: int = 10_000,
     eval_env_kwargs: dict[str, Any] | None = None,
     resume: bool = False,
+    backend: str | None = None,
     progress_bar: bool = False,
     tensorboard: bool | None = None,
     verbose: int = 0,
@@ -128,6 +129,9 @@ def train(
     Training and evaluation run on the natively batched env of ``env_id``
     (:mod:`experiments.sb3.vec_envs`; evaluation plays its episodes as one batch); kwargs it
     does not support (sensors, ``fault_hint``) fall back to single envs.
+    ``backend``: ``"sb3"`` (PyTorch) or ``"sbx"`` (JAX, the ``sbx`` extra; :mod:`experiments.sb3.backends`);
+    default: the entry's ``backend`` key, else ``"sb3"``. Checkpoints, exact resume, best/final
+    snapshots and :func:`load_trained` work the same on both.
     ``progress``: True a bar with ETA on a terminal, else a status line every 30 s; a string is
     its label and means status lines (campaign workers); ``progress_bar``: SB3's own bar instead
     (one per segment).
@@ -143,6 +147,8 @@ def train(
     out_dir = Path(out_dir)
     env_kwargs = dict(env_kwargs or {})
     eval_kwargs = dict(eval_env_kwargs if eval_env_kwargs is not None else env_kwargs)
+    if backend is not None:
+        overrides = {**(overrides or {}), "backend": backend}
     entry = load_hyperparams(algo, env_id, hyperparams_file, overrides)
     probe = make_checked(env_id, **env_kwargs)  # validates the env kwargs before anything is written
     n_actions = int(np.prod(probe.action_space.shape))
@@ -151,13 +157,14 @@ def train(
     probe = make_checked(env_id, **eval_kwargs)
     eval_batched = batched_supported(env_id, probe)
     probe.close()
-    hp = split_hyperparams(entry, n_actions)
+    hp = split_hyperparams(entry, n_actions, algo)
     total = int(total_timesteps if total_timesteps is not None else hp["n_timesteps"])
     if total < 1:
         raise ValueError(f"total_timesteps must be >= 1, got {total}")
 
     config = {
         "algo": algo,
+        "backend": hp["backend"],
         "env_id": env_id,
         "env_kwargs": _json_safe(env_kwargs),
         "seed": int(seed),
@@ -181,7 +188,7 @@ def train(
     elif not resume:
         raise ValueError(f"{str(out_dir)!r} already holds a run; pass --resume to continue it or choose another --out")
     if resume and saved is not None:
-        for key in ("algo", "env_id", "env_kwargs", "seed", "hyperparams", "evaluation"):
+        for key in ("algo", "backend", "env_id", "env_kwargs", "seed", "hyperparams", "evaluation"):
             if key in saved and saved[key] != config[key]:
                 raise ValueError(f"--resume: {key} {config[key]!r} differs from the run's {saved[key]!r}")
 
@@ -288,7 +295,7 @@ def _new_model(algo, env_id, env_kwargs, seed, hp, entry, clock, out_dir, tensor
     if hp["normalize"] is not None:
         venv = VecNormalize(venv, gamma=float(entry.get("gamma", 0.99)), **hp["normalize"])
     try:
-        return algorithm_class(algo)(
+        return algorithm_class(algo, hp["backend"])(
             hp["policy"],
             venv,
             seed=seed,
@@ -338,9 +345,8 @@ def load_trained(model_path: str | Path, env: gym.Env | None = None):
         model_path = next((p for p in inside if p.is_file()), inside[0])
     if not model_path.is_file():
         raise ValueError(f"model file {str(model_path)!r} does not exist")
-    algo = _algo_of(model_path)
-    cls = algorithm_class(algo)
-    model = cls.load(model_path, device="cpu")
+    algo, backend = _algo_of(model_path)
+    model = algorithm_class(algo, backend).load(model_path, device="cpu")
     if env is not None:
         for what in ("observation_space", "action_space"):
             ours, theirs = getattr(env, what), getattr(model, what)
@@ -361,6 +367,11 @@ def load_trained(model_path: str | Path, env: gym.Env | None = None):
 
 
 _POLICY_MODULES = {
+    "sbx.ppo": "ppo",
+    "sbx.sac": "sac",
+    "sbx.td3": "td3",
+    "sbx.ddpg": "ddpg",
+    "sbx.tqc": "tqc",
     "stable_baselines3.sac": "sac",
     "stable_baselines3.td3": "td3",
     "sb3_contrib.tqc": "tqc",
@@ -370,11 +381,12 @@ _POLICY_MODULES = {
 }
 
 
-def _algo_of(model_path: Path) -> str:
-    """The algorithm of a saved model: from the run's config.json, else from its policy's module."""
+def _algo_of(model_path: Path) -> tuple[str, str]:
+    """``(algorithm, backend)`` of a saved model: from the run's config.json, else from its policy's module."""
     for config in (model_path.parent / "config.json", model_path.parent.parent / "config.json"):
         if config.is_file():
-            return json.loads(config.read_text(encoding="utf-8"))["algo"]
+            saved = json.loads(config.read_text(encoding="utf-8"))
+            return saved["algo"], saved.get("backend", "sb3")
     try:
         with zipfile.ZipFile(model_path) as zf:
             data = json.loads(zf.read("data").decode("utf-8"))
@@ -383,5 +395,5 @@ def _algo_of(model_path: Path) -> str:
     module = str(data.get("policy_class", {}).get("__module__", ""))
     for prefix, algo in _POLICY_MODULES.items():
         if module.startswith(prefix):
-            return algo
+            return algo, "sbx" if prefix.startswith("sbx.") else "sb3"
     raise ValueError(f"cannot tell the algorithm of {str(model_path)!r}; keep its config.json beside it")

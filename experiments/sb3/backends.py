@@ -1,0 +1,78 @@
+"""Training backends: Stable-Baselines3 (PyTorch, the default) and SBX (the SB3 maintainers' JAX
+port with the same API, the optional ``sbx`` extra).
+
+A Zoo-format hyperparameter entry may say ``backend: sbx``; ``train --backend`` overrides it.
+The same entry serves both backends: :func:`policy_kwargs_for` maps what differs (activation
+classes, PPO's orthogonal initialization, on in SB3 and off in SBX by default).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+BACKENDS = ("sb3", "sbx")
+
+# the algorithms SBX implements (same names and constructor arguments as SB3's)
+SBX_ALGORITHMS = {"ppo": "PPO", "sac": "SAC", "td3": "TD3", "ddpg": "DDPG", "tqc": "TQC"}
+
+# Threads: JAX sizes its CPU thread pool from the process's CPU affinity and has no setting for
+# it (the XLA_FLAGS options --xla_cpu_multi_thread_eigen / intra_op_parallelism_threads, the
+# usual advice, change nothing in jax 0.10: measured, 2 Eigen threads and 1.5 cores busy per
+# process on 2 cores either way). Campaign workers therefore pin themselves to one CPU each
+# (attitude_envs.processes.pin_to_one_core); a single `train` run keeps JAX's default.
+
+
+def check_backend(backend: str, algo: str) -> str:
+    """The lower-cased backend name; ``ValueError`` naming the accepted ones otherwise (SBX: for
+    the algorithms it implements)."""
+    key = str(backend).lower()
+    if key not in BACKENDS:
+        raise ValueError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
+    if key == "sbx" and algo not in SBX_ALGORITHMS:
+        raise ValueError(f"backend 'sbx' implements {sorted(SBX_ALGORITHMS)}, not {algo!r}; use backend 'sb3'")
+    return key
+
+
+def sbx_class(algo: str):
+    """The SBX class of ``algo`` (``ValueError`` when the ``sbx`` extra is not installed)."""
+    check_backend("sbx", algo)
+    try:
+        import sbx  # optional: the sbx extra (JAX)
+    except ImportError as exc:
+        raise ValueError(
+            "backend 'sbx' needs the optional packages sbx-rl and jax (pip install 'attitude-envs[sbx]'; "
+            "or train on PyTorch: --backend sb3)"
+        ) from exc
+    return getattr(sbx, SBX_ALGORITHMS[algo])
+
+
+_FLAX_ACTIVATIONS = {
+    "ReLU": "relu",
+    "Tanh": "tanh",
+    "ELU": "elu",
+    "GELU": "gelu",
+    "SiLU": "silu",
+    "LeakyReLU": "leaky_relu",
+}
+
+
+def policy_kwargs_for(backend: str, algo: str, policy_kwargs: dict[str, Any] | None) -> dict[str, Any] | None:
+    """``policy_kwargs`` of a Zoo entry for ``backend``. For SBX: ``nn.<Activation>`` (a torch
+    class) becomes the flax function of the same name, and PPO gets ``ortho_init=True`` unless
+    the entry sets it (SB3's default; SBX's default False starts PPO far worse)."""
+    if backend != "sbx":
+        return policy_kwargs
+    out = dict(policy_kwargs or {})
+    activation = out.get("activation_fn")
+    if isinstance(activation, type):
+        name = _FLAX_ACTIVATIONS.get(activation.__name__)
+        if name is None:
+            raise ValueError(
+                f"activation_fn {activation.__name__} has no SBX equivalent here; accepted: {sorted(_FLAX_ACTIVATIONS)}"
+            )
+        import flax.linen as fnn  # optional: the sbx extra
+
+        out["activation_fn"] = getattr(fnn, name)
+    if algo == "ppo":
+        out.setdefault("ortho_init", True)
+    return out or None
