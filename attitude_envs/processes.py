@@ -67,14 +67,16 @@ def die_with_parent(parent_pid: int) -> None:
 def pin_to_one_core(index: int) -> int | None:
     """Restrict this process to one CPU: the ``index``-th (cyclically) of those it may run on.
 
-    Campaign pool workers call it (worker ``i`` → CPU ``i``), because JAX sizes its CPU thread
-    pool from the process's CPU affinity and has no setting for it (XLA_FLAGS thread options
-    are ignored by its current CPU runtime): unpinned, each SBX worker runs its updates on about
-    1.5 cores and two workers on two cores contend. Returns the CPU, or None where the platform
-    has no affinity call (macOS)."""
+    The local pool of a campaign that trains with SBX calls it in each worker (worker ``i`` →
+    CPU ``i``), because JAX sizes its CPU thread pool from the process's CPU affinity and has
+    no setting for it (see :mod:`experiments.sb3.backends`). Returns the CPU, or None where the
+    platform has no affinity call (macOS) or refuses it."""
     if not hasattr(os, "sched_setaffinity"):
         return None
-    cpus = sorted(os.sched_getaffinity(0))
-    cpu = cpus[int(index) % len(cpus)]
-    os.sched_setaffinity(0, {cpu})
+    try:
+        cpus = sorted(os.sched_getaffinity(0))
+        cpu = cpus[int(index) % len(cpus)]
+        os.sched_setaffinity(0, {cpu})
+    except OSError:  # a sandbox that forbids it: run unpinned
+        return None
     return cpu

@@ -22,6 +22,8 @@ import platform
 import time
 from pathlib import Path
 
+import gymnasium as gym
+import numpy as np
 import torch
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import VecNormalize
@@ -46,16 +48,17 @@ def _sbx_installed() -> bool:
 
 
 def _model(algo: str, env_id: str, env_kwargs: dict, backend: str, native: bool, seed: int = 0):
-    entry = load_hyperparams(algo, env_id)
-    hp = split_hyperparams(entry, 3 if "ReactionWheel" in env_id else 1, algo)
+    entry = {**load_hyperparams(algo, env_id), "backend": backend}
+    probe = gym.make(env_id, **env_kwargs)
+    hp = split_hyperparams(entry, int(np.prod(probe.action_space.shape)), algo)
+    probe.close()
     if native:
         venv = make_training_env(env_id, env_kwargs, hp["n_envs"], seed, batched=True)
     else:  # exactly how train() built its envs before: SB3's make_vec_env (a Monitor and DummyVecEnv)
         venv = make_vec_env(env_id, n_envs=hp["n_envs"], seed=seed, env_kwargs={"render_mode": None, **env_kwargs})
     if hp["normalize"] is not None:
         venv = VecNormalize(venv, gamma=float(entry.get("gamma", 0.99)), **hp["normalize"])
-    kwargs = split_hyperparams({**entry, "backend": backend}, venv.action_space.shape[0], algo)["kwargs"]
-    return algorithm_class(algo, backend)(hp["policy"], venv, seed=seed, verbose=0, **kwargs)
+    return algorithm_class(algo, backend)(hp["policy"], venv, seed=seed, verbose=0, **hp["kwargs"])
 
 
 def rollout_steps(model) -> int:

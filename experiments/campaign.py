@@ -77,7 +77,7 @@ from attitude_envs.progress import Progress, status_interval_s
 from experiments.optimum_table import episode_specs, resolve, solve_by_default, solve_job
 from experiments.policies import POLICIES, PolicyUnavailable, _import, build_policy, check_policy_name
 from experiments.sb3.backends import check_backend
-from experiments.sb3.hyperparams import read_yaml
+from experiments.sb3.hyperparams import load_hyperparams, read_yaml
 from experiments.sb3.registry import algorithm_class, check_algorithm
 
 KEY_COLUMNS = ("env", "scenario", "fault", "agent", "train_seed", "seed")
@@ -163,7 +163,8 @@ def load_campaign(config: str | Path | dict, backend: str | None = None) -> Camp
         path = Path(config)
         _require(
             path.suffix in (".yml", ".yaml") or path.is_file(),
-            f"--config must be one of {list(PRESETS)} or a YAML file path, got {str(config)!r}",
+            f"--config must be one of {list(PRESETS)} or a YAML file path, got {str(config)!r}"
+            " (the command line also takes all: the plant campaigns)",
         )
         data = read_yaml(path)
     else:
@@ -525,13 +526,14 @@ def _mp_context(mp):
 
 def _init_worker(parent_pid: int, counter) -> None:
     """Pool-worker initializer: Ctrl-C is the parent's and the worker dies with it
-    (:func:`die_with_parent`); worker ``i`` runs on CPU ``i`` of the allowed ones
-    (:func:`pin_to_one_core`: one JAX thread pool per worker, no contention between workers)."""
+    (:func:`die_with_parent`); with a ``counter``, worker ``i`` runs on CPU ``i`` of the allowed
+    ones (:func:`pin_to_one_core`: one JAX thread pool per worker, no contention between workers)."""
     die_with_parent(parent_pid)
-    with counter.get_lock():
-        index = counter.value
-        counter.value += 1
-    pin_to_one_core(index)
+    if counter is not None:
+        with counter.get_lock():
+            index = counter.value
+            counter.value += 1
+        pin_to_one_core(index)
 
 
 class LocalExecutor:
@@ -541,8 +543,9 @@ class LocalExecutor:
     (Ctrl-C) or any other exception, and on :meth:`close`, pending jobs are cancelled and the
     workers terminated at once instead of finishing their jobs."""
 
-    def __init__(self, workers: int | None = None) -> None:
+    def __init__(self, workers: int | None = None, pin: bool = False) -> None:
         self.workers = max(1, int(workers or os.cpu_count() or 1))
+        self.pin = bool(pin)  # each worker on its own CPU (campaigns that train with SBX)
         self.name = f"local-pool[{self.workers}]"
         self._pool: ProcessPoolExecutor | None = None
         self._children: list = []
@@ -558,7 +561,7 @@ class LocalExecutor:
             max_workers=min(self.workers, len(jobs)),
             mp_context=context,
             initializer=_init_worker,
-            initargs=(os.getpid(), context.Value("i", 0)),
+            initargs=(os.getpid(), context.Value("i", 0) if self.pin else None),
         )
         try:
             pending = {pool.submit(fn, job) for job in jobs}
@@ -638,8 +641,23 @@ class RayExecutor:
             self._ray.shutdown()
 
 
-def make_executor(ray_address: str | None = None, workers: int | None = None):
-    return LocalExecutor(workers) if not ray_address else RayExecutor(ray_address, workers)
+def make_executor(ray_address: str | None = None, workers: int | None = None, pin: bool = False):
+    """Ray (``ray_address``) or the local pool; ``pin``: each local worker on its own CPU."""
+    return LocalExecutor(workers, pin) if not ray_address else RayExecutor(ray_address, workers)
+
+
+def trains_with_sbx(campaign: Campaign) -> bool:
+    """Whether any training job of ``campaign`` runs on SBX (its ``train.backend``, else its
+    hyperparameter entry's)."""
+    for env in campaign.envs:
+        for agent in campaign.agents_for(env):
+            t = agent.train
+            if t is None:
+                continue
+            entry = load_hyperparams(t["algo"], env.id, t.get("hyperparams_file"), t.get("overrides"))
+            if str(t.get("backend", entry.get("backend", "sb3"))).lower() == "sbx":
+                return True
+    return False
 
 
 # --------------------------------------------------------------------------- results store
@@ -838,7 +856,7 @@ def available(agent: AgentSpec) -> str | None:
     try:
         _import(POLICIES[agent.spec["policy"]])
         if agent.train is not None:
-            algorithm_class(agent.train["algo"], agent.train.get("backend", "sb3"))
+            algorithm_class(agent.train["algo"], agent.train.get("backend", "sb3"))  # checks the name too
     except (PolicyUnavailable, ValueError) as exc:
         return str(exc)
     return None
@@ -865,6 +883,38 @@ def _probe_models(campaign: Campaign, skipped: dict[str, str]) -> None:
                 instance.close()
 
 
+def prepare_campaign(
+    config: str | Path | dict,
+    out_dir: str | Path,
+    backend: str | None = None,
+    say: Callable[[str], None] | None = None,
+) -> tuple[Campaign, dict[str, str]]:
+    """Everything checked before a campaign does any work (nothing is written): its definition,
+    that ``out_dir`` holds no other campaign, that every non-optional agent can run here, and
+    that every env, fault and given model builds. Returns the campaign and the skipped
+    optional agents with their reasons."""
+    campaign = load_campaign(config, backend)
+    marker = Path(out_dir) / "campaign.json"
+    if marker.is_file():
+        previous = json.loads(marker.read_text(encoding="utf-8"))
+        if previous.get("fingerprint") != campaign.fingerprint:
+            raise ValueError(
+                f"--out {str(out_dir)!r} holds results of a different campaign definition "
+                f"({previous.get('name')!r}); choose another --out or delete it"
+            )
+    skipped: dict[str, str] = {}
+    for agent in campaign.agents:
+        reason = available(agent)
+        if reason is not None:
+            if not agent.optional:
+                raise ValueError(f"campaign {campaign.name!r}: agent {agent.name!r} cannot run: {reason}")
+            skipped[agent.name] = reason
+            if say is not None:
+                say(f"skipping optional agent {agent.name}: {reason}")
+    _probe_models(campaign, skipped)
+    return campaign, skipped
+
+
 def run_campaign(
     config: str | Path | dict,
     out_dir: str | Path,
@@ -875,26 +925,10 @@ def run_campaign(
 ) -> CampaignResult:
     """Train what needs training, run every episode not yet in ``out_dir``, return all rows.
     ``backend`` overrides the training backend of every trained agent (:func:`load_campaign`)."""
-    campaign = load_campaign(config, backend)
     out_dir = Path(out_dir)
-    marker = out_dir / "campaign.json"
-    if marker.is_file():
-        previous = json.loads(marker.read_text(encoding="utf-8"))
-        if previous.get("fingerprint") != campaign.fingerprint:
-            raise ValueError(
-                f"--out {str(out_dir)!r} holds results of a different campaign definition "
-                f"({previous.get('name')!r}); choose another --out or delete it"
-            )
     say = progress or (lambda _msg: None)
-    skipped: dict[str, str] = {}
-    for agent in campaign.agents:
-        reason = available(agent)
-        if reason is not None:
-            if not agent.optional:
-                raise ValueError(f"agent {agent.name!r} cannot run: {reason}")
-            skipped[agent.name] = reason
-            say(f"skipping optional agent {agent.name}: {reason}")
-    _probe_models(campaign, skipped)
+    campaign, skipped = prepare_campaign(config, out_dir, backend, say)
+    marker = out_dir / "campaign.json"
     out_dir.mkdir(parents=True, exist_ok=True)
     tmp = marker.with_name(marker.name + ".tmp")
     tmp.write_text(
@@ -906,7 +940,7 @@ def run_campaign(
     todo: list[dict[str, Any]] = []
     ran, status, executor, sigint, store, optimum_notes = 0, "failed", None, None, None, []
     try:
-        executor = make_executor(ray_address, workers)
+        executor = make_executor(ray_address, workers, pin=trains_with_sbx(campaign))
         train_jobs = training_jobs(campaign, out_dir, skip_agents=skipped)
         if train_jobs:
             say(f"training {len(train_jobs)} agent run(s)")

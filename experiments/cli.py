@@ -44,6 +44,7 @@ from experiments.campaign import (
     episode_jobs,
     load_campaign,
     make_executor,
+    prepare_campaign,
     run_campaign,
 )
 from experiments.policies import POLICIES, check_policy_name
@@ -284,6 +285,13 @@ def _benchmark(args: argparse.Namespace) -> int:
     outs = [Path(args.out) / Path(name).stem for name in names] if args.config == "all" else [Path(args.out)]
     for out in outs:
         check_out_dir(out)
+    if args.config == "all":  # every campaign checked before the first one runs for hours
+        if (Path(args.out) / "campaign.json").is_file():
+            raise ValueError(
+                f"--out {args.out!r} holds a single campaign's results; --config all needs its own directory"
+            )
+        for config, out in zip(names, outs, strict=True):
+            prepare_campaign(config, out, args.backend)
     results = []
     for config, out in zip(names, outs, strict=True):
         if len(outs) > 1:

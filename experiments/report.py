@@ -390,13 +390,16 @@ def learned_agents(campaign) -> set[str]:
     return {a.name for a in campaign.agents if a.spec.get("policy") in ("sb3", "q-learning-lqr")}
 
 
-def history_agents(board: Sequence[Mapping[str, Any]], learned: set[str]) -> list[str]:
+def history_agents(
+    board: Sequence[Mapping[str, Any]], learned: set[str], drift: set[str] = frozenset({"zero"})
+) -> list[str]:
     """The agents whose time histories a report shows for a cell: the best analytic controller
-    and the best learned agent (free drift is no controller); the best two when only one kind ran."""
-    analytic, trained = _best(board, False, learned), _best(board, True, learned)
+    and the best learned agent (free drift, ``drift``, is no controller); the best two when
+    only one kind ran."""
+    analytic, trained = _best(board, False, learned, drift), _best(board, True, learned, drift)
     picked = [e["agent"] for e in (analytic, trained) if e is not None]
     if len(picked) < 2:
-        picked = [e["agent"] for e in board if e["agent"] != "zero"][:2]
+        picked = [e["agent"] for e in board if e["agent"] not in drift][:2]
     return picked
 
 
@@ -480,7 +483,7 @@ def write_campaign_report(result, video: bool | None = None, command: str | None
         scenario = env_spec.scenarios[0]
         fault = list(env_spec.faults)[-1]
         board = boards.get((env_spec.name, scenario["name"], fault), [])
-        agents = history_agents(board, learned_agents(result.campaign))
+        agents = history_agents(board, learned_agents(result.campaign), free_drift_agents(result.campaign))
         if agents:
             record = record_episode if is_rw else record_state_trace
             traces = _example_traces(result, env_spec, scenario, fault, agents, record)
@@ -530,10 +533,18 @@ def write_campaign_report(result, video: bool | None = None, command: str | None
     return write_report(out_dir, rows, metadata, figures, notes)
 
 
-def _best(board: Sequence[Mapping[str, Any]], learned: bool, trained: set[str]) -> Mapping[str, Any] | None:
-    """The lowest-J entry among the learned (``trained``) or the other agents; free drift is no controller."""
-    pick = [e for e in board if (e["agent"] in trained) == learned and e["agent"] != "zero"]
+def _best(
+    board: Sequence[Mapping[str, Any]], learned: bool, trained: set[str], drift: set[str] = frozenset({"zero"})
+) -> Mapping[str, Any] | None:
+    """The lowest-J entry among the learned (``trained``) or the other agents; free drift
+    (``drift``: the agents with ``policy: zero``) is no controller."""
+    pick = [e for e in board if (e["agent"] in trained) == learned and e["agent"] not in drift]
     return pick[0] if pick else None
+
+
+def free_drift_agents(campaign) -> set[str]:
+    """Names of the agents that apply no control (``policy: zero``)."""
+    return {a.name for a in campaign.agents if a.spec.get("policy") == "zero"}
 
 
 def _best_cell(e: Mapping[str, Any] | None) -> str:
@@ -543,7 +554,7 @@ def _best_cell(e: Mapping[str, Any] | None) -> str:
 
 
 def write_campaign_index(out_dir: str | Path, results: Sequence[tuple[str, Any]]) -> Path:
-    """``OUT/report.md`` of ``--config all``: per campaign its envs (id and kwargs), wall time
+    """``OUT/index.md`` of ``--config all``: per campaign its envs (id and kwargs), wall time
     and report, and per leaderboard cell the best analytic controller and the best learned
     agent (mean J and J/J*); the leaderboards themselves are in each campaign's report."""
     out_dir = Path(out_dir)
@@ -556,8 +567,8 @@ def write_campaign_index(out_dir: str | Path, results: Sequence[tuple[str, Any]]
         )
     lines += ["", "| campaign | env · scenario · fault | best analytic | best learned |", "|---|---|---|---|"]
     for name, result in results:
-        trained = learned_agents(result.campaign)
+        trained, drift = learned_agents(result.campaign), free_drift_agents(result.campaign)
         for cell, board in leaderboards(result.rows).items():
-            analytic, learned = _best(board, False, trained), _best(board, True, trained)
+            analytic, learned = _best(board, False, trained, drift), _best(board, True, trained, drift)
             lines.append(f"| {name} | {' · '.join(cell)} | {_best_cell(analytic)} | {_best_cell(learned)} |")
-    return atomic_write(out_dir / "report.md", "\n".join(lines) + "\n")
+    return atomic_write(out_dir / "index.md", "\n".join(lines) + "\n")

@@ -63,10 +63,28 @@ def test_config_all_runs_every_campaign_into_its_directory_with_an_index(tmp_pat
     assert cli.main(["benchmark", "--config", "all", "--out", str(out), "--jobs", "1", "--no-video"]) == 0
     for name in ("tiny-ab", "tiny-fs"):
         assert (out / name / "report.md").is_file() and (out / name / "episodes.csv").is_file()
-    index = (out / "report.md").read_text()
+    index = (out / "index.md").read_text()
     assert "[tiny-ab/report.md](tiny-ab/report.md)" in index and "`attitude_envs/FuelSlosh-v0`" in index
     assert "| tiny-fs | e · default · none | slosh-pd: J " in index  # the best analytic controller per cell
     assert "== campaign" in capsys.readouterr().out
+    with pytest.raises(ValueError, match="holds a single campaign's results; --config all needs its own directory"):
+        cli._benchmark(cli.build_parser().parse_args(["benchmark", "--config", "all", "--out", str(out / "tiny-ab")]))
+
+
+def test_config_all_checks_every_campaign_before_running_any(tmp_path, monkeypatch):
+    good, bad = tmp_path / "good.yml", tmp_path / "bad.yml"
+    good.write_text(
+        TINY.format(name="good", id="attitude_envs/AirBearing-v0", kwargs="{episode_duration_s: 1.0}", agent="lqr")
+    )
+    bad.write_text(
+        TINY.format(name="bad", id="attitude_envs/AirBearing-v0", kwargs="{episode_duration_s: 1.0}", agent="lqr")
+    )
+    (tmp_path / "all" / "bad").mkdir(parents=True)
+    (tmp_path / "all" / "bad" / "campaign.json").write_text('{"name": "other", "fingerprint": "x"}')
+    monkeypatch.setattr(cli, "PLANT_CAMPAIGNS", (str(good), str(bad)))
+    with pytest.raises(ValueError, match="holds results of a different campaign definition"):
+        cli._benchmark(cli.build_parser().parse_args(["benchmark", "--config", "all", "--out", str(tmp_path / "all")]))
+    assert not (tmp_path / "all" / "good").exists()  # nothing ran
 
 
 def test_backend_option_replaces_every_trained_agents_backend():
@@ -123,7 +141,7 @@ def _affinity(_job):
 
 
 @pytest.mark.skipif(not hasattr(__import__("os"), "sched_getaffinity"), reason="no CPU affinity on this platform")
-def test_campaign_workers_each_run_on_their_own_cpu():
+def test_pinned_campaign_workers_each_run_on_their_own_cpu():
     import os
 
     from experiments.campaign import LocalExecutor
@@ -131,7 +149,18 @@ def test_campaign_workers_each_run_on_their_own_cpu():
     cpus = sorted(os.sched_getaffinity(0))
     if len(cpus) < 2:
         pytest.skip("one CPU")
-    executor = LocalExecutor(2)
-    seen = {tuple(a) for a in executor.map_unordered(_affinity, [{}] * 6)}
+    seen = {tuple(a) for a in LocalExecutor(2, pin=True).map_unordered(_affinity, [{}] * 6)}
     assert seen <= {(cpus[0],), (cpus[1],)} and len(seen) == 2
     assert sorted(os.sched_getaffinity(0)) == cpus  # the parent keeps all of them
+    unpinned = {tuple(a) for a in LocalExecutor(2).map_unordered(_affinity, [{}] * 4)}
+    assert unpinned == {tuple(cpus)}  # only campaigns that train with SBX pin their workers
+
+
+def test_only_campaigns_that_train_with_sbx_pin_their_workers():
+    from experiments.campaign import trains_with_sbx
+
+    data = yaml.safe_load(preset_path("linear").read_text())
+    assert not trains_with_sbx(load_campaign(data))
+    assert trains_with_sbx(load_campaign(data, backend="sbx"))
+    data["agents"][-1]["train"]["overrides"] = {"backend": "sbx"}  # the entry's backend counts too
+    assert trains_with_sbx(load_campaign(data))

@@ -1,6 +1,7 @@
 """The optional SBX (JAX) backend: chosen per run, saves and loads like SB3 models, resumes
 exactly, and campaigns and reports name it (training on every env id: test_sb3_native_env)."""
 
+import importlib.util
 import json
 
 import numpy as np
@@ -12,6 +13,7 @@ pytest.importorskip("stable_baselines3")
 
 import attitude_envs  # noqa: F401,E402
 from experiments.sb3.hyperparams import split_hyperparams  # noqa: E402
+from experiments.sb3.training import load_trained, train  # noqa: E402
 
 RW = "attitude_envs/ReactionWheel-v0"
 LS_SHORT = {"episode_steps": 40, "x0_std": 0.1}
@@ -38,10 +40,12 @@ def test_without_the_extra_sbx_is_a_clear_error_naming_the_install_and_the_fallb
         algorithm_class("sac", "sbx")
 
 
-sbx = pytest.importorskip("sbx")
-from experiments.sb3.training import load_trained, train  # noqa: E402
+needs_sbx = pytest.mark.skipif(
+    importlib.util.find_spec("sbx") is None, reason="the optional sbx extra is not installed"
+)
 
 
+@needs_sbx
 def test_one_zoo_entry_serves_both_backends():
     entry = {"policy_kwargs": "dict(net_arch=[8], activation_fn=nn.ReLU)", "backend": "sbx"}
     sbx_kwargs = split_hyperparams(entry, 3, "ppo")["kwargs"]["policy_kwargs"]
@@ -60,6 +64,7 @@ def test_one_zoo_entry_serves_both_backends():
         split_hyperparams({**entry, "policy_kwargs": "dict(activation_fn=nn.Softsign)"}, 3, "ppo")
 
 
+@needs_sbx
 def test_sbx_sac_resumes_a_killed_run_bitwise(tmp_path, monkeypatch):
     options = {
         "env_kwargs": {"episode_duration_s": 5.0},
@@ -86,17 +91,21 @@ def test_sbx_sac_resumes_a_killed_run_bitwise(tmp_path, monkeypatch):
     with pytest.raises(KeyboardInterrupt):
         train("sac", RW, tmp_path / "killed", **options)
     monkeypatch.setattr(training, "write_checkpoint", real)
-    resumed = train("sac", RW, tmp_path / "killed", resume=True, **options)
+    without_backend = {k: v for k, v in options.items() if k != "backend"}
+    resumed = train("sac", RW, tmp_path / "killed", resume=True, **without_backend)  # keeps the run's backend
     assert resumed.resumed_from == 400
     ref_csv = (tmp_path / "reference" / "evaluations.csv").read_text()
     assert (tmp_path / "killed" / "evaluations.csv").read_text() == ref_csv and ref_csv.count("\n") == 4
     obs = np.random.default_rng(0).normal(size=(16, 6)).astype(np.float32)
     same = [load_trained(r.model_path).predict(obs, deterministic=True)[0] for r in (reference, resumed)]
     assert np.array_equal(*same)
-    with pytest.raises(ValueError, match="--resume: backend 'sb3' differs from the run's 'sbx'"):
+    with pytest.raises(
+        ValueError, match=r"--resume: backend 'sb3' differs from the run's 'sbx' \(pass --backend sbx\)"
+    ):
         train("sac", RW, tmp_path / "killed", resume=True, **{**options, "backend": "sb3"})
 
 
+@needs_sbx
 def test_a_campaign_trains_with_sbx_and_its_report_names_the_backend(tmp_path):
     from experiments.campaign import run_campaign
     from experiments.report import write_campaign_report

@@ -45,27 +45,33 @@ class EpisodeTrace:
         return np.diff(self.time_s)
 
 
+def play(env, policy: Policy, seed: int | None = None, options: dict[str, Any] | None = None):
+    """Run one episode of ``policy`` (``reset(seed)``, ``act(obs, policy_view(info))``: no ground
+    truth reaches it); returns ``(infos, actions, terminated)``: the reset's info and every
+    step's (K + 1), the policy's raw actions (K) and whether the episode terminated."""
+    obs, info = env.reset(seed=seed, options=options)
+    policy.reset(seed)
+    infos, actions = [info], []
+    terminated = truncated = False
+    while not (terminated or truncated):
+        action = np.asarray(policy.act(obs, policy_view(info)), dtype=float)
+        obs, _, terminated, truncated, info = env.step(action)
+        infos.append(info)
+        actions.append(action)
+    return infos, actions, bool(terminated)
+
+
 def record_episode(env, policy: Policy, seed: int | None = None, options: dict[str, Any] | None = None) -> EpisodeTrace:
     """Run one episode of ``policy`` (``reset(seed)``, ``act(obs, info)``) on a ReactionWheel env.
 
     The policy acts on :func:`attitude_envs.info.policy_view` of each info (no ground truth);
     the trace records the truth (``info["truth"]``: true state, applied torques, error angle)."""
-    obs, info = env.reset(seed=seed, options=options)
-    policy.reset(seed)
-    samples = [info[TRUTH]]
-    times = [info["time_s"]]
-    actions, commanded, applied, costs = [], [], [], []
-    terminated = truncated = False
-    while not (terminated or truncated):
-        action = np.asarray(policy.act(obs, policy_view(info)), dtype=float)
-        obs, _, terminated, truncated, info = env.step(action)
-        truth = info[TRUTH]
-        actions.append(action)
-        commanded.append(info["commanded"])
-        applied.append(truth["applied"])
-        costs.append(info["cost"])
-        times.append(info["time_s"])
-        samples.append(truth)
+    infos, actions, terminated = play(env, policy, seed, options)
+    samples = [i[TRUTH] for i in infos]
+    times = [i["time_s"] for i in infos]
+    commanded = [i["commanded"] for i in infos[1:]]
+    applied = [i[TRUTH]["applied"] for i in infos[1:]]
+    costs = [i["cost"] for i in infos[1:]]
 
     def stack(key: str) -> np.ndarray:
         return np.array([s["state"][key] for s in samples])
@@ -81,7 +87,7 @@ def record_episode(env, policy: Policy, seed: int | None = None, options: dict[s
         commanded_nm=np.array(commanded),
         applied_nm=np.array(applied),
         cost=np.array(costs),
-        terminated=bool(terminated),
+        terminated=terminated,
         max_wheel_torque_nm=float(env.unwrapped.model.params.max_wheel_torque_nm),
     )
 
@@ -113,18 +119,12 @@ def record_state_trace(
 ) -> StateTrace:
     """Run one episode of ``policy`` on any env (it acts on :func:`~attitude_envs.info.policy_view`
     of each info) and record the truth: state channels, error angle, applied actuation, cost."""
-    obs, info = env.reset(seed=seed, options=options)
-    policy.reset(seed)
-    samples, times, errors = [_channels(info[TRUTH]["state"])], [info["time_s"]], [info[TRUTH].get("error_angle_deg")]
-    applied, costs = [], []
-    terminated = truncated = False
-    while not (terminated or truncated):
-        obs, _, terminated, truncated, info = env.step(np.asarray(policy.act(obs, policy_view(info)), dtype=float))
-        samples.append(_channels(info[TRUTH]["state"]))
-        times.append(info["time_s"])
-        errors.append(info[TRUTH].get("error_angle_deg"))
-        applied.append(np.atleast_1d(np.asarray(info[TRUTH]["applied"], dtype=float)))
-        costs.append(info["cost"])
+    infos, _, _ = play(env, policy, seed, options)
+    samples = [_channels(i[TRUTH]["state"]) for i in infos]
+    times = [i["time_s"] for i in infos]
+    errors = [i[TRUTH].get("error_angle_deg") for i in infos]
+    applied = [np.atleast_1d(np.asarray(i[TRUTH]["applied"], dtype=float)) for i in infos[1:]]
+    costs = [i["cost"] for i in infos[1:]]
     return StateTrace(
         time_s=np.array(times, dtype=float),
         state={k: np.array([s[k] for s in samples]) for k in samples[0]},

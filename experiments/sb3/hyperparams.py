@@ -11,7 +11,7 @@ One YAML file per algorithm (``hyperparams/<algo>.yml``), keyed by gymnasium env
       policy_kwargs: "dict(net_arch=[64, 64], log_std_init=-1)"
       noise_type: 'normal'                                      # TD3 / DDPG / SAC action noise
       noise_std: 0.1
-      backend: sbx                                              # optional: train on SBX (JAX)
+      backend: sbx                                              # optional: train on SBX (JAX); not a Zoo key
 
 The Zoo evaluates ``policy_kwargs`` and ``normalize`` strings with ``eval``; here they are
 parsed without executing code (literals, ``dict(...)`` and ``nn.<Activation>`` only).
@@ -33,7 +33,8 @@ from experiments.sb3.registry import check_algorithm
 
 # Keys the Zoo reads itself (not passed to the algorithm's constructor).
 ZOO_KEYS = ("n_timesteps", "policy", "normalize", "n_envs", "noise_type", "noise_std", "frame_stack", "env_wrapper")
-# ``backend`` (sb3 | sbx) is this project's addition; rl_zoo3 ignores it.
+# ``backend`` (sb3 | sbx) is this project's addition: rl_zoo3 would pass it to the algorithm's
+# constructor (a TypeError there), so remove it from an entry before using the entry with rl_zoo3.
 _UNSUPPORTED = ("frame_stack", "env_wrapper", "callback", "vec_env_wrapper")
 
 
@@ -140,7 +141,7 @@ def _schedule(name: str, value: Any) -> Any:
     return value
 
 
-def split_hyperparams(entry: dict[str, Any], n_actions: int, algo: str) -> dict[str, Any]:
+def split_hyperparams(entry: dict[str, Any], n_actions: int, algo: str | None = None) -> dict[str, Any]:
     """Zoo entry → ``{"n_timesteps", "n_envs", "normalize" (dict | None), "policy", "backend", "kwargs"}``.
 
     ``kwargs`` go to the algorithm's constructor (schedules, ``policy_kwargs`` and action
@@ -153,7 +154,9 @@ def split_hyperparams(entry: dict[str, Any], n_actions: int, algo: str) -> dict[
     if n_timesteps < 1 or n_envs < 1:
         raise ValueError(f"n_timesteps and n_envs must be >= 1, got {n_timesteps} and {n_envs}")
     policy = entry.pop("policy", "MlpPolicy")
-    backend = check_backend(entry.pop("backend", "sb3"), check_algorithm(algo))
+    backend = entry.pop("backend", "sb3")
+    if algo is not None:  # the backend's adaptations depend on the algorithm
+        backend = check_backend(backend, check_algorithm(algo))
     normalize = parse_python_literal("normalize", entry.pop("normalize", False))
     if normalize is True:
         normalize = {"norm_obs": True, "norm_reward": True}
@@ -165,9 +168,10 @@ def split_hyperparams(entry: dict[str, Any], n_actions: int, algo: str) -> dict[
     noise_std = float(entry.pop("noise_std", 0.1))
     if "policy_kwargs" in entry:
         entry["policy_kwargs"] = parse_python_literal("policy_kwargs", entry["policy_kwargs"])
-    policy_kwargs = policy_kwargs_for(backend, algo, entry.get("policy_kwargs"))
-    if policy_kwargs is not None:
-        entry["policy_kwargs"] = policy_kwargs
+    if algo is not None:
+        policy_kwargs = policy_kwargs_for(backend, check_algorithm(algo), entry.get("policy_kwargs"))
+        if policy_kwargs is not None:
+            entry["policy_kwargs"] = policy_kwargs
     for key in ("learning_rate", "clip_range", "clip_range_vf"):
         if key in entry:
             entry[key] = _schedule(key, entry[key])

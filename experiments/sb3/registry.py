@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import importlib
 
-from experiments.sb3.backends import sbx_class
+from experiments.sb3.backends import check_backend, sbx_class
 
 # name → (module, class, off_policy)
 ALGORITHMS: dict[str, tuple[str, str, bool]] = {
@@ -29,7 +29,7 @@ def check_algorithm(name: str) -> str:
 def algorithm_class(name: str, backend: str = "sb3"):
     """The class of ``name`` on ``backend`` (``"sb3"``: Stable-Baselines3 or sb3-contrib; ``"sbx"``:
     its JAX port); ``ValueError`` if unknown or its package is not installed."""
-    if backend != "sb3":
+    if check_backend(backend, check_algorithm(name)) == "sbx":
         return sbx_class(check_algorithm(name))
     module, cls, _ = ALGORITHMS[check_algorithm(name)]
     try:

@@ -147,6 +147,9 @@ def train(
     out_dir = Path(out_dir)
     env_kwargs = dict(env_kwargs or {})
     eval_kwargs = dict(eval_env_kwargs if eval_env_kwargs is not None else env_kwargs)
+    if backend is None and resume:  # a resumed run keeps the backend it was started with
+        started = (read_json(out_dir / "config.json") or {}).get("hyperparams", {})
+        backend = started.get("backend") if "backend" in started and "backend" not in (overrides or {}) else None
     if backend is not None:
         overrides = {**(overrides or {}), "backend": backend}
     entry = load_hyperparams(algo, env_id, hyperparams_file, overrides)
@@ -190,7 +193,8 @@ def train(
     if resume and saved is not None:
         for key in ("algo", "backend", "env_id", "env_kwargs", "seed", "hyperparams", "evaluation"):
             if key in saved and saved[key] != config[key]:
-                raise ValueError(f"--resume: {key} {config[key]!r} differs from the run's {saved[key]!r}")
+                hint = f" (pass --backend {saved['backend']})" if key == "backend" else ""
+                raise ValueError(f"--resume: {key} {config[key]!r} differs from the run's {saved[key]!r}{hint}")
 
     torch.set_num_threads(1)  # one thread: bitwise repeatable (and small networks gain nothing from more)
     evaluations = EvalLog(out_dir)
@@ -369,8 +373,7 @@ def load_trained(model_path: str | Path, env: gym.Env | None = None):
 _POLICY_MODULES = {
     "sbx.ppo": "ppo",
     "sbx.sac": "sac",
-    "sbx.td3": "td3",
-    "sbx.ddpg": "ddpg",
+    "sbx.td3": "td3",  # SBX's DDPG saves TD3's policy too: without config.json it loads as TD3 (same network)
     "sbx.tqc": "tqc",
     "stable_baselines3.sac": "sac",
     "stable_baselines3.td3": "td3",
