@@ -238,11 +238,13 @@ def _model_snapshot(path: str, select: str) -> Path:
 
 
 def _algo_label(model: Path) -> str:
-    """The agent's name in the tables: the run's algorithm (``config.json``), else ``sb3``."""
+    """The agent's name in the tables: the run's algorithm (``config.json``; ``-sbx`` appended for
+    an SBX model), else ``sb3``."""
     for config in (model.parent / "config.json", model.parent.parent / "config.json"):
         if config.is_file():
             try:
-                return str(json.loads(config.read_text(encoding="utf-8"))["algo"])
+                saved = json.loads(config.read_text(encoding="utf-8"))
+                return str(saved["algo"]) + ("-sbx" if saved.get("backend") == "sbx" else "")
             except (ValueError, KeyError):
                 break
     return "sb3"

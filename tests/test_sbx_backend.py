@@ -40,6 +40,16 @@ def test_without_the_extra_sbx_is_a_clear_error_naming_the_install_and_the_fallb
         algorithm_class("sac", "sbx")
 
 
+def test_evaluate_names_an_sbx_model_by_its_algorithm_and_backend(tmp_path):
+    from experiments.cli import _algo_label
+
+    for backend, label in (("sbx", "sac-sbx"), ("sb3", "sac")):
+        run = tmp_path / backend
+        (run / "final").mkdir(parents=True)
+        (run / "config.json").write_text(json.dumps({"algo": "sac", "backend": backend}))
+        assert _algo_label(run / "final" / "model.zip") == label
+
+
 needs_sbx = pytest.mark.skipif(
     importlib.util.find_spec("sbx") is None, reason="the optional sbx extra is not installed"
 )
