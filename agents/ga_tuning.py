@@ -48,7 +48,7 @@ import pygad
 import attitude_envs  # noqa: F401  (registers the env ids, also in the pool's workers)
 from attitude_envs import validation
 from attitude_envs.info import TRUTH, policy_view
-from attitude_envs.processes import die_with_parent
+from attitude_envs.processes import die_with_parent, pool_context
 from attitude_envs.progress import Progress
 from baselines.pid import GAIN_NAMES, UNITS, GainSchedule, PIDGains, PIDPolicy, euler_error
 
@@ -221,7 +221,10 @@ class Evaluator:
     def __enter__(self) -> Evaluator:
         if self.workers > 1:
             self._pool = ProcessPoolExecutor(
-                self.workers, initializer=_pool_worker_init, initargs=(os.getpid(), self.env_id, self.env_kwargs)
+                self.workers,
+                mp_context=pool_context(),
+                initializer=_pool_worker_init,
+                initargs=(os.getpid(), self.env_id, self.env_kwargs),
             )
         return self
 

@@ -80,3 +80,15 @@ def pin_to_one_core(index: int) -> int | None:
     except OSError:  # a sandbox that forbids it: run unpinned
         return None
     return cpu
+
+
+def pool_context():
+    """The multiprocessing context for a process pool: ``fork`` where available (fast start, no
+    re-import of the caller's ``__main__``), unless this process already runs torch or JAX, whose
+    thread pools a fork can leave locked in the child (a hang): then ``forkserver`` (else ``spawn``)."""
+    import multiprocessing as mp
+
+    methods = mp.get_all_start_methods()
+    if "fork" in methods and not {"torch", "jax"} & set(sys.modules):
+        return mp.get_context("fork")
+    return mp.get_context("forkserver" if "forkserver" in methods else "spawn")

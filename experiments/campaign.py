@@ -52,7 +52,6 @@ import json
 import multiprocessing as mp
 import os
 import signal
-import sys
 import time
 import uuid
 from collections.abc import Callable, Iterable, Iterator
@@ -72,7 +71,7 @@ from attitude_envs.evaluation.trace import record_episode
 from attitude_envs.info import policy_view
 from attitude_envs.make import check_env_id, make_checked
 from attitude_envs.plants.gyrostat_model import ReactionWheelModel
-from attitude_envs.processes import die_with_parent, pin_to_one_core
+from attitude_envs.processes import die_with_parent, pin_to_one_core, pool_context
 from attitude_envs.progress import Progress, status_interval_s
 from experiments.optimum_table import episode_specs, resolve, solve_by_default, solve_job
 from experiments.policies import POLICIES, PolicyUnavailable, _import, build_policy, check_policy_name
@@ -515,15 +514,6 @@ def _generic_metrics(env, policy, job: dict[str, Any]) -> dict[str, Any]:
 # --------------------------------------------------------------------------- executors
 
 
-def _mp_context(mp):
-    """``fork`` where available (fast start, no re-import of the caller's ``__main__``), unless this
-    process already runs torch (forking its thread pools can hang the child): then ``forkserver``."""
-    methods = mp.get_all_start_methods()
-    if "fork" in methods and "torch" not in sys.modules:
-        return mp.get_context("fork")
-    return mp.get_context("forkserver" if "forkserver" in methods else "spawn")
-
-
 def _init_worker(parent_pid: int, counter) -> None:
     """Pool-worker initializer: Ctrl-C is the parent's and the worker dies with it
     (:func:`die_with_parent`); with a ``counter``, worker ``i`` runs on CPU ``i`` of the allowed
@@ -556,7 +546,7 @@ class LocalExecutor:
                 yield fn(job)
             return
         before = {p.pid for p in mp.active_children()}
-        context = _mp_context(mp)
+        context = pool_context()
         self._pool = pool = ProcessPoolExecutor(
             max_workers=min(self.workers, len(jobs)),
             mp_context=context,

@@ -40,6 +40,7 @@ import numpy as np
 
 import attitude_envs  # noqa: F401  (registers the env ids, also in the pool's workers)
 from attitude_envs.evaluation.tracking_metrics import run_traced, tracking_metrics
+from attitude_envs.processes import pool_context
 from baselines.sliding_mode import AMNFTSMCPolicy, FTSMCStandInPolicy, MNFTSMCPolicy
 from experiments.reproduction import Row, write_reproduction
 from experiments.reproductions.fault_tolerant_smc_design import ConsistentDesign, derive
@@ -172,7 +173,7 @@ def reproduce(out_dir: Path, quick: bool = False) -> list[Row]:
         duration = gym.make("attitude_envs/Magnetorquer-v0", **PAPER_ENV).unwrapped.episode_duration_s
     design = consistent_design()
     n = len(jobs)
-    with ProcessPoolExecutor(max_workers=min(n, os.cpu_count() or 1)) as pool:
+    with ProcessPoolExecutor(max_workers=min(n, os.cpu_count() or 1), mp_context=pool_context()) as pool:
         results = list(pool.map(run_case, *zip(*jobs, strict=True), [duration] * n, [0] * n, [design] * n))
     rows: list[Row] = [
         Row("consistent", "derived design", name, None, float(value), None)
