@@ -89,8 +89,9 @@ def test_config_all_checks_every_campaign_before_running_any(tmp_path, monkeypat
 
 def test_backend_option_replaces_every_trained_agents_backend():
     data = yaml.safe_load(preset_path("wheel").read_text())
-    plain, forced = load_campaign(data), load_campaign(data, backend="sbx")
-    assert all(a.train.get("backend") == "sbx" for a in forced.agents if a.train is not None)
+    plain, forced = load_campaign(data), load_campaign(data, backend="sb3")
+    assert all(a.train["backend"] == "sbx" for a in plain.agents if a.train is not None)  # the parity run's choice
+    assert all(a.train.get("backend") == "sb3" for a in forced.agents if a.train is not None)
     assert plain.fingerprint != forced.fingerprint  # a different campaign: results never mix
     assert json.dumps(data) == json.dumps(yaml.safe_load(Path(preset_path("wheel")).read_text()))  # input untouched
 
@@ -160,7 +161,11 @@ def test_only_campaigns_that_train_with_sbx_pin_their_workers():
     from experiments.campaign import trains_with_sbx
 
     data = yaml.safe_load(preset_path("linear").read_text())
+    assert trains_with_sbx(load_campaign(data))
+    assert not trains_with_sbx(load_campaign(data, backend="sb3"))
+    for agent in data["agents"]:
+        if "train" in agent:
+            del agent["train"]["backend"]
     assert not trains_with_sbx(load_campaign(data))
-    assert trains_with_sbx(load_campaign(data, backend="sbx"))
     data["agents"][-1]["train"]["overrides"] = {"backend": "sbx"}  # the entry's backend counts too
     assert trains_with_sbx(load_campaign(data))
