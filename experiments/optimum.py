@@ -36,6 +36,7 @@ import numpy as np
 import attitude_envs
 from attitude_envs.info import policy_view
 from attitude_envs.symbolic import BUILDERS, DiscreteProblem, problem_for
+from experiments.jsonable import json_ready
 from experiments.policies import build_policy
 
 try:
@@ -100,7 +101,7 @@ class OptimumResult:
         """The JSON row of ``optimum.json`` (everything but the actions)."""
         d = asdict(self)
         d.pop("actions")
-        return _jsonable(d)
+        return json_ready(d)
 
 
 def env_name(env_id: str) -> str:
@@ -131,24 +132,12 @@ def cache_dir() -> Path:
     return Path(base) / "attitude-envs" / "optimum"
 
 
-def _jsonable(value):
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _jsonable(value.tolist())
-    if isinstance(value, np.generic):
-        return value.item()
-    return value
-
-
 def _cache_key(env_id, env_kwargs, seed, options, settings) -> str:
     payload = {
         "env_id": env_name(env_id),
-        "env_kwargs": _jsonable(env_kwargs),
+        "env_kwargs": json_ready(env_kwargs),
         "seed": seed,
-        "options": _jsonable(options),
+        "options": json_ready(options),
         "settings": settings,
         "version": attitude_envs.__version__,
         "casadi": casadi.__version__,

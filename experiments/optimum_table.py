@@ -32,9 +32,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from attitude_envs.progress import Progress
+from experiments.jsonable import json_ready
 
 TABLE_FILE = "optimum_table.json"
 #: the campaign cells the shipped table covers, as ``attitude-envs optimum --campaign`` takes them:
@@ -60,19 +59,6 @@ DESCRIPTION = (
 SOURCES = ("table", "cache", "solved", "unsupported", "missing")
 
 
-def _plain(value: Any) -> Any:
-    """JSON-ready: numpy arrays and scalars to lists and numbers, tuples to lists, keys to str."""
-    if isinstance(value, Mapping):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_plain(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _plain(value.tolist())
-    if isinstance(value, np.generic):
-        return value.item()
-    return value
-
-
 def env_name(env_id: str) -> str:
     """``"ReactionWheel-v0"`` of ``"attitude_envs/ReactionWheel-v0"`` or of itself."""
     return env_id.split("/")[-1]
@@ -83,15 +69,15 @@ def episode_key(env_id: str, env_kwargs: Mapping[str, Any] | None, seed: int, op
     options (None when empty: ``reset(options={})`` is ``reset(options=None)``)."""
     return {
         "env_id": env_name(env_id),
-        "env_kwargs": _plain(dict(env_kwargs or {})),
+        "env_kwargs": json_ready(dict(env_kwargs or {})),
         "seed": int(seed),
-        "options": _plain(dict(options)) if options else None,
+        "options": json_ready(dict(options)) if options else None,
     }
 
 
 def key_hash(key: Mapping[str, Any]) -> str:
     """A stable hash of an :func:`episode_key` (sorted-key JSON, SHA-256, 20 hex digits)."""
-    text = json.dumps(_plain(key), sort_keys=True, separators=(",", ":"), default=repr)
+    text = json.dumps(json_ready(key), sort_keys=True, separators=(",", ":"), default=repr)
     return hashlib.sha256(text.encode()).hexdigest()[:20]
 
 

@@ -28,6 +28,7 @@ from stable_baselines3.common.utils import set_random_seed
 from stable_baselines3.common.vec_env import VecNormalize
 
 from attitude_envs.make import check_env_id, make_checked
+from experiments.jsonable import json_ready
 from experiments.sb3.callbacks import (
     EvalLog,
     NormalizedPredictor,
@@ -61,20 +62,6 @@ class TrainResult:
     wall_time_s: float
     last_eval: dict[str, float] | None
     already_complete: bool = False  # resumed at or past its budget: nothing trained
-
-
-def _json_safe(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {str(k): _json_safe(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_json_safe(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    if callable(value) or isinstance(value, type):
-        return repr(value)
-    return value
 
 
 def _tensorboard_dir(out_dir: Path, tensorboard: bool | None) -> str | None:
@@ -169,15 +156,15 @@ def train(
         "algo": algo,
         "backend": hp["backend"],
         "env_id": env_id,
-        "env_kwargs": _json_safe(env_kwargs),
+        "env_kwargs": _config_value(env_kwargs),
         "seed": int(seed),
-        "hyperparams": _json_safe(entry),
+        "hyperparams": _config_value(entry),
         "total_timesteps": total,
         "evaluation": {
             "freq": int(eval_freq),
             "episodes": int(eval_episodes),
             "seed": int(eval_seed),
-            "env_kwargs": _json_safe(eval_kwargs),
+            "env_kwargs": _config_value(eval_kwargs),
         },
         "checkpoint_freq": int(checkpoint_freq),
     }
@@ -280,6 +267,11 @@ def train(
         last_eval=run["last_eval"],
         already_complete=already_complete,
     )
+
+
+def _config_value(value: Any) -> Any:
+    """JSON-ready, callables and classes (schedules, activation classes) as their repr."""
+    return json_ready(value, leaf=lambda v: repr(v) if callable(v) or isinstance(v, type) else v)
 
 
 def _next_multiple(steps: int, every: int) -> int:

@@ -1,0 +1,22 @@
+"""JSON-ready copies of nested values (run configs, episode keys, cache keys)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import numpy as np
+
+
+def json_ready(value: Any, leaf: Callable[[Any], Any] | None = None) -> Any:
+    """``value`` with mappings as dicts (keys as str), tuples and lists as lists, numpy arrays
+    and scalars as lists and numbers; every other leaf as ``leaf(leaf_value)`` (default: itself)."""
+    if isinstance(value, Mapping):
+        return {str(k): json_ready(v, leaf) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [json_ready(v, leaf) for v in value]
+    if isinstance(value, np.ndarray):
+        return json_ready(value.tolist(), leaf)
+    if isinstance(value, np.generic):
+        return value.item()
+    return value if leaf is None else leaf(value)
