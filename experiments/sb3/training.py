@@ -134,8 +134,9 @@ def train(
     out_dir = Path(out_dir)
     env_kwargs = dict(env_kwargs or {})
     eval_kwargs = dict(eval_env_kwargs if eval_env_kwargs is not None else env_kwargs)
+    saved = read_json(out_dir / "config.json")
     if backend is None and resume:  # a resumed run keeps the backend it was started with
-        started = (read_json(out_dir / "config.json") or {}).get("hyperparams", {})
+        started = (saved or {}).get("hyperparams", {})
         backend = started.get("backend") if "backend" in started and "backend" not in (overrides or {}) else None
     if backend is not None:
         overrides = {**(overrides or {}), "backend": backend}
@@ -169,7 +170,6 @@ def train(
         "checkpoint_freq": int(checkpoint_freq),
     }
     checkpoint = latest_checkpoint(out_dir)
-    saved = read_json(out_dir / "config.json")
     if checkpoint is None:
         if resume and saved is None:
             raise ValueError(
