@@ -93,7 +93,7 @@ def leaderboards(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str, str]
                 "J_iqm": iqm(J),
                 "success_rate": float(np.mean([bool(r.get("success")) for r in rs])),
                 "recovery_time_s": _finite_mean([r.get("recovery_time_s") for r in rs]),
-                **_ratio_stats([r.get("j_over_j_star") for r in rs]),
+                **_ratio_stats(rs),
             }
             for m in PAPER_METRICS:
                 if any(m in r for r in rs):
@@ -104,18 +104,44 @@ def leaderboards(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str, str]
     return dict(sorted(out.items()))
 
 
-def _ratio_stats(values: Sequence[Any]) -> dict[str, Any]:
-    """Mean of the per-episode J / J* (finite ones), its 95 % bootstrap CI, whether every
-    episode gave the same ratio, and how many episodes had a J*."""
-    x = [float(v) for v in values if v is not None and np.isfinite(float(v))]
-    deterministic = is_deterministic(x)
-    lo, hi = (float("nan"), float("nan")) if deterministic or not x else bootstrap_ci(x)
+def _ratio_stats(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """J / J* of a cell as a ratio of means: Σ J / Σ J* over the episodes that have a J*, with a
+    95 % paired bootstrap CI (episodes resampled with their J and J* together), the median of
+    the per-episode ratios, whether every episode gave the same ratio, and how many episodes had
+    a J*. A mean of per-episode ratios would be dominated by episodes that start near the
+    target, where J* is close to zero and any controller's ratio is huge."""
+    pairs = [
+        (float(r["J"]), float(r["j_star"]))
+        for r in rows
+        if r.get("j_star") is not None
+        and np.isfinite(float(r["j_star"]))
+        and float(r["j_star"]) > 0.0
+        and np.isfinite(float(r["J"]))
+    ]
+    if not pairs:
+        return {
+            "J_over_J_star": float("nan"),
+            "J_over_J_star_ci_low": float("nan"),
+            "J_over_J_star_ci_high": float("nan"),
+            "J_over_J_star_median": float("nan"),
+            "J_over_J_star_deterministic": False,
+            "J_over_J_star_episodes": 0,
+        }
+    J, Js = np.asarray(pairs).T
+    ratios = J / Js
+    deterministic = is_deterministic(ratios)
+    lo, hi = (float("nan"), float("nan"))
+    if not deterministic:
+        idx = np.random.default_rng(0).integers(0, len(J), size=(2000, len(J)))
+        boot = J[idx].sum(axis=1) / Js[idx].sum(axis=1)
+        lo, hi = float(np.quantile(boot, 0.025)), float(np.quantile(boot, 0.975))
     return {
-        "J_over_J_star_mean": _finite_mean(x),
+        "J_over_J_star": float(J.sum() / Js.sum()),
         "J_over_J_star_ci_low": lo,
         "J_over_J_star_ci_high": hi,
+        "J_over_J_star_median": float(np.median(ratios)),
         "J_over_J_star_deterministic": deterministic,
-        "J_over_J_star_episodes": len(x),
+        "J_over_J_star_episodes": len(J),
     }
 
 
@@ -125,7 +151,7 @@ def _ratio(v: float) -> str:
 
 def _ratio_cell(e: Mapping[str, Any]) -> str:
     """``1.0123 [1.0050, 1.0200]``, ``1.0123 (deterministic)`` or ``—`` (no J*)."""
-    mean = e.get("J_over_J_star_mean", float("nan"))
+    mean = e.get("J_over_J_star", float("nan"))
     if not np.isfinite(mean):
         return "—"
     if e.get("J_over_J_star_deterministic"):
@@ -314,11 +340,14 @@ def write_report(
         lines.append(f"| model: {agent} | {model} |")
     for env, criterion in (metadata.get("success_criteria") or {}).items():
         lines.append(f"| success: {env} | {criterion} |")
+    for what, definition in (metadata.get("definitions") or {}).items():
+        lines.append(f"| {what} | {definition} |")
     lines += ["", "J = ∫(xᵀQx + uᵀRu) dt per episode (lower is better); CI: 95 % percentile bootstrap of the mean"]
     lines += ['("deterministic": every episode of the cell gave the same J, so there is no interval);']
     lines += ["IQM: interquartile mean; success: the env's criterion above;"]
     lines += ["recovery: time from the fault onset until the error stays within the settling band;"]
-    lines += ["J / J*: mean over the cell's episodes of J / J* of the same episode, 95 % bootstrap CI.", ""]
+    lines += ["J / J*: mean J over mean J* of the same episodes (the cost above the optimum, as a factor), 95 % paired"]
+    lines += ["bootstrap CI; the per-episode ratios (and their median, in leaderboard.json) are in episodes.csv.", ""]
     lines += _optimum_legend(rows)
     lines += ["## Leaderboards", "", leaderboard_markdown(boards)]
     if notes:
@@ -514,6 +543,16 @@ def write_campaign_report(result, video: bool | None = None, command: str | None
         if a.train is None and a.spec.get("policy") == "sb3" and a.name not in result.skipped_agents
     }
     criteria = {e.name: success_criterion(e.id, e.kwargs, result.campaign) for e in result.campaign.envs}
+    definitions = {}
+    for e in result.campaign.envs:
+        definitions[f"env: {e.name}"] = env_label(e)
+        for scenario in e.scenarios:
+            extra = {k: scenario[k] for k in ("options", "env_kwargs") if scenario.get(k)}
+            if extra:
+                definitions[f"scenario: {e.name} · {scenario['name']}"] = f"`{json.dumps(extra)}`"
+        for fault, faults in e.faults.items():
+            if faults:
+                definitions[f"fault: {e.name} · {fault}"] = f"`{json.dumps(faults)}`"
     metadata = {
         "campaign": result.campaign.name,
         "source": result.campaign.source,
@@ -528,6 +567,7 @@ def write_campaign_report(result, video: bool | None = None, command: str | None
         "training_budget": budget,
         "models": models,
         "success_criteria": criteria,
+        "definitions": definitions,
         "trained": result.trained,
     }
     return write_report(out_dir, rows, metadata, figures, notes)
@@ -553,6 +593,11 @@ def _best_cell(e: Mapping[str, Any] | None) -> str:
     return f"{e['agent']}: J {_fmt(e['J_mean'])}, J/J* {_ratio_cell(e)}"
 
 
+def env_label(env) -> str:
+    """A campaign env as its registered id and constructor kwargs, both as code spans."""
+    return f"`{env.id}` `{json.dumps(env.kwargs)}`"
+
+
 def write_campaign_index(out_dir: str | Path, results: Sequence[tuple[str, Any]]) -> Path:
     """``OUT/index.md`` of ``--config all``: per campaign its envs (id and kwargs), wall time
     and report, and per leaderboard cell the best analytic controller and the best learned
@@ -561,7 +606,7 @@ def write_campaign_index(out_dir: str | Path, results: Sequence[tuple[str, Any]]
     lines = ["# All plant campaigns", "", f"Package {package_version()}, git {git_revision()}.", ""]
     lines += ["| campaign | env (id, kwargs) | episodes | wall time s (all runs) | report |", "|---|---|---:|---|---|"]
     for name, result in results:
-        envs = "; ".join(f"`{e.id}` {json.dumps(e.kwargs)}" for e in result.campaign.envs)
+        envs = "; ".join(env_label(e) for e in result.campaign.envs)
         lines.append(
             f"| {name} | {envs} | {len(result.rows)} | {_all_runs(result)} | [{name}/report.md]({name}/report.md) |"
         )

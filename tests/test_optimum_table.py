@@ -90,7 +90,7 @@ def test_campaign_report_has_j_over_j_star_from_a_table(tmp_path, monkeypatch):
         assert r["j_star"] == 2.5 and r["j_star_source"] == "table"
         assert r["j_over_j_star"] == pytest.approx(r["J"] / 2.5, rel=1e-12)
     board = leaderboards(result.rows)[("rw", "random", "w0-out")]
-    assert all(np.isfinite(e["J_over_J_star_mean"]) for e in board)
+    assert all(np.isfinite(e["J_over_J_star"]) for e in board)
     report = write_campaign_report(result).read_text()
     assert "| J / J* |" in report and "J* is an oracle" in report and "knows its faults" in report
     lqr_line = next(line for line in report.splitlines() if " | lqr | " in line)
@@ -132,3 +132,17 @@ def test_optimum_config_is_validated():
         load_campaign({**tiny(), "optimum": {"solve": True, "bogus": 1}})
     with pytest.raises(ValueError, match="optimum.solve must be true or false"):
         load_campaign({**tiny(), "optimum": {"solve": "yes"}})
+
+
+def test_j_over_j_star_is_a_ratio_of_means_with_a_paired_ci():
+    from experiments.report import _ratio_stats
+
+    rows = [{"J": 2.0, "j_star": 1.0}, {"J": 6.0, "j_star": 4.0}, {"J": 0.5, "j_star": 1e-4}, {"J": 3.0}]
+    s = _ratio_stats(rows)
+    assert s["J_over_J_star"] == pytest.approx(8.5 / 5.0001)  # not the mean ratio (~1667)
+    assert s["J_over_J_star_episodes"] == 3  # the episode without a J* is left out
+    assert s["J_over_J_star_median"] == pytest.approx(2.0)
+    assert s["J_over_J_star_ci_low"] <= s["J_over_J_star"] <= s["J_over_J_star_ci_high"]
+    same = _ratio_stats([{"J": 2.0, "j_star": 1.0}, {"J": 4.0, "j_star": 2.0}])
+    assert same["J_over_J_star_deterministic"] and same["J_over_J_star"] == pytest.approx(2.0)
+    assert _ratio_stats([{"J": 1.0}])["J_over_J_star_episodes"] == 0

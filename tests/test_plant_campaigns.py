@@ -63,6 +63,8 @@ def test_config_all_runs_every_campaign_into_its_directory_with_an_index(tmp_pat
     assert cli.main(["benchmark", "--config", "all", "--out", str(out), "--jobs", "1", "--no-video"]) == 0
     for name in ("tiny-ab", "tiny-fs"):
         assert (out / name / "report.md").is_file() and (out / name / "episodes.csv").is_file()
+    report = (out / "tiny-ab" / "report.md").read_text()  # each report names its envs by id and kwargs
+    assert '| env: e | `attitude_envs/AirBearing-v0` `{"episode_duration_s": 1.0}` |' in report
     index = (out / "index.md").read_text()
     assert "[tiny-ab/report.md](tiny-ab/report.md)" in index and "`attitude_envs/FuelSlosh-v0`" in index
     assert "| tiny-fs | e · default · none | slosh-pd: J " in index  # the best analytic controller per cell

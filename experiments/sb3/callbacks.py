@@ -39,16 +39,37 @@ def atomic_write_text(path: Path, text: str) -> None:
 
 
 class NormalizedPredictor:
-    """A model whose ``predict`` first applies frozen VecNormalize observation statistics."""
+    """A model whose ``predict`` first applies frozen VecNormalize observation statistics and,
+    with ``frame_stack`` > 1, stacks the latest normalized observations as SB3's
+    ``VecFrameStack`` does in training: oldest first, zeros before the episode's first one,
+    reset where ``episode_start`` is set (one history per row of a batched ``obs``)."""
 
-    def __init__(self, model, vec_normalize=None) -> None:
+    def __init__(self, model, vec_normalize=None, frame_stack: int = 1) -> None:
+        if int(frame_stack) < 1:
+            raise ValueError(f"frame_stack must be >= 1, got {frame_stack!r}")
         self.model = model
         self.vec_normalize = vec_normalize
+        self.frame_stack = int(frame_stack)
+        self._stack: np.ndarray | None = None
 
     def predict(self, obs, state=None, episode_start=None, deterministic: bool = True):
         if self.vec_normalize is not None and self.vec_normalize.norm_obs:
             obs = self.vec_normalize.normalize_obs(np.asarray(obs))
+        if self.frame_stack > 1:
+            obs = self._stacked(np.asarray(obs), episode_start)
         return self.model.predict(obs, state=state, episode_start=episode_start, deterministic=deterministic)
+
+    def _stacked(self, obs: np.ndarray, episode_start) -> np.ndarray:
+        single = obs.ndim == 1
+        rows = obs.reshape(1, -1) if single else obs
+        n, d = rows.shape
+        starts = np.ones(n, dtype=bool) if episode_start is None else np.asarray(episode_start, dtype=bool).reshape(n)
+        if self._stack is None or self._stack.shape != (n, d * self.frame_stack):
+            self._stack, starts = np.zeros((n, d * self.frame_stack), dtype=rows.dtype), np.ones(n, dtype=bool)
+        self._stack[starts] = 0.0
+        self._stack = np.roll(self._stack, -d, axis=1)
+        self._stack[:, -d:] = rows
+        return self._stack[0].copy() if single else self._stack.copy()
 
 
 def evaluate_cost(predictor, env, seeds: list[int], name: str = "sb3") -> dict[str, float]:

@@ -99,10 +99,14 @@ class _RunUnpickler(pickle.Unpickler):
 
 
 def _env_state(venv) -> dict[str, Any]:
-    """The training env in full. VecNormalize pickles itself without its wrapped env and its
-    running discounted returns (reward normalization), so both are saved beside it."""
-    if isinstance(venv, VecNormalize):
-        return {"normalize": venv, "envs": venv.venv, "returns": np.array(venv.returns)}
+    """The training env in full. VecNormalize (the top wrapper, or under a VecFrameStack)
+    pickles itself without its wrapped env and its running discounted returns (reward
+    normalization), so both are saved beside it."""
+    wrapper = venv
+    while wrapper is not None and not isinstance(wrapper, VecNormalize):
+        wrapper = getattr(wrapper, "venv", None)
+    if wrapper is not None:
+        return {"normalize": wrapper, "envs": wrapper.venv, "returns": np.array(wrapper.returns)}
     return {"normalize": None, "envs": venv, "returns": None}
 
 

@@ -35,7 +35,7 @@ from experiments.sb3.registry import check_algorithm
 ZOO_KEYS = ("n_timesteps", "policy", "normalize", "n_envs", "noise_type", "noise_std", "frame_stack", "env_wrapper")
 # ``backend`` (sb3 | sbx) is this project's addition: rl_zoo3 would pass it to the algorithm's
 # constructor (a TypeError there), so remove it from an entry before using the entry with rl_zoo3.
-_UNSUPPORTED = ("frame_stack", "env_wrapper", "callback", "vec_env_wrapper")
+_UNSUPPORTED = ("env_wrapper", "callback", "vec_env_wrapper")
 
 
 def hyperparams_path(algo: str) -> Path:
@@ -127,7 +127,9 @@ def load_hyperparams(
     entry.update(overrides or {})
     for key in _UNSUPPORTED:
         if key in entry:
-            raise ValueError(f"hyperparameter {key!r} is not supported here (accepted Zoo keys: {list(ZOO_KEYS[:5])})")
+            raise ValueError(
+                f"hyperparameter {key!r} is not supported here (accepted Zoo keys: {[k for k in ZOO_KEYS if k not in _UNSUPPORTED]})"
+            )
     return entry
 
 
@@ -142,11 +144,12 @@ def _schedule(name: str, value: Any) -> Any:
 
 
 def split_hyperparams(entry: dict[str, Any], n_actions: int, algo: str | None = None) -> dict[str, Any]:
-    """Zoo entry → ``{"n_timesteps", "n_envs", "normalize" (dict | None), "policy", "backend", "kwargs"}``.
+    """Zoo entry → ``{"n_timesteps", "n_envs", "normalize" (dict | None), "frame_stack", "policy", "backend", "kwargs"}``.
 
     ``kwargs`` go to the algorithm's constructor (schedules, ``policy_kwargs`` and action
     noise built); ``normalize`` holds VecNormalize arguments when observation/reward
-    normalization is on.
+    normalization is on; ``frame_stack`` (≥ 1, default 1): how many of the latest
+    (normalized) observations the policy sees, as the Zoo's ``VecFrameStack``.
     """
     entry = dict(entry)
     n_timesteps = int(float(entry.pop("n_timesteps", 100_000)))
@@ -154,6 +157,11 @@ def split_hyperparams(entry: dict[str, Any], n_actions: int, algo: str | None = 
     if n_timesteps < 1 or n_envs < 1:
         raise ValueError(f"n_timesteps and n_envs must be >= 1, got {n_timesteps} and {n_envs}")
     policy = entry.pop("policy", "MlpPolicy")
+    frame_stack = entry.pop("frame_stack", None)
+    if frame_stack is None or frame_stack is False:
+        frame_stack = 1
+    if isinstance(frame_stack, bool) or not isinstance(frame_stack, int) or frame_stack < 1:
+        raise ValueError(f"frame_stack must be an integer >= 1 (observations stacked), got {frame_stack!r}")
     backend = entry.pop("backend", "sb3")
     if algo is not None:  # the backend's adaptations depend on the algorithm
         backend = check_backend(backend, check_algorithm(algo))
@@ -187,6 +195,7 @@ def split_hyperparams(entry: dict[str, Any], n_actions: int, algo: str | None = 
         "n_timesteps": n_timesteps,
         "n_envs": n_envs,
         "normalize": normalize,
+        "frame_stack": frame_stack,
         "policy": policy,
         "backend": backend,
         "kwargs": entry,

@@ -48,7 +48,7 @@ from experiments.sb3.checkpoint import (
 from experiments.sb3.hyperparams import load_hyperparams, split_hyperparams
 from experiments.sb3.progress import ProgressCallback
 from experiments.sb3.registry import algorithm_class, check_algorithm
-from experiments.sb3.vec_envs import batched_supported, make_eval_env, make_training_env
+from experiments.sb3.vec_envs import PicklableVecFrameStack, batched_supported, make_eval_env, make_training_env
 
 
 @dataclass
@@ -235,7 +235,7 @@ def train(
                 raise RuntimeError(f"{algo}.learn() made no progress at {done} steps")
             new_best = False
             if steps // eval_freq > done // eval_freq or steps >= total:
-                row = {"timesteps": steps, **evaluate_cost(_predictor(model), eval_env, seeds)}
+                row = {"timesteps": steps, **evaluate_cost(_predictor(model, hp["frame_stack"]), eval_env, seeds)}
                 text = evaluations.row_text(row, header=not run["eval_log"])
                 evaluations.append(text)  # fsynced before the checkpoint below moves the pointer
                 run["eval_log"] += text
@@ -278,8 +278,8 @@ def _next_multiple(steps: int, every: int) -> int:
     return (steps // int(every) + 1) * int(every)
 
 
-def _predictor(model) -> NormalizedPredictor:
-    return NormalizedPredictor(model, model.get_vec_normalize_env())
+def _predictor(model, frame_stack: int = 1) -> NormalizedPredictor:
+    return NormalizedPredictor(model, model.get_vec_normalize_env(), frame_stack)
 
 
 def _new_model(algo, env_id, env_kwargs, seed, hp, entry, clock, out_dir, tensorboard, verbose, batched):
@@ -290,6 +290,8 @@ def _new_model(algo, env_id, env_kwargs, seed, hp, entry, clock, out_dir, tensor
     venv = make_training_env(env_id, env_kwargs, hp["n_envs"], seed, batched)
     if hp["normalize"] is not None:
         venv = VecNormalize(venv, gamma=float(entry.get("gamma", 0.99)), **hp["normalize"])
+    if hp["frame_stack"] > 1:  # after normalization, as the Zoo stacks
+        venv = PicklableVecFrameStack(venv, hp["frame_stack"])
     try:
         return algorithm_class(algo, hp["backend"])(
             hp["policy"],
@@ -342,10 +344,14 @@ def load_trained(model_path: str | Path, env: gym.Env | None = None):
     if not model_path.is_file():
         raise ValueError(f"model file {str(model_path)!r} does not exist")
     algo, backend = _algo_of(model_path)
+    saved = _run_config(model_path)
+    frame_stack = int(((saved or {}).get("hyperparams") or {}).get("frame_stack") or 1)
     model = algorithm_class(algo, backend).load(model_path, device="cpu")
     if env is not None:
         for what in ("observation_space", "action_space"):
             ours, theirs = getattr(env, what), getattr(model, what)
+            if what == "observation_space" and frame_stack > 1:  # VecFrameStack's stacked space
+                ours = gym.spaces.Box(np.repeat(ours.low, frame_stack, -1), np.repeat(ours.high, frame_stack, -1))
             if ours.shape != theirs.shape or not (
                 np.allclose(getattr(ours, "low", 0), getattr(theirs, "low", 0))
                 and np.allclose(getattr(ours, "high", 0), getattr(theirs, "high", 0))
@@ -359,7 +365,7 @@ def load_trained(model_path: str | Path, env: gym.Env | None = None):
         with stats.open("rb") as fh:
             vecnorm = pickle.load(fh)
         vecnorm.training = False
-    return NormalizedPredictor(model, vecnorm)
+    return NormalizedPredictor(model, vecnorm, frame_stack)
 
 
 _POLICY_MODULES = {
@@ -376,12 +382,20 @@ _POLICY_MODULES = {
 }
 
 
-def _algo_of(model_path: Path) -> tuple[str, str]:
-    """``(algorithm, backend)`` of a saved model: from the run's config.json, else from its policy's module."""
+def _run_config(model_path: Path) -> dict[str, Any] | None:
+    """The ``config.json`` of the run a saved model belongs to (beside it, or one level up for
+    a ``best``/``final`` snapshot), or None."""
     for config in (model_path.parent / "config.json", model_path.parent.parent / "config.json"):
         if config.is_file():
-            saved = json.loads(config.read_text(encoding="utf-8"))
-            return saved["algo"], saved.get("backend", "sb3")
+            return json.loads(config.read_text(encoding="utf-8"))
+    return None
+
+
+def _algo_of(model_path: Path) -> tuple[str, str]:
+    """``(algorithm, backend)`` of a saved model: from the run's config.json, else from its policy's module."""
+    saved = _run_config(model_path)
+    if saved is not None:
+        return saved["algo"], saved.get("backend", "sb3")
     try:
         with zipfile.ZipFile(model_path) as zf:
             data = json.loads(zf.read("data").decode("utf-8"))

@@ -14,16 +14,16 @@ from typing import Any
 
 import gymnasium as gym
 from stable_baselines3.common.env_util import make_vec_env
-from stable_baselines3.common.vec_env import VecEnv, VecMonitor
+from stable_baselines3.common.vec_env import VecEnv, VecFrameStack, VecMonitor
 
 from attitude_envs.envs.sb3_vec_env import SB3VecEnv
 from attitude_envs.registration import VECTOR_ENTRY_POINTS
 
 
-class PicklableVecMonitor(VecMonitor):
-    """SB3's ``VecMonitor`` (``infos[i]["episode"]`` at episode ends) that pickles: the
-    checkpoint pickles the training env whole, and ``VecEnvWrapper`` keeps a dict of its class's
-    members (an ABC's internals among them) that cloudpickle refuses; it is rebuilt on load."""
+class _PicklableWrapper:
+    """Makes a ``VecEnvWrapper`` pickle: the checkpoint pickles the training env whole, and
+    ``VecEnvWrapper`` keeps a dict of its class's members (an ABC's internals among them) that
+    cloudpickle refuses; it is rebuilt on load."""
 
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
@@ -33,6 +33,14 @@ class PicklableVecMonitor(VecMonitor):
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
         self.class_attributes = dict(inspect.getmembers(self.__class__))
+
+
+class PicklableVecMonitor(_PicklableWrapper, VecMonitor):
+    """SB3's ``VecMonitor`` (``infos[i]["episode"]`` at episode ends) that pickles."""
+
+
+class PicklableVecFrameStack(_PicklableWrapper, VecFrameStack):
+    """SB3's ``VecFrameStack`` (the Zoo's ``frame_stack``) that pickles."""
 
 
 def batched_supported(env_id: str, env: gym.Env) -> bool:
