@@ -81,7 +81,7 @@ from experiments.sb3.registry import algorithm_class, check_algorithm
 
 KEY_COLUMNS = ("env", "scenario", "fault", "agent", "train_seed", "seed")
 PLANT_CAMPAIGNS = ("wheel", "air-bearing", "magnetorquer", "slosh", "linear")  # `--config all`, in this order
-PRESETS = ("quick", "full", *PLANT_CAMPAIGNS, "two-wheel")
+PRESETS = ("quick", "full", *PLANT_CAMPAIGNS)
 SELECT = ("best", "final")  # which snapshot of a trained agent is evaluated
 
 
