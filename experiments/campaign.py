@@ -830,6 +830,7 @@ class CampaignResult:
     optimum_notes: list[str] = field(default_factory=list)  # episodes without J* (why), for the report
     runs: int = 1
     run_statuses: dict[str, int] = field(default_factory=dict)  # status → count over runs.jsonl
+    run_log: list[dict[str, Any]] = field(default_factory=list)  # every run of runs.jsonl (read_runs)
 
 
 def executor_name(ray_address: str | None = None, workers: int | None = None) -> str:
@@ -996,5 +997,6 @@ def run_campaign(
         total_wall_time_s=sum(r["wall_time_s"] for r in past_runs),
         runs=len(past_runs),
         run_statuses={s: n for s in RUN_STATUSES if (n := sum(r["status"] == s for r in past_runs))},
+        run_log=past_runs,
         optimum_notes=optimum_notes,
     )

@@ -65,6 +65,7 @@ def test_rerun_after_a_crash_skips_completed_episodes_and_gives_the_same_table(t
     report_b = write_campaign_report(rerun).read_text()
     assert report_a.split("## Leaderboards")[1] == report_b.split("## Leaderboards")[1]
     assert "| wall_time_all_runs_s | " in report_b and " over 2 run(s)" in report_b
+    assert "on local-pool[1], 13 episodes; " in report_b and "on local-pool[1], report only |" in report_b
     assert "agent q-lqr skipped" in report_b or "q-lqr" not in report_b
 
 
