@@ -523,14 +523,16 @@ def write_campaign_report(result, video: bool | None = None, command: str | None
         is_rw = isinstance(getattr(probe.unwrapped, "model", None), ReactionWheelModel)
         probe.close()
         best = boards[cell][0]["agent"]
-        scenario = env_spec.scenarios[0]
-        fault = list(env_spec.faults)[-1]
-        board = boards.get((env_spec.name, scenario["name"], fault), [])
-        agents = history_agents(board, learned_agents(result.campaign), free_drift_agents(result.campaign))
-        if agents:
-            record = record_episode if is_rw else record_state_trace
-            traces = _example_traces(result, env_spec, scenario, fault, agents, record)
-            if traces:
+        for scenario in env_spec.scenarios:  # every cell: its best analytic controller and best learned agent
+            for fault in env_spec.faults:
+                board = boards.get((env_spec.name, scenario["name"], fault), [])
+                agents = history_agents(board, learned_agents(result.campaign), free_drift_agents(result.campaign))
+                if not agents:
+                    continue
+                record = record_episode if is_rw else record_state_trace
+                traces = _example_traces(result, env_spec, scenario, fault, agents, record)
+                if not traces:
+                    continue
                 name = f"figures/history-{env_spec.name}-{scenario['name']}-{fault}.png"
                 plot = _plots().plot_episodes if is_rw else _plots().plot_state_histories
                 plot(
@@ -538,7 +540,8 @@ def write_campaign_report(result, video: bool | None = None, command: str | None
                     out_dir / name,
                     title=f"{env_spec.name} · {scenario['name']} · {fault} · seed {result.campaign.seeds[0]}",
                 )
-                figures[f"{env_spec.name}: time histories, best analytic vs best learned ({fault})"] = name
+                label = f"{env_spec.name}: time histories, best analytic vs best learned ({scenario['name']}, {fault})"
+                figures[label] = name
         if is_rw:
             if video:
                 path = _record_video(result, env_spec, best, out_dir / "videos")

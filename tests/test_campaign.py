@@ -62,6 +62,9 @@ def test_rerun_after_a_crash_skips_completed_episodes_and_gives_the_same_table(t
     )
     assert (b / "episodes.csv").read_text() == table
     report_a = write_campaign_report(full).read_text()
+    for fault in ("none", "w0-out"):  # time histories of every cell
+        assert f"(figures/history-rw-random-60deg-{fault}.png)" in report_a
+        assert (tmp_path / "a" / "figures" / f"history-rw-random-60deg-{fault}.png").is_file()
     report_b = write_campaign_report(rerun).read_text()
     assert report_a.split("## Leaderboards")[1] == report_b.split("## Leaderboards")[1]
     assert "| wall_time_all_runs_s | " in report_b and " over 2 run(s)" in report_b
