@@ -71,7 +71,11 @@ def is_deterministic(values: Sequence[float]) -> bool:
 
 
 def leaderboards(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str, str], list[dict[str, Any]]]:
-    """``(env, scenario, fault)`` → one entry per agent, best (lowest J mean) first."""
+    """``(env, scenario, fault)`` → one entry per agent, best first: the agents whose every
+    episode ran to the time limit by J mean, then those with episodes that terminated early
+    (a limit crossed: the vehicle lost), by the fraction that did, then J. J sums the cost
+    only up to the end of the episode, so an episode cut short costs less; ranking it by J
+    alone would reward ending it (an agent trained on the reward −cost can learn exactly that)."""
     cells: dict[tuple[str, str, str], dict[str, list[Mapping[str, Any]]]] = {}
     for r in rows:
         cells.setdefault((r["env"], r["scenario"], r["fault"]), {}).setdefault(r["agent"], []).append(r)
@@ -92,6 +96,7 @@ def leaderboards(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str, str]
                 "deterministic": deterministic,
                 "J_iqm": iqm(J),
                 "success_rate": float(np.mean([bool(r.get("success")) for r in rs])),
+                "terminated_rate": float(np.mean([_flag(r.get("terminated")) for r in rs])),
                 "recovery_time_s": _finite_mean([r.get("recovery_time_s") for r in rs]),
                 **_ratio_stats(rs),
             }
@@ -99,9 +104,14 @@ def leaderboards(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str, str]
                 if any(m in r for r in rs):
                     entry[m] = _finite_mean([r.get(m) for r in rs])
             board.append(entry)
-        board.sort(key=lambda e: (not np.isfinite(e["J_mean"]), e["J_mean"]))
+        board.sort(key=lambda e: (not np.isfinite(e["J_mean"]), e["terminated_rate"], e["J_mean"]))
         out[cell] = board
     return dict(sorted(out.items()))
+
+
+def _flag(value: Any) -> bool:
+    """A row's boolean (CSV rows carry ``"True"``/``"False"`` or 1/0)."""
+    return value in (True, 1, "True", "true", "1")
 
 
 def _ratio_stats(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
@@ -177,7 +187,19 @@ def leaderboard_markdown(boards: Mapping[tuple[str, str, str], list[dict[str, An
     parts = []
     for (env, scenario, fault), board in boards.items():
         extra = [m for m in PAPER_METRICS if m in board[0]]
-        head = ["rank", "agent", "episodes", "J mean", "95 % CI", "IQM", "J / J*", "success", "recovery [s]", *extra]
+        head = [
+            "rank",
+            "agent",
+            "episodes",
+            "J mean",
+            "95 % CI",
+            "IQM",
+            "J / J*",
+            "success",
+            "ended early",
+            "recovery [s]",
+            *extra,
+        ]
         lines = [f"### {env} · {scenario} · fault: {fault}", "", "| " + " | ".join(head) + " |"]
         lines.append("|" + "---|" * len(head))
         for i, e in enumerate(board, 1):
@@ -191,6 +213,7 @@ def leaderboard_markdown(boards: Mapping[tuple[str, str, str], list[dict[str, An
                 _fmt(e["J_iqm"]),
                 _ratio_cell(e),
                 f"{100 * e['success_rate']:.0f} %",
+                f"{100 * e.get('terminated_rate', 0.0):.0f} %",
                 _fmt(e["recovery_time_s"]),
                 *[_fmt(e.get(m, float("nan"))) for m in extra],
             ]
@@ -345,6 +368,8 @@ def write_report(
     lines += ["", "J = ∫(xᵀQx + uᵀRu) dt per episode (lower is better); CI: 95 % percentile bootstrap of the mean"]
     lines += ['("deterministic": every episode of the cell gave the same J, so there is no interval);']
     lines += ["IQM: interquartile mean; success: the env's criterion above;"]
+    lines += ["ended early: episodes that terminated before the time limit (a limit crossed); J stops there, so"]
+    lines += ["agents with such episodes rank after those without (by that fraction, then J);"]
     lines += ["recovery: time from the fault onset until the error stays within the settling band;"]
     lines += ["J / J*: mean J over mean J* of the same episodes (the cost above the optimum, as a factor), 95 % paired"]
     lines += ["bootstrap CI; the per-episode ratios (and their median, in leaderboard.json) are in episodes.csv.", ""]
@@ -607,7 +632,9 @@ def free_drift_agents(campaign) -> set[str]:
 def _best_cell(e: Mapping[str, Any] | None) -> str:
     if e is None:
         return "—"
-    return f"{e['agent']}: J {_fmt(e['J_mean'])}, J/J* {_ratio_cell(e)}"
+    early = e.get("terminated_rate", 0.0)
+    flag = f", ended early {100 * early:.0f} %" if early > 0 else ""
+    return f"{e['agent']}: J {_fmt(e['J_mean'])}, J/J* {_ratio_cell(e)}{flag}"
 
 
 def env_label(env) -> str:

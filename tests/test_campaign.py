@@ -270,3 +270,22 @@ def test_success_is_per_env_and_a_deterministic_cell_has_no_ci(tmp_path):
         "lqr-dare": 1.0,
         "zero": 0.0,
     }
+
+
+def test_agents_whose_episodes_end_early_rank_after_those_that_finish():
+    def row(agent, J, terminated):
+        return {
+            "env": "e",
+            "scenario": "s",
+            "fault": "none",
+            "agent": agent,
+            "seed": 0,
+            "J": J,
+            "terminated": terminated,
+        }
+
+    rows = [row("cut-short", 0.01, True), row("cut-short", 0.02, "True"), row("finisher", 5.0, False)]
+    rows += [row("sometimes", 1.0, False), row("sometimes", 1.0, True)]
+    board = leaderboards(rows)[("e", "s", "none")]
+    assert [e["agent"] for e in board] == ["finisher", "sometimes", "cut-short"]
+    assert [e["terminated_rate"] for e in board] == [0.0, 0.5, 1.0]
