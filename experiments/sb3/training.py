@@ -343,8 +343,8 @@ def load_trained(model_path: str | Path, env: gym.Env | None = None):
         model_path = next((p for p in inside if p.is_file()), inside[0])
     if not model_path.is_file():
         raise ValueError(f"model file {str(model_path)!r} does not exist")
-    algo, backend = _algo_of(model_path)
     saved = _run_config(model_path)
+    algo, backend = _algo_of(model_path, saved)
     frame_stack = int(((saved or {}).get("hyperparams") or {}).get("frame_stack") or 1)
     model = algorithm_class(algo, backend).load(model_path, device="cpu")
     if env is not None:
@@ -391,9 +391,8 @@ def _run_config(model_path: Path) -> dict[str, Any] | None:
     return None
 
 
-def _algo_of(model_path: Path) -> tuple[str, str]:
-    """``(algorithm, backend)`` of a saved model: from the run's config.json, else from its policy's module."""
-    saved = _run_config(model_path)
+def _algo_of(model_path: Path, saved: dict[str, Any] | None) -> tuple[str, str]:
+    """``(algorithm, backend)`` of a saved model: from its run's config.json (``saved``, :func:`_run_config`), else from its policy's module."""
     if saved is not None:
         return saved["algo"], saved.get("backend", "sb3")
     try:
