@@ -23,7 +23,8 @@ Pipeline (the paper's five steps):
 
 Evaluations of a generation run in parallel in a process pool (``workers``); every worker
 builds its env once. Episodes that end early (the air bearing's tilt stop, tumbling) are
-charged the remaining time at the last error (IAE) or last step cost (J), so the GA avoids them.
+charged the remaining time at the last error (IAE) or, for J, the env's own termination cost
+(``termination_cost="hold"``; the last step's cost rate with ``"none"``), so the GA avoids them.
 
 Command line: :func:`tune_pid_main` (``attitude-envs tune-pid``): tunes, shows a progress bar with
 ETA (one status line every 30 s when not on a terminal) and writes a JSON gains file that :func:`baselines.pid.load_gains` / ``PIDPolicy.from_file`` read.
@@ -165,7 +166,9 @@ def pid_episode(env, policy, seed: int | None = None, options: dict[str, Any] | 
         "terminated": bool(terminated),
         "remaining_s": remaining if terminated else 0.0,
         "iae_charged_deg_s": iae_deg + (np.degrees(prev) * remaining if terminated else 0.0),
-        "J_charged": total + (cost / dt * remaining if terminated else 0.0),
+        # the env charges a limit crossing itself (termination_cost="hold": the terminal
+        # state's running cost over the rest of the horizon); with "none" the last step's rate
+        "J_charged": total + (cost / dt * remaining if terminated and base.termination_cost == "none" else 0.0),
         "initial_angle_rad": angle0,
         "initial_rate_rad_s": rate0,
         "final_angle_rad": angle,

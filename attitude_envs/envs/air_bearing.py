@@ -57,7 +57,9 @@ class AirBearingEnv(ReactionWheelEnv):
     platform hits its mechanical stop (not modelled as a collision: the episode ends and
     ``info["truth"]["tilt_limit_hit"]`` is set); also on a non-finite state or
     ``max|ω| > max_rate_rad_s``. Truncated when the simulated time reaches
-    ``episode_duration_s`` (20 s, the paper's runs).
+    ``episode_duration_s`` (20 s, the paper's runs). A terminated step is charged the
+    terminal error state's running cost over the rest of the run, as in ReactionWheel-v0
+    (``termination_cost``).
 
     **Arguments.** Every ReactionWheel-v0 keyword, with the preset's values as defaults,
     plus ``initial_euler_max_deg``:
@@ -107,7 +109,7 @@ class AirBearingEnv(ReactionWheelEnv):
     ``linearize()`` is the free body's (it leaves out the offset's roll/pitch stiffness
     ``p_z``, the paper's eq. 17).
 
-    **Version history.** v0: the paper's platform as ReactionWheel-v0's gyrostat with the
+    **Version history.** v0: a limit crossing charged the terminal running cost over the rest of the episode (``termination_cost``, 2026-11); the paper's platform as ReactionWheel-v0's gyrostat with the
     offset torque and tilt stop in the compiled step; a natively batched env; the preset
     through :mod:`attitude_envs.presets`; infos split into ``truth`` and ``measured``.
     """

@@ -36,6 +36,10 @@ from attitude_envs.sensors import Channel, SensorSuite
 
 _NOT_KEYWORDS = {"self", "preset", "__class__", "render_mode"}
 
+#: the accepted values of every env's ``termination_cost`` keyword (see
+#: :meth:`AttitudeEnv.batch_termination_cost`)
+TERMINATION_COSTS = ("hold", "none")
+
 
 @functools.cache
 def constructor_keywords(cls: type) -> frozenset[str]:
@@ -136,6 +140,35 @@ class AttitudeEnv(gym.Env):
         if not self.fault_hint:
             return 0
         return self._fault_layer.n + len(self._sensor_layer.channels)
+
+    def _init_termination_cost(self, mode: str, Q: np.ndarray, horizon: float) -> None:
+        """Validate the ``termination_cost`` keyword; ``Q`` weighs the error state and
+        ``horizon`` is the episode's length (s, or steps for a discrete-time env)."""
+        if mode not in TERMINATION_COSTS:
+            raise ValueError(f"termination_cost must be one of {list(TERMINATION_COSTS)}, got {mode!r}")
+        self.termination_cost = mode
+        self._hold_q = np.asarray(Q, dtype=float)
+        self._horizon = float(horizon)
+
+    def batch_termination_cost(self, x: np.ndarray, elapsed: np.ndarray) -> np.ndarray:
+        """The cost charged on the step that ends an episode by crossing a limit, for rows
+        ``x`` (E × n) of true error states at that step and the time ``elapsed`` (E; s, or
+        steps for a discrete-time env) at its end: with ``termination_cost="hold"`` the
+        running state cost ``xᵀQx`` held over the rest of the horizon, ``(T − t) xᵀQx``;
+        with ``"none"`` zeros.
+
+        Without it a terminated episode costs nothing more, so an agent maximizing the
+        return −J learns to cross a limit early (the learned agents on FuelSlosh-v0 did,
+        within 1–3 steps). Holding the terminal state prices the rest of the horizon at the
+        state the episode ended in, in the units of J. Each row is summed on its own, so
+        the single and the batched envs charge the same bits."""
+        x = np.ascontiguousarray(x, dtype=float)  # one memory layout: the same products' bits
+        out = np.zeros(len(x))
+        if self.termination_cost == "hold":
+            for i in range(len(x)):
+                row = x[i]
+                out[i] = float(row @ self._hold_q @ row) * max(self._horizon - float(elapsed[i]), 0.0)
+        return out
 
     # ------------------------------------------------------------------ episode
     def _reset_layers(self, rng: np.random.Generator, options: Mapping[str, Any]) -> None:

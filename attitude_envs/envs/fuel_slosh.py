@@ -76,6 +76,10 @@ class FuelSloshEnv(AttitudeEnv):
     |ψ_i| > ``max_slosh_angle_deg``, |θ| > ``max_pitch_angle_deg`` or |Ω| >
     ``max_pitch_rate_rad_s``; truncated when the simulated time reaches
     ``episode_duration_s``.
+    A step that crosses a limit (with a finite state) is charged, on top of its running
+    cost, the terminal error state's running cost held over the rest of the episode,
+    ``(episode_duration_s − t) xᵀQx`` (``termination_cost="hold"``; ``"none"``: nothing
+    more), so ending an episode early never lowers J.
 
     **Arguments** (None takes the preset's value):
 
@@ -101,6 +105,8 @@ class FuelSloshEnv(AttitudeEnv):
     ``faults``                  list of dicts    None         —         :mod:`attitude_envs.faults`
     ``sensors``                 dict             None         —         ``{"state": {...}}``, :mod:`attitude_envs.sensors`
     ``fault_hint``              bool             False        —         append the active-fault flags
+    ``termination_cost``        str              "hold"       —         ``"hold"``: charge a limit crossing (see
+                                                                        Episode end); ``"none"``: no charge
     ``fill_preset``             str              None         —         deprecated: ``preset="i"`` … ``"iv"``
     ==========================  ===============  ===========  ========  ==========================================
 
@@ -132,7 +138,7 @@ class FuelSloshEnv(AttitudeEnv):
     :attr:`state`, :attr:`observation_index`, :attr:`actuator_limits`,
     :attr:`kernel_constants`, :meth:`batch_termination` and the base's ``fault_layer``.
 
-    **Version history.** v0: the full 5-DOF plant with one compiled RK4 step; presets
+    **Version history.** v0: a limit crossing charged the terminal running cost over the rest of the episode (``termination_cost``, 2026-11); the full 5-DOF plant with one compiled RK4 step; presets
     ``navabi-fill-i`` … ``-iv`` replace ``fill_preset`` (kept, deprecated); infos follow
     the truth/measured contract; ``new_inputs`` moved from the top level to
     ``truth["new_inputs"]`` (it is truth-derived: it reveals actuator faults).
@@ -163,6 +169,7 @@ class FuelSloshEnv(AttitudeEnv):
         faults: list[dict] | None = None,
         sensors: dict | None = None,
         fault_hint: bool = False,
+        termination_cost: str = "hold",
         fill_preset: str | None = None,
         render_mode: str | None = None,
     ) -> None:
@@ -194,6 +201,7 @@ class FuelSloshEnv(AttitudeEnv):
             float(validation.finite_array("design_v_x_m_s", cfg["design_v_x_m_s"], ())),
             self.control_dt_s,
         )
+        self._init_termination_cost(termination_cost, cost.Q, self.episode_duration_s)
         self.observe_slosh = bool(observe_slosh)
         self._initial = validation.finite_array("initial_state", cfg["initial_state"], (8,))
         self.randomize_initial_state = bool(randomize_initial_state)
@@ -277,6 +285,8 @@ class FuelSloshEnv(AttitudeEnv):
             or abs(y[slosh.IOM]) > self.max_pitch_rate_rad_s
             or abs(y[slosh.ITH]) > self.max_pitch_angle_rad
         )
+        if terminated and finite:  # a limit crossed: the rest of the horizon is charged
+            cost += float(self.batch_termination_cost(reduced_state(self._y).reshape(1, -1), np.array([self._t]))[0])
         truncated = bool(self._t >= self.episode_duration_s - 1e-9 * self.control_dt_s) and not terminated
         if finite:
             measured = self._measure()

@@ -16,6 +16,7 @@ from attitude_envs.envs.vector_base import BatchedEnv
 from attitude_envs.info import TRUTH
 from attitude_envs.plants import slosh
 from attitude_envs.plants import slosh_kernels as kernels
+from attitude_envs.plants.slosh_model import REDUCED_INDEX
 
 
 class FuelSloshVectorEnv(BatchedEnv):
@@ -73,6 +74,10 @@ class FuelSloshVectorEnv(BatchedEnv):
         )
         terminated = ~self._finite | first.batch_termination(self._states)
         time_s = self._steps * first.control_dt_s
+        charged = np.flatnonzero(terminated & self._finite)
+        if charged.size:  # a limit crossed: the single env's termination cost
+            x = self._states[charged][:, REDUCED_INDEX]
+            self._costs[charged] += first.batch_termination_cost(x, time_s[charged])
         truncated = (time_s >= first.episode_duration_s - 1e-9 * first.control_dt_s) & ~terminated
         infos = self._with_masks(
             {

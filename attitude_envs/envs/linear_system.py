@@ -54,7 +54,10 @@ class LinearSystemEnv(AttitudeEnv):
     ``reset(options={"state": x0, "faults": [...]})``.
 
     **Episode end.** Terminated when ``‖x‖∞ > divergence_threshold`` or the state is not
-    finite (the observation is then zeros); truncated after ``episode_steps`` steps.
+    finite (the observation is then zeros); truncated after ``episode_steps`` steps. A
+    finite step that crosses the threshold is charged, on top of its cost, the terminal
+    state's ``xᵀQx`` once per remaining step, ``(episode_steps − k) xᵀQx``
+    (``termination_cost="hold"``; ``"none"``: nothing more).
 
     **Arguments** (None takes the preset's value, or the neutral default without preset):
 
@@ -75,6 +78,8 @@ class LinearSystemEnv(AttitudeEnv):
     ``faults``                list of dicts   None         —       :mod:`attitude_envs.faults` (time = steps·dt_s)
     ``sensors``               dict            None         —       ``{"state": {...}}``, :mod:`attitude_envs.sensors`
     ``fault_hint``            bool            False        —       append the active-fault flags
+    ``termination_cost``      str             "hold"       —       ``"hold"``: charge a divergence (see Episode
+                                                                   end); ``"none"``: no charge
     ========================  ==============  ===========  ======  ==============================================
 
     **Presets.** ``heravi-2017`` (default): Heravi & Novinzadeh
@@ -106,7 +111,7 @@ class LinearSystemEnv(AttitudeEnv):
     :attr:`cost`, :attr:`episode_steps`, :attr:`divergence_threshold` and the base's
     ``fault_layer``.
 
-    **Version history.** v0: presets through :mod:`attitude_envs.presets` (``"spec-001"`` is
+    **Version history.** v0: a limit crossing charged the terminal running cost over the rest of the episode (``termination_cost``, 2026-11); presets through :mod:`attitude_envs.presets` (``"spec-001"`` is
     an alias of ``heravi-2017``); a user's ``A``/``B`` no longer inherit the default
     preset's ``x0_mean`` and ``action_scale``; infos follow the truth/measured contract
     (``truth["state"]`` is the state after the step, ``truth["previous_state"]`` the one
@@ -134,6 +139,7 @@ class LinearSystemEnv(AttitudeEnv):
         faults: list[dict] | None = None,
         sensors: dict | None = None,
         fault_hint: bool = False,
+        termination_cost: str = "hold",
         render_mode: str | None = None,
     ) -> None:
         if preset is DEFAULT_PRESET:  # a user's own system takes no preset values
@@ -173,6 +179,7 @@ class LinearSystemEnv(AttitudeEnv):
             raise ValueError(f"episode_steps must be >= 1, got {episode_steps!r}")
         self.episode_steps = int(episode_steps)
         self.divergence_threshold = validation.positive("divergence_threshold", divergence_threshold)
+        self._init_termination_cost(termination_cost, cost.Q, self.episode_steps)
         if render_mode is not None:
             raise ValueError(f"render_mode must be None for {ENV}, got {render_mode!r}")
         self.render_mode = None
@@ -237,6 +244,8 @@ class LinearSystemEnv(AttitudeEnv):
         t_next = self._steps * self.model.dt_s
         finite = bool(np.isfinite(x_next).all())
         terminated = not finite or bool(np.abs(x_next).max() > self.divergence_threshold)
+        if terminated and finite:  # diverged: the rest of the horizon is charged, per step
+            cost += float(self.batch_termination_cost(x_next.reshape(1, -1), np.array([self._steps]))[0])
         truncated = self._steps >= self.episode_steps and not terminated
         # actuator faults as applied over this step, sensor faults at the observation time
         truth = {

@@ -61,6 +61,10 @@ class LinearSystemVectorEnv(BatchedEnv):
         self._x, self._next = self._next, self._x
         self._steps += 1
         bad = ~np.isfinite(self._x).all(axis=1) | (np.abs(self._x).max(axis=1) > first.divergence_threshold)
+        charged = np.flatnonzero(bad)
+        if charged.size:  # diverged: the single env's termination cost (finite rows only)
+            charged = charged[np.isfinite(self._x[charged]).all(axis=1)]
+            self._costs[charged] += first.batch_termination_cost(self._x[charged], self._steps[charged])
         truncated = (self._steps >= first.episode_steps) & ~bad
         infos = self._with_masks(
             {

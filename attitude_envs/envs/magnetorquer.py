@@ -131,6 +131,10 @@ class MagnetorquerEnv(AttitudeEnv):
     **Episode end.** Terminated on a non-finite state or ``max|ω_bo| > max_rate_rad_s``;
     truncated when the simulated time reaches ``episode_duration_s`` (default two orbital
     periods, the paper's 12 038 s).
+    A step that crosses a limit (with a finite state) is charged, on top of its running
+    cost, the terminal error state's running cost held over the rest of the episode,
+    ``(episode_duration_s − t) xᵀQx`` (``termination_cost="hold"``; ``"none"``: nothing
+    more), so ending an episode early never lowers J.
 
     **Arguments.** Where the default column says "preset", ``None`` (the default) takes the
     preset's value; the preset ``sadigh-2022`` gives every physical value with its source
@@ -186,6 +190,8 @@ class MagnetorquerEnv(AttitudeEnv):
                                                                                  0–2 dipoles, 3 wheel
     ``sensors``                      dict          None                —         :mod:`attitude_envs.sensors`
     ``fault_hint``                   bool          False               —         append the 8 active-fault flags
+    ``termination_cost``             str           "hold"              —         ``"hold"``: charge tumbling (see Episode
+                                                                                 end); ``"none"``: no charge
     ===============================  ============  ==================  ========  ==========================================
 
     **Presets.** ``"sadigh-2022"`` (default): the paper's spacecraft, orbit and actuators
@@ -221,7 +227,7 @@ class MagnetorquerEnv(AttitudeEnv):
     :attr:`observation_size`, :attr:`field`, :meth:`advance_disturbance`,
     :meth:`true_inertia_at`, :meth:`external_torque_at`, :meth:`error_state`.
 
-    **Version history.** v0: the plant, orbit, field and reference of the paper; ``info``
+    **Version history.** v0: a limit crossing charged the terminal running cost over the rest of the episode (``termination_cost``, 2026-11); the plant, orbit, field and reference of the paper; ``info``
     split into ``truth`` and ``measured`` (:mod:`attitude_envs.info`), the paper's values
     as presets.
     """
@@ -262,6 +268,7 @@ class MagnetorquerEnv(AttitudeEnv):
         faults: list[dict] | None = None,
         sensors: dict | None = None,
         fault_hint: bool = False,
+        termination_cost: str = "hold",
         render_mode: str | None = None,
         preset: str | None = None,  # last: positional callers of the earlier signature keep working
     ) -> None:
@@ -346,6 +353,7 @@ class MagnetorquerEnv(AttitudeEnv):
             disturbance=None if self.paper_disturbance else disturbance,
         )
         self.max_rate_rad_s = validation.positive("max_rate_rad_s", max_rate_rad_s)
+        self._init_termination_cost(termination_cost, q_mat, self.episode_duration_s)
         if render_mode is not None:
             raise ValueError(f"render_mode must be None (no renderer for Magnetorquer-v0), got {render_mode!r}")
         self.render_mode = None
@@ -571,6 +579,9 @@ class MagnetorquerEnv(AttitudeEnv):
         )
         finite = self._step_out[kernels.ST_FINITE] == 1.0
         terminated = not finite or bool(self._step_out[kernels.ST_MAX_RATE] > self.max_rate_rad_s)
+        if terminated and finite:  # tumbling: the rest of the horizon is charged
+            x = self._snap[kernels.SN_X : kernels.SN_X + 6].reshape(1, -1)
+            cost += float(self.batch_termination_cost(x, np.array([self._t]))[0])
         truncated = bool(self._t >= self.episode_duration_s - 1e-9 * self.control_dt_s) and not terminated
         if self._sensor_layer.enabled:
             self._measure()

@@ -120,6 +120,10 @@ class MagnetorquerVectorEnv(BatchedEnv):
         )
         self._finite = self._step_out[:, kernels.ST_FINITE] == 1.0
         terminated = ~self._finite | (self._step_out[:, kernels.ST_MAX_RATE] > self._max_rate)
+        charged = np.flatnonzero(terminated & self._finite)
+        if charged.size:  # tumbling: the single env's termination cost
+            x = self._snaps[charged, kernels.SN_X : kernels.SN_X + 6]
+            self._costs[charged] += self.envs[0].batch_termination_cost(x, t1[charged])
         truncated = (t1 >= self._duration - 1e-9 * self._dt) & ~terminated
         truth = {"applied": self._step_out[:, :4].copy()}
         infos = self._with_masks({"cost": self._costs.copy(), "time_s": t1, "truth": truth}, self.num_envs)

@@ -34,6 +34,7 @@ _DEFAULTS = {
     "observe_wheel_speeds": False,
     "action_frame": "wheel",
     "fault_hint": False,
+    "termination_cost": "hold",
 }
 _REQUIRED = (
     "inertia_kg_m2",
@@ -104,6 +105,10 @@ class ReactionWheelEnv(AttitudeEnv):
     ``tilt_limit_deg`` is set, on roll or pitch beyond it. Truncated when the simulated
     time reaches ``episode_duration_s`` (inside the env: no ``TimeLimit`` wrapper, so the
     limit does not depend on ``control_dt_s``).
+    A step that crosses a limit (with a finite state) is charged, on top of its running
+    cost, the terminal error state's running cost held over the rest of the episode,
+    ``(episode_duration_s − t) xᵀQx`` (``termination_cost="hold"``; ``"none"``: nothing
+    more), so ending an episode early never lowers J.
 
     **Arguments.** ``None`` (the default of every physical keyword) takes the preset's
     value; where the preset sets none, the default named here. "preset" in the default
@@ -167,6 +172,9 @@ class ReactionWheelEnv(AttitudeEnv):
                                                                           ``gyro``, ``star_tracker``, ``tachometer``; None:
                                                                           the truth is observed
     ``fault_hint``              bool        False             —           append N + 3 active-fault flags to the observation
+    ``termination_cost``        str         "hold"            —           ``"hold"``: a limit crossing is charged the
+                                                                          terminal running cost over the rest (see Episode
+                                                                          end); ``"none"``: no charge
     ``render_mode``             str         None              —           ``"rgb_array"`` or ``"human"`` (matplotlib)
     ==========================  ==========  ================  ==========  ==================================================
 
@@ -209,7 +217,7 @@ class ReactionWheelEnv(AttitudeEnv):
     :meth:`disturbance_stages`, :meth:`commanded_torques`, :meth:`reset_episode` and the
     base's ``fault_layer``, ``sensor_layer`` and ``disturbance``.
 
-    **Version history.** v0: the exact gyrostat with RK4 sub-steps and the integrated
+    **Version history.** v0: a limit crossing charged the terminal running cost over the rest of the episode (``termination_cost``, 2026-11); the exact gyrostat with RK4 sub-steps and the integrated
     cost; actuator faults, sensors and ``fault_hint``; one compiled step shared with the
     natively batched env (bitwise identical); ``action_frame="body"``; the air-bearing
     offset torque and tilt stop (for AirBearing-v0), ``true_offset_torque_nm``; presets
@@ -253,6 +261,7 @@ class ReactionWheelEnv(AttitudeEnv):
         faults: list[dict] | None = None,
         sensors: dict | None = None,
         fault_hint: bool | None = None,
+        termination_cost: str | None = None,
         render_mode: str | None = None,
     ) -> None:
         cfg = _DEFAULTS | self._configure(self.default_preset if preset is None else preset, locals())
@@ -321,6 +330,7 @@ class ReactionWheelEnv(AttitudeEnv):
             fault_hint=cfg["fault_hint"],
             disturbance=cfg.get("disturbance"),
         )
+        self._init_termination_cost(cfg["termination_cost"], cost.Q, self.episode_duration_s)
         self._meas: dict[str, np.ndarray] = {}
         self.max_rate_rad_s = validation.positive("max_rate_rad_s", cfg["max_rate_rad_s"])
         self.observe_wheel_speeds = bool(cfg["observe_wheel_speeds"])
@@ -524,6 +534,9 @@ class ReactionWheelEnv(AttitudeEnv):
         terminated = bool(self._out_terminated[0])  # non-finite, tumbling, or beyond the tilt stop
         truncated = bool(self._out_truncated[0])
         finite = not terminated or (bool(np.isfinite(self._y).all()) and np.isfinite(cost))
+        if terminated and finite:  # a limit crossed: the rest of the horizon is charged
+            x = self.error_states(self._y.reshape(1, -1), self._target.reshape(1, -1))
+            cost += float(self.batch_termination_cost(x, np.array([self._t]))[0])
         if finite:
             self._measure()
             self._qe_w = float(self._out_qe_w[0])
@@ -550,6 +563,21 @@ class ReactionWheelEnv(AttitudeEnv):
         m = self._action_map
         torque = a[..., 0:1] * m[:, 0] + a[..., 1:2] * m[:, 1] + a[..., 2:3] * m[:, 2]
         return np.minimum(np.maximum(torque, -limit), limit)
+
+    def error_states(self, states: np.ndarray, targets: np.ndarray) -> np.ndarray:
+        """The error states ``x`` (E × n, the cost's) of rows of physical states ``[q, ω, Ω]``
+        (E × (7+N)) against rows of target quaternions (E × 4), as the compiled step forms them."""
+        e = len(states)
+        out = np.empty((self.model.cost.n, e))
+        kernels.error_state_columns(
+            np.ascontiguousarray(np.asarray(states, dtype=float).T),
+            np.ascontiguousarray(np.asarray(targets, dtype=float).T),
+            self._plant.wheel_inertia_kg_m2,
+            self.model.include_wheel_momentum,
+            out,
+            np.empty(e),
+        )
+        return out.T.copy()
 
     def _pack_kernel_arguments(self) -> None:
         """The compiled step, its constants and the plant's matrices."""

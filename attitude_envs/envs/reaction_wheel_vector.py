@@ -143,12 +143,28 @@ class ReactionWheelVectorEnv(BatchedEnv):
         )
         if n_done < 0:
             raise ValueError("actions must be finite (no NaN or inf)")
+        if n_done and terminated.any():
+            self._charge_termination(terminated, time_s, cost, reward)
         np.arccos(angle, out=angle)  # min(1, q_e,w) → error angle, deg: the single env's
         angle *= _TWO_RAD_TO_DEG  # np.degrees(2 arccos(.)), bit for bit
         infos = self._with_masks(
             {"cost": cost, "time_s": time_s, "truth": {"applied": applied, "error_angle_deg": angle}}
         )
         return obs, reward, terminated, truncated, infos
+
+    def _charge_termination(self, terminated, time_s, cost, reward) -> None:
+        """Add the single env's termination cost to the sub-envs that crossed a limit this
+        step (finite state and cost), in place."""
+        idx = np.flatnonzero(terminated)
+        rows = self.states[idx]
+        idx = idx[np.isfinite(rows).all(axis=1) & np.isfinite(cost[idx])]
+        if idx.size == 0:
+            return
+        lanes = kernels.BATCH_LANES
+        targets = self._T[idx // lanes, :, idx % lanes]
+        first = self.envs[0]
+        cost[idx] += first.batch_termination_cost(first.error_states(self.states[idx], targets), time_s[idx])
+        reward[idx] = -cost[idx]
 
     @property
     def states(self) -> np.ndarray:
