@@ -347,6 +347,35 @@ def _add_env_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--faults", help="actuator faults as a YAML list (attitude_envs.faults), or @FILE")
 
 
+def _tune(args: argparse.Namespace) -> int:
+    from experiments.sb3.tuning import tune  # optional: the tune extra (optuna) and the sb3 extra
+
+    summary = tune(
+        args.algo,
+        args.env,
+        args.out,
+        env_kwargs=_env_kwargs(args),
+        n_trials=args.trials,
+        timesteps=args.timesteps,
+        n_evaluations=args.evaluations,
+        eval_episodes=args.eval_episodes,
+        overrides=parse_overrides(args.params),
+        backend=args.backend,
+        seed=args.seed,
+        sampler_seed=args.sampler_seed,
+        jobs=args.jobs,
+    )
+    print(
+        f"tuned {args.algo} on {args.env}: {summary['n_complete']} trials complete, {summary['n_pruned']} pruned; "
+        f"trials: {Path(args.out) / 'trials.csv'}"
+    )
+    if summary["best_value"] is not None:
+        print(
+            f"best eval J = {summary['best_value']:.6g} (trial {summary['best_trial']}): {Path(args.out) / 'best.yml'}"
+        )
+    return 0
+
+
 def _tune_pid(args: argparse.Namespace) -> int:
     return tune_pid_main(args.rest)
 
@@ -575,6 +604,25 @@ def build_parser() -> argparse.ArgumentParser:
     bm.add_argument("--no-video", action="store_true", help="skip the episode video even if the campaign asks for it")
     _add_executor_options(bm)
     bm.set_defaults(func=_benchmark)
+
+    tu = sub.add_parser(
+        "tune", help="search an agent's hyperparameters with Optuna (TPE, median pruning; the tune extra)"
+    )
+    tu.add_argument("--algo", required=True, help="algorithm with a sampler: ppo")
+    _add_env_options(tu)
+    tu.add_argument("--out", required=True, help="study directory (study.log, trials.csv, best.yml, trial runs)")
+    tu.add_argument(
+        "--trials", type=int_at_least(1), default=20, help="trials in all (a resumed search counts the done ones)"
+    )
+    tu.add_argument("--timesteps", type=int_at_least(1), default=300_000, help="env steps per trial")
+    tu.add_argument("--evaluations", type=int_at_least(1), default=3, help="evaluations per trial (pruning points)")
+    tu.add_argument("--eval-episodes", type=int_at_least(1), default=10, help="episodes per evaluation (seeds 10000+i)")
+    tu.add_argument("--params", nargs="*", help="fixed hyperparameter overrides key:value (Zoo syntax)")
+    tu.add_argument("--backend", choices=BACKENDS, help="sb3 or sbx; default: the hyperparameter entry's")
+    tu.add_argument("--seed", type=int_at_least(0), default=0, help="training seed of every trial")
+    tu.add_argument("--sampler-seed", type=int_at_least(0), default=0, help="seed of the TPE sampler")
+    tu.add_argument("--jobs", type=int_at_least(1), default=1, help="worker processes sharing the study")
+    tu.set_defaults(func=_tune)
 
     tp = sub.add_parser(
         "tune-pid",

@@ -1,0 +1,63 @@
+"""The Optuna hyperparameter search (`attitude-envs tune`): trials train through train(), the
+study is a journal file that a second call resumes, and best.yml is a Zoo-format entry."""
+
+from __future__ import annotations
+
+import csv
+
+import pytest
+import yaml
+
+pytest.importorskip("optuna")
+pytest.importorskip("stable_baselines3")
+
+from experiments.cli import main  # noqa: E402
+from experiments.sb3.tuning import tune  # noqa: E402
+
+ENV = "attitude_envs/LinearSystem-v0"
+KWARGS = {"episode_steps": 50}
+FIXED = {"n_envs": 1, "batch_size": 64}
+
+
+def _rows(out):
+    with open(out / "trials.csv", newline="", encoding="utf-8") as fh:
+        return list(csv.DictReader(fh))
+
+
+def test_tune_runs_trials_resumes_and_writes_a_zoo_entry(tmp_path):
+    out = tmp_path / "study"
+    common = dict(env_kwargs=KWARGS, timesteps=4000, n_evaluations=2, eval_episodes=2, overrides=FIXED, backend="sb3")
+    first = tune("ppo", ENV, out, n_trials=2, **common)
+    assert first["n_complete"] == 2 and first["n_pruned"] == 0
+    rows = _rows(out)
+    assert [r["state"] for r in rows] == ["COMPLETE", "COMPLETE"]
+    # a trial's value is its best evaluation J, read from its own run
+    for r in rows:
+        with open(out / f"trial-{int(r['number']):03d}" / "evaluations.csv", newline="", encoding="utf-8") as fh:
+            js = [float(e["J_mean"]) for e in csv.DictReader(fh)]
+        assert len(js) == 2 and float(r["value"]) == pytest.approx(min(js))
+    # the second call continues the same study: one more trial, not three
+    again = tune("ppo", ENV, out, n_trials=3, **common)
+    assert again["n_complete"] == 3 and len(_rows(out)) == 3
+    entry = yaml.safe_load((out / "best.yml").read_text(encoding="utf-8"))[ENV]
+    assert entry["n_envs"] == 1 and entry["batch_size"] == 64  # the fixed overrides win
+    assert entry["policy_kwargs"].startswith("dict(log_std_init=") and entry["learning_rate"].startswith("lin_")
+    assert again["best_value"] == min(float(r["value"]) for r in _rows(out))
+
+
+def test_tune_rejects_bad_arguments_by_name(tmp_path):
+    with pytest.raises(ValueError, match=r"no sampler for algo 'sac' \(accepted: \['ppo'\]\)"):
+        tune("sac", ENV, tmp_path / "a")
+    with pytest.raises(ValueError, match=r"n_evaluations must be in \[1, timesteps\], got 0"):
+        tune("ppo", ENV, tmp_path / "b", n_evaluations=0)
+
+
+def test_tune_command_line(tmp_path, capsys):
+    out = tmp_path / "cli"
+    argv = ["tune", "--algo", "ppo", "--env", ENV, "--env-kwargs", "{episode_steps: 50}", "--out", str(out)]
+    argv += ["--trials", "1", "--timesteps", "2000", "--evaluations", "1", "--eval-episodes", "2", "--backend", "sb3"]
+    argv += ["--params", "n_envs:1", "batch_size:64"]
+    assert main(argv) == 0
+    printed = capsys.readouterr().out
+    assert "1 trials complete, 0 pruned" in printed and "best eval J = " in printed
+    assert (out / "best.yml").is_file()
