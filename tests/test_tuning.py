@@ -61,3 +61,25 @@ def test_tune_command_line(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "1 trials complete, 0 pruned" in printed and "best eval J = " in printed
     assert (out / "best.yml").is_file()
+
+
+def test_parallel_workers_share_one_study(tmp_path):
+    """Two worker processes draw from one journal and stop at the study's trial count (a trial
+    still running when the other worker reaches it finishes too: at most one extra)."""
+    out = tmp_path / "jobs"
+    summary = tune(
+        "ppo",
+        ENV,
+        out,
+        env_kwargs=KWARGS,
+        n_trials=2,
+        timesteps=1000,
+        n_evaluations=1,
+        eval_episodes=1,
+        overrides=FIXED,
+        backend="sb3",
+        jobs=2,
+    )
+    rows = _rows(out)
+    assert 2 <= summary["n_complete"] <= 3 and len(rows) == summary["n_complete"]
+    assert len({r["number"] for r in rows}) == len(rows)

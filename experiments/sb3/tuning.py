@@ -11,8 +11,9 @@ which stops trials below the median of earlier ones at the same step (Optuna's
 snapshot campaigns evaluate). The sampler is TPE, seeded.
 
 The study lives in ``OUT/study.log`` (Optuna's journal file), so ``jobs`` processes share it
-and a killed search resumes where it stopped (a trial that was running is marked failed and
-re-drawn). ``OUT/trials.csv`` lists every trial; ``OUT/best.yml`` is the best trial's entry in
+and a killed search rerun with the same arguments goes on until ``n_trials`` trials have
+finished or been pruned (a trial that was running when it was killed stays ``RUNNING`` in the
+journal and in ``trials.csv``, and does not count). ``OUT/trials.csv`` lists every trial; ``OUT/best.yml`` is the best trial's entry in
 the Zoo format, ready to paste into a hyperparameter file or a campaign's ``overrides``.
 """
 
@@ -137,9 +138,13 @@ def _worker(spec: dict[str, Any], n_trials: int, index: int | None = None) -> No
     study = _study(spec)
     from optuna.trial import TrialState
 
-    # a resumed search counts the trials already finished or pruned
-    done = sum(t.state in (TrialState.COMPLETE, TrialState.PRUNED) for t in study.trials)
-    study.optimize(_objective(spec), n_trials=max(0, n_trials - done), catch=(ValueError,))
+    # the study stops at n_trials finished or pruned trials, counted over every worker and
+    # over earlier (killed) runs of the search; trials still running then finish too
+    states = (TrialState.COMPLETE, TrialState.PRUNED)
+    if sum(t.state in states for t in study.trials) >= n_trials:
+        return
+    stop = optuna.study.MaxTrialsCallback(n_trials, states=states)
+    study.optimize(_objective(spec), callbacks=[stop], catch=(ValueError,))
 
 
 def tune(
