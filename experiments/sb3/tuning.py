@@ -22,13 +22,14 @@ from __future__ import annotations
 import csv
 import math
 import multiprocessing
+import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import yaml
 
-from attitude_envs.processes import pin_to_one_core
+from attitude_envs.processes import die_with_parent, pin_to_one_core
 from experiments.sb3.training import train
 
 INSTALL_HINT = "hyperparameter search needs optuna: pip install 'attitude-envs[tune]'"
@@ -130,7 +131,9 @@ def _study(spec: dict[str, Any]):
     )
 
 
-def _worker(spec: dict[str, Any], n_trials: int, index: int | None = None) -> None:
+def _worker(spec: dict[str, Any], n_trials: int, index: int | None = None, parent: int | None = None) -> None:
+    if parent is not None:  # a worker process: it dies with the search (also on SIGKILL)
+        die_with_parent(parent)
     if index is not None:  # one CPU per worker: JAX sizes its thread pool from the affinity
         pin_to_one_core(index)
     optuna = _optuna()
@@ -196,7 +199,8 @@ def tune(
         _worker(spec, int(n_trials))
     else:
         ctx = multiprocessing.get_context("spawn")  # JAX and torch are not fork-safe
-        procs = [ctx.Process(target=_worker, args=(spec, int(n_trials), i)) for i in range(int(jobs))]
+        parent = os.getpid()
+        procs = [ctx.Process(target=_worker, args=(spec, int(n_trials), i, parent)) for i in range(int(jobs))]
         for p in procs:
             p.start()
         for p in procs:
