@@ -28,7 +28,7 @@ from typing import Any, ClassVar
 import gymnasium as gym
 import numpy as np
 
-from attitude_envs import presets
+from attitude_envs import presets, validation
 from attitude_envs.disturbances import Disturbance
 from attitude_envs.faults import ActuatorFaults
 from attitude_envs.info import MEASURED, TRUTH
@@ -144,11 +144,13 @@ class AttitudeEnv(gym.Env):
     def _init_termination_cost(self, mode: str, Q: np.ndarray, horizon: float) -> None:
         """Validate the ``termination_cost`` keyword; ``Q`` weighs the error state and
         ``horizon`` is the episode's length (s, or steps for a discrete-time env)."""
-        if mode not in TERMINATION_COSTS:
-            raise ValueError(f"termination_cost must be one of {list(TERMINATION_COSTS)}, got {mode!r}")
-        self.termination_cost = mode
+        self.termination_cost = validation.choice("termination_cost", mode, TERMINATION_COSTS)
         self._hold_q = np.asarray(Q, dtype=float)
         self._horizon = float(horizon)
+
+    def _termination_charge(self, x: np.ndarray, elapsed: float) -> float:
+        """:meth:`batch_termination_cost` of one error state (the single envs' step)."""
+        return float(self.batch_termination_cost(np.reshape(x, (1, -1)), np.array([elapsed]))[0])
 
     def batch_termination_cost(self, x: np.ndarray, elapsed: np.ndarray) -> np.ndarray:
         """The cost charged on the step that ends an episode by crossing a limit, for rows

@@ -286,7 +286,7 @@ class FuelSloshEnv(AttitudeEnv):
             or abs(y[slosh.ITH]) > self.max_pitch_angle_rad
         )
         if terminated and finite:  # a limit crossed: the rest of the horizon is charged
-            cost += float(self.batch_termination_cost(reduced_state(self._y).reshape(1, -1), np.array([self._t]))[0])
+            cost += self._termination_charge(reduced_state(self._y), self._t)
         truncated = bool(self._t >= self.episode_duration_s - 1e-9 * self.control_dt_s) and not terminated
         if finite:
             measured = self._measure()

@@ -245,7 +245,7 @@ class LinearSystemEnv(AttitudeEnv):
         finite = bool(np.isfinite(x_next).all())
         terminated = not finite or bool(np.abs(x_next).max() > self.divergence_threshold)
         if terminated and finite:  # diverged: the rest of the horizon is charged, per step
-            cost += float(self.batch_termination_cost(x_next.reshape(1, -1), np.array([self._steps]))[0])
+            cost += self._termination_charge(x_next, self._steps)
         truncated = self._steps >= self.episode_steps and not terminated
         # actuator faults as applied over this step, sensor faults at the observation time
         truth = {

@@ -580,8 +580,7 @@ class MagnetorquerEnv(AttitudeEnv):
         finite = self._step_out[kernels.ST_FINITE] == 1.0
         terminated = not finite or bool(self._step_out[kernels.ST_MAX_RATE] > self.max_rate_rad_s)
         if terminated and finite:  # tumbling: the rest of the horizon is charged
-            x = self._snap[kernels.SN_X : kernels.SN_X + 6].reshape(1, -1)
-            cost += float(self.batch_termination_cost(x, np.array([self._t]))[0])
+            cost += self._termination_charge(self._snap[kernels.SN_X : kernels.SN_X + 6], self._t)
         truncated = bool(self._t >= self.episode_duration_s - 1e-9 * self.control_dt_s) and not terminated
         if self._sensor_layer.enabled:
             self._measure()

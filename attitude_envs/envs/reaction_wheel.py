@@ -536,7 +536,7 @@ class ReactionWheelEnv(AttitudeEnv):
         finite = not terminated or (bool(np.isfinite(self._y).all()) and np.isfinite(cost))
         if terminated and finite:  # a limit crossed: the rest of the horizon is charged
             x = self.error_states(self._y.reshape(1, -1), self._target.reshape(1, -1))
-            cost += float(self.batch_termination_cost(x, np.array([self._t]))[0])
+            cost += self._termination_charge(x, self._t)
         if finite:
             self._measure()
             self._qe_w = float(self._out_qe_w[0])

@@ -157,13 +157,14 @@ class ReactionWheelVectorEnv(BatchedEnv):
         step (finite state and cost), in place."""
         idx = np.flatnonzero(terminated)
         rows = self.states[idx]
-        idx = idx[np.isfinite(rows).all(axis=1) & np.isfinite(cost[idx])]
+        ok = np.isfinite(rows).all(axis=1) & np.isfinite(cost[idx])
+        idx, rows = idx[ok], rows[ok]
         if idx.size == 0:
             return
         lanes = kernels.BATCH_LANES
         targets = self._T[idx // lanes, :, idx % lanes]
         first = self.envs[0]
-        cost[idx] += first.batch_termination_cost(first.error_states(self.states[idx], targets), time_s[idx])
+        cost[idx] += first.batch_termination_cost(first.error_states(rows, targets), time_s[idx])
         reward[idx] = -cost[idx]
 
     @property
