@@ -152,9 +152,17 @@ def test_ctrl_c_is_one_line_exit_130_quick_and_logged_as_interrupted(workers, tm
     config.write_text(yaml.safe_dump(SLOW_CAMPAIGN))
     out = tmp_path / "out"
     argv = [sys.executable, "train.py", "benchmark", "--config", str(config), "--out", str(out), "--workers", workers]
-    proc = subprocess.Popen(
-        argv, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
-    )
+    # a shell's background job (`pytest &`, `nohup .ci/run &`) ignores SIGINT, the child would
+    # inherit that and Python would then install no KeyboardInterrupt handler: the test runs the
+    # command as a terminal's foreground job does, with SIGINT at its default (a Python handler in
+    # this process is reset to the default in the exec'd child)
+    inherited = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        proc = subprocess.Popen(
+            argv, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
+        )
+    finally:
+        signal.signal(signal.SIGINT, inherited)
     try:
         deadline = time.monotonic() + 60
         log = out / "episodes.jsonl"

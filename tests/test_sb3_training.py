@@ -98,6 +98,26 @@ def _same_run(out, ref):
     assert _weights(out) == _weights(ref)
 
 
+def test_segments_with_the_full_schedule_budget_train_as_one_run(tmp_path):
+    """A tuning trial trains in segments (pruning points): with ``schedule_timesteps`` the full
+    budget, a linear learning-rate schedule anneals over the whole run, and two segments are
+    bitwise one run. Without it, the first segment anneals to zero by its own end."""
+    tiny = {**SAC_TINY, "learning_rate": "lin_1e-3"}
+    common = dict(env_kwargs=SHORT, seed=3, overrides=tiny, checkpoint_freq=100, eval_freq=100, eval_episodes=1)
+    reference = tmp_path / "one-run"
+    train("sac", RW, reference, total_timesteps=300, **common)
+    segmented = tmp_path / "segments"
+    train("sac", RW, segmented, total_timesteps=200, schedule_timesteps=300, **common)
+    train("sac", RW, segmented, total_timesteps=300, schedule_timesteps=300, resume=True, **common)
+    _same_run(segmented, reference)
+    sawtooth = tmp_path / "per-segment"
+    train("sac", RW, sawtooth, total_timesteps=200, **common)
+    train("sac", RW, sawtooth, total_timesteps=300, resume=True, **common)
+    assert _weights(sawtooth) != _weights(reference)
+    with pytest.raises(ValueError, match="schedule_timesteps must be >= total_timesteps"):
+        train("sac", RW, tmp_path / "bad", total_timesteps=300, schedule_timesteps=200, **common)
+
+
 def test_resume_continues_a_killed_run_with_its_replay_buffer(tmp_path, sac_400):
     out = tmp_path / "run"
     first = _sac(out, 250)  # checkpoints at 100, 200 and 250 (the budget)

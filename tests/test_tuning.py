@@ -83,3 +83,6 @@ def test_parallel_workers_share_one_study(tmp_path):
     rows = _rows(out)
     assert 2 <= summary["n_complete"] <= 3 and len(rows) == summary["n_complete"]
     assert len({r["number"] for r in rows}) == len(rows)
+    # each worker samples with its own seed: no point is trained twice (one seed made pairs)
+    points = {tuple(sorted((k, v) for k, v in r.items() if k.startswith("param_"))) for r in rows}
+    assert len(points) == len(rows), rows

@@ -98,6 +98,7 @@ def train(
     tensorboard: bool | None = None,
     verbose: int = 0,
     progress: bool | str = False,
+    schedule_timesteps: int | None = None,
 ) -> TrainResult:
     """Train (or with ``resume`` continue) an agent; returns where the final model was saved.
 
@@ -119,6 +120,9 @@ def train(
     ``backend``: ``"sb3"`` (PyTorch) or ``"sbx"`` (JAX, the ``sbx`` extra; :mod:`experiments.sb3.backends`);
     default: the entry's ``backend`` key, else ``"sb3"``. Checkpoints, exact resume, best/final
     snapshots and :func:`load_trained` work the same on both.
+    ``schedule_timesteps``: the budget the hyperparameter schedules (``lin_3e-4`` …) anneal over
+    (default ``total_timesteps``). A search that trains a trial in segments passes its full budget
+    here, so that each segment trains as the same part of one uninterrupted run would.
     ``progress``: True a bar with ETA on a terminal, else a status line every 30 s; a string is
     its label and means status lines (campaign workers); ``progress_bar``: SB3's own bar instead
     (one per segment).
@@ -152,6 +156,9 @@ def train(
     total = int(total_timesteps if total_timesteps is not None else hp["n_timesteps"])
     if total < 1:
         raise ValueError(f"total_timesteps must be >= 1, got {total}")
+    horizon = total if schedule_timesteps is None else int(schedule_timesteps)
+    if horizon < total:
+        raise ValueError(f"schedule_timesteps must be >= total_timesteps ({total}), got {schedule_timesteps}")
 
     config = {
         "algo": algo,
@@ -190,7 +197,7 @@ def train(
         out_dir.mkdir(parents=True, exist_ok=True)
         atomic_write_text(out_dir / "config.json", json.dumps(config, indent=2) + "\n")
         set_random_seed(int(seed))
-        clock = RunClock(total)
+        clock = RunClock(horizon)
         model = _new_model(
             algo, env_id, env_kwargs, int(seed), hp, entry, clock, out_dir, tensorboard, verbose, batched
         )
@@ -199,7 +206,7 @@ def train(
         resumed_from = None
     else:
         model, clock, run, rng = read_checkpoint(checkpoint["path"])
-        clock.total = total
+        clock.total = horizon
         model.verbose = verbose
         evaluations.restore(run["eval_log"])  # drops rows written after this checkpoint by the killed run
         _reconcile_best(out_dir / "best", run["best"], model)

@@ -92,6 +92,7 @@ def _objective(spec: dict[str, Any]):
                 seed=int(spec["seed"]),
                 overrides=overrides,
                 total_timesteps=every * k if k < n_eval else budget,
+                schedule_timesteps=budget,  # the schedules anneal over the trial, not over the segment
                 checkpoint_freq=every,
                 eval_freq=every,
                 eval_episodes=int(spec["eval_episodes"]),
@@ -115,7 +116,9 @@ def _best_eval_j(run: Path) -> float:
     return min(finite) if finite else math.inf
 
 
-def _study(spec: dict[str, Any]):
+def _study(spec: dict[str, Any], worker: int = 0):
+    """The shared study, with worker ``worker``'s own sampler seed (``sampler_seed + worker``): with
+    one seed, the workers' random start-up trials were the same points, each trained twice."""
     optuna = _optuna()
     from optuna.storages import JournalStorage
     from optuna.storages.journal import JournalFileBackend
@@ -126,7 +129,7 @@ def _study(spec: dict[str, Any]):
         storage=storage,
         load_if_exists=True,
         direction="minimize",
-        sampler=optuna.samplers.TPESampler(seed=int(spec["sampler_seed"]), n_startup_trials=5),
+        sampler=optuna.samplers.TPESampler(seed=int(spec["sampler_seed"]) + int(worker), n_startup_trials=5),
         pruner=optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=1),
     )
 
@@ -138,7 +141,7 @@ def _worker(spec: dict[str, Any], n_trials: int, index: int | None = None, paren
         pin_to_one_core(index)
     optuna = _optuna()
     optuna.logging.set_verbosity(optuna.logging.WARNING)
-    study = _study(spec)
+    study = _study(spec, index or 0)
     from optuna.trial import TrialState
 
     # the study stops at n_trials finished or pruned trials, counted over every worker and
