@@ -432,7 +432,10 @@ def _write_table(args: argparse.Namespace) -> int:
     print(f"J* table ({optimum_table.COMMAND}): {len(specs)} episode key(s) of {', '.join(cells)} → {path}")
     executor = make_executor(None, args.workers)
     try:
-        path, failed = optimum_table.write_table(specs, path, executor, cache=not args.no_cache, progress=print)
+        keep = optimum_table.reusable_entries(path) if args.keep_table else None
+        path, failed = optimum_table.write_table(
+            specs, path, executor, cache=not args.no_cache, progress=print, keep=keep
+        )
     finally:
         executor.close()
     data = json.loads(path.read_text())
@@ -443,9 +446,9 @@ def _write_table(args: argparse.Namespace) -> int:
 
 
 def _optimum(args: argparse.Namespace) -> int:
-    if args.write_table or args.campaign or args.table:
+    if args.write_table or args.campaign or args.table or args.keep_table:
         if not args.write_table:
-            raise ValueError("--campaign and --table go with --write-table")
+            raise ValueError("--campaign, --table and --keep-table go with --write-table")
         return _write_table(args)
     if args.out is None:
         raise ValueError("optimum needs --out DIR (or --write-table)")
@@ -658,6 +661,12 @@ def build_parser() -> argparse.ArgumentParser:
         "and faults); default: " + " ".join(optimum_table.SHIPPED),
     )
     op.add_argument("--table", help="with --write-table: the table file to write (default: the shipped one)")
+    op.add_argument(
+        "--keep-table",
+        action="store_true",
+        help="with --write-table: keep the entries the table file already holds (solved with the same "
+        "settings) and solve only the other episode keys",
+    )
     op.add_argument(
         "--workers", type=int_at_least(1), help="with --write-table: solves in parallel (default: CPU count)"
     )

@@ -294,19 +294,36 @@ def optimum_notes(specs: list[dict[str, Any]], store: Any, solve: bool, reason: 
     return notes
 
 
+def reusable_entries(path: str | Path) -> dict[str, dict[str, Any]]:
+    """hash → entry of the table at ``path`` when it was solved with this module's
+    :data:`SOLVER` settings (else, or without a file, empty: everything is solved again)."""
+    path = Path(path)
+    if not path.is_file():
+        return {}
+    data = json.loads(path.read_text(encoding="utf-8"))
+    solver = {k: v for k, v in data.get("solver", {}).items() if k != "method"}
+    return {e["hash"]: e for e in data.get("entries", [])} if solver == SOLVER else {}
+
+
 def write_table(
     specs: list[dict[str, Any]],
     path: str | Path,
     executor: Any,
     cache: bool = True,
     progress: Callable[[str], None] | None = None,
+    keep: Mapping[str, Mapping[str, Any]] | None = None,
 ) -> tuple[Path, list[dict[str, Any]]]:
     """Solve every spec (on ``executor``) and write the J* table to ``path``; returns the path
-    and the specs whose solve failed (they are left out of the table)."""
+    and the specs whose solve failed (they are left out of the table). ``keep`` (hash → entry,
+    :func:`reusable_entries`): specs it holds take that entry instead of a solve."""
     if solver_unavailable():
         raise ValueError(f"--write-table solves J*: {INSTALL_HINT}")
     say = progress or (lambda _msg: None)
-    jobs = [{**s, "cache": cache} for s in specs]
+    keep = keep or {}
+    kept = [{**keep[s["hash"]], "cells": s["labels"]} for s in specs if s["hash"] in keep]
+    if kept:
+        say(f"  {len(kept)} episode key(s) kept from the existing table")
+    jobs = [{**s, "cache": cache} for s in specs if s["hash"] not in keep]
     by_hash = {s["hash"]: s for s in specs}
     rows = []
     with Progress(len(jobs), "J* table", "episode", enabled=progress is not None) as bar:
@@ -319,7 +336,7 @@ def write_table(
                 f"{row.get('solve_s', float('nan')):.1f} s{', cached' if row['source'] == 'cache' else ''})"
             )
     failed = [by_hash[r["hash"]] for r in rows if not math.isfinite(float(r["j_star"]))]
-    entries = []
+    entries = kept
     for r in rows:
         if not math.isfinite(float(r["j_star"])):
             continue

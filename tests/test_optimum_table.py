@@ -160,3 +160,44 @@ def test_j_over_j_star_is_a_ratio_of_means_with_a_paired_ci():
     same = _ratio_stats([{"J": 2.0, "j_star": 1.0}, {"J": 4.0, "j_star": 2.0}])
     assert same["J_over_J_star_deterministic"] and same["J_over_J_star"] == pytest.approx(2.0)
     assert _ratio_stats([{"J": 1.0}])["J_over_J_star_episodes"] == 0
+
+
+def test_write_table_keeps_what_the_table_holds_and_solves_the_rest(tmp_path):
+    """--keep-table: keys the existing table holds (same solver settings) are copied, only the
+    others are solved; a table of other settings keeps nothing."""
+    pytest.importorskip("casadi")
+    from experiments.cli import _table_specs
+
+    specs = _table_specs(["quick:ls"])
+    keep = optimum_table.reusable_entries(optimum_table.shipped_table_path())
+    assert all(s["hash"] in keep for s in specs)
+    new_key = optimum_table.episode_specs(
+        [{**j, "key": {**j["key"], "seed": 99}} for j in episode_jobs(load_campaign("quick"), tmp_path)[:1]]
+    )
+
+    class Inline:
+        solved: list = []
+
+        def map_unordered(self, fn, jobs):
+            for job in jobs:
+                self.solved.append(job["hash"])
+                yield {
+                    **optimum_table._result_row(job, "solved", j_star=1.5, status="Solve_Succeeded"),
+                    "j_nlp": 1.5,
+                    "j_warm": 2.0,
+                    "warm_start": "lqr",
+                    "iterations": 3,
+                    "solve_s": 0.1,
+                }
+
+    path, failed = optimum_table.write_table(specs + new_key, tmp_path / "t.json", Inline(), keep=keep)
+    assert not failed and Inline.solved == [new_key[0]["hash"]]
+    written = load_table(path)
+    assert set(written) == {s["hash"] for s in specs + new_key}
+    for s in specs:
+        assert written[s["hash"]]["j_star"] == keep[s["hash"]]["j_star"]
+    data = json.loads(path.read_text())
+    data["solver"]["tol"] = 1e-6
+    path.write_text(json.dumps(data))
+    assert optimum_table.reusable_entries(path) == {}
+    assert optimum_table.reusable_entries(tmp_path / "none.json") == {}
