@@ -73,6 +73,13 @@ def test_out_below_a_file_is_refused_too(tmp_path, capsys):
     assert "is an existing file; --out names a directory" in capsys.readouterr().err
 
 
+def test_table_options_without_write_table_are_refused_by_name(capsys):
+    for argv in (["optimum", "--keep-table"], ["optimum", "--table", "t.json"]):
+        assert cli.main(argv) == 2
+        err = capsys.readouterr().err
+        assert "--campaign, --table and --keep-table go with --write-table" in err and err.count("\n") == 1, err
+
+
 def test_seeds_0_is_a_one_line_error_naming_seeds_not_the_usage():
     proc = _cli("evaluate", "--policy", "lqr", "--seeds", "0", "--out", "X")
     assert proc.returncode == 2
