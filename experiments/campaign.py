@@ -73,6 +73,7 @@ from attitude_envs.make import check_env_id, make_checked
 from attitude_envs.plants.gyrostat_model import ReactionWheelModel
 from attitude_envs.processes import die_with_parent, pin_to_one_core, pool_context
 from attitude_envs.progress import Progress, status_interval_s
+from experiments.machine_reference import reference_steps_per_s
 from experiments.optimum_table import episode_specs, resolve, solve_by_default, solve_job
 from experiments.policies import POLICIES, PolicyUnavailable, _import, build_policy, check_policy_name
 from experiments.sb3.backends import check_backend
@@ -688,15 +689,18 @@ class RunLog:
     ``progress`` lines at most every ``ATTITUDE_ENVS_PROGRESS_S`` seconds (default 30) and an
     ``end`` line with the status (``completed``, ``interrupted`` by Ctrl-C, ``failed``). A run
     killed with SIGKILL leaves its start line (and progress lines) without an end:
-    :func:`read_runs` counts it as ``killed``."""
+    :func:`read_runs` counts it as ``killed``. The start and end lines carry the machine's speed
+    then (``reference_steps_per_s``, ``reference_steps_per_s_end``:
+    :func:`~experiments.machine_reference.reference_steps_per_s`, 0.2 s each)."""
 
     def __init__(self, path: Path, executor: str) -> None:
         self.path = Path(path)
         self.run = uuid.uuid4().hex[:12]
+        reference = reference_steps_per_s()  # before the clock starts: not part of the run's wall time
         self.start = self.last = time.perf_counter()
         self.interval_s = status_interval_s()
         record = {"event": "start", "run": self.run, "started_at": round(time.time(), 3), "executor": executor}
-        _append_line(self.path, record | {"pid": os.getpid()})
+        _append_line(self.path, record | {"pid": os.getpid(), "reference_steps_per_s": round(reference, 1)})
 
     def elapsed_s(self) -> float:
         return time.perf_counter() - self.start
@@ -711,9 +715,12 @@ class RunLog:
     def end(self, status: str, **counts: Any) -> float:
         """The end line; returns the run's wall time, s."""
         elapsed = self.elapsed_s()
+        reference = round(reference_steps_per_s(), 1)
         _append_line(
             self.path,
-            {"event": "end", "run": self.run, "status": status, "wall_time_s": round(elapsed, 3)} | counts,
+            {"event": "end", "run": self.run, "status": status, "wall_time_s": round(elapsed, 3)}
+            | counts
+            | {"reference_steps_per_s_end": reference},
         )
         return elapsed
 

@@ -31,6 +31,7 @@ from attitude_envs.evaluation.trace import record_episode, record_state_trace
 from attitude_envs.info import policy_view
 from attitude_envs.plants.gyrostat_model import ReactionWheelModel
 from experiments.campaign import episode_jobs, success_criterion
+from experiments.machine_reference import REFERENCE_ENV
 from experiments.optimum_table import COMMAND, DESCRIPTION, SOURCES, TABLE_FILE
 from experiments.policies import build_policy
 
@@ -502,12 +503,12 @@ def snapshot_description(model: str | Path) -> str:
 
 
 def _all_runs(result) -> str:
-    """``12.3 over 3 run(s) (runs.jsonl; 1 interrupted, 1 killed)``."""
+    """``12.3 over 3 run(s) (runs.jsonl, 1 interrupted, 1 killed): <each run>``."""
     others = {k: n for k, n in getattr(result, "run_statuses", {}).items() if k != "completed"}
     detail = "".join(f", {n} {k}" for k, n in others.items())
     killed = " — a killed run counts up to its last progress line" if "killed" in others else ""
     each = "; ".join(_run_summary(r) for r in getattr(result, "run_log", []))
-    each = f": {each}" if each and result.runs > 1 else ""
+    each = f": {each}" if each else ""
     return f"{result.total_wall_time_s:.1f} over {result.runs} run(s) (runs.jsonl{detail}){killed}{each}"
 
 
@@ -520,6 +521,9 @@ def _run_summary(run: Mapping[str, Any]) -> str:
         parts.append(f"{run['episodes_run']} episodes" if run["episodes_run"] else "report only")
     if run.get("status") not in (None, "completed"):
         parts.append(str(run["status"]))
+    speeds = [run[k] for k in ("reference_steps_per_s", "reference_steps_per_s_end") if run.get(k)]
+    if speeds:  # the machine's speed then (experiments.machine_reference), to compare wall times
+        parts.append(f"{REFERENCE_ENV} at {' → '.join(f'{v / 1000:.1f}k' for v in speeds)} steps/s")
     return ", ".join(parts)
 
 

@@ -3,6 +3,7 @@
 import csv
 import json
 import os
+import re
 import subprocess
 import sys
 import time
@@ -11,6 +12,7 @@ import numpy as np
 import pytest
 
 from experiments.campaign import load_campaign, read_runs, run_campaign
+from experiments.machine_reference import reference_steps_per_s
 from experiments.report import bootstrap_ci, iqm, leaderboards, write_campaign_report
 
 SMALL = {
@@ -68,7 +70,9 @@ def test_rerun_after_a_crash_skips_completed_episodes_and_gives_the_same_table(t
     report_b = write_campaign_report(rerun).read_text()
     assert report_a.split("## Leaderboards")[1] == report_b.split("## Leaderboards")[1]
     assert "| wall_time_all_runs_s | " in report_b and " over 2 run(s)" in report_b
-    assert "on local-pool[1], 13 episodes; " in report_b and "on local-pool[1], report only |" in report_b
+    speed = r"Pendulum-v1 at \d+\.\dk → \d+\.\dk steps/s"  # the machine's speed at each run's start and end
+    assert re.search(rf"on local-pool\[1\], 13 episodes, {speed}; ", report_b)
+    assert re.search(rf"on local-pool\[1\], report only, {speed} \|", report_b)
     assert "agent q-lqr skipped" in report_b or "q-lqr" not in report_b
 
 
@@ -244,6 +248,16 @@ def test_runs_log_pairs_start_and_end_lines_and_counts_killed_runs(tmp_path):
     assert lines[5].endswith('"exec') and json.loads(lines[6])["event"] == "start"  # the cut line was ended
     report = write_campaign_report(result).read_text()
     assert "over 4 run(s) (runs.jsonl, 1 interrupted, 1 killed)" in report
+    # the new run records the machine's speed at its start and end; the report names it per run
+    last = read_runs(log)[-1]
+    assert last["reference_steps_per_s"] > 0 and last["reference_steps_per_s_end"] > 0
+    assert report.count("Pendulum-v1 at ") == 1 and " → " in report
+
+
+def test_machine_reference_is_a_positive_rate_and_rejects_a_bad_duration():
+    assert reference_steps_per_s(0.01) > 0
+    with pytest.raises(ValueError, match="seconds must be > 0"):
+        reference_steps_per_s(0.0)
 
 
 def test_success_is_per_env_and_a_deterministic_cell_has_no_ci(tmp_path):

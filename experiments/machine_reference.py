@@ -1,0 +1,44 @@
+"""The machine's speed, measured next to every campaign run so that its wall time can be read.
+
+A campaign's wall time is only as meaningful as the machine it ran on, and shared machines are
+not steady: on the same 2-core VM type the training-throughput benchmark measured SB3 PPO at
+5,667 env steps/s one day and 2,244 the next (SAC 69.9 and 36.6). So each run of
+``runs.jsonl`` carries the rate of a fixed workload, measured on one core when the run starts
+and when it ends: Gymnasium's ``Pendulum-v1`` stepped with a constant action, code that this
+package does not own, so a change in the rate is the machine's and not ours. Two wall times
+compare after scaling by the ratio of their references.
+"""
+
+from __future__ import annotations
+
+import time
+
+import gymnasium as gym
+import numpy as np
+
+REFERENCE_ENV = "Pendulum-v1"
+DEFAULT_SECONDS = 0.2
+
+
+def reference_steps_per_s(seconds: float = DEFAULT_SECONDS) -> float:
+    """Env steps/s of ``Pendulum-v1`` as ``gym.make`` wraps it, constant action, in this process,
+    stepped for at least ``seconds`` of wall time (> 0) after one warm-up episode step."""
+    if not seconds > 0.0:
+        raise ValueError(f"seconds must be > 0, got {seconds!r}")
+    env = gym.make(REFERENCE_ENV)
+    action = np.zeros(env.action_space.shape, dtype=env.action_space.dtype)
+    try:
+        env.reset(seed=0)
+        env.step(action)
+        steps, start = 0, time.perf_counter()
+        while True:
+            for _ in range(100):
+                _, _, terminated, truncated, _ = env.step(action)
+                if terminated or truncated:
+                    env.reset()
+            steps += 100
+            elapsed = time.perf_counter() - start
+            if elapsed >= seconds:
+                return steps / elapsed
+    finally:
+        env.close()
