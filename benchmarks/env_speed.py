@@ -13,6 +13,7 @@ import gymnasium as gym
 import numpy as np
 
 import attitude_envs  # noqa: F401
+from experiments.machine_reference import seconds_per_call, seconds_per_step
 
 SINGLE_ENV_IDS = (
     "attitude_envs/ReactionWheel-v0",
@@ -23,38 +24,12 @@ SINGLE_ENV_IDS = (
 )
 
 
-def _seconds_per_call(call, seconds: float, batch: int = 1) -> float:
-    """Mean wall seconds per ``call()``, timed in batches of ``batch`` calls for at least ``seconds``."""
-    n, start = 0, time.perf_counter()
-    while True:
-        for _ in range(batch):
-            call()
-        n += batch
-        elapsed = time.perf_counter() - start
-        if elapsed > seconds:
-            return elapsed / n
-
-
-def _time_single(env, action, seconds: float) -> float:
-    """Mean seconds per step of a single env (wrapped as gym.make returns it)."""
-    env.reset(seed=0)
-    for _ in range(100):
-        env.step(action)
-
-    def step() -> None:
-        _, _, term, trunc, _ = env.step(action)
-        if term or trunc:
-            env.reset()
-
-    return _seconds_per_call(step, seconds, batch=500)
-
-
 def _time_vector(env, actions, seconds: float) -> float:
     """Env-steps per second of a vector env."""
     env.reset(seed=0)
     for _ in range(3):
         env.step(actions)
-    return actions.shape[0] / _seconds_per_call(lambda: env.step(actions), seconds)
+    return actions.shape[0] / seconds_per_call(lambda: env.step(actions), seconds)
 
 
 def _median_range(values) -> tuple[float, list[float]]:
@@ -81,7 +56,10 @@ def single_env(seconds: float = 1.0, rounds: int = 5) -> list[dict]:
         env = gym.make(env_id)
         action = np.zeros(env.action_space.shape, np.float32)
         pairs = [
-            (_time_single(pendulum, pendulum_action, seconds / rounds), _time_single(env, action, seconds / rounds))
+            (
+                seconds_per_step(pendulum, pendulum_action, seconds / rounds),
+                seconds_per_step(env, action, seconds / rounds),
+            )
             for _ in range(rounds)
         ]
         ref_times += [p[0] for p in pairs]

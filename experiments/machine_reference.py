@@ -12,6 +12,7 @@ compare after scaling by the ratio of their references.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 import gymnasium as gym
 import numpy as np
@@ -20,25 +21,41 @@ REFERENCE_ENV = "Pendulum-v1"
 DEFAULT_SECONDS = 0.2
 
 
+def seconds_per_call(call: Callable[[], object], seconds: float, batch: int = 1) -> float:
+    """Mean wall seconds per ``call()``, timed in batches of ``batch`` calls for at least ``seconds``."""
+    n, start = 0, time.perf_counter()
+    while True:
+        for _ in range(batch):
+            call()
+        n += batch
+        elapsed = time.perf_counter() - start
+        if elapsed > seconds:
+            return elapsed / n
+
+
+def seconds_per_step(env: gym.Env, action: np.ndarray, seconds: float) -> float:
+    """Mean wall seconds per step of a single env (wrapped as ``gym.make`` returns it), stepped
+    with a constant ``action`` for at least ``seconds`` after 100 warm-up steps."""
+    env.reset(seed=0)
+    for _ in range(100):
+        env.step(action)
+
+    def step() -> None:
+        _, _, term, trunc, _ = env.step(action)
+        if term or trunc:
+            env.reset()
+
+    return seconds_per_call(step, seconds, batch=500)
+
+
 def reference_steps_per_s(seconds: float = DEFAULT_SECONDS) -> float:
     """Env steps/s of ``Pendulum-v1`` as ``gym.make`` wraps it, constant action, in this process,
-    stepped for at least ``seconds`` of wall time (> 0) after one warm-up episode step."""
+    for at least ``seconds`` of wall time (> 0): :func:`seconds_per_step`, the loop with which
+    ``benchmarks.env_speed`` times its ``Pendulum-v1`` reference row."""
     if not seconds > 0.0:
         raise ValueError(f"seconds must be > 0, got {seconds!r}")
     env = gym.make(REFERENCE_ENV)
-    action = np.zeros(env.action_space.shape, dtype=env.action_space.dtype)
     try:
-        env.reset(seed=0)
-        env.step(action)
-        steps, start = 0, time.perf_counter()
-        while True:
-            for _ in range(100):
-                _, _, terminated, truncated, _ = env.step(action)
-                if terminated or truncated:
-                    env.reset()
-            steps += 100
-            elapsed = time.perf_counter() - start
-            if elapsed >= seconds:
-                return steps / elapsed
+        return 1.0 / seconds_per_step(env, np.zeros(env.action_space.shape, env.action_space.dtype), seconds)
     finally:
         env.close()
