@@ -51,11 +51,12 @@ import hashlib
 import json
 import multiprocessing as mp
 import os
+import queue
 import signal
 import time
 import uuid
 from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -555,12 +556,18 @@ class LocalExecutor:
             initargs=(os.getpid(), context.Value("i", 0) if self.pin else None),
         )
         try:
-            pending = {pool.submit(fn, job) for job in jobs}
+            # Results arrive through done-callbacks, not concurrent.futures.wait: wait() takes every
+            # pending future's lock in a Python loop, a Ctrl-C inside that loop leaves some of them
+            # held, the pool's manager thread then blocks for ever in set_result, and interpreter
+            # exit (which joins that thread) hangs after the interrupt message
+            # (once in 47 Ctrl-Cs of a stress loop with 2 workers).
+            finished: queue.SimpleQueue = queue.SimpleQueue()
+            futures = [pool.submit(fn, job) for job in jobs]
             self._children = [p for p in mp.active_children() if p.pid not in before]
-            while pending:
-                done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                for fut in done:
-                    yield fut.result()
+            for fut in futures:
+                fut.add_done_callback(finished.put)
+            for _ in futures:
+                yield finished.get().result()
         except BaseException:  # interrupt, a failed job, or the consumer stopped (GeneratorExit)
             self._terminate()
             raise
