@@ -5,8 +5,10 @@ not steady: on the same 2-core VM type the training-throughput benchmark measure
 5,667 env steps/s one day and 2,244 the next (SAC 69.9 and 36.6). So each run of
 ``runs.jsonl`` carries the rate of a fixed workload, measured on one core when the run starts
 and when it ends: Gymnasium's ``Pendulum-v1`` stepped with a constant action, code that this
-package does not own, so a change in the rate is the machine's and not ours. Two wall times
-compare after scaling by the ratio of their references.
+package does not own, so a change in the rate is the machine's and not ours. The rate tells a
+slow day from a fast one but does not scale a wall time exactly (on one slow day it fell
+1.5-2.9x while the campaigns took 1.4-1.6x as long): compare two wall times when their
+references agree.
 """
 
 from __future__ import annotations
