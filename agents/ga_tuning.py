@@ -49,8 +49,8 @@ import pygad
 import attitude_envs  # noqa: F401  (registers the env ids, also in the pool's workers)
 from attitude_envs import validation
 from attitude_envs.info import TRUTH, policy_view
-from attitude_envs.processes import die_with_parent, pool_context
-from attitude_envs.progress import Progress
+from experiments.processes import die_with_parent, pool_context
+from experiments.progress import Progress
 from baselines.pid import GAIN_NAMES, UNITS, GainSchedule, PIDGains, PIDPolicy, euler_error
 
 OBJECTIVES = ("iae", "cost")

@@ -16,7 +16,7 @@ import sys
 import time
 from pathlib import Path
 
-from attitude_envs.progress import Progress
+from experiments.progress import Progress
 from benchmarks import env_speed, q_learning_lqr
 
 DEFAULT_OUT = "results/benchmarks"

@@ -9,7 +9,7 @@ on first use), then the variants of an algorithm alternate in rounds of equal en
 machine noise hits all alike; rows give the median steps/s and, against today's stack (SB3 on
 DummyVecEnv), the median of the per-round ratios with their [min, max]. Both backends run on
 one CPU (``torch.set_num_threads(1)`` and the process pinned to one core, which is what limits
-JAX's thread pool, :func:`attitude_envs.processes.pin_to_one_core`), as campaign workers do;
+JAX's thread pool, :func:`experiments.processes.pin_to_one_core`), as campaign workers do;
 ``--all-cores`` lets JAX use its default pool.
 """
 
@@ -29,7 +29,7 @@ from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import VecNormalize
 
 import attitude_envs  # noqa: F401
-from attitude_envs.processes import pin_to_one_core
+from experiments.processes import pin_to_one_core
 from benchmarks.env_speed import _with_spread
 from experiments.sb3.callbacks import NormalizedPredictor, episode_costs
 from experiments.sb3.hyperparams import load_hyperparams, split_hyperparams

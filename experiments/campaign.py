@@ -72,8 +72,8 @@ from attitude_envs.evaluation.trace import record_episode
 from attitude_envs.info import policy_view
 from attitude_envs.make import check_env_id, make_checked
 from attitude_envs.plants.gyrostat_model import ReactionWheelModel
-from attitude_envs.processes import die_with_parent, pin_to_one_core, pool_context
-from attitude_envs.progress import Progress, status_interval_s
+from experiments.processes import die_with_parent, pin_to_one_core, pool_context
+from experiments.progress import Progress, status_interval_s
 from experiments.machine_reference import reference_steps_per_s
 from experiments.optimum_table import episode_specs, resolve, solve_by_default, solve_job
 from experiments.policies import POLICIES, PolicyUnavailable, _import, build_policy, check_policy_name
@@ -531,7 +531,7 @@ def _init_worker(parent_pid: int, counter) -> None:
 class LocalExecutor:
     """Runs jobs in a local process pool (``workers`` > 1) or inline (``workers`` = 1).
 
-    The workers die with this process, also on SIGKILL (:func:`attitude_envs.processes.die_with_parent`). On an interrupt
+    The workers die with this process, also on SIGKILL (:func:`experiments.processes.die_with_parent`). On an interrupt
     (Ctrl-C) or any other exception, and on :meth:`close`, pending jobs are cancelled and the
     workers terminated at once instead of finishing their jobs."""
 

@@ -32,7 +32,7 @@ import attitude_envs  # registers the env ids
 from agents.ga_tuning import tune_pid_main
 from attitude_envs import presets
 from attitude_envs.evaluation import rollout
-from attitude_envs.progress import Heartbeat
+from experiments.progress import Heartbeat
 from attitude_envs.scenarios import list_scenarios, load_scenario
 from baselines.base import ZeroPolicy
 from baselines.lqr import LQRPolicy

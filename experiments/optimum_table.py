@@ -32,7 +32,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from attitude_envs.progress import Progress
+from experiments.progress import Progress
 from experiments.jsonable import json_ready
 
 TABLE_FILE = "optimum_table.json"

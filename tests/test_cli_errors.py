@@ -15,7 +15,7 @@ import pytest
 import yaml
 
 import attitude_envs
-from attitude_envs.progress import Heartbeat, Progress
+from experiments.progress import Heartbeat, Progress
 from experiments import cli
 from experiments.campaign import read_runs
 

@@ -202,7 +202,7 @@ def test_sb3_trains_directly_on_the_batched_env():
     from stable_baselines3.common.env_checker import check_env  # noqa: F401  (import works)
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    from attitude_envs.envs.sb3_vec_env import SB3VecEnv
+    from experiments.sb3.sb3_vec_env import SB3VecEnv
 
     venv = SB3VecEnv(RW, num_envs=4, episode_duration_s=1.0)
     venv.seed(3)

@@ -19,7 +19,7 @@ SBX_ALGORITHMS = {"ppo": "PPO", "sac": "SAC", "td3": "TD3", "ddpg": "DDPG", "tqc
 # it (the XLA_FLAGS options --xla_cpu_multi_thread_eigen / intra_op_parallelism_threads, the
 # usual advice, change nothing in jax 0.10: measured, 2 Eigen threads and 1.5 cores busy per
 # process on 2 cores either way). Campaign workers therefore pin themselves to one CPU each
-# (attitude_envs.processes.pin_to_one_core); a single `train` run keeps JAX's default.
+# (experiments.processes.pin_to_one_core); a single `train` run keeps JAX's default.
 
 
 def check_backend(backend: str, algo: str) -> str:

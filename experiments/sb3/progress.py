@@ -1,10 +1,10 @@
-"""Training progress: a bar with ETA on a terminal, status lines otherwise (:mod:`attitude_envs.progress`)."""
+"""Training progress: a bar with ETA on a terminal, status lines otherwise (:mod:`experiments.progress`)."""
 
 from __future__ import annotations
 
 from stable_baselines3.common.callbacks import BaseCallback
 
-from attitude_envs.progress import Progress
+from experiments.progress import Progress
 
 
 class ProgressCallback(BaseCallback):

@@ -29,7 +29,7 @@ from typing import Any
 
 import yaml
 
-from attitude_envs.processes import die_with_parent, pin_to_one_core
+from experiments.processes import die_with_parent, pin_to_one_core
 from experiments.sb3.training import train
 
 INSTALL_HINT = "hyperparameter search needs optuna: pip install 'attitude-envs[tune]'"

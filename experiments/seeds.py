@@ -1,0 +1,70 @@
+"""One syntax for episode and training seeds, everywhere (command line and campaign YAML).
+
+=================  ==============================  ======================
+written            means                           seeds
+=================  ==============================  ======================
+``5`` (a count)    the first five seeds            0, 1, 2, 3, 4
+``10-14``          an inclusive range              10, 11, 12, 13, 14
+``0,3,7-8``        a list of seeds and ranges      0, 3, 7, 8
+``[0, 3, 7]``      a YAML list (campaign files)    0, 3, 7
+=================  ==============================  ======================
+
+A single seed ``k`` is the range ``k-k``. Seeds are integers >= 0 and distinct.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+SYNTAX = "a count N (seeds 0..N-1), a range A-B, or a comma list like 0,3,7-9"
+
+
+def _bad(name: str, value: Any, why: str) -> ValueError:
+    return ValueError(f"{name} must be {SYNTAX} (seeds >= 0, distinct): {why}, got {value!r}")
+
+
+def _items(name: str, text: str) -> list[int]:
+    seeds: list[int] = []
+    for part in text.split(","):
+        part = part.strip()
+        lo, sep, hi = part.partition("-")
+        try:
+            a, b = int(lo), int(hi) if sep else None
+        except ValueError:
+            raise _bad(name, text, f"{part!r} is not an integer or a range") from None
+        if b is None:
+            seeds.append(a)
+        elif b < a:
+            raise _bad(name, text, f"range {part!r} runs backwards")
+        else:
+            seeds.extend(range(a, b + 1))
+    return seeds
+
+
+def parse_seeds(value: Any, name: str = "seeds") -> list[int]:
+    """The list of seeds ``value`` stands for (see the module's table); ``name`` is the parameter
+    the error message names (``--seeds``, ``agents[0].train.seeds``). Raises ``ValueError``."""
+    if isinstance(value, bool):
+        raise _bad(name, value, "a boolean is not a seed")
+    if isinstance(value, int):
+        if value < 1:
+            raise _bad(name, value, "a count must be >= 1")
+        return list(range(value))
+    if isinstance(value, list | tuple):
+        if not value or not all(isinstance(s, int) and not isinstance(s, bool) for s in value):
+            raise _bad(name, value, "a list must hold at least one integer and only integers")
+        seeds = [int(s) for s in value]
+    elif isinstance(value, str):
+        text = value.strip()
+        if not text:
+            raise _bad(name, value, "it is empty")
+        if text.isdigit():
+            return parse_seeds(int(text), name)
+        seeds = _items(name, text)
+    else:
+        raise _bad(name, value, f"a {type(value).__name__} is not a seed list")
+    if min(seeds) < 0:
+        raise _bad(name, value, "seeds must be >= 0")
+    if len(set(seeds)) != len(seeds):
+        raise _bad(name, value, "a seed appears twice")
+    return seeds
