@@ -21,25 +21,20 @@ Pipeline (the paper's five steps):
    near zero).
 5. :class:`baselines.pid.PIDPolicy` runs the fitted :class:`~baselines.pid.GainSchedule`.
 
-Evaluations of a generation run in parallel in a process pool (``workers``); every worker
+Evaluations of a generation can run in parallel on an executor (:class:`Evaluator`); every worker
 builds its env once. Episodes that end early (the air bearing's tilt stop, tumbling) are
 charged the remaining time at the last error (IAE) or, for J, the env's own termination cost
 (``termination_cost="hold"``; the last step's cost rate with ``"none"``), so the GA avoids them.
 
-Command line: :func:`tune_pid_main` (``attitude-envs tune-pid``): tunes, shows a progress bar with
-ETA (one status line every 30 s when not on a terminal) and writes a JSON gains file that :func:`baselines.pid.load_gains` / ``PIDPolicy.from_file`` read.
+The command line ``attitude-envs tune-pid`` (:mod:`experiments.pid_tuning`) runs the pipeline in a
+process pool and writes a JSON gains file that :func:`baselines.pid.load_gains` / ``PIDPolicy.from_file`` read.
 """
 
 from __future__ import annotations
 
-import argparse
-import json
-import os
-import sys
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor
-from dataclasses import asdict, dataclass, field
-from pathlib import Path
+from concurrent.futures import Executor
+from dataclasses import dataclass, field
 from typing import Any
 
 import gymnasium as gym
@@ -49,8 +44,6 @@ import pygad
 import attitude_envs  # noqa: F401  (registers the env ids, also in the pool's workers)
 from attitude_envs import validation
 from attitude_envs.info import TRUTH, policy_view
-from experiments.processes import die_with_parent, pool_context
-from experiments.progress import Progress
 from baselines.pid import GAIN_NAMES, UNITS, GainSchedule, PIDGains, PIDPolicy, euler_error
 
 OBJECTIVES = ("iae", "cost")
@@ -192,14 +185,9 @@ def maneuver_objective(env, gains: PIDGains | GainSchedule, maneuvers: Sequence[
 _WORKER: dict[str, Any] = {}
 
 
-def _worker_init(env_id: str, env_kwargs: dict[str, Any]) -> None:
+def init_worker(env_id: str, env_kwargs: dict[str, Any]) -> None:
+    """Builds the env a process evaluates gains on: the ``initializer`` of an :class:`Evaluator`'s executor."""
     _WORKER["env"] = gym.make(env_id, **env_kwargs).unwrapped
-    _WORKER["key"] = (env_id, repr(sorted(env_kwargs.items())))
-
-
-def _pool_worker_init(parent_pid: int, env_id: str, env_kwargs: dict[str, Any]) -> None:
-    die_with_parent(parent_pid)  # Ctrl-C is the parent's; the worker dies with it, also on SIGKILL
-    _worker_init(env_id, env_kwargs)
 
 
 def _worker_eval(task: tuple[np.ndarray, list[dict], str]) -> float:
@@ -208,45 +196,23 @@ def _worker_eval(task: tuple[np.ndarray, list[dict], str]) -> float:
 
 
 class Evaluator:
-    """Evaluates gain vectors on a set of maneuvers: in-process (``workers=1``) or in a process
-    pool whose workers each build the env once. Use as a context manager."""
+    """Evaluates gain vectors on a set of maneuvers, in this process or on ``executor`` (any
+    :class:`concurrent.futures.Executor` whose workers ran :func:`init_worker` with the same
+    env; the caller owns its lifetime)."""
 
-    def __init__(self, env_id: str, env_kwargs: dict[str, Any] | None = None, workers: int = 1) -> None:
-        if int(workers) != workers or workers < 1:
-            raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
+    def __init__(self, env_id: str, env_kwargs: dict[str, Any] | None = None, executor: Executor | None = None) -> None:
         self.env_id = env_id
         self.env_kwargs = dict(env_kwargs or {})
-        self.workers = int(workers)
-        self._pool: ProcessPoolExecutor | None = None
-        _worker_init(env_id, self.env_kwargs)  # validates the env here, and serves workers=1
-        self._local = _WORKER["env"]
-
-    def __enter__(self) -> Evaluator:
-        if self.workers > 1:
-            self._pool = ProcessPoolExecutor(
-                self.workers,
-                mp_context=pool_context(),
-                initializer=_pool_worker_init,
-                initargs=(os.getpid(), self.env_id, self.env_kwargs),
-            )
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        if self._pool is not None:
-            self._pool.shutdown()
-            self._pool = None
-
-    @property
-    def env(self):
-        return self._local
+        self.executor = executor
+        self.env = gym.make(env_id, **self.env_kwargs).unwrapped  # validates the env here, and serves no executor
 
     def evaluate(self, genes: np.ndarray, maneuvers: list[dict], objective: str) -> np.ndarray:
         tasks = [(np.asarray(g, dtype=float), maneuvers, objective) for g in genes]
-        if self._pool is None:
+        if self.executor is None:
             return np.array(
-                [maneuver_objective(self._local, PIDGains.from_vector(t[0]), maneuvers, objective) for t in tasks]
+                [maneuver_objective(self.env, PIDGains.from_vector(t[0]), maneuvers, objective) for t in tasks]
             )
-        return np.array(list(self._pool.map(_worker_eval, tasks)))
+        return np.array(list(self.executor.map(_worker_eval, tasks)))
 
 
 # ---------------------------------------------------------------------------- GA
@@ -390,119 +356,3 @@ def build_schedule(
     genes = np.array([t.gains.as_vector() for t in tunings])
     schedule, rms, rank = fit_schedule(genes, np.array(angles), np.array(rates), units)
     return ScheduleResult(schedule, genes, np.array(angles), np.array(rates), rms, rank, tunings)
-
-
-# ---------------------------------------------------------------------------- command line
-def _json_ready(value: Any) -> Any:
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, dict):
-        return {k: _json_ready(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_json_ready(v) for v in value]
-    return value
-
-
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
-        prog="attitude-envs tune-pid",
-        description="GA-tune per-axis PID gains (air-bearing PID paper) on an attitude env; writes a JSON gains file",
-    )
-    p.add_argument("--env", default="attitude_envs/AirBearing-v0", help="env id (any env with info['measured'])")
-    p.add_argument("--env-kwargs", default="{}", help="JSON dict of env keyword arguments")
-    p.add_argument("--mode", choices=["fixed", "schedule"], default="fixed", help="constant gains or meta-model")
-    p.add_argument("--objective", choices=OBJECTIVES, default="iae", help="IAE (deg·s) or the shared cost J")
-    p.add_argument("--maneuvers", type=int, default=0, help="random maneuvers from the env (0: the paper's lab test)")
-    p.add_argument("--maneuver-seed", type=int, default=0, help="first reset seed of the random maneuvers")
-    p.add_argument("--population", type=int, default=GAConfig.population)
-    p.add_argument("--generations", type=int, default=GAConfig.generations)
-    p.add_argument("--mutation-probability", type=float, default=GAConfig.mutation_probability)
-    p.add_argument("--crossover-probability", type=float, default=GAConfig.crossover_probability)
-    p.add_argument("--seed", type=int, default=0, help="GA seed")
-    for g, b in zip(GAIN_NAMES, (GAConfig.kp_bounds, GAConfig.kd_bounds, GAConfig.ki_bounds), strict=True):
-        p.add_argument(f"--{g}-bounds", type=float, nargs=2, default=list(b), metavar=("MIN", "MAX"))
-    p.add_argument("--regressor", choices=REGRESSORS, default="initial", help="meta-model states (schedule mode)")
-    p.add_argument("--units", choices=UNITS, default="rad", help="schedule argument units (schedule mode)")
-    p.add_argument("--workers", type=int, default=2, help="parallel evaluation processes")
-    p.add_argument("--out", default="pid_gains.json", help="output JSON file")
-    return p
-
-
-def tune_pid_main(argv: list[str] | None = None) -> int:
-    """``attitude-envs tune-pid``: run the GA (and the meta-model with ``--mode schedule``), save the gains.
-
-    Returns 0, or 2 after printing ``error: ...`` for bad input (``ValueError``)."""
-    args = build_parser().parse_args(argv)
-    try:
-        return _tune_pid(args)
-    except ValueError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-
-
-def _tune_pid(args: argparse.Namespace) -> int:
-    try:
-        env_kwargs = json.loads(args.env_kwargs)
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"--env-kwargs must be a JSON object, got {args.env_kwargs!r}") from exc
-    if not isinstance(env_kwargs, dict):
-        raise ValueError(f"--env-kwargs must be a JSON object, got {args.env_kwargs!r}")
-    config = GAConfig(
-        population=args.population,
-        generations=args.generations,
-        mutation_probability=args.mutation_probability,
-        crossover_probability=args.crossover_probability,
-        seed=args.seed,
-        kp_bounds=tuple(args.kp_bounds),
-        kd_bounds=tuple(args.kd_bounds),
-        ki_bounds=tuple(args.ki_bounds),
-    )
-    with Evaluator(args.env, env_kwargs, args.workers) as ev:
-        if args.maneuvers > 0:
-            maneuvers = sample_maneuvers(ev.env, args.maneuvers, args.maneuver_seed)
-        else:
-            maneuvers = [{"seed": 0, "options": LAB_MANEUVER}]
-        doc: dict[str, Any] = {
-            "env": args.env,
-            "env_kwargs": env_kwargs,
-            "objective": args.objective,
-            "config": asdict(config),
-            "maneuvers": maneuvers,
-        }
-        if args.mode == "fixed":
-            with Progress(config.generations, "GA generations", "gen") as bar:
-
-                def progress(gen: int, best: float) -> None:
-                    bar.update(1)
-                    bar.set_postfix(f"best {best:.4g}")
-
-                result = tune_gains(ev, maneuvers, config, args.objective, progress)
-            doc.update(gains=result.gains.to_dict(), best_objective=result.objective, history=result.history)
-        else:
-            total = config.generations * len(maneuvers)
-            with Progress(total, "GA generations (all maneuvers)", "gen") as bar:
-
-                def progress(j: int, gen: int, best: float) -> None:
-                    bar.update(1)
-                    bar.set_postfix(f"maneuver {j}, best {best:.4g}")
-
-                res = build_schedule(ev, maneuvers, config, args.objective, args.regressor, args.units, progress)
-            doc.update(
-                gains=res.schedule.to_dict(),
-                regressor=args.regressor,
-                data_bank={"genes": res.genes, "angles_rad": res.angles_rad, "rates_rad_s": res.rates_rad_s},
-                residual_rms=res.residual_rms,
-                rank=res.rank,
-                best_objectives=[t.objective for t in res.tunings],
-            )
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(_json_ready(doc), indent=2) + "\n", encoding="utf-8")
-    print(f"wrote {out} ({args.mode} gains, objective {args.objective})")
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(tune_pid_main())

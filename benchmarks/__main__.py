@@ -16,8 +16,8 @@ import sys
 import time
 from pathlib import Path
 
-from experiments.progress import Progress
 from benchmarks import env_speed, q_learning_lqr
+from experiments.progress import Progress
 
 DEFAULT_OUT = "results/benchmarks"
 KEYS = (

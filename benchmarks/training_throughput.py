@@ -29,8 +29,8 @@ from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import VecNormalize
 
 import attitude_envs  # noqa: F401
-from experiments.processes import pin_to_one_core
 from benchmarks.env_speed import _with_spread
+from experiments.processes import pin_to_one_core
 from experiments.sb3.callbacks import NormalizedPredictor, episode_costs
 from experiments.sb3.hyperparams import load_hyperparams, split_hyperparams
 from experiments.sb3.registry import algorithm_class

@@ -5,11 +5,11 @@ Installed as ``attitude-envs <cmd>``; ``python train.py <cmd>`` at the repositor
 attitude-envs benchmark --config quick --out DIR     # the README's main command: campaign → report
 attitude-envs train --algo ppo --env ID --out DIR    # Stable-Baselines3 training (checkpoints, --resume)
 attitude-envs evaluate --env ID --policy lqr --model RUN/final/model.zip --out DIR
-attitude-envs demo [--seeds N] [--preset NAME]       # LQR baselines table
+attitude-envs demo [--seeds 5] [--preset NAME]       # LQR baselines table
 attitude-envs reproduce <paper> --out DIR            # paper vs. ours, JSON + markdown
 attitude-envs envs                                   # registered env ids and presets
-attitude-envs tune-pid [--help]                      # GA-tune PID gains (Ahangarani Farahani et al.)
-attitude-envs optimum --env ID --seeds 0,1,2 --out DIR  # the oracle optimum J* per seed (casadi)
+attitude-envs tune-pid --env ID --out FILE            # GA-tune PID gains (Ahangarani Farahani et al.)
+attitude-envs optimum --env ID --seeds 0-2 --out DIR  # the oracle optimum J* per seed (casadi)
 attitude-envs optimum --write-table                  # regenerate the shipped J* table of the standard campaigns
 """
 
@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import os
 import re
 import shlex
 import sys
@@ -29,14 +30,12 @@ import numpy as np
 import yaml
 
 import attitude_envs  # registers the env ids
-from agents.ga_tuning import tune_pid_main
 from attitude_envs import presets
 from attitude_envs.evaluation import rollout
-from experiments.progress import Heartbeat
 from attitude_envs.scenarios import list_scenarios, load_scenario
 from baselines.base import ZeroPolicy
 from baselines.lqr import LQRPolicy
-from experiments import optimum_table
+from experiments import optimum_table, pid_tuning
 from experiments.campaign import (
     PLANT_CAMPAIGNS,
     PRESETS,
@@ -47,20 +46,22 @@ from experiments.campaign import (
     prepare_campaign,
     run_campaign,
 )
-from experiments.policies import POLICIES, check_policy_name
+from experiments.policies import POLICIES, check_policy_env, check_policy_name
+from experiments.progress import Heartbeat
 from experiments.report import leaderboard_markdown, leaderboards, write_campaign_index, write_campaign_report
 from experiments.reproduction import markdown_table
 from experiments.reproductions import REPRODUCTIONS
 from experiments.sb3.backends import BACKENDS
 from experiments.sb3.hyperparams import parse_overrides, read_yaml
 from experiments.sb3.registry import ALGORITHMS
+from experiments.seeds import SYNTAX, parse_seeds
 
 
 def _demo(args: argparse.Namespace) -> int:
     env_id = "attitude_envs/ReactionWheel-v0"
     env = gym.make(env_id, preset=args.preset)
     policies = [ZeroPolicy(env), LQRPolicy(env, "zoh"), LQRPolicy(env, "continuous")]
-    seeds = list(range(args.seeds))
+    seeds = args.seeds
     print(f"{env_id} preset={args.preset}: rest-to-rest maneuvers, {len(seeds)} seeds, cost J = ∫(xᵀQx + uᵀRu) dt")
     header = (
         f"{'policy':<16}{'J mean':>12}{'J std':>10}{'final err [deg]':>17}{'peak wheel [rpm]':>18}{'s/episode':>11}"
@@ -100,13 +101,19 @@ REPRODUCTION_TIME_S = {
 
 
 def check_out_dir(out: str | Path, option: str = "--out") -> Path:
-    """``out`` as a directory path to write into: ``ValueError`` (before any work) when it,
-    or a folder above it, is an existing file."""
+    """``out`` as a directory to write into, created here: ``ValueError`` (before any work) when
+    it, or a folder above it, is an existing file, or when it cannot be created or written."""
     path = Path(out)
     for p in (path, *path.parents):
         if p.exists() and not p.is_dir():
             where = "is" if p == path else f"cannot be created: {str(p)!r} is"
             raise ValueError(f"{option} {str(path)!r} {where} an existing file; {option} names a directory")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"{option} {str(path)!r} cannot be created: {exc.strerror or exc}") from None
+    if not os.access(path, os.W_OK | os.X_OK):
+        raise ValueError(f"{option} {str(path)!r} is not writable")
     return path
 
 
@@ -201,6 +208,7 @@ def _policy_specs(args: argparse.Namespace) -> list[dict]:
     for text in args.policy or []:
         name, _, params = text.partition(":")
         check_policy_name(name)
+        check_policy_env(name, args.env)
         if name == "sb3":
             raise ValueError("use --model PATH for a saved Stable-Baselines3 model")
         label = re.sub(r"[^A-Za-z0-9._]+", "-", text).strip("-")  # e.g. pid:gains:/x/g.json → pid-gains-x-g.json
@@ -271,12 +279,12 @@ def _evaluate(args: argparse.Namespace) -> int:
         faults = {"healthy": [], preset["name"]: preset["faults"]}
     config = {
         "name": "evaluate",
-        "seeds": list(range(args.seed_offset, args.seed_offset + args.seeds)),
+        "seeds": [args.seed_offset + s for s in args.seeds],
         "envs": [{"name": "env", "id": args.env, "kwargs": kwargs, "scenarios": scenarios, "faults": faults}],
         "agents": _policy_specs(args),
         "video": False,
     }
-    result = run_campaign(config, args.out, ray_address=args.ray, workers=args.workers, progress=print)
+    result = run_campaign(config, args.out, ray_address=args.ray, workers=args.jobs, progress=print)
     _print_campaign(result, write_campaign_report(result, command=shlex.join(["attitude-envs", *args.argv])))
     return 0
 
@@ -299,7 +307,7 @@ def _benchmark(args: argparse.Namespace) -> int:
         if len(outs) > 1:
             print(f"== campaign {config} → {out}")
         result = run_campaign(
-            config, out, ray_address=args.ray, workers=args.workers, progress=print, backend=args.backend
+            config, out, ray_address=args.ray, workers=args.jobs, progress=print, backend=args.backend
         )
         report = write_campaign_report(result, video=False if args.no_video else None)
         _print_campaign(result, report)
@@ -339,8 +347,8 @@ def int_at_least(low: int, high: int | None = None):
     return parse
 
 
-def _add_env_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--env", default=ENV_DEFAULT, help=f"registered env id: {', '.join(attitude_envs.ENV_IDS)}")
+def _add_env_options(p: argparse.ArgumentParser, default: str = ENV_DEFAULT) -> None:
+    p.add_argument("--env", default=default, help=f"registered env id: {', '.join(attitude_envs.ENV_IDS)}")
     p.add_argument(
         "--env-kwargs", help="env keyword arguments as YAML/JSON (or @FILE), e.g. '{preset: pyramid-4wheel}'"
     )
@@ -348,7 +356,14 @@ def _add_env_options(p: argparse.ArgumentParser) -> None:
 
 
 def _tune(args: argparse.Namespace) -> int:
-    from experiments.sb3.tuning import tune  # optional: the tune extra (optuna) and the sb3 extra
+    try:  # optional: the tune extra (optuna) and the sb3 extra
+        import optuna  # noqa: F401
+
+        from experiments.sb3.tuning import tune
+    except ImportError as exc:
+        raise ValueError(
+            f"tune needs the package {exc.name or 'optuna'!r}: pip install -c constraints.txt 'attitude-envs[tune,sb3]'"
+        ) from None
 
     summary = tune(
         args.algo,
@@ -377,21 +392,10 @@ def _tune(args: argparse.Namespace) -> int:
 
 
 def _tune_pid(args: argparse.Namespace) -> int:
-    return tune_pid_main(args.rest)
-
-
-def _seed_list(text: str) -> list[int]:
-    """``"0,1,2"`` or ``"0-4"`` (inclusive ranges), comma-separated, each >= 0."""
-    seeds: list[int] = []
-    for part in text.split(","):
-        lo, sep, hi = part.strip().partition("-")
-        try:
-            seeds += list(range(int(lo), int(hi) + 1)) if sep else [int(lo)]
-        except ValueError:
-            raise ValueError(f"--seeds must be comma-separated integers or ranges like 0-4, got {text!r}") from None
-    if not seeds or min(seeds) < 0:
-        raise ValueError(f"--seeds must list at least one seed, each >= 0, got {text!r}")
-    return seeds
+    check_out_dir(Path(args.out).parent)
+    out = pid_tuning.tune_pid(args, _env_kwargs(args), args.jobs or 2)
+    print(f"wrote {out} ({args.mode} gains, objective {args.objective})")
+    return 0
 
 
 def _table_specs(cells: list[str]) -> list[dict]:
@@ -430,7 +434,7 @@ def _write_table(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     specs = _table_specs(cells)
     print(f"J* table ({optimum_table.COMMAND}): {len(specs)} episode key(s) of {', '.join(cells)} → {path}")
-    executor = make_executor(None, args.workers)
+    executor = make_executor(None, args.jobs)
     try:
         keep = optimum_table.reusable_entries(path) if args.keep_table else None
         path, failed = optimum_table.write_table(
@@ -455,7 +459,7 @@ def _optimum(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out must be a directory, got the file {str(out)!r}")
-    seeds = _seed_list(args.seed_list)
+    seeds = args.seeds
     kwargs = _env_kwargs(args)
     if args.max_iter < 1:
         raise ValueError(f"--max-iter must be >= 1, got {args.max_iter}")
@@ -483,22 +487,30 @@ def _optimum(args: argparse.Namespace) -> int:
     return 0
 
 
+def _add_jobs_option(p: argparse.ArgumentParser, help: str, default: int | None = None) -> None:
+    """``--jobs``/``-j``, the one name of a command's process count (``--workers``: its old name, kept)."""
+    p.add_argument("--jobs", "-j", type=int_at_least(1), default=default, help=help)
+    p.add_argument("--workers", dest="jobs", type=int_at_least(1), help=argparse.SUPPRESS)
+
+
 def _add_executor_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--ray", metavar="ADDRESS", help="run on Ray: 'local' or a cluster address (optional extra 'ray')")
-    p.add_argument(
-        "--workers",
-        "--jobs",
-        "-j",
-        type=int_at_least(1),
-        help="local process-pool size (>= 1; default: CPU count; 1 = inline)",
-    )
+    _add_jobs_option(p, "local process-pool size (>= 1; default: CPU count; 1 = inline)")
+
+
+def seeds_arg(text: str) -> list[int]:
+    """An argparse ``type``: seeds in the one syntax of :mod:`experiments.seeds`."""
+    try:
+        return parse_seeds(text, "it")
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = OneLineErrorParser(prog="attitude-envs", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command")
     demo = sub.add_parser("demo", help="evaluate the LQR baselines on ReactionWheel-v0 and print a table")
-    demo.add_argument("--seeds", type=int_at_least(1), default=5, help="episodes per policy (>= 1)")
+    demo.add_argument("--seeds", type=seeds_arg, default="5", help=f"episode seeds: {SYNTAX} (default 5)")
     demo.add_argument(
         "--preset",
         default="pyramid-4wheel",
@@ -586,8 +598,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--scenario",
         help=f"a packaged scenario preset (its env, kwargs and faults): {', '.join(list_scenarios())}",
     )
-    ev.add_argument("--seeds", type=int_at_least(1), default=5, help="episodes per cell (>= 1)")
-    ev.add_argument("--seed-offset", type=int_at_least(0), default=0, help="first episode seed (>= 0)")
+    ev.add_argument("--seeds", type=seeds_arg, default="5", help=f"episode seeds of every cell: {SYNTAX} (default 5)")
+    ev.add_argument("--seed-offset", type=int_at_least(0), default=0, help="added to every seed (>= 0)")
     ev.add_argument("--out", required=True, help="output directory (episodes.csv/json, report.md, figures)")
     _add_executor_options(ev)
     ev.set_defaults(func=_evaluate)
@@ -624,22 +636,25 @@ def build_parser() -> argparse.ArgumentParser:
     tu.add_argument("--backend", choices=BACKENDS, help="sb3 or sbx; default: the hyperparameter entry's")
     tu.add_argument("--seed", type=int_at_least(0), default=0, help="training seed of every trial")
     tu.add_argument("--sampler-seed", type=int_at_least(0), default=0, help="seed of the TPE sampler")
-    tu.add_argument("--jobs", type=int_at_least(1), default=1, help="worker processes sharing the study")
+    _add_jobs_option(tu, "worker processes sharing the study (>= 1)", default=1)
     tu.set_defaults(func=_tune)
 
     tp = sub.add_parser(
         "tune-pid",
-        add_help=False,
-        help="GA-tune PID gains (Ahangarani Farahani et al.'s pipeline); `tune-pid --help` for its options",
+        help="GA-tune PID gains (Ahangarani Farahani et al.'s pipeline): writes a JSON gains file",
+        description="GA-tune per-axis PID gains (air-bearing PID paper) on an attitude env; writes a JSON gains file "
+        "that `evaluate --policy pid:gains:FILE` and campaigns load.",
     )
-    tp.add_argument("rest", nargs=argparse.REMAINDER)
+    _add_env_options(tp, default="attitude_envs/AirBearing-v0")
+    pid_tuning.add_arguments(tp)
+    _add_jobs_option(tp, "parallel evaluation processes (>= 1; default 2)")
     tp.set_defaults(func=_tune_pid)
 
     op = sub.add_parser(
         "optimum", help="the optimal-control yardstick J* per seed (oracle: knows the faults): DIR/optimum.json"
     )
     _add_env_options(op)
-    op.add_argument("--seeds", dest="seed_list", default="0", help="seeds, e.g. 0,1,2 or 0-4 (default 0)")
+    op.add_argument("--seeds", type=seeds_arg, default="1", help=f"episode seeds: {SYNTAX} (default 1: seed 0)")
     op.add_argument("--out", help="output directory (optimum.json, optimum.md); not with --write-table")
     op.add_argument(
         "--warm-start", default="lqr", choices=["lqr", "best", "none"], help="baseline rollout to start from"
@@ -667,25 +682,18 @@ def build_parser() -> argparse.ArgumentParser:
         help="with --write-table: keep the entries the table file already holds (solved with the same "
         "settings) and solve only the other episode keys",
     )
-    op.add_argument(
-        "--workers", type=int_at_least(1), help="with --write-table: solves in parallel (default: CPU count)"
-    )
+    _add_jobs_option(op, "with --write-table: solves in parallel (>= 1; default: CPU count)")
     op.set_defaults(func=_optimum)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
-    if argv[:1] == ["tune-pid"]:  # its own argument parser (agents.ga_tuning), options passed through
-        try:
-            return _tune_pid(argparse.Namespace(rest=argv[1:]))
-        except KeyboardInterrupt:
-            print("interrupted: no gains were written; rerun the command", file=sys.stderr)
-            return 130
     parser = build_parser()
     args = parser.parse_args(argv)
-    if args.command is None:
-        args = parser.parse_args(["demo", *(argv or [])])
+    if args.command is None:  # no subcommand: what there is to run
+        parser.print_help()
+        return 2
     args.argv = argv
     try:
         return args.func(args)
@@ -706,6 +714,8 @@ def _interrupted_hint(args: argparse.Namespace) -> str:
         )
     if args.command == "train":
         return f"rerun with --resume to continue {str(args.out)!r} from its last checkpoint"
+    if args.command == "tune-pid":
+        return "no gains were written; rerun the command"
     if args.command == "reproduce":
         return f"{args.paper} was not written (its files come at the end); rerun the command"
     return "stopped"

@@ -32,8 +32,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from experiments.progress import Progress
 from experiments.jsonable import json_ready
+from experiments.progress import Progress
 
 TABLE_FILE = "optimum_table.json"
 #: the campaign cells the shipped table covers, as ``attitude-envs optimum --campaign`` takes them:

@@ -26,8 +26,9 @@ q-learning-lqr      ``agents.QLearningLQR`` (model-free; learns at build time)  
 sb3                 a saved Stable-Baselines3 model (``model: PATH``)            deterministic
 ==================  ==========================================================  =================
 
-Imports are lazy, so a controller whose package is not installed only fails when it is
-used, with a ``ValueError`` that says so.
+Each policy declares the envs it applies to (:data:`APPLIES_TO`); building one for another env
+is a ``ValueError`` that lists the policies that fit. Imports are lazy, so a controller whose
+package is not installed only fails when it is used, with a ``ValueError`` that says so.
 """
 
 from __future__ import annotations
@@ -59,6 +60,51 @@ POLICIES: dict[str, str] = {
 }
 
 
+GYROSTATS = ("ReactionWheel", "AirBearing")
+
+#: the envs each policy applies to, by name (the env id without namespace and version); None: every env
+APPLIES_TO: dict[str, tuple[str, ...] | None] = {
+    "zero": None,
+    "lqr": GYROSTATS,
+    "lqr-ft": GYROSTATS,
+    "mpc": GYROSTATS,
+    "quaternion-lqr": GYROSTATS,
+    "feedback-linearization": GYROSTATS,
+    "linear-lqr": ("LinearSystem",),
+    "pid": GYROSTATS,
+    "slosh-pd": ("FuelSlosh",),
+    "slosh-lqr": ("FuelSlosh",),
+    "slosh-lyapunov": ("FuelSlosh",),
+    "slosh-fuzzy": ("FuelSlosh",),
+    "amnftsmc": ("Magnetorquer",),
+    "mnftsmc": ("Magnetorquer",),
+    "ftsmc-standin": ("Magnetorquer",),
+    "bdot": ("Magnetorquer",),
+    "q-learning-lqr": ("LinearSystem", "ReactionWheel"),
+    "sb3": None,  # the saved model's own env (checked on load)
+}
+
+
+def env_name(env_id: str) -> str:
+    """``attitude_envs/FuelSlosh-v0`` → ``FuelSlosh``."""
+    return env_id.rsplit("/", 1)[-1].rsplit("-v", 1)[0]
+
+
+def policies_for(env_id: str) -> list[str]:
+    """The registered policies that apply to ``env_id``."""
+    return [p for p, envs in APPLIES_TO.items() if envs is None or env_name(env_id) in envs]
+
+
+def check_policy_env(name: str, env_id: str) -> None:
+    """``ValueError`` naming the policies that fit when policy ``name`` does not apply to ``env_id``."""
+    envs = APPLIES_TO[check_policy_name(name)]
+    if envs is not None and env_name(env_id) not in envs:
+        raise ValueError(
+            f"policy {name!r} does not apply to {env_id} (it applies to {', '.join(envs)}); "
+            f"policies for {env_name(env_id)}: {', '.join(p for p in policies_for(env_id) if p != 'sb3')}"
+        )
+
+
 class PolicyUnavailable(ValueError):
     """The named policy exists in the registry but its code is not installed here."""
 
@@ -85,6 +131,8 @@ def build_policy(spec: dict[str, Any], env, name: str | None = None):
     for ``q-learning-lqr``, ``spec["learn"]``: keyword arguments of ``learn``.
     """
     kind = check_policy_name(str(spec.get("policy")))
+    if getattr(env, "spec", None) is not None:
+        check_policy_env(kind, env.spec.id)
     params = dict(spec.get("params") or {})
     label = name or spec.get("name") or kind
     if kind == "sb3":

@@ -15,9 +15,9 @@ import pytest
 import yaml
 
 import attitude_envs
-from experiments.progress import Heartbeat, Progress
 from experiments import cli
 from experiments.campaign import read_runs
+from experiments.progress import Heartbeat, Progress
 
 ROOT = Path(__file__).resolve().parents[1]
 

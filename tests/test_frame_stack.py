@@ -12,11 +12,11 @@ pytest.importorskip("stable_baselines3")
 from stable_baselines3.common.vec_env import VecFrameStack  # noqa: E402
 
 import attitude_envs  # noqa: F401,E402
-from experiments.sb3.sb3_vec_env import SB3VecEnv  # noqa: E402
 from attitude_envs.evaluation.rollout import rollout  # noqa: E402
 from experiments.sb3.callbacks import NormalizedPredictor, episode_costs  # noqa: E402
 from experiments.sb3.hyperparams import split_hyperparams  # noqa: E402
 from experiments.sb3.policy import SB3Policy  # noqa: E402
+from experiments.sb3.sb3_vec_env import SB3VecEnv  # noqa: E402
 from experiments.sb3.training import load_trained, train  # noqa: E402
 from experiments.sb3.vec_envs import make_eval_env  # noqa: E402
 

@@ -9,16 +9,16 @@ import pytest
 
 from agents.ga_tuning import (
     LAB_MANEUVER,
-    Evaluator,
     GAConfig,
     fit_schedule,
     pid_episode,
     sample_maneuvers,
     tune_gains,
-    tune_pid_main,
 )
 from attitude_envs import quaternion
 from baselines.pid import PAPER_FIXED, GainSchedule, PIDGains, PIDPolicy, load_gains, paper_schedule
+from experiments.cli import main as cli_main
+from experiments.pid_tuning import evaluator
 from experiments.reproductions import REPRODUCTIONS
 
 ENV_ID = "attitude_envs/AirBearing-v0"
@@ -72,7 +72,7 @@ def test_pid_regulates_lab_test_and_fixed_yaw_matches_the_paper():
 
 def test_ga_is_deterministic_with_a_seed():
     cfg = GAConfig(population=4, generations=2, seed=3)
-    with Evaluator(ENV_ID, SHORT) as ev:
+    with evaluator(ENV_ID, SHORT) as ev:
         m = [{"seed": 0, "options": LAB_MANEUVER}]
         a = tune_gains(ev, m, cfg)
         b = tune_gains(ev, m, cfg)
@@ -86,7 +86,7 @@ def test_ga_is_deterministic_with_a_seed():
 
 
 def test_ga_improves_on_its_initial_population():
-    with Evaluator(ENV_ID, SHORT) as ev:
+    with evaluator(ENV_ID, SHORT) as ev:
         r = tune_gains(ev, [{"seed": 0, "options": LAB_MANEUVER}], GAConfig(population=8, generations=6, seed=0))
         again = tune_gains(ev, [{"seed": 0, "options": LAB_MANEUVER}], GAConfig(population=8, generations=6, seed=0))
         # the reported objective is the best gains' real objective
@@ -102,9 +102,9 @@ def test_ga_improves_on_its_initial_population():
 def test_parallel_evaluation_matches_serial():
     genes = np.array([PAPER_FIXED.as_vector(), PAPER_FIXED.as_vector() * 0.5])
     m = [{"seed": 0, "options": LAB_MANEUVER}]
-    with Evaluator(ENV_ID, SHORT, workers=1) as ev:
+    with evaluator(ENV_ID, SHORT, workers=1) as ev:
         serial = ev.evaluate(genes, m, "cost")
-    with Evaluator(ENV_ID, SHORT, workers=2) as ev:
+    with evaluator(ENV_ID, SHORT, workers=2) as ev:
         parallel = ev.evaluate(genes, m, "cost")
     np.testing.assert_allclose(parallel, serial, rtol=1e-12)
     assert serial[0] != serial[1]
@@ -138,7 +138,9 @@ def test_same_pipeline_tunes_reaction_wheel_v0(tmp_path):
         "--objective",
         "cost",
     ]
-    assert tune_pid_main([*argv, "--population", "3", "--generations", "1", "--workers", "1", "--out", str(out)]) == 0
+    assert (
+        cli_main(["tune-pid", *argv, "--population", "3", "--generations", "1", "--jobs", "1", "--out", str(out)]) == 0
+    )
     doc = json.loads(out.read_text())
     gains = load_gains(out)
     assert isinstance(gains, PIDGains) and doc["env"] == "attitude_envs/ReactionWheel-v0"
@@ -151,7 +153,9 @@ def test_tune_pid_schedule_mode_writes_loadable_schedule(tmp_path):
     out = tmp_path / "s.json"
     argv = ["--env-kwargs", json.dumps(SHORT), "--mode", "schedule", "--maneuvers", "3", "--units", "deg"]
     argv += ["--regressor", "final"]
-    assert tune_pid_main([*argv, "--population", "3", "--generations", "1", "--workers", "1", "--out", str(out)]) == 0
+    assert (
+        cli_main(["tune-pid", *argv, "--population", "3", "--generations", "1", "--jobs", "1", "--out", str(out)]) == 0
+    )
     schedule = load_gains(out)
     assert isinstance(schedule, GainSchedule) and schedule.units == "deg"
     doc = json.loads(out.read_text())
@@ -196,10 +200,11 @@ def test_bad_inputs():
     with pytest.raises(ValueError, match="at least 3"):
         fit_schedule(np.zeros((2, 9)), np.zeros((2, 3)), np.zeros((2, 3)))
     with pytest.raises(ValueError, match="objective"):
-        with Evaluator(ENV_ID, SHORT) as ev:
+        with evaluator(ENV_ID, SHORT) as ev:
             tune_gains(ev, [{"options": LAB_MANEUVER}], GAConfig(population=2, generations=1), objective="ise")
     with pytest.raises(ValueError, match="workers"):
-        Evaluator(ENV_ID, SHORT, workers=0)
+        with evaluator(ENV_ID, SHORT, workers=0):
+            pass
     with pytest.raises(ValueError, match="gains"):
         PIDPolicy(gym.make(ENV_ID), {"kp": 1})
     with pytest.raises(ValueError, match="kp"):
@@ -221,7 +226,7 @@ def test_reproduction_quick(tmp_path):
 
 def test_tune_pid_bad_input_returns_2(tmp_path, capsys):
     out = tmp_path / "x.json"
-    assert tune_pid_main(["--kp-bounds", "2", "1", "--workers", "1", "--out", str(out)]) == 2
+    assert cli_main(["tune-pid", "--kp-bounds", "2", "1", "--jobs", "1", "--out", str(out)]) == 2
     assert "kp_bounds" in capsys.readouterr().err
-    assert tune_pid_main(["--env-kwargs", "[1]", "--out", str(out)]) == 2
+    assert cli_main(["tune-pid", "--env-kwargs", "[1]", "--out", str(out)]) == 2
     assert not out.exists()

@@ -40,8 +40,8 @@ import numpy as np
 
 import attitude_envs  # noqa: F401  (registers the env ids, also in the pool's workers)
 from attitude_envs.evaluation.tracking_metrics import run_traced, tracking_metrics
-from experiments.processes import pool_context
 from baselines.sliding_mode import AMNFTSMCPolicy, FTSMCStandInPolicy, MNFTSMCPolicy
+from experiments.processes import pool_context
 from experiments.reproduction import Row, write_reproduction
 from experiments.reproductions.fault_tolerant_smc_design import ConsistentDesign, derive
 

@@ -29,7 +29,6 @@ import numpy as np
 
 from agents.ga_tuning import (
     LAB_MANEUVER,
-    Evaluator,
     GAConfig,
     build_schedule,
     pid_episode,
@@ -37,6 +36,7 @@ from agents.ga_tuning import (
     tune_gains,
 )
 from baselines.pid import PAPER_FIXED, PIDPolicy, paper_schedule
+from experiments.pid_tuning import evaluator
 from experiments.reproduction import Row, write_reproduction
 
 PAPER = "ga-pid"
@@ -87,7 +87,7 @@ def tune(out_dir: Path, quick: bool, workers: int = 2) -> dict:
     maneuver, and a meta-model schedule (initial-state regressor, rad) on random maneuvers."""
     budget = QUICK_BUDGET if quick else FULL_BUDGET
     env_kwargs = dict(CASES[NOMINAL])
-    with Evaluator(ENV_ID, env_kwargs, workers=workers) as ev:
+    with evaluator(ENV_ID, env_kwargs, workers=workers) as ev:
         fixed = tune_gains(ev, [{"seed": 0, "options": LAB_MANEUVER}], budget["fixed"], "iae")
         maneuvers = sample_maneuvers(ev.env, budget["maneuvers"], seed=1000)
         sched = build_schedule(ev, maneuvers, budget["schedule"], "iae", "initial", "rad")

@@ -42,3 +42,22 @@ def algorithm_class(name: str, backend: str = "sb3"):
 def is_off_policy(name: str) -> bool:
     """True for replay-buffer algorithms (their buffer is checkpointed)."""
     return ALGORITHMS[check_algorithm(name)][2]
+
+
+#: the constructors' default rollout length (n_steps) of the on-policy algorithms
+_DEFAULT_N_STEPS = {"ppo": 2048, "a2c": 5, "recurrentppo": 128}
+
+
+def rollout_steps(name: str, kwargs: dict, n_envs: int) -> int | None:
+    """Env steps (over all ``n_envs``) of one rollout of ``name`` built with ``kwargs``: training
+    stops at the end of the first rollout at or after its budget. On-policy: ``n_steps × n_envs``;
+    off-policy: ``train_freq × n_envs`` when ``train_freq`` counts steps; None when it counts episodes."""
+    name = check_algorithm(name)
+    if not ALGORITHMS[name][2]:
+        return int(kwargs.get("n_steps", _DEFAULT_N_STEPS[name])) * int(n_envs)
+    freq = kwargs.get("train_freq", 1)
+    if isinstance(freq, list | tuple):
+        if len(freq) == 2 and str(freq[1]) == "episode":
+            return None
+        freq = freq[0]
+    return int(freq) * int(n_envs)

@@ -47,7 +47,7 @@ from experiments.sb3.checkpoint import (
 )
 from experiments.sb3.hyperparams import load_hyperparams, split_hyperparams
 from experiments.sb3.progress import ProgressCallback
-from experiments.sb3.registry import algorithm_class, check_algorithm
+from experiments.sb3.registry import algorithm_class, check_algorithm, rollout_steps
 from experiments.sb3.vec_envs import PicklableVecFrameStack, batched_supported, make_eval_env, make_training_env
 
 
@@ -156,6 +156,15 @@ def train(
     total = int(total_timesteps if total_timesteps is not None else hp["n_timesteps"])
     if total < 1:
         raise ValueError(f"total_timesteps must be >= 1, got {total}")
+    rollout = rollout_steps(algo, hp["kwargs"], hp["n_envs"])
+    planned = total if rollout is None else -(-total // rollout) * rollout
+    if progress and planned != total and not resume:
+        print(
+            f"note: {algo} trains in whole rollouts of {rollout} env steps ({hp['n_envs']} envs): "
+            f"a budget of {total} steps trains {planned} (--params n_steps:N or train_freq:N sets the rollout)",
+            file=sys.stderr,
+            flush=True,
+        )
     horizon = total if schedule_timesteps is None else int(schedule_timesteps)
     if horizon < total:
         raise ValueError(f"schedule_timesteps must be >= total_timesteps ({total}), got {schedule_timesteps}")
@@ -342,7 +351,8 @@ def _reconcile_best(best_dir: Path, best: dict[str, Any] | None, model) -> None:
 
 def load_trained(model_path: str | Path, env: gym.Env | None = None):
     """A saved model (``.../model.zip``; its ``vecnormalize.pkl`` beside it is applied) as a
-    predictor with ``predict(obs, ...)``. With ``env``, checks that the observation and action
+    predictor with ``predict(obs, ...)``. With ``env``, checks that it is the env the model was
+    trained on (the env id in its run's ``config.json``) and that the observation and action
     spaces match the model's (``ValueError`` naming both otherwise)."""
     model_path = Path(model_path)
     if model_path.is_dir():
@@ -353,6 +363,12 @@ def load_trained(model_path: str | Path, env: gym.Env | None = None):
     saved = _run_config(model_path)
     algo, backend = _algo_of(model_path, saved)
     frame_stack = int(((saved or {}).get("hyperparams") or {}).get("frame_stack") or 1)
+    if env is not None and saved is not None and getattr(env, "spec", None) is not None:
+        if saved.get("env_id") not in (None, env.spec.id):
+            raise ValueError(
+                f"model {str(model_path)!r} was trained on {saved['env_id']} (its run's config.json), "
+                f"not on {env.spec.id}: evaluate it on {saved['env_id']}"
+            )
     model = algorithm_class(algo, backend).load(model_path, device="cpu")
     if env is not None:
         for what in ("observation_space", "action_space"):

@@ -16,8 +16,8 @@ import gymnasium as gym
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import VecEnv, VecFrameStack, VecMonitor
 
-from experiments.sb3.sb3_vec_env import SB3VecEnv
 from attitude_envs.registration import VECTOR_ENTRY_POINTS
+from experiments.sb3.sb3_vec_env import SB3VecEnv
 
 
 class _PicklableWrapper:
