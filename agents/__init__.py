@@ -1,5 +1,5 @@
 """Learning agents (the Q-learning LQR, Stable-Baselines3 glue)."""
 
-from agents.q_learning_lqr import QLearningLQR
+from agents.qlqr import QLearningLQR
 
 __all__ = ["QLearningLQR"]

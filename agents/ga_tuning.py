@@ -44,7 +44,7 @@ import pygad
 import attitude_envs  # noqa: F401  (registers the env ids, also in the pool's workers)
 from attitude_envs import validation
 from attitude_envs.info import TRUTH, policy_view
-from baselines.pid import GAIN_NAMES, UNITS, GainSchedule, PIDGains, PIDPolicy, euler_error
+from baselines.pid import UNITS, GainSchedule, PIDGains, PIDPolicy, euler_error
 
 OBJECTIVES = ("iae", "cost")
 REGRESSORS = ("initial", "final")

@@ -4,7 +4,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from agents.q_learning_lqr import QLearningLQR
+from agents import QLearningLQR
 from baselines.allocation import WheelAllocator
 from baselines.pid import PAPER_FIXED, PIDPolicy, paper_schedule
 

@@ -1,14 +1,21 @@
-"""Least-squares solvers for quadratic Q-functions, with an excitation guard.
+"""Least-squares solvers for quadratic Q-functions, with an excitation guard, and the
+``estimator`` strategies of :class:`agents.QLearningLQR` built on them.
 
 All solvers work on *weighted, column-scaled* rows (row normalization; Jacobi column
 scaling), factor the instrument matrix once by QR (never the normal equations) and report
 rank and condition number (persistence of excitation).
+
+Strategies (one interface, :class:`Estimator`): :class:`BatchLeastSquares`
+(``estimator="batch"``) and :class:`RecursiveLeastSquares` (``estimator="rls"``). They solve
+the LSTD-Q systems of policy evaluation (:mod:`agents.qlqr.evaluation`) and the fitted-Q
+regression of value iteration (:mod:`agents.qlqr.value_iteration`).
 """
 
 from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 import scipy.linalg
@@ -93,6 +100,7 @@ class Design:
     """
 
     def __init__(self, F: np.ndarray, weights: np.ndarray, cond_limit: float, cond_warn: float, what: str):
+        self.F = F
         self.weights = weights
         Fw = F * weights[:, None]
         col = np.linalg.norm(Fw, axis=0)
@@ -242,3 +250,51 @@ def variance_weights(
         v = np.maximum(F @ beta, lower)
         rw = 1.0 / v
     return 1.0 / np.sqrt(v)
+
+
+# ------------------------------------------------------------------ estimator strategies
+class Estimator(Protocol):
+    """How the coefficients θ are estimated from a :class:`Design` (``estimator=``)."""
+
+    name: str
+
+    def instrumental(self, design: Design, Psi: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, Excitation]:
+        """LSTD-Q: θ with ``Σ w_k² f_k ψ_kᵀ θ = Σ w_k² f_k y_k`` (instruments ``design.F``)."""
+        ...
+
+    def least_squares(self, design: Design, Y: np.ndarray) -> np.ndarray:
+        """``argmin_θ Σ w_k² (f_kᵀθ − y_k)²`` for each column of ``Y``."""
+        ...
+
+
+class BatchLeastSquares:
+    """``estimator="batch"``: one QR of the row-weighted, column-scaled design
+    (:meth:`Design.instrumental`, :meth:`Design.least_squares`)."""
+
+    name = "batch"
+
+    def instrumental(self, design: Design, Psi: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, Excitation]:
+        return design.instrumental(Psi, y)
+
+    def least_squares(self, design: Design, Y: np.ndarray) -> np.ndarray:
+        return design.least_squares(Y)
+
+
+class RecursiveLeastSquares:
+    """``estimator="rls"``: instrumental-variable RLS, one row at a time
+    (:func:`recursive_least_squares`); ``initial_covariance=None`` is the exact
+    initialization, a number β starts from ``P₀ = βI``; ``forgetting`` λ ∈ (0, 1]. The
+    excitation reported is the design's."""
+
+    name = "rls"
+
+    def __init__(self, initial_covariance: float | None = None, forgetting: float = 1.0):
+        self.initial_covariance = initial_covariance
+        self.forgetting = forgetting
+
+    def instrumental(self, design: Design, Psi: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, Excitation]:
+        theta = recursive_least_squares(design.F, Psi, y, design.weights, self.initial_covariance, self.forgetting)
+        return theta, design.excitation
+
+    def least_squares(self, design: Design, Y: np.ndarray) -> np.ndarray:
+        return recursive_least_squares(design.F, design.F, Y, design.weights, self.initial_covariance, self.forgetting)
