@@ -10,6 +10,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
+from attitude_envs.lqr import dlqr, lqr
+
 
 def zoh(A: np.ndarray, B: np.ndarray, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
     """Exact zero-order-hold discretization ``(A_d, B_d)`` of ``ẋ = Ax + Bu`` over ``dt_s``."""
@@ -77,10 +79,7 @@ class LinearModel:
         return LinearModel(A_d, B_d, Q_d, R_d, N_d, dt_s)
 
     def lqr_gain(self) -> np.ndarray:
-        """Infinite-horizon LQR gain ``K`` (``u = −K x``) from scipy's Riccati solvers."""
-        N = np.zeros((self.n, self.m)) if self.N is None else self.N
-        if self.dt_s is None:
-            P = scipy.linalg.solve_continuous_are(self.A, self.B, self.Q, self.R, s=N)
-            return np.linalg.solve(self.R, self.B.T @ P + N.T)
-        P = scipy.linalg.solve_discrete_are(self.A, self.B, self.Q, self.R, s=N)
-        return np.linalg.solve(self.R + self.B.T @ P @ self.B, self.B.T @ P @ self.A + N.T)
+        """Infinite-horizon LQR gain ``K`` (``u = −K x``): :func:`attitude_envs.lqr.lqr` when
+        continuous, :func:`attitude_envs.lqr.dlqr` when discrete."""
+        solve = lqr if self.dt_s is None else dlqr
+        return solve(self.A, self.B, self.Q, self.R, self.N)[0]

@@ -8,7 +8,7 @@ import numpy as np
 
 
 class LinearLQRPolicy:
-    """``u = −K x`` with ``K`` from scipy's discrete Riccati solver on the env's nominal
+    """``u = −K x`` with ``K`` from :func:`attitude_envs.lqr.dlqr` on the env's nominal
     ``(A, B, Q, R)`` (``env.unwrapped.model``, a discrete :class:`LinearModel`); the action
     is ``u / action_scale`` clipped to [-1, 1]."""
 

@@ -10,7 +10,7 @@ from attitude_envs import validation
 
 
 class LQRPolicy:
-    """State feedback ``u = −K x`` on the error state, ``K`` from scipy's Riccati solvers.
+    """State feedback ``u = −K x`` on the error state, ``K`` from :mod:`attitude_envs.lqr`.
 
     ``discretization="zoh"`` (default) designs on the exact ZOH discretization of plant
     *and* cost over the env's control period (the optimal sampled-data controller);

@@ -13,7 +13,7 @@ the env: ``n_substeps`` classical RK4 sub-steps with the motor torque held and t
 renormalized after each. ``ℓ`` is the env's own step cost, ``∫ (xᵀQx + u_cᵀRu_c) dt`` by the
 same RK4 quadrature (``x`` the error state of
 :class:`~attitude_envs.plants.gyrostat_model.ReactionWheelModel`), and ``P`` the discrete
-Riccati matrix of the LQR's zero-order-hold design (:class:`~baselines.lqr.LQRPolicy`): the
+Riccati matrix ``S`` of the LQR's zero-order-hold design (:func:`attitude_envs.lqr.dlqr`): the
 unconstrained infinite-horizon cost-to-go of the linearization as terminal cost (Mayne et
 al. 2000). The problem is transcribed by direct multiple shooting (Bock & Plitt 1984) and
 solved by IPOPT (Wächter & Biegler 2006) through CasADi (Andersson et al. 2019), warm-started
@@ -34,9 +34,9 @@ import time
 from typing import Any
 
 import numpy as np
-import scipy.linalg
 
 from attitude_envs import validation
+from attitude_envs.lqr import dlqr
 from baselines.allocation import wheel_model
 from baselines.lqr import LQRPolicy
 
@@ -154,9 +154,8 @@ class MPCPolicy:
         self._frame = getattr(base, "action_frame", "wheel")
         self._lqr = LQRPolicy(env, "zoh")
         lin = self._lqr.linear_model
-        cross = np.zeros((lin.n, lin.m)) if lin.N is None else lin.N
         #: terminal weight: the discrete Riccati solution of the LQR design, on the error state
-        self.terminal_weight = scipy.linalg.solve_discrete_are(lin.A, lin.B, lin.Q, lin.R, s=cross)
+        _, self.terminal_weight, _ = dlqr(lin.A, lin.B, lin.Q, lin.R, lin.N)
         self._step = nominal_step(model, base.n_substeps, base.integrator_dt_s, self._frame)
         n = model.params.n_wheels
         self._n_y, self._n_u = 7 + n, self._step.size1_in(1)

@@ -35,7 +35,8 @@ from qlqr_systems import benchmark_systems, linear_env, random_system, stabilizi
 from agents import QLearningLQR  # noqa: E402
 from agents.qlqr.data import Transitions  # noqa: E402
 from agents.qlqr.estimators import InsufficientExcitationError, NotPositiveDefiniteError  # noqa: E402
-from agents.qlqr.truth import dare_gain, relative_error  # noqa: E402
+from agents.qlqr.truth import relative_error  # noqa: E402
+from attitude_envs.lqr import dlqr  # noqa: E402
 
 LEARNERS = {"lstd": {"td_estimator": "lstd"}, "lstd_gls": {"td_estimator": "lstd_gls"}}
 
@@ -67,7 +68,7 @@ def trajectory(A, B, Q, R, K0, sigma_w: float, T: int, seed: int) -> Transitions
 def one_cell(name: str, system, sigma_w: float, T: int, seeds: int) -> dict:
     A, B, Q, R = system
     K0 = stabilizing_gain(A, B)
-    K_star, _ = dare_gain(A, B, Q, R)
+    K_star, _, _ = dlqr(A, B, Q, R)
     env = linear_env(A, B, Q, R)  # only for the agent's interface; the data are given
     errors: dict[str, list[float]] = {k: [] for k in (*LEARNERS, "ce")}
     wall = dict.fromkeys(errors, 0.0)

@@ -28,8 +28,9 @@ from agents import QLearningLQR  # noqa: E402
 from agents.qlqr.certainty_equivalence import ce_gain  # noqa: E402
 from agents.qlqr.data import EnvAdapter, collect  # noqa: E402
 from agents.qlqr.features import n_features  # noqa: E402
-from agents.qlqr.truth import dare_gain, relative_error  # noqa: E402
+from agents.qlqr.truth import relative_error  # noqa: E402
 from attitude_envs.envs.linear_system import LinearSystemEnv  # noqa: E402
+from attitude_envs.lqr import dlqr  # noqa: E402
 
 TARGET = 1e-6
 
@@ -52,7 +53,7 @@ def run(sizes: list[int], m: int = 2, seed: int = 0) -> list[dict]:
     rows = []
     for n in sizes:
         A, B, Q, R = system(n, m, seed + n)
-        K_star, _ = dare_gain(A, B, Q, R)
+        K_star, _, _ = dlqr(A, B, Q, R)
         K0 = scipy.signal.place_poles(A, B, np.linspace(-0.5, 0.5, n)).gain_matrix
         p = n_features(n + m)
         env = LinearSystemEnv(preset=None, A=A, B=B, Q=Q, R=R, action_scale=1e6)
@@ -104,7 +105,7 @@ def spacecraft(seed: int = 0) -> list[dict]:
     """Heravi & Novinzadeh 2017's slow plant (Euler, Δt = 0.01 s, J ≈ 10³ kg·m²): ρ(A − BK*) = 0.99984."""
     env = LinearSystemEnv(preset="heravi-2017")
     A, B, Q, R = env.model.A, env.model.B, env.model.Q, env.model.R
-    K_star, _ = dare_gain(A, B, Q, R)
+    K_star, _, _ = dlqr(A, B, Q, R)
     std = [1.0, 1.0, 1.0, 0.05, 0.05, 0.05]
     K0 = np.hstack([0.1 * np.eye(3), 10.0 * np.eye(3)])
     rows = []

@@ -10,9 +10,10 @@ from qlqr_systems import benchmark_systems, linear_env, random_system, stabilizi
 from agents import QLearningLQR
 from agents.qlqr.estimators import InsufficientExcitationError
 from agents.qlqr.features import n_features, quadratic_features, smat, svec
-from agents.qlqr.truth import dare_gain, hewer_iterations, relative_error, riccati_gains, riccati_iterations
+from agents.qlqr.truth import hewer_iterations, relative_error, riccati_gains, riccati_iterations
 from attitude_envs.envs.linear_system import LinearSystemEnv
 from attitude_envs.evaluation import rollout
+from attitude_envs.lqr import dlqr
 
 CASES = dict(benchmark_systems())
 CASES["rand6x2-unstable"] = random_system(1, 6, 2, 1.3)
@@ -42,7 +43,7 @@ def test_noise_free_pi_lspi_vi_exact(name):
     A, B, Q, R = CASES[name]
     n, m = B.shape
     p = n_features(n + m)
-    K_star, _ = dare_gain(A, B, Q, R)
+    K_star, _, _ = dlqr(A, B, Q, R)
     K0 = stabilizing_gain(A, B)
     env = linear_env(A, B, Q, R)
 
@@ -65,7 +66,7 @@ def test_noise_free_pi_lspi_vi_exact(name):
     assert first_below(vi, K_star) <= riccati_iterations(A, B, Q, R)
     assert vi.stop_reason == "converged"
     # the learned kernel is the optimal Q-function's H* = blkdiag(Q, R) + [A B]ᵀP*[A B]
-    _, P = dare_gain(A, B, Q, R)
+    _, P, _ = dlqr(A, B, Q, R)
     AB = np.hstack([A, B])
     H_star = np.block([[Q, np.zeros((n, m))], [np.zeros((m, n)), R]]) + AB.T @ P @ AB
     assert np.linalg.norm(vi.kernel - H_star) <= 1e-7 * np.linalg.norm(H_star)
@@ -88,7 +89,7 @@ def test_vi_follows_riccati_recursion_iteration_by_iteration():
 def test_unstable_plant_without_initial_gain_value_iteration_first(method):
     A, B, Q, R = CASES["rand6x2-unstable"]
     assert np.max(np.abs(np.linalg.eigvals(A))) > 1.0
-    K_star, _ = dare_gain(A, B, Q, R)
+    K_star, _, _ = dlqr(A, B, Q, R)
     p = n_features(8)
     agent = QLearningLQR(
         linear_env(A, B, Q, R), method=method, seed=4, exploration_std=1.0, stabilize="value_iteration"
@@ -105,7 +106,7 @@ def test_unstable_plant_without_initial_gain_value_iteration_first(method):
 def test_discount_annealing_finds_a_stabilizing_gain(name):
     A, B, Q, R = CASES[name]
     n, m = B.shape
-    K_star, _ = dare_gain(A, B, Q, R)
+    K_star, _, _ = dlqr(A, B, Q, R)
     agent = QLearningLQR(
         linear_env(A, B, Q, R), method="lspi", seed=0, exploration_std=1.0, stabilize="discount_annealing"
     )
@@ -119,7 +120,7 @@ def test_discount_annealing_finds_a_stabilizing_gain(name):
 
 def test_rls_exact_initialization_matches_batch_and_ridge_init_is_biased():
     A, B, Q, R = CASES["krauth3x2"]
-    K_star, _ = dare_gain(A, B, Q, R)
+    K_star, _, _ = dlqr(A, B, Q, R)
     K0 = stabilizing_gain(A, B)
     env = linear_env(A, B, Q, R)
     exact = QLearningLQR(env, method="policy_iteration", estimator="rls", seed=0, initial_gain=K0, exploration_std=1.0)
@@ -147,7 +148,7 @@ def test_spacecraft_plant_lstd_pi_and_vi():
     LSTD-Q PI failing here (cond ≈ 1e13); with per-coordinate feature scaling it is exact."""
     env = LinearSystemEnv(preset="heravi-2017")
     A, B, Q, R = env.model.A, env.model.B, env.model.Q, env.model.R
-    K_star, _ = dare_gain(A, B, Q, R)
+    K_star, _, _ = dlqr(A, B, Q, R)
     K0 = np.hstack([0.1 * np.eye(3), 10.0 * np.eye(3)])  # a stabilizing initial gain for this plant
     std = [1.0, 1.0, 1.0, 0.05, 0.05, 0.05]
     pi = QLearningLQR(env, method="lspi", seed=0, initial_gain=K0, state_std=std, exploration_std=1.0)
@@ -182,7 +183,7 @@ def test_api_policy_interface_and_predict():
     env = linear_env(A, B, Q, R, action_scale=50.0, x0_std=1.0, episode_steps=50)
     agent = QLearningLQR(env, method="value_iteration", estimator="batch", seed=7, exploration_std=1.0)
     agent.learn(max_iterations=200, samples_per_iteration=12)
-    K_star, _ = dare_gain(A, B, Q, R)
+    K_star, _, _ = dlqr(A, B, Q, R)
     assert relative_error(agent.gain, K_star) <= 1e-8
     assert agent.kernel.shape == (3, 3)
     keys = {"iteration", "samples_used", "rank", "cond", "delta_H", "delta_K", "spectral_radius"}
@@ -216,7 +217,7 @@ def test_bad_arguments_raise_value_error():
 def test_feasible_gls_lstdq_is_exact_on_noise_free_data():
     """``td_estimator="lstd_gls"`` keeps the first pass on exact data (no noise to weight)."""
     A, B, Q, R = CASES["krauth3x2"]
-    K_star, _ = dare_gain(A, B, Q, R)
+    K_star, _, _ = dlqr(A, B, Q, R)
     for n_samples in (15, 60):  # exactly p, and enough for the constant feature and a variance fit
         agent = QLearningLQR(
             linear_env(A, B, Q, R),
@@ -234,7 +235,7 @@ def test_feasible_gls_lstdq_is_exact_on_noise_free_data():
 def test_discounted_gain_matches_scaled_dare():
     A, B, Q, R = CASES["kiumarsi2x1"]
     gamma = 0.1  # √γ ρ(A) = 0.9 < 1: K = 0 is stabilizing for the discounted problem
-    K_star, _ = dare_gain(A, B, Q, R, discount=gamma)
+    K_star, _, _ = dlqr(A, B, Q, R, discount=gamma)
     for method in ("lspi", "value_iteration"):
         agent = QLearningLQR(
             linear_env(A, B, Q, R),
@@ -252,7 +253,7 @@ def test_value_iteration_with_fresh_batches_like_the_paper():
     """``reuse_data=False``: a fresh batch of N ≥ p samples per iteration (the paper's
     eqs. 29/31); same iterates as the reused batch, N× the samples."""
     A, B, Q, R = CASES["kiumarsi2x1"]
-    K_star, _ = dare_gain(A, B, Q, R)
+    K_star, _, _ = dlqr(A, B, Q, R)
     agent = QLearningLQR(linear_env(A, B, Q, R), seed=0, exploration_std=1.0, reuse_data=False)
     agent.learn(samples_per_iteration=6)
     assert relative_error(agent.gain, K_star) <= 1e-8
@@ -264,7 +265,7 @@ def test_row_normalization_on_unstable_trajectory_data():
     """One trajectory of an unstable plant under u = η spans ~10²⁶ in ‖z‖²; raw least
     squares is swamped by the last rows, equations divided by ‖z_k‖² stay exact."""
     A, B, Q, R = CASES["kiumarsi2x1"]  # ρ(A) = 2.84
-    K_star, _ = dare_gain(A, B, Q, R)
+    K_star, _, _ = dlqr(A, B, Q, R)
     env = linear_env(A, B, Q, R, x0_std=1.0, episode_steps=10_000, divergence_threshold=1e30)
     errors = {}
     for normalize in (None, True, False):

@@ -1,19 +1,19 @@
 """Certainty-equivalence (CE) reference: least-squares model + Riccati on the same data.
 
 ``[Â B̂] = X⁺ Z⁺`` (Z = [X U]); the stage-cost kernel ``W = [[Q, N], [Nᵀ, R]]`` is fitted
-from the observed costs with the same quadratic features unless given; then
-``K = DARE(√γÂ, √γB̂, Q, R, N)``. This is the sample-efficiency ceiling a Q-learner is
-compared with (it equals the matrix Bellman equation of Lopez, Alsalti & Müller 2023). It is a *model-based* method on the agent's data, for reference only.
+from the observed costs with the same quadratic features unless given; then ``K`` from
+:func:`attitude_envs.lqr.dlqr` (the DARE of ``(√γÂ, √γB̂)`` with ``Q, R, N``). This is the
+sample-efficiency ceiling a Q-learner is compared with (it equals the matrix Bellman equation of Lopez, Alsalti & Müller 2023). It is a *model-based* method on the agent's data, for reference only.
 """
 
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg
 
 from agents.qlqr.data import Transitions
 from agents.qlqr.estimators import lstsq_tall
 from agents.qlqr.features import quadratic_features, smat
+from attitude_envs.lqr import dlqr
 
 
 def fit_model(data: Transitions) -> tuple[np.ndarray, np.ndarray]:
@@ -44,6 +44,4 @@ def ce_gain(data: Transitions, discount: float = 1.0, Q=None, R=None) -> np.ndar
     Qm = W[:n, :n] if Q is None else np.asarray(Q, float)
     Rm = W[n:, n:] if R is None else np.asarray(R, float)
     Nm = W[:n, n:] if (Q is None and R is None) else np.zeros((n, B.shape[1]))
-    g = np.sqrt(discount)
-    P = scipy.linalg.solve_discrete_are(g * A, g * B, Qm, Rm, s=Nm)
-    return np.linalg.solve(Rm + discount * B.T @ P @ B, discount * B.T @ P @ A + Nm.T)
+    return dlqr(A, B, Qm, Rm, Nm, discount=discount)[0]

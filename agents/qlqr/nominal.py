@@ -9,7 +9,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from agents.qlqr.truth import dare_gain
+from attitude_envs.lqr import dlqr
 
 
 class NominalModel(NamedTuple):
@@ -59,6 +59,6 @@ def optimal_gain(model: NominalModel | None, discount: float) -> np.ndarray | No
         return None
     A, B, Q, R, N = model
     try:
-        return dare_gain(A, B, Q, R, discount, N)[0]
+        return dlqr(A, B, Q, R, N, discount=discount)[0]
     except (ValueError, np.linalg.LinAlgError):
         return None

@@ -1,6 +1,8 @@
 """Model-based ground truth for checking the learners (tests, reproductions, benchmarks).
 
-Never used by :class:`agents.QLearningLQR` itself. Convention u = −Kx.
+Never used by :class:`agents.QLearningLQR` itself. Convention u = −Kx. The optimal gain
+``K*`` and Riccati solution ``P*`` of the (discounted) problem are
+:func:`attitude_envs.lqr.dlqr`'s; here are the iterations that converge to them.
 """
 
 from __future__ import annotations
@@ -8,18 +10,12 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 
+from attitude_envs.lqr import dlqr
+
 
 def relative_error(K: np.ndarray, K_ref: np.ndarray) -> float:
     """``‖K − K_ref‖_F / ‖K_ref‖_F``."""
     return float(np.linalg.norm(K - K_ref) / np.linalg.norm(K_ref))
-
-
-def dare_gain(A, B, Q, R, discount: float = 1.0, N=None) -> tuple[np.ndarray, np.ndarray]:
-    """``(K*, P*)`` of the discounted LQR: ``P* = DARE(√γA, √γB, Q, R, N)``."""
-    g = np.sqrt(discount)
-    N = np.zeros(np.shape(B)) if N is None else N
-    P = scipy.linalg.solve_discrete_are(g * A, g * B, Q, R, s=N)
-    return np.linalg.solve(R + discount * B.T @ P @ B, discount * B.T @ P @ A + N.T), P
 
 
 def riccati_gains(A, B, Q, R, iterations: int, discount: float = 1.0) -> np.ndarray:
@@ -39,7 +35,7 @@ def riccati_gains(A, B, Q, R, iterations: int, discount: float = 1.0) -> np.ndar
 def riccati_iterations(A, B, Q, R, tol: float = 1e-8, max_iterations: int = 200_000) -> int:
     """Number of Riccati-recursion steps from P₀ = 0 until ``relative_error(K(P_j), K*) < tol``,
     counted like VI's history (the count is j + 1)."""
-    Ks, _ = dare_gain(A, B, Q, R)
+    Ks = dlqr(A, B, Q, R)[0]
     P = np.zeros_like(Q, dtype=float)
     for j in range(max_iterations):
         K = np.linalg.solve(R + B.T @ P @ B, B.T @ P @ A)
@@ -53,7 +49,7 @@ def riccati_iterations(A, B, Q, R, tol: float = 1e-8, max_iterations: int = 200_
 def hewer_iterations(A, B, Q, R, K0, tol: float = 1e-8, max_iterations: int = 100) -> int:
     """Model-based policy iteration (Hewer 1971) from a stabilizing ``K0`` until
     ``relative_error(K_j, K*) < tol``."""
-    Ks, _ = dare_gain(A, B, Q, R)
+    Ks = dlqr(A, B, Q, R)[0]
     K = np.asarray(K0, dtype=float)
     for j in range(1, max_iterations + 1):
         Acl = A - B @ K

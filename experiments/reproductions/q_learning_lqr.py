@@ -17,9 +17,10 @@ from pathlib import Path
 import numpy as np
 
 from agents import QLearningLQR
-from agents.qlqr.truth import dare_gain, hewer_iterations, relative_error, riccati_gains
+from agents.qlqr.truth import hewer_iterations, relative_error, riccati_gains
 from attitude_envs.envs.linear_system import LinearSystemEnv
 from attitude_envs.info import policy_view
+from attitude_envs.lqr import dlqr
 from experiments.reproduction import Row, write_reproduction
 from experiments.reproductions import q_learning_lqr_plots as plots
 from experiments.reproductions.q_learning_lqr_nonlinear import nonlinear_rows
@@ -84,7 +85,7 @@ def reproduce(out_dir: Path, quick: bool = False) -> list:
     out_dir = Path(out_dir)
     env = LinearSystemEnv(preset="heravi-2017")
     A, B, Q, R = env.model.A, env.model.B, env.model.Q, env.model.R
-    K_star, _ = dare_gain(A, B, Q, R)
+    K_star, _, _ = dlqr(A, B, Q, R)
     iterations = 40_000 if quick else 100_000
     rows: list[Row] = []
 
