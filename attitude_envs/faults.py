@@ -69,10 +69,7 @@ def _draw(name: str, spec, rng: np.random.Generator | None, low: float | None = 
         for b in bounds:
             _check_range(name, float(b), low, high)
         return None if rng is None else float(rng.uniform(bounds[0], bounds[1]))
-    try:
-        value = float(spec)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a number or {{'uniform': [low, high]}}, got {spec!r}") from exc
+    value = validation.number(name, spec, "a number or {'uniform': [low, high]}")
     if not np.isfinite(value):
         raise ValueError(f"{name} must be finite, got {spec!r}")
     _check_range(name, value, low, high)

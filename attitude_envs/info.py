@@ -36,3 +36,10 @@ def policy_view(info: dict[str, Any]) -> dict[str, Any]:
     """``info`` without the ground truth (a shallow copy): what a controller may read.
     Works for a single env's info and for a vector env's dict of arrays (drops ``_truth``)."""
     return {k: v for k, v in info.items() if k not in (TRUTH, "_" + TRUTH)}
+
+
+def fault_onsets_s(info: dict[str, Any]) -> list[float]:
+    """The onsets of the episode's faults as realized (drawn onsets included), s, in the order
+    of ``info["truth"]["faults"]`` (actuator faults, then sensor faults; empty without faults).
+    Any info of the episode gives them, the reset's included."""
+    return [float(f["onset_s"]) for f in info[TRUTH]["faults"]]

@@ -39,12 +39,12 @@ class InertiaUncertainty:
             raise ValueError(f"inertia_uncertainty has unknown keys {sorted(unknown)}")
         if kind == "fixed":
             return cls(kind, validation.inertia("inertia_uncertainty.inertia_kg_m2", config.get("inertia_kg_m2")))
-        scale = float(config.get("moment_scale", 0.1))
-        if not 0.0 <= scale < 1.0:
-            raise ValueError(f"inertia_uncertainty.moment_scale must be in [0, 1), got {scale}")
-        angle = float(config.get("axis_angle_deg", 10.0))
-        if not 0.0 <= angle <= 180.0:
-            raise ValueError(f"inertia_uncertainty.axis_angle_deg must be in [0, 180], got {angle}")
+        scale = validation.in_range(
+            "inertia_uncertainty.moment_scale", config.get("moment_scale", 0.1), 0.0, 1.0, open_high=True
+        )
+        angle = validation.in_range(
+            "inertia_uncertainty.axis_angle_deg", config.get("axis_angle_deg", 10.0), 0.0, 180.0
+        )
         return cls(kind, None, scale, angle)
 
     def draw(self, nominal_kg_m2: np.ndarray, rng: np.random.Generator) -> np.ndarray:

@@ -3,16 +3,21 @@
 from __future__ import annotations
 
 import math
+import numbers
 
 import numpy as np
 
 
 def finite_array(name: str, value, shape: tuple[int, ...] | None = None) -> np.ndarray:
-    """Return ``value`` as a float array, checking its shape and that it is finite."""
+    """Return ``value`` as a float array, checking its shape and that it is finite. Strings
+    are refused, numeric or not (no coercion, as Gymnasium's envs)."""
     try:
-        arr = np.asarray(value, dtype=float)
+        raw = np.asarray(value)
+        if raw.dtype.kind in "US" or (raw.dtype.kind == "O" and any(isinstance(v, (str, bytes)) for v in raw.flat)):
+            raise ValueError("strings are not numbers")
+        arr = np.asarray(raw, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be numeric, got {value!r}") from exc
+        raise ValueError(f"{name} must be numeric (numbers, not strings), got {value!r}") from exc
     if shape is not None and arr.shape != shape:
         raise ValueError(f"{name} must have shape {shape}, got {arr.shape}")
     if not np.all(np.isfinite(arr)):
@@ -20,22 +25,76 @@ def finite_array(name: str, value, shape: tuple[int, ...] | None = None) -> np.n
     return arr
 
 
+def number(name: str, value, accepted: str = "a number") -> float:
+    """``value`` as a float when it is a real number (a Python or numpy int or float, or a
+    0-d numeric array), else a ``ValueError`` naming ``name``, the value and what is
+    ``accepted`` (e.g. ``"a number in (0, inf)"``). Booleans and strings are refused,
+    numeric strings too: as Gymnasium's envs, no coercion (YAML reads ``1e-3`` as a string;
+    the message says so)."""
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
+        return float(value)
+    if isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_)):
+        return float(value)
+    hint = ""
+    if isinstance(value, str):
+        try:
+            float(value)
+            hint = f"; pass {name}={value.strip()}, a number, not a string"
+            if "e" in value.lower() and "." not in value:
+                hint += " (YAML reads 1e-3 as a string: write 1.0e-3)"
+        except ValueError:
+            pass
+    raise ValueError(f"{name} must be {accepted}, got {value!r} ({type(value).__name__}){hint}")
+
+
+def in_range(
+    name: str, value, low: float = -math.inf, high: float = math.inf, *, open_low: bool = False, open_high: bool = False
+) -> float:
+    """A finite number in the interval from ``low`` to ``high`` (closed unless ``open_low`` /
+    ``open_high``), as a float; a ``ValueError`` naming ``name``, the value and the interval."""
+    accepted = f"{'(' if open_low else '['}{low:g}, {high:g}{')' if open_high else ']'}"
+    if math.isinf(low):
+        accepted = "(" + accepted[1:]
+    if math.isinf(high):
+        accepted = accepted[:-1] + ")"
+    v = number(name, value, f"a number in {accepted}")
+    inside = (v > low if open_low else v >= low) and (v < high if open_high else v <= high)
+    if not (math.isfinite(v) and inside):
+        raise ValueError(f"{name} must be in {accepted}, got {value!r}")
+    return v
+
+
 def positive(name: str, value: float, allow_inf: bool = False) -> float:
     """A strictly positive number (``inf`` allowed only when ``allow_inf``)."""
-    v = float(value)
+    accepted = "(0, inf]" if allow_inf else "(0, inf)"
+    v = number(name, value, f"a number in {accepted}")
     ok = v > 0 and (allow_inf or np.isfinite(v))
     if not ok:
-        accepted = "(0, inf]" if allow_inf else "(0, inf)"
         raise ValueError(f"{name} must be in {accepted}, got {value!r}")
     return v
 
 
 def nonnegative(name: str, value: float) -> float:
     """A finite number ≥ 0."""
-    v = float(value)
-    if not (np.isfinite(v) and v >= 0):
-        raise ValueError(f"{name} must be in [0, inf), got {value!r}")
-    return v
+    return in_range(name, value, 0.0)
+
+
+def integer(name: str, value, minimum: int) -> int:
+    """A whole number ≥ ``minimum`` (an int, or a float with an integral value such as
+    ``1.0e3``), as an int; a ``ValueError`` naming ``name``, the value and the range."""
+    accepted = f"an integer >= {minimum}"
+    v = number(name, value, accepted)
+    if not (math.isfinite(v) and v == int(v) and v >= minimum):
+        raise ValueError(f"{name} must be {accepted}, got {value!r}")
+    return int(v)
+
+
+def flag(name: str, value) -> bool:
+    """A boolean switch: ``True``/``False`` (or a numpy bool); a ``ValueError`` naming ``name``
+    otherwise (``bool("false")`` would be True)."""
+    if isinstance(value, bool | np.bool_):
+        return bool(value)
+    raise ValueError(f"{name} must be True or False, got {value!r} ({type(value).__name__})")
 
 
 def unit_quaternion(name: str, value, tol: float = 1e-6) -> np.ndarray:

@@ -16,6 +16,7 @@ attitude-envs optimum --write-table                  # regenerate the shipped J*
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import json
 import os
@@ -52,7 +53,7 @@ from experiments.report import leaderboard_markdown, leaderboards, write_campaig
 from experiments.reproduction import markdown_table
 from experiments.reproductions import REPRODUCTIONS
 from experiments.sb3.backends import BACKENDS
-from experiments.sb3.hyperparams import parse_overrides, read_yaml
+from experiments.sb3.hyperparams import load_yaml, parse_overrides, read_yaml
 from experiments.sb3.registry import ALGORITHMS
 from experiments.seeds import SYNTAX, parse_seeds
 
@@ -101,19 +102,26 @@ REPRODUCTION_TIME_S = {
 
 
 def check_out_dir(out: str | Path, option: str = "--out") -> Path:
-    """``out`` as a directory to write into, created here: ``ValueError`` (before any work) when
-    it, or a folder above it, is an existing file, or when it cannot be created or written."""
+    """``out`` as a directory to write into: ``ValueError`` (before any work) when it, or a
+    folder above it, is an existing file, or when it cannot be created or written. A folder
+    this check creates to find out is removed again (the command creates it when it writes)."""
     path = Path(out)
     for p in (path, *path.parents):
         if p.exists() and not p.is_dir():
             where = "is" if p == path else f"cannot be created: {str(p)!r} is"
             raise ValueError(f"{option} {str(path)!r} {where} an existing file; {option} names a directory")
+    missing = [p for p in (path, *path.parents) if not p.exists()]
     try:
         path.mkdir(parents=True, exist_ok=True)
+        probe = path / f".attitude-envs-write-probe-{os.getpid()}"
+        probe.touch()
+        probe.unlink()
     except OSError as exc:
-        raise ValueError(f"{option} {str(path)!r} cannot be created: {exc.strerror or exc}") from None
-    if not os.access(path, os.W_OK | os.X_OK):
-        raise ValueError(f"{option} {str(path)!r} is not writable")
+        raise ValueError(f"{option} {str(path)!r} cannot be created or written: {exc.strerror or exc}") from None
+    finally:
+        for p in missing:  # deepest first
+            with contextlib.suppress(OSError):
+                p.rmdir()
     return path
 
 
@@ -137,7 +145,7 @@ def _yaml_arg(name: str, text: str | None):
     if text.startswith("@"):
         return read_yaml(text[1:])
     try:
-        return yaml.safe_load(text)
+        return load_yaml(text)
     except yaml.YAMLError as exc:
         raise ValueError(f"{name} is malformed YAML: {str(exc).splitlines()[0]}") from exc
 
@@ -259,7 +267,7 @@ def _algo_label(model: Path) -> str:
 
 
 def _print_campaign(result, report) -> None:
-    print(leaderboard_markdown(leaderboards(result.rows)))
+    print(leaderboard_markdown(leaderboards(result.rows), result.campaign.agent_notes))
     print(
         f"{result.episodes_run} episodes run, {result.episodes_skipped} already done, {result.wall_time_s:.1f} s on "
         f"{result.executor}; report: {report}"
@@ -501,9 +509,9 @@ def _add_executor_options(p: argparse.ArgumentParser) -> None:
 def seeds_arg(text: str) -> list[int]:
     """An argparse ``type``: seeds in the one syntax of :mod:`experiments.seeds`."""
     try:
-        return parse_seeds(text, "it")
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
+        return parse_seeds(text, "seeds")
+    except ValueError as exc:  # argparse names the option: "argument --seeds: must be ..."
+        raise argparse.ArgumentTypeError(str(exc).removeprefix("seeds ")) from None
 
 
 def build_parser() -> argparse.ArgumentParser:

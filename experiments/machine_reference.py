@@ -38,15 +38,15 @@ def seconds_per_call(call: Callable[[], object], seconds: float, batch: int = 1)
 def seconds_per_step(env: gym.Env, action: np.ndarray, seconds: float) -> float:
     """Mean wall seconds per step of a single env (wrapped as ``gym.make`` returns it), stepped
     with a constant ``action`` for at least ``seconds`` after 100 warm-up steps."""
-    env.reset(seed=0)
-    for _ in range(100):
-        env.step(action)
 
     def step() -> None:
         _, _, term, trunc, _ = env.step(action)
         if term or trunc:
             env.reset()
 
+    env.reset(seed=0)
+    for _ in range(100):  # warm-up: a short episode ends (and resets) here too
+        step()
     return seconds_per_call(step, seconds, batch=500)
 
 

@@ -115,7 +115,9 @@ def check_policy_name(name: str) -> str:
     return name
 
 
-def _import(target: str):
+def import_target(target: str):
+    """The object a registry target ``"module:attribute"`` (:data:`POLICIES`) names, imported;
+    :class:`PolicyUnavailable` when its package is not installed here."""
     module, attr = target.split(":")
     try:
         return getattr(importlib.import_module(module), attr)
@@ -138,9 +140,9 @@ def build_policy(spec: dict[str, Any], env, name: str | None = None):
     if kind == "sb3":
         if "model" not in spec:
             raise ValueError("policy 'sb3' needs model: PATH (a saved model .zip or its run directory)")
-        predictor = _import(POLICIES[kind])(spec["model"], env)
+        predictor = import_target(POLICIES[kind])(spec["model"], env)
         return SB3Policy(predictor, deterministic=bool(params.get("deterministic", True)), name=label)
-    cls = _import(POLICIES[kind])
+    cls = import_target(POLICIES[kind])
     if kind == "q-learning-lqr":
         agent = cls(env, name=label, **params)
         agent.learn(**dict(spec.get("learn") or {}))

@@ -7,7 +7,8 @@ interquartile mean (mean of the middle 50 %, ``scipy.stats.trim_mean(J, 0.25)``;
 et al. 2021). A cell with fewer than ``MIN_EPISODES`` episodes is flagged; a cell whose
 episodes all have the same J (a deterministic agent from a fixed start) has no CI: the
 report prints "deterministic". Success is per env, stated in the report
-(:func:`experiments.campaign.success_criterion`).
+(:func:`experiments.campaign.episode.success_criterion`). An agent's ``note`` is shown beside
+it in the leaderboards.
 """
 
 from __future__ import annotations
@@ -29,8 +30,8 @@ from scipy import stats
 
 from attitude_envs.evaluation.trace import record_episode, record_state_trace
 from attitude_envs.info import policy_view
-from attitude_envs.plants.gyrostat_model import ReactionWheelModel
-from experiments.campaign import episode_jobs, success_criterion
+from experiments.campaign.episode import success_criterion
+from experiments.campaign.jobs import episode_jobs
 from experiments.machine_reference import REFERENCE_ENV
 from experiments.optimum_table import COMMAND, DESCRIPTION, SOURCES, TABLE_FILE
 from experiments.policies import build_policy
@@ -183,8 +184,12 @@ def _fmt(v: Any) -> str:
     return str(v)
 
 
-def leaderboard_markdown(boards: Mapping[tuple[str, str, str], list[dict[str, Any]]]) -> str:
-    """One markdown table per env × scenario × fault."""
+def leaderboard_markdown(
+    boards: Mapping[tuple[str, str, str], list[dict[str, Any]]], notes: Mapping[str, str] | None = None
+) -> str:
+    """One markdown table per env × scenario × fault; ``notes`` (agent → one line) are shown
+    beside their agents."""
+    notes = notes or {}
     parts = []
     for (env, scenario, fault), board in boards.items():
         extra = [m for m in PAPER_METRICS if m in board[0]]
@@ -207,7 +212,7 @@ def leaderboard_markdown(boards: Mapping[tuple[str, str, str], list[dict[str, An
             flag = "" if e["episodes"] >= MIN_EPISODES else " (< 5 episodes)"
             cells = [
                 str(i),
-                e["agent"],
+                _agent_cell(e["agent"], notes.get(e["agent"])),
                 f"{e['episodes']}{flag}",
                 _fmt(e["J_mean"]),
                 _ci_cell(e),
@@ -221,6 +226,14 @@ def leaderboard_markdown(boards: Mapping[tuple[str, str, str], list[dict[str, An
             lines.append("| " + " | ".join(cells) + " |")
         parts.append("\n".join(lines))
     return "\n\n".join(parts) + "\n"
+
+
+def _agent_cell(agent: str, note: str | None) -> str:
+    """``agent``, or ``agent (note)`` (a ``|`` in the note escaped for the table)."""
+    if note is None:
+        return agent
+    escaped = note.replace("|", "\\|")
+    return f"{agent} ({escaped})"
 
 
 def _ci_cell(e: Mapping[str, Any]) -> str:
@@ -376,7 +389,7 @@ def write_report(
     lines += ["J / J*: mean J over mean J* of the same episodes (the cost above the optimum, as a factor), 95 % paired"]
     lines += ["bootstrap CI; the per-episode ratios (and their median, in leaderboard.json) are in episodes.csv.", ""]
     lines += _optimum_legend(rows)
-    lines += ["## Leaderboards", "", leaderboard_markdown(boards)]
+    lines += ["## Leaderboards", "", leaderboard_markdown(boards, metadata.get("agent_notes"))]
     if notes:
         lines += ["## Notes", "", *[f"* {n}" for n in notes], ""]
     if figures:
@@ -550,7 +563,7 @@ def write_campaign_report(result, video: bool | None = None, command: str | None
         if cell is None:
             continue
         probe = gym.make(env_spec.id, **env_spec.kwargs)
-        is_rw = isinstance(getattr(probe.unwrapped, "model", None), ReactionWheelModel)
+        is_rw = probe.unwrapped.wheel_trace
         probe.close()
         best = boards[cell][0]["agent"]
         for scenario in env_spec.scenarios:  # every cell: its best analytic controller and best learned agent
@@ -617,6 +630,8 @@ def write_campaign_report(result, video: bool | None = None, command: str | None
         "definitions": definitions,
         "trained": result.trained,
     }
+    if result.campaign.agent_notes:
+        metadata["agent_notes"] = result.campaign.agent_notes
     return write_report(out_dir, rows, metadata, figures, notes)
 
 

@@ -68,6 +68,19 @@ def test_bad_batched_input_is_rejected_by_name(env_id):
         gym.make_vec(env_id, num_envs=0, vectorization_mode="vector_entry_point")
 
 
+@pytest.mark.parametrize("env_id", sorted(VECTOR_ENTRY_POINTS))
+def test_step_before_reset_raises_reset_needed(env_id):
+    vec = make_vec(env_id, 3)
+    actions = np.zeros(vec.action_space.shape)
+    with pytest.raises(gym.error.ResetNeeded, match=r"sub-envs \[0, 1, 2\] .* never been reset; call reset\(\) first"):
+        vec.step(actions)
+    vec.reset(seed=0, options={"reset_mask": np.array([True, False, True])})
+    with pytest.raises(gym.error.ResetNeeded, match=r"sub-envs \[1\] "):
+        vec.step(actions)
+    vec.reset(seed=0, options={"reset_mask": np.array([False, True, False])})
+    vec.step(actions)  # every sub-env has been reset once: steps (and autoresets) from here on
+
+
 UNMODELLED = [
     (env_id, kwargs)
     for env_id in sorted(set(VECTOR_ENTRY_POINTS) - {"attitude_envs/LinearSystem-v0"})

@@ -152,7 +152,7 @@ def test_malformed_yaml_and_model_for_another_env_exit_2_without_traceback(bench
     for argv, message in (
         (
             ["evaluate", "--env", "attitude_envs/LinearSystem-v0", "--model", str(model), "--out", str(tmp_path / "e")],
-            "was trained for a different env: its observation_space",
+            "was trained on attitude_envs/ReactionWheel-v0 (its run's config.json), not on attitude_envs/LinearSystem-v0",
         ),
     ):
         proc = subprocess.run([sys.executable, "train.py", *argv], capture_output=True, text=True)

@@ -84,16 +84,18 @@ def test_seeds_0_is_a_one_line_error_naming_seeds_not_the_usage():
     proc = _cli("evaluate", "--policy", "lqr", "--seeds", "0", "--out", "X")
     assert proc.returncode == 2
     assert (
-        proc.stderr == "error: argument --seeds: must be an integer >= 1, got 0 (see attitude-envs evaluate --help)\n"
+        proc.stderr == "error: argument --seeds: must be a count N (seeds 0..N-1), a range A-B, or a comma list like "
+        "0,3,7-9 (seeds >= 0, distinct): a count must be >= 1, got 0 (see attitude-envs evaluate --help)\n"
     )
 
 
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["demo", "--seeds", "0"], "argument --seeds: must be an integer >= 1, got 0"),
-        (["evaluate", "--policy", "lqr", "--seeds", "two", "--out", "X"], "must be an integer >= 1, got 'two'"),
-        (["benchmark", "--workers", "0", "--out", "X"], "argument --workers/--jobs/-j: must be an integer >= 1, got 0"),
+        (["demo", "--seeds", "0"], "argument --seeds: must be a count N (seeds 0..N-1)"),
+        (["evaluate", "--policy", "lqr", "--seeds", "two", "--out", "X"], "'two' is not an integer or a range"),
+        (["benchmark", "--jobs", "0", "--out", "X"], "argument --jobs/-j: must be an integer >= 1, got 0"),
+        (["benchmark", "--workers", "0", "--out", "X"], "argument --workers: must be an integer >= 1, got 0"),
         (
             ["train", "--algo", "ppo", "--out", "X", "--verbose", "3"],
             "argument --verbose: must be an integer in [0, 2]",

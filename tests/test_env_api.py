@@ -1,6 +1,7 @@
 """Gymnasium conventions of every registered env: check_env, seeding, pickling, options."""
 
 import pickle
+import re
 import warnings
 
 import gymnasium as gym
@@ -67,8 +68,13 @@ def trajectory(env, seed, n=40):
     action_rng = np.random.default_rng(7)
     out = [obs]
     for _ in range(n):
-        obs, reward, *_ = env.step(action_rng.uniform(-1, 1, env.action_space.shape).astype(np.float32))
+        obs, reward, terminated, truncated, _ = env.step(
+            action_rng.uniform(-1, 1, env.action_space.shape).astype(np.float32)
+        )
         out.append(np.append(obs, reward))
+        if terminated or truncated:  # the next episode from the seeded generator's state
+            obs, _ = env.reset()
+            out.append(obs)
     return np.concatenate([np.ravel(o) for o in out])
 
 
@@ -86,13 +92,16 @@ def test_seeding_is_deterministic(index):
 def test_pickled_env_continues_identically(env_id, kwargs):
     env = gym.make(env_id, **kwargs).unwrapped
     env.reset(seed=3)
-    env.step(env.action_space.sample())
+    if any(env.step(env.action_space.sample())[2:4]):
+        env.reset()
     clone = pickle.loads(pickle.dumps(env))
     action = np.full(env.action_space.shape, 0.3, dtype=np.float32)
     for _ in range(5):
         a = env.step(action)
         b = clone.step(action)
         assert np.array_equal(a[0], b[0]) and a[1] == b[1]
+        if a[2] or a[3]:  # both go on with the next episode of their (equal) generators
+            assert np.array_equal(env.reset()[0], clone.reset()[0])
 
 
 def test_reset_options_pin_the_state():
@@ -257,3 +266,90 @@ def test_linear_system_terminates_on_divergence():
         _, _, terminated, truncated, _ = env.step(np.zeros(1))
         steps += 1
     assert steps == 7 and not truncated  # 2**7 = 128 > 100
+
+
+# ---------------------------------------------------------------- episode order (issue #33)
+ENV_IDS = sorted(attitude_envs.ENV_IDS)
+# episodes truncated (by the env itself: no TimeLimit wrapper) on the third step
+TRUNCATE_AT_3 = {
+    "attitude_envs/ReactionWheel-v0": {"episode_duration_s": 0.3},  # control period 0.1 s
+    "attitude_envs/AirBearing-v0": {"episode_duration_s": 0.03},  # 0.01 s
+    "attitude_envs/LinearSystem-v0": {"episode_steps": 3},
+    "attitude_envs/FuelSlosh-v0": {"episode_duration_s": 0.3},  # 0.1 s
+    "attitude_envs/Magnetorquer-v0": {"episode_duration_s": 0.3},  # 0.1 s
+}
+# a limit crossed on the first step: (keywords, reset options)
+TERMINATE_AT_1 = {
+    "attitude_envs/ReactionWheel-v0": ({"max_rate_rad_s": 1e-3}, {"rate_rad_s": [0.01, 0.0, 0.0]}),
+    "attitude_envs/AirBearing-v0": ({"max_rate_rad_s": 1e-3}, {"rate_rad_s": [0.01, 0.0, 0.0]}),
+    "attitude_envs/LinearSystem-v0": ({"divergence_threshold": 1e-6}, None),
+    "attitude_envs/FuelSlosh-v0": ({"max_pitch_rate_rad_s": 1e-6}, None),
+    "attitude_envs/Magnetorquer-v0": ({"max_rate_rad_s": 1e-3}, {"rate_rad_s": [0.01, 0.0, 0.0]}),
+}
+AFTER_DONE = "You are calling 'step()' even though this environment has already returned {} = True"
+
+
+def test_every_env_id_has_an_episode_order_case():
+    assert set(TRUNCATE_AT_3) == set(TERMINATE_AT_1) == set(ENV_IDS)
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_step_before_reset_raises_reset_needed(env_id):
+    wrapped = gym.make(env_id)
+    env = wrapped.unwrapped  # the raw class, without gymnasium's OrderEnforcing wrapper
+    action = np.zeros(env.action_space.shape, np.float32)
+    for stepper in (env, wrapped):
+        with pytest.raises(gym.error.ResetNeeded, match=r"Cannot call env\.step\(\) before calling env\.reset\(\)"):
+            stepper.step(action)
+    with pytest.raises(ValueError, match="unknown keys"):
+        env.reset(seed=0, options={"no_such_option": 1})
+    with pytest.raises(gym.error.ResetNeeded, match="call reset"):  # a reset that failed started nothing
+        env.step(action)
+    env.reset(seed=0)
+    env.step(action)
+
+
+def _after_done_warnings(env, action, steps: int) -> list[str]:
+    """The after-done warnings of ``steps`` steps (every one recorded, none filtered)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for _ in range(steps):
+            env.step(action)
+    return [str(w.message) for w in caught if "even though this environment has already returned" in str(w.message)]
+
+
+def _run_to_end(env, action, options=None, max_steps: int = 10) -> tuple[bool, bool]:
+    """Reset and step until the episode ends; no after-done warning on the way."""
+    env.reset(seed=0, options=options)
+    with warnings.catch_warnings():
+        warnings.filterwarnings("error", message=".*even though this environment has already returned")
+        for _ in range(max_steps):
+            _, _, terminated, truncated, _ = env.step(action)
+            if terminated or truncated:
+                return terminated, truncated
+    raise AssertionError(f"the episode did not end within {max_steps} steps")
+
+
+# the limits crossed on purpose put the observation beyond its bounds (gymnasium's checker says so)
+@pytest.mark.filterwarnings("ignore:.*not within the observation space")
+@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("end", ["terminated", "truncated"])
+def test_stepping_after_the_end_warns_once_per_episode(env_id, end):
+    if end == "truncated":
+        kwargs, options = TRUNCATE_AT_3[env_id], None
+    else:
+        kwargs, options = TERMINATE_AT_1[env_id]
+    env = gym.make(env_id, **kwargs).unwrapped
+    action = np.full(env.action_space.shape, 0.5 if end == "terminated" else 0.0, np.float32)
+    for _ in range(2):  # once per episode: again after the next reset
+        terminated, truncated = _run_to_end(env, action, options)
+        assert (terminated, truncated) == (end == "terminated", end == "truncated")
+        with pytest.warns(UserWarning, match=re.escape(AFTER_DONE.format(end))):
+            env.step(action)  # the step still runs (as CartPole-v1's)
+        assert _after_done_warnings(env, action, 3) == []  # not again in this episode
+    # through gym.make (OrderEnforcing, PassiveEnvChecker) the env's own guard warns the same
+    wrapped = gym.make(env_id, **kwargs)
+    _run_to_end(wrapped, action, options)
+    messages = _after_done_warnings(wrapped, action, 3)
+    assert len(messages) == 1 and AFTER_DONE.format(end) in messages[0]
+    assert "You should always call 'reset()'" in messages[0]

@@ -140,8 +140,11 @@ def test_bad_fault_configs_name_the_field(fault, match):
 
 def test_faults_reach_the_fuel_slosh_actuators():
     fault = {"kind": "stuck", "index": 0, "value": 0.1, "onset_s": 0.2}
-    env = gym.make("attitude_envs/FuelSlosh-v0", faults=[fault])
+    # a wide pitch-rate limit: the half-scale moment would end the episode on step 2 (0.5 rad/s)
+    env = gym.make("attitude_envs/FuelSlosh-v0", faults=[fault], max_pitch_rate_rad_s=100.0)
     env.reset(seed=0)
-    applied = [env.step(np.array([0.5, 0.5]))[4]["truth"]["applied"] for _ in range(4)]
+    steps = [env.step(np.array([0.5, 0.5])) for _ in range(4)]
+    assert not any(s[2] or s[3] for s in steps)  # one episode throughout
+    applied = [s[4]["truth"]["applied"] for s in steps]
     assert applied[1][0] == pytest.approx(0.5 * np.radians(30.0)) and applied[2][0] == pytest.approx(0.1)
     assert applied[3][1] == pytest.approx(1000.0)  # the moment actuator is untouched

@@ -49,7 +49,15 @@ def test_a_policy_on_an_env_it_does_not_fit_is_a_one_line_error_listing_those_th
 
 def test_out_that_cannot_be_created_is_a_one_line_error(capsys):
     assert cli.main(["evaluate", "--policy", "lqr", "--out", "/proc/attitude-envs-test/x"]) == 2
-    _one_line_error(capsys, "--out '/proc/attitude-envs-test/x' cannot be created")
+    _one_line_error(capsys, "--out '/proc/attitude-envs-test/x' cannot be created or written")
+    assert not Path("/proc/attitude-envs-test").exists()
+
+
+def test_checking_out_leaves_no_folder_behind(tmp_path, capsys):
+    out = tmp_path / "a" / "b"
+    argv = ["evaluate", "--env", "attitude_envs/LinearSystem-v0", "--policy", "slosh-pd", "--out", str(out)]
+    assert cli.main(argv) == 2
+    assert not (tmp_path / "a").exists()
 
 
 def test_tune_without_optuna_names_the_extra(monkeypatch, tmp_path, capsys):
@@ -149,6 +157,8 @@ def test_a_model_evaluated_on_another_env_is_a_one_line_error(tiny_run, tmp_path
     assert cli.main([*argv, "--jobs", "1", "--out", str(tmp_path)]) == 2
     _one_line_error(capsys, "was trained on attitude_envs/ReactionWheel-v0", "not on attitude_envs/AirBearing-v0")
     argv = ["evaluate", "--env", "attitude_envs/ReactionWheel-v0", "--model", str(out), "--seeds", "1"]
+    assert cli.main([*argv, "--jobs", "1", "--out", str(tmp_path / "wheels")]) == 2  # trained on body torques
+    _one_line_error(capsys, "was trained for a different env: its action_space")
     argv += ["--env-kwargs", "{episode_duration_s: 2.0, action_frame: body}"]
     assert cli.main([*argv, "--jobs", "1", "--out", str(tmp_path / "same")]) == 0
 
@@ -193,3 +203,49 @@ def test_every_core_dependency_is_used():
             )
             continue
         assert f"import {module}" in sources or f"from {module}" in sources, dep
+
+
+def test_env_kwargs_read_exponents_as_numbers_and_name_a_bad_value(tmp_path, capsys):
+    from experiments.sb3.hyperparams import load_yaml
+
+    assert load_yaml("{integrator_dt_s: 1e-3, n: 5E2, s: lin_1e-4, d: 1.0e-3}") == {
+        "integrator_dt_s": 0.001,
+        "n": 500.0,
+        "s": "lin_1e-4",
+        "d": 0.001,
+    }
+    argv = ["evaluate", "--env", "attitude_envs/AirBearing-v0", "--policy", "zero", "--seeds", "1", "--jobs", "1"]
+    assert cli.main([*argv, "--env-kwargs", "{control_dt_s: fast}", "--out", str(tmp_path / "a")]) == 2
+    _one_line_error(capsys, "control_dt_s must be a number", "'fast'")
+    kwargs = "{control_dt_s: 1e-1, episode_duration_s: 1}"
+    assert cli.main([*argv, "--env-kwargs", kwargs, "--out", str(tmp_path / "b")]) == 0
+
+
+@pytest.mark.parametrize(
+    ("env_id", "switch"),
+    [
+        ("attitude_envs/Magnetorquer-v0", "observe_field"),
+        ("attitude_envs/Magnetorquer-v0", "gravity_gradient"),
+        ("attitude_envs/FuelSlosh-v0", "observe_slosh"),
+        ("attitude_envs/ReactionWheel-v0", "observe_wheel_speeds"),
+        ("attitude_envs/AirBearing-v0", "fault_hint"),
+    ],
+)
+def test_a_switch_given_as_a_string_is_refused_not_read_as_true(env_id, switch):
+    with pytest.raises(ValueError, match=f"{switch} must be True or False, got 'false'"):
+        gym.make(env_id, **{switch: "false"})
+    assert getattr(gym.make(env_id, **{switch: True}).unwrapped, switch) is True
+
+
+def test_a_campaign_pairing_a_policy_with_an_env_it_does_not_fit_fails_at_load():
+    from experiments.campaign import PRESETS, load_campaign
+
+    for name in PRESETS:  # every shipped campaign pairs its policies with envs they fit
+        load_campaign(name)
+    config = {
+        "name": "x",
+        "envs": [{"name": "ls", "id": "attitude_envs/LinearSystem-v0"}],
+        "agents": [{"name": "slosh", "policy": "slosh-pd"}],
+    }
+    with pytest.raises(ValueError, match=r"agents\[0\] \(slosh\) on env 'ls': policy 'slosh-pd' does not apply"):
+        load_campaign(config)

@@ -10,7 +10,7 @@ import yaml
 
 import attitude_envs
 from experiments import cli
-from experiments.campaign import PLANT_CAMPAIGNS, _probe_models, load_campaign, preset_path
+from experiments.campaign import PLANT_CAMPAIGNS, load_campaign, preset_path, probe_models
 from experiments.sb3.hyperparams import load_hyperparams
 
 
@@ -23,7 +23,7 @@ def test_every_registered_plant_has_a_campaign():
 def test_plant_campaign_has_analytic_and_learned_agents_on_20_seeds(name):
     campaign = load_campaign(name)
     assert len(campaign.seeds) >= 20
-    _probe_models(campaign, {})  # every env x scenario x fault builds
+    probe_models(campaign, {})  # every env x scenario x fault builds
     trained = {a.name: a.train for a in campaign.agents if a.train is not None}
     analytic = [a.name for a in campaign.agents if a.train is None and a.name != "zero"]
     assert {"ppo", "sac"} <= set(trained) and analytic

@@ -28,7 +28,7 @@ from baselines.pid import PAPER_FIXED, PIDPolicy, paper_schedule
 from baselines.quaternion_lqr import QuaternionLQRPolicy
 from baselines.sliding_mode import AMNFTSMCPolicy, FTSMCStandInPolicy, MNFTSMCPolicy
 from baselines.slosh import SloshLQRPolicy, SloshLyapunovPolicy, SloshPDPolicy
-from experiments import campaign
+from experiments.campaign import episode
 
 RW = "attitude_envs/ReactionWheel-v0"
 AB = "attitude_envs/AirBearing-v0"
@@ -194,6 +194,6 @@ def test_campaign_episodes_hand_the_policy_no_truth(env_id):
     env = gym.make(env_id, **SHORT[env_id])
     spy = Spy(env)
     job = {"key": {"seed": 0}, "options": {}, "metrics": {}, "env_kwargs": {}, "success_error_deg": 2.0}
-    row = campaign._generic_metrics(env, spy, job)
+    row = episode._generic_metrics(env, spy, job)
     spy.check()
     assert row["steps"] == len(spy.infos)

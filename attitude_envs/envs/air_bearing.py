@@ -19,6 +19,7 @@ import numpy as np
 from attitude_envs import presets, quaternion, validation
 from attitude_envs.envs.reaction_wheel import ReactionWheelEnv
 from attitude_envs.euler import euler_321_rad
+from attitude_envs.evaluation.success import FINAL_ERROR_DEG
 
 
 class AirBearingEnv(ReactionWheelEnv):
@@ -109,6 +110,10 @@ class AirBearingEnv(ReactionWheelEnv):
     ``linearize()`` is the free body's (it leaves out the offset's roll/pitch stiffness
     ``p_z``, the paper's eq. 17).
 
+    **Success** (as ReactionWheel-v0, :mod:`attitude_envs.evaluation.success`):
+    ``success_metric`` is ``FINAL_ERROR_DEG``, the final attitude error angle (deg, default
+    threshold 2°).
+
     **Version history.** v0: a limit crossing charged the terminal running cost over the rest of the episode (``termination_cost``, 2026-11); the paper's platform as ReactionWheel-v0's gyrostat with the
     offset torque and tilt stop in the compiled step; a natively batched env; the preset
     through :mod:`attitude_envs.presets`; infos split into ``truth`` and ``measured``.
@@ -116,6 +121,7 @@ class AirBearingEnv(ReactionWheelEnv):
 
     env_name = "AirBearing-v0"
     default_preset = "air-bearing-85kg"
+    success_metric = FINAL_ERROR_DEG
 
     def __init__(self, preset: str | None = None, initial_euler_max_deg=None, **kwargs: Any) -> None:
         super().__init__(preset, **kwargs)

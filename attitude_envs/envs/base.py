@@ -14,6 +14,11 @@ then in ``reset`` calls :meth:`AttitudeEnv._reset_layers` and in ``step`` passes
 commanded actuator outputs through :meth:`AttitudeEnv._deliver`, builds the observation with
 :meth:`AttitudeEnv._with_hint` and the info with :meth:`AttitudeEnv._make_info`.
 
+The base wraps each subclass's ``reset`` and ``step`` in the episode-order guard (as
+Gymnasium's ``OrderEnforcing`` wrapper and CartPole-v1 do, but on the raw class too):
+``step`` before the first ``reset`` raises ``gymnasium.error.ResetNeeded``; ``step`` after
+the episode returned ``terminated`` or ``truncated`` warns once per episode and then runs.
+
 Batched envs, wrappers, estimators and campaigns use only the public members documented
 here and on each env (no private attribute of another object).
 """
@@ -27,9 +32,11 @@ from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
+from gymnasium import error, logger
 
 from attitude_envs import presets, validation
 from attitude_envs.disturbances import Disturbance
+from attitude_envs.evaluation.success import SuccessMetric
 from attitude_envs.faults import ActuatorFaults
 from attitude_envs.info import MEASURED, TRUTH
 from attitude_envs.sensors import Channel, SensorSuite
@@ -76,6 +83,44 @@ def _checking_unknown_keywords(init):
     return checked
 
 
+# Why ``step`` may not simply go on (see :func:`_guarding_step`); None while an episode runs.
+_NOT_RESET, _TERMINATED, _TRUNCATED, _WARNED = "not reset", "terminated", "truncated", "warned"
+
+
+def _guarding_step(step):
+    """``step`` with the episode-order guard: before the first ``reset`` it raises
+    ``gymnasium.error.ResetNeeded``; after the episode returned ``terminated`` or
+    ``truncated`` it warns once (as CartPole-v1 does), then steps as asked (undefined
+    behaviour: the state goes on from where it ended). One attribute test on the hot path."""
+
+    @functools.wraps(step)
+    def guarded(self, action):
+        if self._episode_over is not None:
+            self._step_out_of_episode()
+        result = step(self, action)
+        if (result[2] or result[3]) and self._episode_over is None:
+            self._episode_over = _TERMINATED if result[2] else _TRUNCATED
+        return result
+
+    guarded.episode_guard = True
+    return guarded
+
+
+def _guarding_reset(reset):
+    """``reset`` that starts the episode ``step`` checks for (a reset that raises leaves
+    the env needing one)."""
+
+    @functools.wraps(reset)
+    def guarded(self, *args: Any, **kwargs: Any):
+        self._episode_over = _NOT_RESET
+        result = reset(self, *args, **kwargs)
+        self._episode_over = None
+        return result
+
+    guarded.episode_guard = True
+    return guarded
+
+
 class AttitudeEnv(gym.Env):
     """Base of the suite's envs (see the module docstring for the recipe)."""
 
@@ -86,11 +131,28 @@ class AttitudeEnv(gym.Env):
     #: parameter set (ReactionWheel, AirBearing, Magnetorquer) then take this default;
     #: FuelSlosh-v0 and LinearSystem-v0 take no preset (every value given explicitly).
     default_preset: ClassVar[str | None] = None
+    #: how an episode is judged a success (:mod:`attitude_envs.evaluation.success`): each env
+    #: declares its own
+    success_metric: ClassVar[SuccessMetric]
+    #: True where an episode records as an :class:`~attitude_envs.evaluation.trace.EpisodeTrace`
+    #: (:func:`~attitude_envs.evaluation.trace.record_episode`: reaction wheels, N·m torques) and
+    #: takes :func:`~attitude_envs.evaluation.metrics.episode_metrics`; else
+    #: :func:`~attitude_envs.evaluation.trace.record_state_trace` only
+    wheel_trace: ClassVar[bool] = False
+    #: why ``step`` may not simply go on: "not reset" (until the first reset), "terminated"
+    #: or "truncated" (the episode ended), "warned" (and the warning was given); None while
+    #: an episode runs
+    _episode_over: str | None = _NOT_RESET
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
         if "__init__" in cls.__dict__:  # every env's constructor rejects unknown keywords by name
             cls.__init__ = _checking_unknown_keywords(cls.__dict__["__init__"])
+        # every env enforces the episode order (step after reset; a warning past the end)
+        for name, guarding in (("step", _guarding_step), ("reset", _guarding_reset)):
+            method = cls.__dict__.get(name)
+            if method is not None and not getattr(method, "episode_guard", False):
+                setattr(cls, name, guarding(method))
 
     # ------------------------------------------------------------------ construction
     def _configure(self, preset: str | None, given: Mapping[str, Any]) -> dict[str, Any]:
@@ -115,7 +177,7 @@ class AttitudeEnv(gym.Env):
         ``faults`` entries with ``"target": "sensor"`` go to the sensor layer."""
         self._fault_layer = ActuatorFaults(faults, n_actuators, actuator_limits, other_targets={"sensor"})
         self._sensor_layer = SensorSuite(sensors, channels, faults)
-        self.fault_hint = bool(fault_hint)
+        self.fault_hint = validation.flag("fault_hint", fault_hint)
         self._disturbance = None if disturbance is None else Disturbance(disturbance)
 
     @property
@@ -173,6 +235,23 @@ class AttitudeEnv(gym.Env):
         return out
 
     # ------------------------------------------------------------------ episode
+    def _step_out_of_episode(self) -> None:
+        """``step`` outside an episode: before the first reset a ``ResetNeeded`` error; after
+        the end a warning, once per episode (the step then runs, as CartPole-v1's does)."""
+        if self._episode_over == _NOT_RESET:
+            env_id = f"attitude_envs/{self.env_name}" if self.env_name else type(self).__name__
+            raise error.ResetNeeded(
+                f"Cannot call env.step() before calling env.reset(): call reset() first to start an episode of {env_id}"
+            )
+        if self._episode_over != _WARNED:
+            logger.warn(
+                f"You are calling 'step()' even though this environment has already returned "
+                f"{self._episode_over} = True. You should always call 'reset()' once you receive "
+                f"'{self._episode_over} = True' -- any further steps are undefined behavior.",
+                stacklevel=3,
+            )
+            self._episode_over = _WARNED
+
     def _reset_layers(self, rng: np.random.Generator, options: Mapping[str, Any]) -> None:
         """Draw this episode's sensor faults and biases (from a generator the sensor layer
         spawns: ``rng``'s own stream is unchanged by it), actuator faults and disturbance."""

@@ -13,6 +13,7 @@ from gymnasium import spaces
 from attitude_envs import presets, validation
 from attitude_envs.cost import QuadraticCost
 from attitude_envs.envs.base import AttitudeEnv
+from attitude_envs.evaluation.success import FINAL_STATE_FRACTION
 from attitude_envs.integrators import substeps
 from attitude_envs.plants import slosh
 from attitude_envs.plants import slosh_kernels as kernels
@@ -138,6 +139,10 @@ class FuelSloshEnv(AttitudeEnv):
     :attr:`state`, :attr:`observation_index`, :attr:`actuator_limits`,
     :attr:`kernel_constants`, :meth:`batch_termination` and the base's ``fault_layer``.
 
+    **Success** (:mod:`attitude_envs.evaluation.success`): ``success_metric`` is
+    ``FINAL_STATE_FRACTION``, the norm of the true reduced state ``truth["x"]`` at the end
+    over its norm at the start (default threshold 0.1).
+
     **Version history.** v0: a limit crossing charged the terminal running cost over the rest of the episode (``termination_cost``, 2026-11); the full 5-DOF plant with one compiled RK4 step; presets
     ``navabi-fill-i`` … ``-iv`` replace ``fill_preset`` (kept, deprecated); infos follow
     the truth/measured contract; ``new_inputs`` moved from the top level to
@@ -146,6 +151,7 @@ class FuelSloshEnv(AttitudeEnv):
 
     env_name = ENV
     default_preset = "navabi-fill-i"
+    success_metric = FINAL_STATE_FRACTION
     metadata = {"render_modes": []}
 
     def __init__(
@@ -182,9 +188,7 @@ class FuelSloshEnv(AttitudeEnv):
         params = cfg["params"]
         if not isinstance(params, slosh.SloshParams):
             raise ValueError(f"params must be a SloshParams, got {type(params).__name__}")
-        gimbal = validation.positive("max_gimbal_deg", cfg["max_gimbal_deg"])
-        if gimbal > 90.0:
-            raise ValueError(f"max_gimbal_deg must be in (0, 90], got {cfg['max_gimbal_deg']!r}")
+        gimbal = validation.in_range("max_gimbal_deg", cfg["max_gimbal_deg"], 0.0, 90.0, open_low=True)
         if render_mode is not None:
             raise ValueError(f"render_mode must be None for {ENV}, got {render_mode!r}")
         self.render_mode = None
@@ -198,13 +202,13 @@ class FuelSloshEnv(AttitudeEnv):
             cost,
             math.radians(gimbal),
             validation.positive("max_moment_nm", cfg["max_moment_nm"]),
-            float(validation.finite_array("design_v_x_m_s", cfg["design_v_x_m_s"], ())),
+            validation.in_range("design_v_x_m_s", cfg["design_v_x_m_s"]),
             self.control_dt_s,
         )
         self._init_termination_cost(termination_cost, cost.Q, self.episode_duration_s)
-        self.observe_slosh = bool(observe_slosh)
+        self.observe_slosh = validation.flag("observe_slosh", observe_slosh)
         self._initial = validation.finite_array("initial_state", cfg["initial_state"], (8,))
-        self.randomize_initial_state = bool(randomize_initial_state)
+        self.randomize_initial_state = validation.flag("randomize_initial_state", randomize_initial_state)
         self.max_slosh_angle_rad = math.radians(validation.positive("max_slosh_angle_deg", cfg["max_slosh_angle_deg"]))
         self.max_pitch_rate_rad_s = validation.positive("max_pitch_rate_rad_s", cfg["max_pitch_rate_rad_s"])
         self.max_pitch_angle_rad = math.radians(validation.positive("max_pitch_angle_deg", cfg["max_pitch_angle_deg"]))

@@ -11,6 +11,7 @@ from gymnasium import spaces
 from attitude_envs import validation
 from attitude_envs.cost import QuadraticCost
 from attitude_envs.envs.base import AttitudeEnv
+from attitude_envs.evaluation.success import FINAL_STATE_FRACTION
 from attitude_envs.linearization import LinearModel
 from attitude_envs.plants import linear_kernels
 from attitude_envs.sensors import Channel
@@ -111,6 +112,9 @@ class LinearSystemEnv(AttitudeEnv):
     :attr:`cost`, :attr:`episode_steps`, :attr:`divergence_threshold` and the base's
     ``fault_layer``.
 
+    **Success** (:mod:`attitude_envs.evaluation.success`): ``success_metric`` is
+    ``FINAL_STATE_FRACTION``, ‖x‖ at the end over ‖x‖ at the start (default threshold 0.1).
+
     **Version history.** v0: a limit crossing charged the terminal running cost over the rest of the episode (``termination_cost``, 2026-11); presets through :mod:`attitude_envs.presets` (``"spec-001"`` is
     an alias of ``heravi-2017``); a user's ``A``/``B`` no longer inherit the default
     preset's ``x0_mean`` and ``action_scale``; infos follow the truth/measured contract
@@ -120,6 +124,7 @@ class LinearSystemEnv(AttitudeEnv):
 
     env_name = ENV
     default_preset = "heravi-2017"
+    success_metric = FINAL_STATE_FRACTION
     metadata = {"render_modes": []}
 
     def __init__(
@@ -175,9 +180,7 @@ class LinearSystemEnv(AttitudeEnv):
         self.action_scale = np.broadcast_to(scale, (m,)).copy() if scale.ndim == 0 else scale
         if self.action_scale.shape != (m,) or np.any(self.action_scale <= 0):
             raise ValueError(f"action_scale must be > 0, a scalar or length {m}, got {scale.tolist()}")
-        if int(episode_steps) < 1:
-            raise ValueError(f"episode_steps must be >= 1, got {episode_steps!r}")
-        self.episode_steps = int(episode_steps)
+        self.episode_steps = validation.integer("episode_steps", episode_steps, 1)
         self.divergence_threshold = validation.positive("divergence_threshold", divergence_threshold)
         self._init_termination_cost(termination_cost, cost.Q, self.episode_steps)
         if render_mode is not None:

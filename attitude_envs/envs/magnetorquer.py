@@ -13,6 +13,7 @@ from gymnasium import spaces
 from attitude_envs import presets, quaternion, validation
 from attitude_envs.cost import QuadraticCost
 from attitude_envs.envs.base import AttitudeEnv
+from attitude_envs.evaluation.success import FINAL_ERROR_DEG
 from attitude_envs.integrators import substeps
 from attitude_envs.plants import magnetorquer as mt
 from attitude_envs.plants import magnetorquer_kernels as kernels
@@ -227,6 +228,10 @@ class MagnetorquerEnv(AttitudeEnv):
     :attr:`observation_size`, :attr:`field`, :meth:`advance_disturbance`,
     :meth:`true_inertia_at`, :meth:`external_torque_at`, :meth:`error_state`.
 
+    **Success** (:mod:`attitude_envs.evaluation.success`): ``success_metric`` is
+    ``FINAL_ERROR_DEG``, the final attitude error angle to the reference (deg, default
+    threshold 2°).
+
     **Version history.** v0: a limit crossing charged the terminal running cost over the rest of the episode (``termination_cost``, 2026-11); the plant, orbit, field and reference of the paper; ``info``
     split into ``truth`` and ``measured`` (:mod:`attitude_envs.info`), the paper's values
     as presets.
@@ -234,6 +239,7 @@ class MagnetorquerEnv(AttitudeEnv):
 
     env_name = "Magnetorquer-v0"
     default_preset = "sadigh-2022"
+    success_metric = FINAL_ERROR_DEG
     metadata = {"render_modes": []}
 
     def __init__(
@@ -292,14 +298,14 @@ class MagnetorquerEnv(AttitudeEnv):
         self.orbit = self._make_orbit(0.0 if self._random_anomaly else float(self._orbit_cfg["mean_anomaly_deg"]))
         #: the Earth field model along the orbit (its ``table`` is the episode's IGRF table)
         self.field = FieldModel(cfg["field_model"], cfg["dipole_strength_t_m3"], field_epoch)
-        self.observe_field = bool(observe_field)
+        self.observe_field = validation.flag("observe_field", observe_field)
         if isinstance(disturbance, str):
             validation.choice("disturbance", disturbance, {"paper"})
         #: True when the disturbance is the paper's eq. (39) (compiled; ``disturbance`` is then None)
         self.paper_disturbance = isinstance(disturbance, str)
         self.disturbance_scale = validation.nonnegative("disturbance_scale", disturbance_scale)
-        self.disturbance_second_harmonic = bool(disturbance_second_harmonic)
-        self.gravity_gradient = bool(gravity_gradient)
+        self.disturbance_second_harmonic = validation.flag("disturbance_second_harmonic", disturbance_second_harmonic)
+        self.gravity_gradient = validation.flag("gravity_gradient", gravity_gradient)
         if isinstance(time_varying_inertia, str):
             validation.choice("time_varying_inertia", time_varying_inertia, {"paper"})
             time_varying_inertia = {}
@@ -314,16 +320,13 @@ class MagnetorquerEnv(AttitudeEnv):
         self.episode_duration_s = validation.positive(
             "episode_duration_s", cfg.get("episode_duration_s", 2.0 * self.orbit.period_s)
         )
+        target_euler = validation.finite_array("target_euler_deg", target_euler_deg, (3,))  # checked for either task
         if self.task == "tracking":
             ref_cfg = _completed("reference", reference, preset_values.get("reference"), _REFERENCE_KEYS)
             ref = SmoothBangBang(ref_cfg["delta_deg"], ref_cfg["t_final_s"], ref_cfg["start_deg"])
         else:
-            ref = SmoothBangBang(
-                (0.0, 0.0, 0.0), 1.0, validation.finite_array("target_euler_deg", target_euler_deg, (3,))
-            )
-        self._initial_angle = float(initial_angle_deg)
-        if not 0.0 <= self._initial_angle <= 180.0:
-            raise ValueError(f"initial_angle_deg must be in [0, 180], got {initial_angle_deg!r}")
+            ref = SmoothBangBang((0.0, 0.0, 0.0), 1.0, target_euler)
+        self._initial_angle = validation.in_range("initial_angle_deg", initial_angle_deg, 0.0, 180.0)
         default_rate = 0.0 if self.task == "tracking" else 1e-3
         self._rate_max = validation.nonnegative(
             "initial_rate_max_rad_s", default_rate if initial_rate_max_rad_s is None else initial_rate_max_rad_s

@@ -13,6 +13,7 @@ from gymnasium import spaces
 from attitude_envs import quaternion, validation
 from attitude_envs.cost import QuadraticCost
 from attitude_envs.envs.base import AttitudeEnv
+from attitude_envs.evaluation.success import FINAL_ERROR_DEG
 from attitude_envs.integrators import substeps
 from attitude_envs.plants import gyrostat
 from attitude_envs.plants import gyrostat_kernels as kernels
@@ -217,6 +218,10 @@ class ReactionWheelEnv(AttitudeEnv):
     :meth:`disturbance_stages`, :meth:`commanded_torques`, :meth:`reset_episode` and the
     base's ``fault_layer``, ``sensor_layer`` and ``disturbance``.
 
+    **Success** (:mod:`attitude_envs.evaluation.success`): ``success_metric`` is
+    ``FINAL_ERROR_DEG``, the final attitude error angle (deg, default threshold 2°);
+    ``wheel_trace`` is True (episodes record as an ``EpisodeTrace``).
+
     **Version history.** v0: a limit crossing charged the terminal running cost over the rest of the episode (``termination_cost``, 2026-11); the exact gyrostat with RK4 sub-steps and the integrated
     cost; actuator faults, sensors and ``fault_hint``; one compiled step shared with the
     natively batched env (bitwise identical); ``action_frame="body"``; the air-bearing
@@ -227,6 +232,8 @@ class ReactionWheelEnv(AttitudeEnv):
 
     env_name = "ReactionWheel-v0"
     default_preset = "pyramid-4wheel"
+    success_metric = FINAL_ERROR_DEG
+    wheel_trace = True
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 10}
 
     def __init__(
@@ -268,6 +275,8 @@ class ReactionWheelEnv(AttitudeEnv):
         missing = [k for k in _REQUIRED if cfg.get(k) is None]
         if missing:
             raise ValueError(f"{self.env_name} preset {self.preset!r} sets no {missing[0]!r}; pass {missing[0]}=...")
+        for key in ("control_dt_s", "integrator_dt_s"):  # checked before _divides reads them
+            cfg[key] = validation.positive(key, cfg[key])
         if (
             control_dt_s is not None
             and integrator_dt_s is None
@@ -304,16 +313,16 @@ class ReactionWheelEnv(AttitudeEnv):
 
         self._target_fixed = _optional_quaternion("target_attitude", cfg.get("target_attitude"))
         self._initial_fixed = _optional_quaternion("initial_attitude", cfg.get("initial_attitude"))
-        self._target_angle = _angle("target_angle_deg", cfg["target_angle_deg"])
-        self._initial_angle = _angle("initial_angle_deg", cfg["initial_angle_deg"])
+        self._target_angle = validation.in_range("target_angle_deg", cfg["target_angle_deg"], 0.0, 180.0)
+        self._initial_angle = validation.in_range("initial_angle_deg", cfg["initial_angle_deg"], 0.0, 180.0)
         rate = cfg.get("initial_rate_rad_s")
         self._rate_fixed = None if rate is None else validation.finite_array("initial_rate_rad_s", rate, (3,))
         self._rate_max = validation.nonnegative("initial_rate_max_rad_s", cfg["initial_rate_max_rad_s"])
-        tilt = cfg.get("tilt_limit_deg")
-        if tilt is not None and not 0.0 < float(tilt) < 90.0:
-            raise ValueError(f"tilt_limit_deg must be in (0, 90) or None (no stop), got {tilt!r}")
+        tilt = cfg.get("tilt_limit_deg")  # None: no stop
+        if tilt is not None:
+            tilt = validation.in_range("tilt_limit_deg", tilt, 0.0, 90.0, open_low=True, open_high=True)
         #: roll/pitch stop (deg) that ends the episode, or None
-        self.tilt_limit_deg = None if tilt is None else float(tilt)
+        self.tilt_limit_deg = tilt
         self._tilt_limit_rad = np.inf if tilt is None else math.radians(self.tilt_limit_deg)
         self._uncertainty = InertiaUncertainty.from_config(cfg.get("inertia_uncertainty"))
         channels = [
@@ -333,7 +342,7 @@ class ReactionWheelEnv(AttitudeEnv):
         self._init_termination_cost(cfg["termination_cost"], cost.Q, self.episode_duration_s)
         self._meas: dict[str, np.ndarray] = {}
         self.max_rate_rad_s = validation.positive("max_rate_rad_s", cfg["max_rate_rad_s"])
-        self.observe_wheel_speeds = bool(cfg["observe_wheel_speeds"])
+        self.observe_wheel_speeds = validation.flag("observe_wheel_speeds", cfg["observe_wheel_speeds"])
         if self.observe_wheel_speeds and not np.isfinite(params.max_wheel_speed_rad_s):
             raise ValueError("observe_wheel_speeds needs a finite max_wheel_speed_rad_s to normalize by")
         if render_mode is not None:
@@ -702,10 +711,3 @@ def _divides(control_dt_s: float, integrator_dt_s: float) -> bool:
 
 def _optional_quaternion(name: str, value) -> np.ndarray | None:
     return None if value is None else validation.unit_quaternion(name, value)
-
-
-def _angle(name: str, value: float) -> float:
-    v = float(value)
-    if not 0.0 <= v <= 180.0:
-        raise ValueError(f"{name} must be in [0, 180], got {value!r}")
-    return v

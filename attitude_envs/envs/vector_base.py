@@ -11,6 +11,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from gymnasium.error import ResetNeeded
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
@@ -54,6 +55,8 @@ class BatchedEnv(VectorEnv):
         self.render_mode = None
         self._needs_reset = np.zeros(self.num_envs, dtype=bool)
         self._n_needs_reset = 0
+        self._never_reset = np.ones(self.num_envs, dtype=bool)  # step needs every sub-env reset once
+        self._all_reset = False
         self._all_envs = np.ones(self.num_envs, dtype=bool)
         self._all_envs.setflags(write=False)
 
@@ -79,6 +82,8 @@ class BatchedEnv(VectorEnv):
         for i in indices:
             self._reset_one(i, seeds[i], options)
             self._needs_reset[i] = False
+            self._never_reset[i] = False
+        self._all_reset = not self._never_reset.any()
         self._n_needs_reset = int(np.count_nonzero(self._needs_reset))
         return self._observations(), {}
 
@@ -92,6 +97,11 @@ class BatchedEnv(VectorEnv):
         return a
 
     def step(self, actions):
+        if not self._all_reset:
+            raise ResetNeeded(
+                f"Cannot call step() before calling reset(): sub-envs {np.flatnonzero(self._never_reset).tolist()} "
+                f"of this batched env have never been reset; call reset() first"
+            )
         obs, rewards, terminated, truncated, infos = self._advance(actions)
         if self._n_needs_reset:  # next-step autoreset: these sub-envs ended last step
             skipped = self._needs_reset

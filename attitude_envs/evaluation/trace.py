@@ -66,7 +66,12 @@ def record_episode(env, policy: Policy, seed: int | None = None, options: dict[s
 
     The policy acts on :func:`attitude_envs.info.policy_view` of each info (no ground truth);
     the trace records the truth (``info["truth"]``: true state, applied torques, error angle)."""
-    infos, actions, terminated = play(env, policy, seed, options)
+    return episode_trace(env, *play(env, policy, seed, options))
+
+
+def episode_trace(env, infos: list[dict[str, Any]], actions: list[np.ndarray], terminated: bool) -> EpisodeTrace:
+    """The :class:`EpisodeTrace` of an episode :func:`play` ran on a ReactionWheel env (its
+    ``infos``, ``actions`` and ``terminated``), for callers that also read the infos."""
     samples = [i[TRUTH] for i in infos]
     times = [i["time_s"] for i in infos]
     commanded = [i["commanded"] for i in infos[1:]]

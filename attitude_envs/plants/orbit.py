@@ -62,14 +62,8 @@ class KeplerOrbit:
         mu_m3_s2: float = MU_EARTH_M3_S2,
     ) -> None:
         self.a = validation.positive("semi_major_axis_m", semi_major_axis_m)
-        e = float(eccentricity)
-        if not (np.isfinite(e) and 0.0 <= e < 1.0):
-            raise ValueError(f"eccentricity must be in [0, 1), got {eccentricity!r}")
-        self.e = e
-        inc = float(inclination_deg)
-        if not (np.isfinite(inc) and 0.0 <= inc <= 180.0):
-            raise ValueError(f"inclination_deg must be in [0, 180], got {inclination_deg!r}")
-        self.inclination_rad = np.radians(inc)
+        self.e = validation.in_range("eccentricity", eccentricity, 0.0, 1.0, open_high=True)
+        self.inclination_rad = np.radians(validation.in_range("inclination_deg", inclination_deg, 0.0, 180.0))
         self.raan_rad = np.radians(validation.finite_array("raan_deg", raan_deg, ()))
         self.arg_perigee_rad = np.radians(validation.finite_array("arg_perigee_deg", arg_perigee_deg, ()))
         self.mean_anomaly0_rad = np.radians(validation.finite_array("mean_anomaly_deg", mean_anomaly_deg, ()))
@@ -113,8 +107,10 @@ class KeplerOrbit:
         **kwargs,
     ) -> KeplerOrbit:
         """From apogee/perigee altitudes above a spherical Earth, km (as Sadigh et al. 2022, Table 1)."""
-        ra = (validation.positive("earth_radius_km", earth_radius_km) + float(apogee_altitude_km)) * 1e3
-        rp = (earth_radius_km + float(perigee_altitude_km)) * 1e3
+        apogee = validation.number("apogee_altitude_km", apogee_altitude_km)
+        perigee = validation.number("perigee_altitude_km", perigee_altitude_km)
+        ra = (validation.positive("earth_radius_km", earth_radius_km) + apogee) * 1e3
+        rp = (earth_radius_km + perigee) * 1e3
         if not (np.isfinite(ra) and np.isfinite(rp)) or rp <= earth_radius_km * 1e3 or ra < rp:
             raise ValueError(
                 "apogee_altitude_km and perigee_altitude_km must be positive with apogee >= perigee, "

@@ -21,6 +21,7 @@ Command-line overrides use the Zoo's ``key:value`` syntax (value parsed as YAML)
 from __future__ import annotations
 
 import ast
+import re
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -76,6 +77,24 @@ def parse_python_literal(name: str, text: Any) -> Any:
         ) from exc
 
 
+class YamlLoader(yaml.SafeLoader):
+    """PyYAML's safe loader that reads numbers as YAML 1.2 does: ``1e-3`` and ``5E4`` are
+    floats (YAML 1.1, PyYAML's default, wants a dot, ``1.0e-3``, and reads ``1e-3`` as a string)."""
+
+
+YamlLoader.yaml_implicit_resolvers = {k: list(v) for k, v in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+YamlLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+    list("-+0123456789"),
+)
+
+
+def load_yaml(text: str) -> Any:
+    """A YAML document (one-line or whole file) read with :class:`YamlLoader`."""
+    return yaml.load(text, Loader=YamlLoader)  # noqa: S506 (a SafeLoader subclass)
+
+
 def parse_overrides(items: list[str] | None) -> dict[str, Any]:
     """Zoo-style ``key:value`` overrides (``learning_rate:1e-3``, ``policy_kwargs:"dict(...)"``)."""
     out: dict[str, Any] = {}
@@ -84,14 +103,9 @@ def parse_overrides(items: list[str] | None) -> dict[str, Any]:
         if not sep or not key:
             raise ValueError(f"hyperparameter override must look like key:value, got {item!r}")
         try:
-            parsed = yaml.safe_load(value)
+            parsed = load_yaml(value)
         except yaml.YAMLError as exc:
             raise ValueError(f"hyperparameter override {item!r} has a malformed value: {exc}") from exc
-        if isinstance(parsed, str):  # YAML 1.1 reads "1e-3" (no dot) as a string
-            try:
-                parsed = float(parsed)
-            except ValueError:
-                pass
         out[key] = parsed
     return out
 
@@ -102,7 +116,7 @@ def read_yaml(path: str | Path) -> Any:
     if not path.is_file():
         raise ValueError(f"YAML file {str(path)!r} does not exist")
     try:
-        return yaml.safe_load(path.read_text(encoding="utf-8"))
+        return load_yaml(path.read_text(encoding="utf-8"))
     except yaml.YAMLError as exc:
         problem = str(exc).replace("\n", " ")
         raise ValueError(f"malformed YAML in {str(path)!r}: {problem}") from exc

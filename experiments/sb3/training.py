@@ -156,15 +156,6 @@ def train(
     total = int(total_timesteps if total_timesteps is not None else hp["n_timesteps"])
     if total < 1:
         raise ValueError(f"total_timesteps must be >= 1, got {total}")
-    rollout = rollout_steps(algo, hp["kwargs"], hp["n_envs"])
-    planned = total if rollout is None else -(-total // rollout) * rollout
-    if progress and planned != total and not resume:
-        print(
-            f"note: {algo} trains in whole rollouts of {rollout} env steps ({hp['n_envs']} envs): "
-            f"a budget of {total} steps trains {planned} (--params n_steps:N or train_freq:N sets the rollout)",
-            file=sys.stderr,
-            flush=True,
-        )
     horizon = total if schedule_timesteps is None else int(schedule_timesteps)
     if horizon < total:
         raise ValueError(f"schedule_timesteps must be >= total_timesteps ({total}), got {schedule_timesteps}")
@@ -231,6 +222,15 @@ def train(
         print(f"{label}: resuming at {resumed_from} steps ({checkpoint['path']})", file=sys.stderr, flush=True)
     if progress and not progress_bar and not already_complete:
         callback = ProgressCallback(total, label, bar=None if progress is True else False)
+    rollout = rollout_steps(algo, hp["kwargs"], hp["n_envs"])
+    planned = total if rollout is None else -(-total // rollout) * rollout
+    if progress and resumed_from is None and planned != total:
+        print(
+            f"note: {algo} trains in whole rollouts of {rollout} env steps ({hp['n_envs']} envs): "
+            f"a budget of {total} steps trains {planned} (--params n_steps:N or train_freq:N sets the rollout)",
+            file=sys.stderr,
+            flush=True,
+        )
     start = time.perf_counter()
     if rng is not None:
         restore_rng(rng)  # last: nothing may draw from the global generators between here and learn()

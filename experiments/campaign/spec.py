@@ -1,0 +1,338 @@
+"""The campaign YAML schema: :class:`Campaign` and its envs and agents, checked completely at load.
+
+:func:`load_campaign` refuses a bad campaign before anything runs, with a one-line
+``ValueError`` naming the key (``agents[2].train.timesteps``) and what it accepts. Seeds take
+the one seeds syntax of :mod:`experiments.seeds`.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import json
+import math
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import attitude_envs  # noqa: F401  (registers the env ids)
+from attitude_envs.evaluation.success import SuccessMetric
+from attitude_envs.make import check_env_id
+from experiments.optimum_table import solve_by_default
+from experiments.policies import check_policy_env, check_policy_name
+from experiments.sb3.backends import check_backend
+from experiments.sb3.hyperparams import load_hyperparams, read_yaml
+from experiments.sb3.registry import check_algorithm
+from experiments.seeds import parse_seeds
+
+PLANT_CAMPAIGNS = ("wheel", "air-bearing", "magnetorquer", "slosh", "linear")  # `--config all`, in this order
+PRESETS = ("quick", "full", *PLANT_CAMPAIGNS)
+SELECT = ("best", "final")  # which snapshot of a trained agent is evaluated
+
+TOP_KEYS = ("name", "description", "seeds", "envs", "agents", "metrics", "success_error_deg")
+TOP_KEYS += ("success_state_fraction", "video", "optimum")
+ENV_KEYS = ("name", "id", "kwargs", "scenarios", "faults")
+AGENT_KEYS = ("name", "policy", "params", "model", "learn", "envs", "optional", "train", "note")
+TRAIN_KEYS = ("algo", "backend", "timesteps", "seeds", "select", "env_kwargs", "overrides", "hyperparams_file")
+TRAIN_KEYS += ("checkpoint_freq", "eval_freq")
+
+#: the campaign key that sets each success metric's threshold (:mod:`attitude_envs.evaluation.success`)
+SUCCESS_KEYS = {"final_error_deg": "success_error_deg", "final_state_fraction": "success_state_fraction"}
+
+#: the accepted interval of each ``metrics`` option (the keyword arguments of
+#: :func:`attitude_envs.evaluation.metrics.episode_metrics`): (low, high, open low, open high)
+METRIC_RANGES: dict[str, tuple[float, float, bool, bool]] = {
+    "settling_band": (0.0, 1.0, True, True),
+    "settling_band_deg": (0.0, math.inf, True, True),
+    "steady_state_fraction": (0.0, 1.0, True, False),
+    "wheel_speed_limit_rad_s": (0.0, math.inf, True, True),
+}
+
+
+@dataclass(frozen=True)
+class EnvSpec:
+    name: str
+    id: str
+    kwargs: dict[str, Any]
+    scenarios: list[dict[str, Any]]
+    faults: dict[str, list[dict[str, Any]]]
+
+
+@dataclass(frozen=True)
+class AgentSpec:
+    """One agent: ``spec`` is what :func:`~experiments.policies.build_policy` gets; ``train``
+    (SB3 agents trained by the campaign) has its ``seeds`` parsed to a list; ``note`` is shown
+    beside the agent in the report's leaderboards."""
+
+    name: str
+    spec: dict[str, Any]
+    envs: list[str] | None
+    optional: bool
+    train: dict[str, Any] | None
+    note: str | None = None
+
+
+@dataclass
+class Campaign:
+    name: str
+    seeds: list[int]
+    envs: list[EnvSpec]
+    agents: list[AgentSpec]
+    metrics: dict[str, Any] = field(default_factory=dict)
+    success_error_deg: float = 2.0
+    success_state_fraction: float = 0.1
+    video: bool = False
+    source: str = ""
+    fingerprint: str = ""
+    optimum_solve: bool = True  # solve J* on demand for episodes outside the shipped table (casadi)
+    optimum_table: str | None = None  # a J* table in place of the shipped one (tests, private cells)
+
+    def agents_for(self, env: EnvSpec) -> list[AgentSpec]:
+        return [a for a in self.agents if a.envs is None or env.name in a.envs]
+
+    def success_threshold(self, metric: SuccessMetric) -> float:
+        """The threshold this campaign sets for ``metric`` (:data:`SUCCESS_KEYS`), else the metric's default."""
+        key = SUCCESS_KEYS.get(metric.name)
+        return float(getattr(self, key)) if key is not None else metric.threshold
+
+    @property
+    def agent_notes(self) -> dict[str, str]:
+        """Agent name → its ``note``, for the agents that have one."""
+        return {a.name: a.note for a in self.agents if a.note is not None}
+
+
+def preset_path(name: str) -> Path:
+    """The shipped campaign file of preset ``name``."""
+    return Path(str(resources.files("experiments") / "campaigns" / f"{name}.yml"))
+
+
+def _require(cond: bool, message: str) -> None:
+    if not cond:
+        raise ValueError(message)
+
+
+def _name(where: str, value: Any) -> str:
+    _require(
+        isinstance(value, str) and value and all(c.isalnum() or c in "-_." for c in value),
+        f"{where} must be a non-empty name of letters, digits, '-', '_' or '.', got {value!r}",
+    )
+    return value
+
+
+def _interval(low: float, high: float, open_low: bool, open_high: bool) -> str:
+    left = "(" if open_low or math.isinf(low) else "["
+    right = ")" if open_high or math.isinf(high) else "]"
+    return f"{left}{low:g}, {high:g}{right}"
+
+
+def _number(
+    where: str,
+    value: Any,
+    low: float = -math.inf,
+    high: float = math.inf,
+    *,
+    open_low: bool = False,
+    open_high: bool = False,
+    integer: bool = False,
+    absent: str = "",
+) -> Any:
+    """``value`` when it is a finite number in the interval (a whole one with ``integer``), else
+    a ``ValueError`` naming ``where`` and the interval (``absent``: what leaving it out means)."""
+    ok = isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+    ok = ok and (not integer or float(value).is_integer())
+    ok = ok and (value > low if open_low else value >= low) and (value < high if open_high else value <= high)
+    kind = "an integer" if integer else "a number"
+    _require(ok, f"{where} must be {kind} in {_interval(low, high, open_low, open_high)}{absent}, got {value!r}")
+    return value
+
+
+def _mapping(where: str, value: Any) -> dict[str, Any]:
+    """``value`` (None: empty) as a dict, else a ``ValueError`` naming ``where``."""
+    _require(value is None or isinstance(value, dict), f"{where} must be a mapping, got {value!r}")
+    return dict(value or {})
+
+
+def _known(where: str, data: dict[str, Any], accepted: tuple[str, ...]) -> None:
+    unknown = set(data) - set(accepted)
+    _require(not unknown, f"{where} has unknown keys {sorted(unknown)}; accepted: {list(accepted)}")
+
+
+def _metrics(value: Any) -> dict[str, Any]:
+    metrics = _mapping("metrics", value)
+    _known("metrics", metrics, tuple(METRIC_RANGES))
+    for key, value in metrics.items():
+        if key == "wheel_speed_limit_rad_s" and value is None:
+            continue  # not checked
+        low, high, open_low, open_high = METRIC_RANGES[key]
+        _number(f"metrics.{key}", value, low, high, open_low=open_low, open_high=open_high)
+    return metrics
+
+
+def _env(i: int, e: Any) -> EnvSpec:
+    _require(isinstance(e, dict) and "id" in e, f"envs[{i}] must be a mapping with an 'id', got {e!r}")
+    _known(f"envs[{i}]", e, ENV_KEYS)
+    check_env_id(str(e["id"]))
+    name = _name(f"envs[{i}].name", e.get("name", str(e["id"]).split("/")[-1]))
+    scenarios = e.get("scenarios") or [{"name": "default"}]
+    _require(isinstance(scenarios, list), f"envs[{i}].scenarios must be a list of mappings, got {scenarios!r}")
+    for j, s in enumerate(scenarios):
+        _require(isinstance(s, dict), f"envs[{i}].scenarios[{j}] must be a mapping, got {s!r}")
+        _name(f"envs[{i}].scenarios[{j}].name", s.get("name"))
+        bad = set(s) - {"name", "options", "env_kwargs"}
+        _require(
+            not bad, f"envs[{i}].scenarios[{j}] has unknown keys {sorted(bad)}; accepted: name, options, env_kwargs"
+        )
+        _mapping(f"envs[{i}].scenarios[{j}].options", s.get("options"))
+        _mapping(f"envs[{i}].scenarios[{j}].env_kwargs", s.get("env_kwargs"))
+    faults = e.get("faults") or {"none": []}
+    _require(isinstance(faults, dict), f"envs[{i}].faults must map names to fault lists, got {faults!r}")
+    for fname, flist in faults.items():
+        _name(f"envs[{i}].faults key", fname)
+        _require(isinstance(flist, list), f"envs[{i}].faults.{fname} must be a list of fault dicts, got {flist!r}")
+    return EnvSpec(name, str(e["id"]), _mapping(f"envs[{i}].kwargs", e.get("kwargs")), list(scenarios), dict(faults))
+
+
+def _train(where: str, train: Any, envs: list[EnvSpec]) -> dict[str, Any]:
+    """The checked ``train`` mapping of an agent trained on ``envs``, its ``seeds`` parsed."""
+    _require(isinstance(train, dict) and "algo" in train, f"{where} needs an algo, got {train!r}")
+    _known(where, train, TRAIN_KEYS)
+    check_backend(train.get("backend", "sb3"), check_algorithm(train["algo"]))
+    train = {**train, "seeds": parse_seeds(train.get("seeds", [0]), f"{where}.seeds")}
+    if train.get("timesteps") is not None:
+        absent = " (or absent: the hyperparameter entry's n_timesteps)"
+        _number(f"{where}.timesteps", train["timesteps"], 1, integer=True, absent=absent)
+    for key in ("checkpoint_freq", "eval_freq"):
+        if key in train:
+            _number(f"{where}.{key}", train[key], 1, integer=True, absent=" (env steps; absent: 10000)")
+    select = train.get("select", "best")
+    _require(select in SELECT, f"{where}.select must be one of {list(SELECT)}, got {select!r}")
+    _mapping(f"{where}.env_kwargs", train.get("env_kwargs"))
+    overrides = _mapping(f"{where}.overrides", train.get("overrides"))
+    hp_file = train.get("hyperparams_file")
+    _require(hp_file is None or isinstance(hp_file, str), f"{where}.hyperparams_file must be a path, got {hp_file!r}")
+    for env in envs:
+        try:
+            load_hyperparams(train["algo"], env.id, hp_file, overrides)
+        except ValueError as exc:
+            raise ValueError(f"{where} on env {env.name!r}: {exc}") from None
+    return train
+
+
+def _agent(i: int, a: Any, envs: list[EnvSpec]) -> AgentSpec:
+    _require(isinstance(a, dict) and "policy" in a, f"agents[{i}] must be a mapping with a 'policy', got {a!r}")
+    name = _name(f"agents[{i}].name", a.get("name", a["policy"]))
+    check_policy_name(str(a["policy"]))
+    _known(f"agents[{i}]", a, AGENT_KEYS)
+    only = a.get("envs")
+    if only is not None:
+        _require(
+            isinstance(only, list) and all(isinstance(e, str) for e in only),
+            f"agents[{i}].envs must be a list of env names, got {only!r}",
+        )
+        unknown_envs = set(only) - {e.name for e in envs}
+        _require(
+            not unknown_envs,
+            f"agents[{i}].envs names unknown envs {sorted(unknown_envs)}; accepted: {[e.name for e in envs]}",
+        )
+    for env in envs:  # a pairing the policy does not fit fails here, not in a worker hours later
+        if only is None or env.name in only:
+            try:
+                check_policy_env(str(a["policy"]), env.id)
+            except ValueError as exc:
+                raise ValueError(f"agents[{i}] ({name}) on env {env.name!r}: {exc}") from None
+    train = a.get("train")
+    if train is not None:
+        _require(a["policy"] == "sb3", f"agents[{i}] ({name}): train is only for policy sb3")
+        train = _train(f"agents[{i}].train", train, [e for e in envs if only is None or e.name in only])
+    elif a["policy"] == "sb3":
+        _require("model" in a, f"agents[{i}] ({name}): policy sb3 needs model: PATH or train: {{algo: ...}}")
+    if "model" in a:
+        _require(isinstance(a["model"], str), f"agents[{i}].model must be a path, got {a['model']!r}")
+    for key in ("params", "learn"):
+        _mapping(f"agents[{i}].{key}", a.get(key))
+    optional = a.get("optional", False)
+    _require(isinstance(optional, bool), f"agents[{i}].optional must be true or false, got {optional!r}")
+    note = a.get("note")
+    _require(
+        note is None or isinstance(note, str) and note.strip() != "" and "\n" not in note.strip(),
+        f"agents[{i}].note must be one line of text (shown beside the agent in the report), got {note!r}",
+    )
+    spec = {k: v for k, v in a.items() if k not in ("envs", "optional", "train", "note")}
+    return AgentSpec(name, spec, only, optional, train, note.strip() if note is not None else None)
+
+
+def _fingerprint(data: dict[str, Any]) -> str:
+    """The campaign's identity (its results never mix with another's); notes are left out:
+    they change the report, not the results."""
+    agents = data.get("agents")
+    if isinstance(agents, list):
+        data = {
+            **data,
+            "agents": [{k: v for k, v in a.items() if k != "note"} if isinstance(a, dict) else a for a in agents],
+        }
+    return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def load_campaign(config: str | Path | dict, backend: str | None = None) -> Campaign:
+    """A campaign from a preset name (:data:`PRESETS`), a YAML path or a dict; ``ValueError``
+    naming the offending entry otherwise. ``backend`` (``sb3`` / ``sbx``) replaces every trained
+    agent's ``train.backend`` (a different campaign: its own fingerprint)."""
+    source = str(config) if not isinstance(config, dict) else "<dict>"
+    if isinstance(config, str) and config in PRESETS:
+        data = read_yaml(preset_path(config))
+    elif isinstance(config, str | Path):
+        path = Path(config)
+        _require(
+            path.suffix in (".yml", ".yaml") or path.is_file(),
+            f"--config must be one of {list(PRESETS)} or a YAML file path, got {str(config)!r}"
+            " (the command line also takes all: the plant campaigns)",
+        )
+        data = read_yaml(path)
+    else:
+        data = copy.deepcopy(config)
+    _require(isinstance(data, dict), f"campaign {source!r} must be a mapping, got {type(data).__name__}")
+    if backend is not None:
+        for agent in data.get("agents") or []:
+            if isinstance(agent, dict) and isinstance(agent.get("train"), dict):
+                agent["train"]["backend"] = backend
+    _known("campaign", data, TOP_KEYS)
+    name = _name("name", data.get("name", "campaign"))
+    description = data.get("description", "")
+    _require(isinstance(description, str), f"description must be text, got {description!r}")
+    seeds = parse_seeds(data.get("seeds", 5), "seeds")
+    envs_data = data.get("envs") or []
+    _require(isinstance(envs_data, list), f"envs must be a list of mappings, got {envs_data!r}")
+    envs = [_env(i, e) for i, e in enumerate(envs_data)]
+    _require(bool(envs), "campaign needs at least one entry under envs")
+    _require(len({e.name for e in envs}) == len(envs), "env names must be distinct")
+    agents_data = data.get("agents") or []
+    _require(isinstance(agents_data, list), f"agents must be a list of mappings, got {agents_data!r}")
+    agents = [_agent(i, a, envs) for i, a in enumerate(agents_data)]
+    _require(bool(agents), "campaign needs at least one entry under agents")
+    _require(len({a.name for a in agents}) == len(agents), "agent names must be distinct")
+    metrics = _metrics(data.get("metrics"))
+    error_deg = _number("success_error_deg", data.get("success_error_deg", 2.0), 0.0, 180.0, open_low=True)
+    fraction = _number("success_state_fraction", data.get("success_state_fraction", 0.1), 0.0, 1.0, open_low=True)
+    video = data.get("video", False)
+    _require(isinstance(video, bool), f"video must be true or false, got {video!r}")
+    opt = data.get("optimum") or {}
+    _require(
+        isinstance(opt, dict) and not set(opt) - {"solve", "table"},
+        f"optimum must be a mapping with keys solve (true/false), table (a J* table path), got {opt!r}",
+    )
+    _require(isinstance(opt.get("solve", True), bool), f"optimum.solve must be true or false, got {opt.get('solve')!r}")
+    return Campaign(
+        name=name,
+        seeds=seeds,
+        envs=envs,
+        agents=agents,
+        metrics=metrics,
+        success_error_deg=float(error_deg),
+        success_state_fraction=float(fraction),
+        video=video,
+        optimum_solve=bool(opt.get("solve", solve_by_default())),
+        optimum_table=str(opt["table"]) if opt.get("table") is not None else None,
+        source=source,
+        fingerprint=_fingerprint(data),
+    )
