@@ -6,21 +6,27 @@ At every control step the policy solves, from the measured state (``info["measur
     s.t.  y_{k+1} = f(y_k, a_k),  y_0 = measured state,  −1 ≤ a_k ≤ 1
           (body action frame: also |−A⁺ a_k| ≤ 1 per wheel, the env's per-wheel limit)
 
-and applies ``a_0`` (receding horizon; Rawlings, Mayne & Diehl 2017, ch. 1–2). ``f`` is the
-nominal gyrostat of :mod:`attitude_envs.plants.gyrostat` (``env.unwrapped.model``: nominal
-inertia, wheels, torque limit and offset torque, no faults, no disturbance), integrated like
-the env: ``n_substeps`` classical RK4 sub-steps with the motor torque held and the quaternion
-renormalized after each. ``ℓ`` is the env's own step cost, ``∫ (xᵀQx + u_cᵀRu_c) dt`` by the
-same RK4 quadrature (``x`` the error state of
-:class:`~attitude_envs.plants.gyrostat_model.ReactionWheelModel`), and ``P`` the discrete
+and applies ``a_0`` (receding horizon; Rawlings, Mayne & Diehl 2017, ch. 1–2). ``f`` and
+``ℓ`` come from the shared symbolic model of the gyrostat, the one the optimal-control
+yardstick J* builds from the episode's true plant: :func:`attitude_envs.symbolic.gyrostat.step_function`
+of :meth:`GyrostatParameters.nominal <attitude_envs.symbolic.gyrostat.GyrostatParameters.nominal>`
+(``env.unwrapped.model``: nominal inertia, wheels, torque limit and offset torque, the env's
+integrator and action frame; no faults, no disturbance) with ``smooth=True``, kept as
+:attr:`MPCPolicy.model_step`. So ``f`` is integrated like the env (``n_substeps`` classical
+RK4 sub-steps with the motor torque held, the quaternion renormalized after each) and ``ℓ``
+is the env's own step cost, ``∫ (xᵀQx + u_cᵀRu_c) dt`` by the same RK4 quadrature (``x`` the
+error state of :class:`~attitude_envs.plants.gyrostat_model.ReactionWheelModel`,
+:func:`attitude_envs.symbolic.gyrostat.error_state`); ``P`` is the discrete
 Riccati matrix ``S`` of the LQR's zero-order-hold design (:func:`attitude_envs.lqr.dlqr`): the
 unconstrained infinite-horizon cost-to-go of the linearization as terminal cost (Mayne et
 al. 2000). The problem is transcribed by direct multiple shooting (Bock & Plitt 1984) and
 solved by IPOPT (Wächter & Biegler 2006) through CasADi (Andersson et al. 2019), warm-started
 from the previous solution shifted by one step (the first step of an episode from the LQR's
-rollout on the model). Left out: the wheel-speed limit and the roll/pitch stop (no state
-constraints, so every problem is feasible), the error quaternion's sign flip (the measured
-attitude is signed so that ``q_e,w ≥ 0`` at the start of the horizon).
+rollout on the model). Left out: the action clips (``smooth=True``; the bounds above hold
+the actions instead), the error quaternion's sign flip (``smooth=True``; the measured
+attitude is signed so that ``q_e,w ≥ 0`` at the start of the horizon), the wheel-speed limit
+(``smooth=True`` drops the motor driver's limiter) and the roll/pitch stop (no state
+constraints, so every problem is feasible).
 
 :attr:`MPCPolicy.solve_times_s` holds the wall time of each solve (s), :attr:`MPCPolicy.failures`
 the solves IPOPT did not finish (their iterate is used if finite, else the LQR's action).
@@ -37,6 +43,7 @@ import numpy as np
 
 from attitude_envs import validation
 from attitude_envs.lqr import dlqr
+from attitude_envs.symbolic.gyrostat import GyrostatParameters, error_state, step_function
 from baselines.allocation import wheel_model
 from baselines.lqr import LQRPolicy
 
@@ -50,81 +57,22 @@ SOLVED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 _QUIET = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": 0}
 
 
-def nominal_step(model, n_substeps: int, integrator_dt_s: float, action_frame: str = "wheel") -> casadi.Function:
-    """The nominal model's control step as a CasADi function
-    ``(y (7+N), a (n_u), q_T (4)) -> (y⁺, cost)``: ``y = [q (scalar last), ω (rad/s), Ω (rad/s)]``,
-    ``a`` the normalized action (not clipped: the caller bounds it), ``q_T`` the target
-    attitude, ``cost`` the env's step cost. Equations as :mod:`attitude_envs.plants.gyrostat`
-    (``I_eff ω̇ = −ω × (Iω + J_s A Ω) − A u + p × K(q)``, ``Ω̇ = u/J_s − Aᵀω̇``, ``q̇ = ½ q ⊗ [ω, 0]``)."""
-    p = model.params
-    n = p.n_wheels
-    axes = casadi.DM(p.wheel_axes)
-    inertia, ieff_inv = casadi.DM(p.inertia_kg_m2), casadi.DM(p.inertia_eff_inv)
-    j_s, max_torque = float(p.wheel_inertia_kg_m2), float(p.max_wheel_torque_nm)
-    offset = np.asarray(p.offset_torque_nm, dtype=float)
-    q_mat, r_mat = casadi.DM(model.cost.Q), casadi.DM(model.cost.R)
-    include_h, body_cost = model.include_wheel_momentum, model.cost_input == "body"
-    h = float(integrator_dt_s)
-
-    y = casadi.SX.sym("y", 7 + n)
-    n_u = 3 if action_frame == "body" else n
-    a = casadi.SX.sym("a", n_u)
-    target = casadi.SX.sym("q_T", 4)
-    u = casadi.mtimes(casadi.DM(model.allocation), a) if action_frame == "body" else a
-    u = u * max_torque
-    u_c = -casadi.mtimes(axes, u) if body_cost else u
-    input_cost = casadi.bilin(r_mat, u_c, u_c)
-
-    def derivative(z):
-        q, w, wheel = z[0:4], z[4:7], z[7:]
-        torque = -casadi.mtimes(axes, u) - casadi.cross(w, casadi.mtimes(inertia, w) + j_s * casadi.mtimes(axes, wheel))
-        if np.any(offset != 0.0):
-            qx, qy, qz, qw = q[0], q[1], q[2], q[3]
-            k_dir = casadi.vertcat(2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy))
-            torque = torque + casadi.cross(casadi.DM(offset), k_dir)
-        w_dot = casadi.mtimes(ieff_inv, torque)
-        qx, qy, qz, qw = q[0], q[1], q[2], q[3]
-        q_dot = 0.5 * casadi.vertcat(
-            qw * w[0] + qy * w[2] - qz * w[1],
-            qw * w[1] + qz * w[0] - qx * w[2],
-            qw * w[2] + qx * w[1] - qy * w[0],
-            -(qx * w[0] + qy * w[1] + qz * w[2]),
-        )
-        return casadi.vertcat(q_dot, w_dot, u / j_s - casadi.mtimes(axes.T, w_dot))
-
-    def state_cost(z):
-        x = error_state(z, target, j_s, include_h)
-        return casadi.bilin(q_mat, x, x)
-
-    z, cost = y, 0.0
-    for _ in range(int(n_substeps)):
-        k1 = derivative(z)
-        k2 = derivative(z + 0.5 * h * k1)
-        k3 = derivative(z + 0.5 * h * k2)
-        k4 = derivative(z + h * k3)
-        c1, c2 = state_cost(z), state_cost(z + 0.5 * h * k1)
-        c3, c4 = state_cost(z + 0.5 * h * k2), state_cost(z + h * k3)
-        cost = cost + (h / 6.0) * (c1 + 2.0 * c2 + 2.0 * c3 + c4 + 6.0 * input_cost)
-        z = z + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        z = casadi.vertcat(z[0:4] / casadi.norm_2(z[0:4]), z[4:])
-    return casadi.Function("nominal_step", [y, a, target], [z, cost], ["y", "a", "q_T"], ["y_next", "cost"])
+def model_parameters(env) -> GyrostatParameters:
+    """What the MPC knows of the plant of ``env`` (ReactionWheel-v0 or AirBearing-v0): the
+    nominal model ``env.unwrapped.model`` with the env's integrator and action frame
+    (:meth:`~attitude_envs.symbolic.gyrostat.GyrostatParameters.nominal`; no faults, no
+    disturbance, no drawn inertia). ValueError for any other env."""
+    base = env.unwrapped
+    frame = getattr(base, "action_frame", "wheel")
+    return GyrostatParameters.nominal(wheel_model(env), base.n_substeps, base.integrator_dt_s, frame)
 
 
-def error_state(y, target, wheel_inertia_kg_m2: float, include_wheel_momentum: bool):
-    """``x = [q_e,vec, ω, (J_s Ω)]`` of a symbolic state ``y`` with ``q_e = q_T* ⊗ q/|q|``
-    (no sign flip: a smooth function of ``y``)."""
-    q = y[0:4] / casadi.norm_2(y[0:4])
-    px, py, pz, pw = -target[0], -target[1], -target[2], target[3]
-    qx, qy, qz, qw = q[0], q[1], q[2], q[3]
-    vec = casadi.vertcat(
-        pw * qx + px * qw + py * qz - pz * qy,
-        pw * qy - px * qz + py * qw + pz * qx,
-        pw * qz + px * qy - py * qx + pz * qw,
-    )
-    parts = [vec, y[4:7]]
-    if include_wheel_momentum:
-        parts.append(wheel_inertia_kg_m2 * y[7:])
-    return casadi.vertcat(*parts)
+def model_step(env) -> casadi.Function:
+    """The MPC's prediction model of ``env``: the shared symbolic step
+    (:func:`~attitude_envs.symbolic.gyrostat.step_function`) of :func:`model_parameters` with
+    ``smooth=True``, ``(y (7+N), a (n_u), t, q_T (4)) -> (y_next, cost)``; ``a`` is not
+    clipped (the NLP bounds it) and ``t`` is unused (the nominal model is time-invariant)."""
+    return step_function(model_parameters(env), smooth=True)
 
 
 class MPCPolicy:
@@ -144,28 +92,31 @@ class MPCPolicy:
         solver_options: dict[str, Any] | None = None,
         name: str | None = None,
     ) -> None:
-        base = env.unwrapped
         model = wheel_model(env)
         if int(horizon_steps) < 1:
             raise ValueError(f"horizon_steps must be an integer >= 1, got {horizon_steps!r}")
         self.name = name or "mpc"
         self.horizon_steps = n_h = int(horizon_steps)
         self._model = model
-        self._frame = getattr(base, "action_frame", "wheel")
+        #: what the MPC knows of the plant (:func:`model_parameters`)
+        self.model_parameters = model_parameters(env)
+        #: its prediction model (:func:`model_step`): ``(y, a, t, q_T) -> (y_next, cost)``
+        self.model_step = step_function(self.model_parameters, smooth=True)
+        self._frame = self.model_parameters.action_frame
         self._lqr = LQRPolicy(env, "zoh")
         lin = self._lqr.linear_model
         #: terminal weight: the discrete Riccati solution of the LQR design, on the error state
         _, self.terminal_weight, _ = dlqr(lin.A, lin.B, lin.Q, lin.R, lin.N)
-        self._step = nominal_step(model, base.n_substeps, base.integrator_dt_s, self._frame)
         n = model.params.n_wheels
-        self._n_y, self._n_u = 7 + n, self._step.size1_in(1)
+        self._n_y, self._n_u = 7 + n, self.model_step.size1_in(1)
 
         y = casadi.MX.sym("Y", self._n_y, n_h + 1)
         a = casadi.MX.sym("A", self._n_u, n_h)
         y0 = casadi.MX.sym("y0", self._n_y)
         target = casadi.MX.sym("q_T", 4)
-        y_next, costs = self._step.map(n_h)(y[:, :n_h], a, casadi.repmat(target, 1, n_h))
-        x_n = error_state(y[:, n_h], target, model.params.wheel_inertia_kg_m2, model.include_wheel_momentum)
+        times = casadi.DM.zeros(1, n_h)  # the nominal model is time-invariant
+        y_next, costs = self.model_step.map(n_h)(y[:, :n_h], a, times, casadi.repmat(target, 1, n_h))
+        x_n = error_state(self.model_parameters, y[:, n_h], target, smooth=True)
         objective = casadi.sum2(costs) + casadi.bilin(casadi.DM(self.terminal_weight), x_n, x_n)
         constraints = [y[:, 0] - y0, casadi.vec(y[:, 1:] - y_next)]
         self._n_eq = self._n_y * (n_h + 1)
@@ -248,7 +199,7 @@ class MPCPolicy:
         x = np.asarray(obs, dtype=float)
         for k in range(n_h):
             a_guess[:, k] = self._lqr.act(x, info)
-            y_next, _ = self._step(y_guess[:, k], a_guess[:, k], target)
+            y_next, _ = self.model_step(y_guess[:, k], a_guess[:, k], 0.0, target)
             y_guess[:, k + 1] = np.asarray(y_next).ravel()
             x = self._model.error_state(y_guess[:4, k + 1], y_guess[4:7, k + 1], y_guess[7:, k + 1], target)
         return a_guess, y_guess

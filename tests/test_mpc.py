@@ -1,5 +1,6 @@
-"""Nonlinear MPC on the nominal gyrostat: its model step is the env's, it stabilizes, its
-cost is the LQR's or better, and it reads only the measured state."""
+"""Nonlinear MPC on the nominal gyrostat: its model step (the shared symbolic gyrostat of
+:mod:`attitude_envs.symbolic.gyrostat`) is the env's, it stabilizes, its cost is the LQR's or
+better, and it reads only the measured state."""
 
 import gymnasium as gym
 import numpy as np
@@ -9,8 +10,9 @@ pytest.importorskip("casadi")
 
 from attitude_envs import quaternion  # noqa: E402
 from attitude_envs.info import TRUTH, policy_view  # noqa: E402
+from attitude_envs.symbolic.gyrostat import GyrostatParameters  # noqa: E402
 from baselines.lqr import LQRPolicy  # noqa: E402
-from baselines.mpc import MPCPolicy, nominal_step  # noqa: E402
+from baselines.mpc import MPCPolicy, model_parameters, model_step  # noqa: E402
 
 RW = "attitude_envs/ReactionWheel-v0"
 AB = "attitude_envs/AirBearing-v0"
@@ -31,22 +33,44 @@ def episode(env, policy, seed: int, options: dict | None = None) -> tuple[float,
 
 @pytest.mark.parametrize(
     ("env_id", "kwargs"),
-    [(RW, {}), (RW, {"action_frame": "body"}), (RW, {"wheel_momentum_weight": 1.0}), (AB, {})],
+    [
+        (RW, {}),
+        (RW, {"action_frame": "body"}),
+        (RW, {"preset": "heravi-2017", "action_frame": "body", "episode_duration_s": 1.0}),
+        (RW, {"wheel_momentum_weight": 1.0, "cost_input": "wheel", "R": np.eye(4), "integrator_dt_s": 0.025}),
+        (AB, {}),
+        (AB, {"action_frame": "body"}),
+    ],
 )
-def test_the_nominal_step_is_the_envs_step(env_id, kwargs):
-    env = gym.make(env_id, **kwargs)
+def test_the_mpcs_model_is_the_envs_step(env_id, kwargs):
+    # the MPC's prediction model (the shared symbolic gyrostat on the nominal parameters)
+    # against the env's compiled step, one step at a time over a whole short episode of a
+    # plant whose truth is its nominal model (no drawn inertia, offset, faults or disturbance)
+    env = gym.make(env_id, **{"episode_duration_s": 3.0 if env_id == RW else 1.0, **kwargs})
     base = env.unwrapped
-    step = nominal_step(base.model, base.n_substeps, base.integrator_dt_s, base.action_frame)
+    step = model_step(env)
     env.reset(seed=1)
+    params, truth = model_parameters(env), GyrostatParameters.true_plant(base)
+    for name in ("inertia_kg_m2", "inertia_eff_inv", "offset_torque_nm"):
+        np.testing.assert_array_equal(getattr(params, name), getattr(truth, name))
+    assert truth.faults == () and truth.external_torque is None
     rng = np.random.default_rng(0)
     y, target = np.array(base.state_row), np.array(base.target_attitude)
-    for _ in range(10):
+    steps, max_wheel_speed = 0, 0.0
+    while True:
         a = rng.uniform(-0.3, 0.3, env.action_space.shape).astype(np.float32)  # no wheel at its limit
-        y_next, cost = step(y, a.astype(float), target)
-        _, _, _, _, info = env.step(a)
+        y_next, cost = step(y, a.astype(float), 0.0, target)
+        _, _, terminated, truncated, info = env.step(a)
         y = np.array(base.state_row)
-        np.testing.assert_allclose(np.asarray(y_next).ravel(), y, rtol=1e-9, atol=1e-12)
-        assert float(cost) == pytest.approx(info["cost"], rel=1e-9)
+        np.testing.assert_allclose(np.asarray(y_next).ravel(), y, rtol=1e-12, atol=1e-15)
+        assert float(cost) == pytest.approx(info["cost"], rel=1e-12)
+        steps += 1
+        max_wheel_speed = max(max_wheel_speed, np.max(np.abs(y[7:])))
+        assert not terminated
+        if truncated:
+            break
+    assert steps == int(round(base.episode_duration_s / base.control_dt_s))
+    assert max_wheel_speed < base.model.params.max_wheel_speed_rad_s  # the env's speed limiter never acted
 
 
 def test_mpc_stabilizes_a_5_degree_slew_at_the_lqrs_cost():

@@ -145,6 +145,8 @@ def test_cli_writes_optimum_json(tmp_path, capsys):
         assert row["env_kwargs"]["faults"][0]["kind"] == "outage"
     assert (out / "optimum.md").is_file()
     assert "seed 2" in capsys.readouterr().out
-    assert main([*argv, "--out", str(tmp_path / "x"), "--seeds", "a"]) == 2
+    with pytest.raises(SystemExit) as exc:  # a usage error: argparse's one line, exit status 2
+        main([*argv, "--out", str(tmp_path / "x"), "--seeds", "a"])
+    assert exc.value.code == 2 and "argument --seeds: must be a count N" in capsys.readouterr().err
     (tmp_path / "file").write_text("")
     assert main(["optimum", "--env", "LinearSystem-v0", "--out", str(tmp_path / "file")]) == 2

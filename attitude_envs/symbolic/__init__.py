@@ -3,8 +3,12 @@
 :func:`problem_for` resets an env and returns its :class:`DiscreteProblem` for that episode:
 the exact discrete dynamics and step cost the env computes, with the episode's realized
 faults, start state and disturbance known (an oracle, used by the optimal-control yardstick
-J* and the model-predictive baseline). Requires CasADi (``pip install 'attitude-envs[optimal]'``);
-the core package never imports this module.
+J*). The gyrostat's step is built from a parameter set
+(:func:`attitude_envs.symbolic.gyrostat.step_function` of a
+:class:`~attitude_envs.symbolic.gyrostat.GyrostatParameters`): J* builds it from the episode's
+true plant, the model-predictive baseline (:mod:`baselines.mpc`) from the nominal model, so
+both use one model. Requires CasADi (``pip install 'attitude-envs[optimal]'``); the core
+package never imports this module.
 
 One builder module per plant; each builder takes the unwrapped env right after its reset and
 returns the :class:`DiscreteProblem`. :data:`BUILDERS` maps an env name to its builder,

@@ -1,25 +1,37 @@
-"""ReactionWheel-v0 and AirBearing-v0 as a :class:`~attitude_envs.symbolic.problem.DiscreteProblem`.
+"""The gyrostat's discrete step (ReactionWheel-v0, AirBearing-v0) in CasADi, from a parameter set.
+
+One symbolic model serves both users of the equations: the optimal-control yardstick J*
+(:func:`build_reaction_wheel`, :func:`build_air_bearing`: the episode's TRUE plant,
+:meth:`GyrostatParameters.true_plant`) and the model-predictive baseline
+(:mod:`baselines.mpc`: the NOMINAL model, :meth:`GyrostatParameters.nominal`). They differ
+only in the :class:`GyrostatParameters` they pass to :func:`step_function` and in ``smooth``.
 
 The step of :func:`attitude_envs.plants.gyrostat_kernels.step_kernel`, written out in CasADi:
 state ``[q (4, scalar last), ω (3, rad/s), Ω (N, rad/s)]``; the action clipped to [−1, 1] and
 scaled by the torque limit (``action_frame="body"``: the minimum-norm allocation
-``u = −A⁺T``, each wheel clipped); the episode's known actuator faults at the step's start
-time; then ``n_substeps`` classical RK4 sub-steps of ``integrator_dt_s`` with the motor
-torque held (after the motor driver's wheel-speed limiter at each sub-step's start), the
-stage cost ``xᵀQx + u_cᵀRu_c`` integrated as an extra state, the quaternion renormalized
-after each sub-step. Equations (:mod:`attitude_envs.plants.gyrostat`)::
+``u = −A⁺T``, each wheel clipped); the actuator faults at the step's start time ``t``; then
+``n_substeps`` classical RK4 sub-steps of ``integrator_dt_s`` with the motor torque held
+(after the motor driver's wheel-speed limiter at each sub-step's start), the stage cost
+``xᵀQx + u_cᵀRu_c`` integrated by the same RK4 quadrature, the quaternion renormalized after
+each sub-step. Equations (:mod:`attitude_envs.plants.gyrostat`)::
 
-    I_eff ω̇ = −ω × (I ω + J_s A Ω) − A u + T_ext + p × K(q)
+    I_eff ω̇ = −ω × (I ω + J_s A Ω) − A u + T_ext(t) + p × K(q)
     Ω̇ = u / J_s − Aᵀ ω̇,    q̇ = ½ q ⊗ [ω, 0]
 
-with the episode's true inertia (``kernel_matrices``), ``p`` the true plant's offset torque
-(``true_offset_torque_nm``; Ahangarani Farahani et al., eqs. 6–9) and ``T_ext`` a constant or sinusoidal disturbance.
-The tumble limit, the roll/pitch stop and the wheel-speed limit are the path constraint ``g``.
+with ``p`` the offset torque (``m g r_s``; Ahangarani Farahani et al., eqs. 6–9) and
+``T_ext`` a constant or sinusoidal disturbance. ``smooth=True`` leaves out the step's
+non-smooth operations (the action and per-wheel clips, the held torque's clip, the speed
+limiter, the error quaternion's sign flip) for a controller that bounds its actions itself.
+For J*, the tumble limit, the roll/pitch stop and the wheel-speed limit are the path
+constraint ``g``.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import Any
 
 import casadi
 import numpy as np
@@ -27,15 +39,93 @@ import numpy as np
 from attitude_envs.symbolic import actuators
 from attitude_envs.symbolic.problem import DiscreteProblem
 
-
-def build_reaction_wheel(env) -> DiscreteProblem:
-    """The problem of the episode ``env`` (an unwrapped ReactionWheel-v0, just reset) starts."""
-    return _build(env)
+__all__ = ["GyrostatParameters", "build_air_bearing", "build_reaction_wheel", "error_state", "step_function"]
 
 
-def build_air_bearing(env) -> DiscreteProblem:
-    """The problem of the episode ``env`` (an unwrapped AirBearing-v0, just reset) starts."""
-    return _build(env)
+@dataclass(frozen=True, eq=False)
+class GyrostatParameters:
+    """What the gyrostat's discrete step is built from (SI units; arrays as given).
+
+    The plant: ``inertia_kg_m2`` ``I`` (3×3, wheels included) and ``inertia_eff_inv``
+    (``(I − J_s A Aᵀ)⁻¹``), ``wheel_axes`` ``A`` (3×N), ``wheel_inertia_kg_m2`` ``J_s``,
+    ``max_wheel_torque_nm``, ``max_wheel_speed_rad_s`` (inf: no speed limiter),
+    ``offset_torque_nm`` ``p`` (3; zeros: none). The cost: ``Q``, ``R``, ``cost_input``
+    (``"body"``: ``u_c = −A u``; ``"wheel"``: ``u_c = u``), ``include_wheel_momentum`` (``x``
+    ends with ``J_s Ω``). The action: ``action_frame`` (``"wheel"``: one per wheel;
+    ``"body"``: a body torque demand through ``allocation`` (N×3)). The integrator:
+    ``n_substeps`` RK4 sub-steps of ``integrator_dt_s``. Time-varying inputs, functions of the
+    time ``t`` the step receives: ``external_torque`` (``t -> T_ext`` (3) as a CasADi
+    expression, or None) and ``faults`` (realized actuator faults,
+    :attr:`attitude_envs.faults.ActuatorFaults.realized`; empty: healthy).
+    """
+
+    inertia_kg_m2: np.ndarray
+    inertia_eff_inv: np.ndarray
+    wheel_axes: np.ndarray
+    wheel_inertia_kg_m2: float
+    max_wheel_torque_nm: float
+    max_wheel_speed_rad_s: float
+    offset_torque_nm: np.ndarray
+    Q: np.ndarray
+    R: np.ndarray
+    cost_input: str
+    include_wheel_momentum: bool
+    action_frame: str
+    allocation: np.ndarray
+    n_substeps: int
+    integrator_dt_s: float
+    external_torque: Callable[[Any], Any] | None = None
+    faults: tuple = ()
+
+    @property
+    def n_wheels(self) -> int:
+        return self.wheel_axes.shape[1]
+
+    @property
+    def n_actions(self) -> int:
+        return 3 if self.action_frame == "body" else self.n_wheels
+
+    @classmethod
+    def nominal(cls, model, n_substeps: int, integrator_dt_s: float, action_frame: str = "wheel") -> GyrostatParameters:
+        """What a controller may know: the nominal model ``model``
+        (:class:`~attitude_envs.plants.gyrostat_model.ReactionWheelModel`, ``env.unwrapped.model``:
+        nominal inertia, wheels, torque and speed limits, offset torque, cost) and the env's
+        published integrator and action frame; no faults, no disturbance."""
+        p = model.params
+        return cls(
+            inertia_kg_m2=np.asarray(p.inertia_kg_m2, dtype=float),
+            inertia_eff_inv=np.asarray(p.inertia_eff_inv, dtype=float),
+            wheel_axes=np.asarray(p.wheel_axes, dtype=float),
+            wheel_inertia_kg_m2=float(p.wheel_inertia_kg_m2),
+            max_wheel_torque_nm=float(p.max_wheel_torque_nm),
+            max_wheel_speed_rad_s=float(p.max_wheel_speed_rad_s),
+            offset_torque_nm=np.asarray(p.offset_torque_nm, dtype=float),
+            Q=np.asarray(model.cost.Q, dtype=float),
+            R=np.asarray(model.cost.R, dtype=float),
+            cost_input=model.cost_input,
+            include_wheel_momentum=bool(model.include_wheel_momentum),
+            action_frame=action_frame,
+            allocation=np.asarray(model.allocation, dtype=float),
+            n_substeps=int(n_substeps),
+            integrator_dt_s=float(integrator_dt_s),
+        )
+
+    @classmethod
+    def true_plant(cls, env) -> GyrostatParameters:
+        """The episode's true plant of ``env`` (an unwrapped ReactionWheel-v0 or AirBearing-v0,
+        just reset; an oracle's knowledge): its drawn inertia, true offset torque,
+        disturbance and realized faults. ValueError for a fault kind or disturbance without a
+        symbolic model."""
+        actuators.check_supported(env.fault_layer.realized)
+        mats = np.array(env.kernel_matrices, dtype=float)  # this episode's true inertia
+        return replace(
+            cls.nominal(env.model, env.n_substeps, env.integrator_dt_s, env.action_frame),
+            inertia_kg_m2=mats[:9].reshape(3, 3),
+            inertia_eff_inv=mats[9:18].reshape(3, 3),
+            offset_torque_nm=np.array(env.true_offset_torque_nm, dtype=float),  # may differ from the model's
+            external_torque=_disturbance(env),
+            faults=tuple(env.fault_layer.realized),
+        )
 
 
 def _disturbance(env):
@@ -53,41 +143,48 @@ def _disturbance(env):
     raise ValueError(f"disturbance kind must be 'constant' or 'sinusoidal' for a symbolic model, got {d.kind!r}")
 
 
-def _error_state(z, target: np.ndarray, j_s: float, include_h: bool, n: int):
-    """``[q_e,vec, ω, (J_s Ω)]`` with ``q_e = q_T* ⊗ q/|q|``, sign so that ``q_e,w ≥ 0``."""
-    q = z[0:4] / casadi.norm_2(z[0:4])
+def error_state(params: GyrostatParameters, y, q_target, smooth: bool = False):
+    """The cost's error state ``x = [q_e,vec, ω, (J_s Ω)]`` of a symbolic state ``y``
+    (SX or MX) with ``q_e = q_T* ⊗ q/|q|``, signed so that ``q_e,w ≥ 0`` as the env does
+    (``smooth=True``: no sign flip, a smooth function of ``y``)."""
+    q = y[0:4] / casadi.norm_2(y[0:4])
     qx, qy, qz, qw = q[0], q[1], q[2], q[3]
-    px, py, pz, pw = -target[0], -target[1], -target[2], target[3]
-    ex = pw * qx + px * qw + py * qz - pz * qy
-    ey = pw * qy - px * qz + py * qw + pz * qx
-    ez = pw * qz + px * qy - py * qx + pz * qw
-    ew = pw * qw - px * qx - py * qy - pz * qz
-    sign = casadi.if_else(ew < 0.0, -1.0, 1.0)
-    parts = [sign * casadi.vertcat(ex, ey, ez), z[4:7]]
-    if include_h:
-        parts.append(j_s * z[7 : 7 + n])
+    px, py, pz, pw = -q_target[0], -q_target[1], -q_target[2], q_target[3]
+    vec = casadi.vertcat(
+        pw * qx + px * qw + py * qz - pz * qy,
+        pw * qy - px * qz + py * qw + pz * qx,
+        pw * qz + px * qy - py * qx + pz * qw,
+    )
+    if not smooth:
+        ew = pw * qw - px * qx - py * qy - pz * qz
+        vec = casadi.if_else(ew < 0.0, -1.0, 1.0) * vec
+    parts = [vec, y[4:7]]
+    if params.include_wheel_momentum:
+        parts.append(params.wheel_inertia_kg_m2 * y[7 : 7 + params.n_wheels])
     return casadi.vertcat(*parts)
 
 
-def _build(env) -> DiscreteProblem:
-    model = env.model
-    p = model.params
-    n = p.n_wheels
-    axes = casadi.DM(p.wheel_axes)
-    j_s = float(p.wheel_inertia_kg_m2)
-    max_torque, max_speed = float(p.max_wheel_torque_nm), float(p.max_wheel_speed_rad_s)
-    offset = np.array(env.true_offset_torque_nm, dtype=float)  # the true plant's (may differ from the model's)
-    mats = np.array(env.kernel_matrices, dtype=float)  # this episode's true inertia
-    inertia, inertia_eff_inv = casadi.DM(mats[:9].reshape(3, 3)), casadi.DM(mats[9:18].reshape(3, 3))
-    q_mat, r_mat = casadi.DM(model.cost.Q), casadi.DM(model.cost.R)
-    include_h, body_input = model.include_wheel_momentum, model.cost_input == "body"
-    h, n_sub, dt = float(env.integrator_dt_s), int(env.n_substeps), float(env.control_dt_s)
-    target = np.array(env.target_attitude, dtype=float)
-    ext = _disturbance(env)
-    actuators.check_supported(env.fault_layer.realized)
+def step_function(params: GyrostatParameters, smooth: bool = False) -> casadi.Function:
+    """The control step of ``params`` as a CasADi SX function
+    ``(y (7+N), a (n_u), t (1), q_T (4)) -> (y_next (7+N), cost (1))``: ``y = [q, ω, Ω]``,
+    ``a`` the normalized action, ``t`` the step's start time (s; the faults and the
+    disturbance are functions of it, nothing else is), ``q_T`` the target attitude,
+    ``cost`` the env's step cost (see the module docstring). ``smooth=True``: no action or
+    torque clips, no speed limiter, no error-quaternion sign flip (the caller bounds ``a``;
+    realized ``faults``, if any, still clip at their limits as the env's fault layer does)."""
+    n = params.n_wheels
+    axes = casadi.DM(params.wheel_axes)
+    j_s = float(params.wheel_inertia_kg_m2)
+    max_torque, max_speed = float(params.max_wheel_torque_nm), float(params.max_wheel_speed_rad_s)
+    offset = np.asarray(params.offset_torque_nm, dtype=float)
+    inertia, inertia_eff_inv = casadi.DM(params.inertia_kg_m2), casadi.DM(params.inertia_eff_inv)
+    q_mat, r_mat = casadi.DM(params.Q), casadi.DM(params.R)
+    body_input = params.cost_input == "body"
+    h, n_sub = float(params.integrator_dt_s), int(params.n_substeps)
+    ext = params.external_torque
 
-    def derivative(y, u, t_ext):
-        q, w, wheel = y[0:4], y[4:7], y[7 : 7 + n]
+    def derivative(z, u, t_ext):
+        q, w, wheel = z[0:4], z[4:7], z[7 : 7 + n]
         mom = casadi.mtimes(inertia, w) + j_s * casadi.mtimes(axes, wheel)
         r = -casadi.mtimes(axes, u) - casadi.cross(w, mom)
         if t_ext is not None:
@@ -110,34 +207,36 @@ def _build(env) -> DiscreteProblem:
         wheel_dot = u / j_s - casadi.mtimes(axes.T, w_dot)
         return casadi.vertcat(q_dot, w_dot, wheel_dot)
 
-    def stage_cost(y):
-        x = _error_state(y, target, j_s, include_h, n)
+    y = casadi.SX.sym("y", 7 + n)
+    a = casadi.SX.sym("a", params.n_actions)
+    t0 = casadi.SX.sym("t")
+    target = casadi.SX.sym("q_T", 4)
+
+    def stage_cost(z):
+        x = error_state(params, z, target, smooth)
         return casadi.bilin(q_mat, x, x)
 
-    n_x = 7 + n
-    y = casadi.SX.sym("y", n_x)
-    n_u = env.action_space.shape[0]
-    a = casadi.SX.sym("a", n_u)
-    k = casadi.SX.sym("k")
-    t0 = k * dt  # the env's time: steps · control_dt_s
-    a_c = actuators.clip(a, -1.0, 1.0)
-    if env.action_frame == "body":
-        torque = casadi.mtimes(casadi.DM(model.allocation * max_torque), a_c)
-        commanded = actuators.clip(torque, -max_torque, max_torque)
+    a_c = a if smooth else actuators.clip(a, -1.0, 1.0)
+    if params.action_frame == "body":
+        commanded = casadi.mtimes(casadi.DM(params.allocation * max_torque), a_c)
+        if not smooth:
+            commanded = actuators.clip(commanded, -max_torque, max_torque)
     else:
         commanded = a_c * max_torque
-    cmd = actuators.delivered(commanded, t0, env.fault_layer.realized, env.fault_layer.limits)
+    cmd = actuators.delivered(commanded, t0, params.faults, np.full(n, max_torque))
 
     z, cost = y, casadi.SX(0.0)
     for j in range(n_sub):
-        v = actuators.clip(cmd, -max_torque, max_torque)
-        if np.isfinite(max_speed):  # the motor driver's speed limiter (gyrostat_kernels._speed_limit_lane)
-            wheel = z[7 : 7 + n]
-            v = actuators.clip(
-                actuators.clip(v, j_s / h * (-max_speed - wheel), j_s / h * (max_speed - wheel)),
-                -max_torque,
-                max_torque,
-            )
+        v = cmd
+        if not smooth:
+            v = actuators.clip(v, -max_torque, max_torque)
+            if np.isfinite(max_speed):  # the motor driver's speed limiter (gyrostat_kernels._speed_limit_lane)
+                wheel = z[7 : 7 + n]
+                v = actuators.clip(
+                    actuators.clip(v, j_s / h * (-max_speed - wheel), j_s / h * (max_speed - wheel)),
+                    -max_torque,
+                    max_torque,
+                )
         u_c = -casadi.mtimes(axes, v) if body_input else v
         input_cost = casadi.bilin(r_mat, u_c, u_c)
         t_j = t0 + j * h
@@ -150,9 +249,31 @@ def _build(env) -> DiscreteProblem:
         z = z + (h / 6.0) * (ks[0] + 2.0 * ks[1] + 2.0 * ks[2] + ks[3])
         cost = cost + (h / 6.0) * (costs[0] + 2.0 * costs[1] + 2.0 * costs[2] + costs[3])
         z = casadi.vertcat(z[0:4] / casadi.norm_2(z[0:4]), z[4:])
-    step = casadi.Function("step", [y, a, k], [z, cost], ["x", "a", "k"], ["x_next", "cost"])
+    return casadi.Function("gyrostat_step", [y, a, t0, target], [z, cost], ["y", "a", "t", "q_T"], ["y_next", "cost"])
+
+
+def build_reaction_wheel(env) -> DiscreteProblem:
+    """The problem of the episode ``env`` (an unwrapped ReactionWheel-v0, just reset) starts."""
+    return _build(env)
+
+
+def build_air_bearing(env) -> DiscreteProblem:
+    """The problem of the episode ``env`` (an unwrapped AirBearing-v0, just reset) starts."""
+    return _build(env)
+
+
+def _build(env) -> DiscreteProblem:
+    params = GyrostatParameters.true_plant(env)
+    dt = float(env.control_dt_s)
+    n_x, n_u = 7 + params.n_wheels, env.action_space.shape[0]
+    plant = step_function(params)
+    y, a, k = casadi.SX.sym("y", n_x), casadi.SX.sym("a", n_u), casadi.SX.sym("k")
+    # the env's time: steps · control_dt_s; its target is fixed for the episode
+    y_next, cost = plant(y, a, k * dt, casadi.DM(np.array(env.target_attitude, dtype=float)))
+    step = casadi.Function("step", [y, a, k], [y_next, cost], ["x", "a", "k"], ["x_next", "cost"])
 
     # path constraints g(x) <= 0: tumble limit, wheel-speed limit, roll/pitch stop
+    max_speed = params.max_wheel_speed_rad_s
     xs = casadi.SX.sym("x", n_x)
     g_parts = [(xs[4:7] / float(env.max_rate_rad_s)) ** 2 - 1.0]  # normalized: each entry O(1)
     notes = ["tumble limit max|ω| <= max_rate_rad_s as a state constraint"]
