@@ -49,13 +49,12 @@ from experiments.campaign import (
 )
 from experiments.policies import POLICIES, check_policy_env, check_policy_name
 from experiments.progress import Heartbeat
-from experiments.report import leaderboard_markdown, leaderboards, write_campaign_index, write_campaign_report
 from experiments.reproduction import markdown_table
 from experiments.reproductions import REPRODUCTIONS
 from experiments.sb3.backends import BACKENDS
 from experiments.sb3.hyperparams import load_yaml, parse_overrides, read_yaml
 from experiments.sb3.registry import ALGORITHMS
-from experiments.seeds import SYNTAX, parse_seeds
+from experiments.seeds import SYNTAX, seeds_arg
 
 
 def _demo(args: argparse.Namespace) -> int:
@@ -253,6 +252,21 @@ def _model_snapshot(path: str, select: str) -> Path:
     raise ValueError(f"--model {path!r} holds no final/model.zip or best/model.zip (is the run finished?)")
 
 
+def _check_models(env_id: str, env_kwargs: dict, models: list[str]) -> None:
+    """Each saved model fits the env (its env id and spaces: :func:`~experiments.sb3.training.load_trained`),
+    checked here before any episode runs, not in a worker."""
+    if not models:
+        return
+    from experiments.sb3.training import load_trained  # optional: the sb3 extra
+
+    env = gym.make(env_id, **env_kwargs)
+    try:
+        for model in models:
+            load_trained(model, env)
+    finally:
+        env.close()
+
+
 def _algo_label(model: Path) -> str:
     """The agent's name in the tables: the run's algorithm (``config.json``; ``-sbx`` appended for
     an SBX model), else ``sb3``."""
@@ -267,6 +281,8 @@ def _algo_label(model: Path) -> str:
 
 
 def _print_campaign(result, report) -> None:
+    from experiments.report import leaderboard_markdown, leaderboards  # scipy.stats: not at start-up (see _evaluate)
+
     print(leaderboard_markdown(leaderboards(result.rows), result.campaign.agent_notes))
     print(
         f"{result.episodes_run} episodes run, {result.episodes_skipped} already done, {result.wall_time_s:.1f} s on "
@@ -275,6 +291,10 @@ def _print_campaign(result, report) -> None:
 
 
 def _evaluate(args: argparse.Namespace) -> int:
+    # imported by the commands that write a report: it imports scipy.stats (~1 s of CPU at start-up,
+    # spent by every `train` run before, each rerun of a killed run included)
+    from experiments.report import write_campaign_report
+
     check_out_dir(args.out)
     faults = _yaml_arg("--fault-grid", args.fault_grid) or {"none": []}
     scenarios = _yaml_arg("--scenarios", args.scenarios) or [{"name": "default"}]
@@ -285,12 +305,15 @@ def _evaluate(args: argparse.Namespace) -> int:
             args.env = preset["env"]
         kwargs = {**preset["env_kwargs"], **kwargs}
         faults = {"healthy": [], preset["name"]: preset["faults"]}
+    agents = _policy_specs(args)
+    _check_models(args.env, kwargs, [a["model"] for a in agents if a["policy"] == "sb3"])
     config = {
         "name": "evaluate",
         "seeds": [args.seed_offset + s for s in args.seeds],
         "envs": [{"name": "env", "id": args.env, "kwargs": kwargs, "scenarios": scenarios, "faults": faults}],
-        "agents": _policy_specs(args),
+        "agents": agents,
         "video": False,
+        "optimum": {"solve": not args.no_solve},
     }
     result = run_campaign(config, args.out, ray_address=args.ray, workers=args.jobs, progress=print)
     _print_campaign(result, write_campaign_report(result, command=shlex.join(["attitude-envs", *args.argv])))
@@ -298,6 +321,8 @@ def _evaluate(args: argparse.Namespace) -> int:
 
 
 def _benchmark(args: argparse.Namespace) -> int:
+    from experiments.report import write_campaign_index, write_campaign_report  # see _evaluate
+
     check_out_dir(args.out)
     names = PLANT_CAMPAIGNS if args.config == "all" else (args.config,)
     outs = [Path(args.out) / Path(name).stem for name in names] if args.config == "all" else [Path(args.out)]
@@ -506,14 +531,6 @@ def _add_executor_options(p: argparse.ArgumentParser) -> None:
     _add_jobs_option(p, "local process-pool size (>= 1; default: CPU count; 1 = inline)")
 
 
-def seeds_arg(text: str) -> list[int]:
-    """An argparse ``type``: seeds in the one syntax of :mod:`experiments.seeds`."""
-    try:
-        return parse_seeds(text, "seeds")
-    except ValueError as exc:  # argparse names the option: "argument --seeds: must be ..."
-        raise argparse.ArgumentTypeError(str(exc).removeprefix("seeds ")) from None
-
-
 def build_parser() -> argparse.ArgumentParser:
     parser = OneLineErrorParser(prog="attitude-envs", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command")
@@ -608,6 +625,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     ev.add_argument("--seeds", type=seeds_arg, default="5", help=f"episode seeds of every cell: {SYNTAX} (default 5)")
     ev.add_argument("--seed-offset", type=int_at_least(0), default=0, help="added to every seed (>= 0)")
+    ev.add_argument(
+        "--no-solve",
+        action="store_true",
+        help="J* only from the shipped table: no CasADi/IPOPT solve for other episodes (they cost seconds to "
+        "minutes each; their J / J* is then left blank)",
+    )
     ev.add_argument("--out", required=True, help="output directory (episodes.csv/json, report.md, figures)")
     _add_executor_options(ev)
     ev.set_defaults(func=_evaluate)

@@ -29,6 +29,7 @@ from attitude_envs.evaluation.rollout import rollout
 from attitude_envs.scenarios import load_scenario, make_scenario_env
 from baselines.base import ZeroPolicy
 from baselines.lqr import LQRPolicy
+from experiments.seeds import SYNTAX, seeds_arg
 
 
 def _horizon(env) -> float:
@@ -266,7 +267,7 @@ def main(argv: list[str] | None = None) -> int:
     sc = sub.add_parser("scenario", help="run one scenario preset against its healthy twin")
     sc.add_argument("name")
     sc.add_argument("--policy", default="lqr")
-    sc.add_argument("--seeds", type=int, default=3)
+    sc.add_argument("--seeds", type=seeds_arg, default="3", help=f"episode seeds: {SYNTAX} (default 3)")
     sc.add_argument("--env", default=None, help="env id when the scenario names none")
     ca = sub.add_parser("campaign", help="fault kind x severity x onset grid: table + heatmap")
     ca.add_argument("--scenario", default="fault-campaign")
@@ -277,9 +278,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         if args.command == "scenario":
-            if args.seeds < 1:
-                raise ValueError(f"--seeds must be >= 1, got {args.seeds}")
-            print(evaluate_scenario(args.name, args.policy, range(args.seeds), args.env))
+            print(evaluate_scenario(args.name, args.policy, args.seeds, args.env))
             return 0
         print(run_campaign_cli(args.scenario, args.policy, Path(args.out), args.fdi, args.quick))
         return 0

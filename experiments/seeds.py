@@ -14,6 +14,7 @@ A single seed ``k`` is the range ``k-k``. Seeds are integers >= 0 and distinct.
 
 from __future__ import annotations
 
+import argparse
 from typing import Any
 
 SYNTAX = "a count N (seeds 0..N-1), a range A-B, or a comma list like 0,3,7-9"
@@ -68,3 +69,12 @@ def parse_seeds(value: Any, name: str = "seeds") -> list[int]:
     if len(set(seeds)) != len(seeds):
         raise _bad(name, value, "a seed appears twice")
     return seeds
+
+
+def seeds_arg(text: str) -> list[int]:
+    """An argparse ``type`` for ``--seeds``: :func:`parse_seeds` with argparse's one-line error
+    (``argument --seeds: must be a count N ...``)."""
+    try:
+        return parse_seeds(text, "seeds")
+    except ValueError as exc:  # argparse names the option itself
+        raise argparse.ArgumentTypeError(str(exc).removeprefix("seeds ")) from None

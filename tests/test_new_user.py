@@ -249,3 +249,20 @@ def test_a_campaign_pairing_a_policy_with_an_env_it_does_not_fit_fails_at_load()
     }
     with pytest.raises(ValueError, match=r"agents\[0\] \(slosh\) on env 'ls': policy 'slosh-pd' does not apply"):
         load_campaign(config)
+
+
+def test_the_fault_campaign_takes_the_same_seeds(capsys):
+    from experiments import fault_campaign
+
+    assert fault_campaign.main(["scenario", "wheel-failure", "--seeds", "4-4"]) == 0
+    rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| 4 |")]
+    assert len(rows) == 1
+    with pytest.raises(SystemExit):
+        fault_campaign.main(["scenario", "wheel-failure", "--seeds", "0"])
+    assert "argument --seeds: must be a count N" in capsys.readouterr().err
+
+
+def test_evaluate_can_skip_j_star_solves():
+    args = cli.build_parser().parse_args(["evaluate", "--out", "x", "--no-solve"])
+    assert args.no_solve is True
+    assert cli.build_parser().parse_args(["evaluate", "--out", "x"]).no_solve is False
