@@ -26,7 +26,7 @@ q-learning-lqr      ``agents.QLearningLQR`` (model-free; learns at build time)  
 sb3                 a saved Stable-Baselines3 model (``model: PATH``)            deterministic
 ==================  ==========================================================  =================
 
-Each policy declares the envs it applies to (:data:`APPLIES_TO`); building one for another env
+Each policy declares the envs it applies to (:attr:`PolicyEntry.envs`); building one for another env
 is a ``ValueError`` that lists the policies that fit. Imports are lazy, so a controller whose
 package is not installed only fails when it is used, with a ``ValueError`` that says so.
 """
@@ -34,54 +34,43 @@ package is not installed only fails when it is used, with a ``ValueError`` that 
 from __future__ import annotations
 
 import importlib
+from dataclasses import dataclass
 from typing import Any
 
 from experiments.sb3.policy import SB3Policy
 
-POLICIES: dict[str, str] = {
-    "zero": "baselines.base:ZeroPolicy",
-    "lqr": "baselines.lqr:LQRPolicy",
-    "lqr-ft": "baselines.fault_tolerant:FaultTolerantLQRPolicy",
-    "mpc": "baselines.mpc:MPCPolicy",
-    "quaternion-lqr": "baselines.quaternion_lqr:QuaternionLQRPolicy",
-    "feedback-linearization": "baselines.feedback_linearization:FeedbackLinearizationPolicy",
-    "linear-lqr": "baselines.linear_lqr:LinearLQRPolicy",
-    "pid": "baselines.pid:pid_policy",
-    "slosh-pd": "baselines.slosh:SloshPDPolicy",
-    "slosh-lqr": "baselines.slosh:SloshLQRPolicy",
-    "slosh-lyapunov": "baselines.slosh:SloshLyapunovPolicy",
-    "slosh-fuzzy": "baselines.fuzzy_slosh:FuzzySloshPDPolicy",
-    "amnftsmc": "baselines.sliding_mode:AMNFTSMCPolicy",
-    "mnftsmc": "baselines.sliding_mode:MNFTSMCPolicy",
-    "ftsmc-standin": "baselines.sliding_mode:FTSMCStandInPolicy",
-    "bdot": "baselines.bdot:BDotPolicy",
-    "q-learning-lqr": "agents:QLearningLQR",
-    "sb3": "experiments.sb3.training:load_trained",
-}
-
-
 GYROSTATS = ("ReactionWheel", "AirBearing")
 
-#: the envs each policy applies to, by name (the env id without namespace and version); None: every env
-APPLIES_TO: dict[str, tuple[str, ...] | None] = {
-    "zero": None,
-    "lqr": GYROSTATS,
-    "lqr-ft": GYROSTATS,
-    "mpc": GYROSTATS,
-    "quaternion-lqr": GYROSTATS,
-    "feedback-linearization": GYROSTATS,
-    "linear-lqr": ("LinearSystem",),
-    "pid": GYROSTATS,
-    "slosh-pd": ("FuelSlosh",),
-    "slosh-lqr": ("FuelSlosh",),
-    "slosh-lyapunov": ("FuelSlosh",),
-    "slosh-fuzzy": ("FuelSlosh",),
-    "amnftsmc": ("Magnetorquer",),
-    "mnftsmc": ("Magnetorquer",),
-    "ftsmc-standin": ("Magnetorquer",),
-    "bdot": ("Magnetorquer",),
-    "q-learning-lqr": ("LinearSystem", "ReactionWheel"),
-    "sb3": None,  # the saved model's own env (checked on load)
+
+@dataclass(frozen=True)
+class PolicyEntry:
+    """A registered policy: ``target`` the ``"module:attribute"`` of a class or factory called as
+    ``cls(env, **params)``; ``envs`` the envs it applies to, by name (the env id without
+    namespace and version), None for every env."""
+
+    target: str
+    envs: tuple[str, ...] | None = None
+
+
+POLICIES: dict[str, PolicyEntry] = {
+    "zero": PolicyEntry("baselines.base:ZeroPolicy"),
+    "lqr": PolicyEntry("baselines.lqr:LQRPolicy", GYROSTATS),
+    "lqr-ft": PolicyEntry("baselines.fault_tolerant:FaultTolerantLQRPolicy", GYROSTATS),
+    "mpc": PolicyEntry("baselines.mpc:MPCPolicy", GYROSTATS),
+    "quaternion-lqr": PolicyEntry("baselines.quaternion_lqr:QuaternionLQRPolicy", GYROSTATS),
+    "feedback-linearization": PolicyEntry("baselines.feedback_linearization:FeedbackLinearizationPolicy", GYROSTATS),
+    "linear-lqr": PolicyEntry("baselines.linear_lqr:LinearLQRPolicy", ("LinearSystem",)),
+    "pid": PolicyEntry("baselines.pid:pid_policy", GYROSTATS),
+    "slosh-pd": PolicyEntry("baselines.slosh:SloshPDPolicy", ("FuelSlosh",)),
+    "slosh-lqr": PolicyEntry("baselines.slosh:SloshLQRPolicy", ("FuelSlosh",)),
+    "slosh-lyapunov": PolicyEntry("baselines.slosh:SloshLyapunovPolicy", ("FuelSlosh",)),
+    "slosh-fuzzy": PolicyEntry("baselines.fuzzy_slosh:FuzzySloshPDPolicy", ("FuelSlosh",)),
+    "amnftsmc": PolicyEntry("baselines.sliding_mode:AMNFTSMCPolicy", ("Magnetorquer",)),
+    "mnftsmc": PolicyEntry("baselines.sliding_mode:MNFTSMCPolicy", ("Magnetorquer",)),
+    "ftsmc-standin": PolicyEntry("baselines.sliding_mode:FTSMCStandInPolicy", ("Magnetorquer",)),
+    "bdot": PolicyEntry("baselines.bdot:BDotPolicy", ("Magnetorquer",)),
+    "q-learning-lqr": PolicyEntry("agents:QLearningLQR", ("LinearSystem", "ReactionWheel")),
+    "sb3": PolicyEntry("experiments.sb3.training:load_trained"),  # the saved model's own env (checked on load)
 }
 
 
@@ -92,12 +81,12 @@ def env_name(env_id: str) -> str:
 
 def policies_for(env_id: str) -> list[str]:
     """The registered policies that apply to ``env_id``."""
-    return [p for p, envs in APPLIES_TO.items() if envs is None or env_name(env_id) in envs]
+    return [p for p, entry in POLICIES.items() if entry.envs is None or env_name(env_id) in entry.envs]
 
 
 def check_policy_env(name: str, env_id: str) -> None:
     """``ValueError`` naming the policies that fit when policy ``name`` does not apply to ``env_id``."""
-    envs = APPLIES_TO[check_policy_name(name)]
+    envs = POLICIES[check_policy_name(name)].envs
     if envs is not None and env_name(env_id) not in envs:
         raise ValueError(
             f"policy {name!r} does not apply to {env_id} (it applies to {', '.join(envs)}); "
@@ -140,9 +129,9 @@ def build_policy(spec: dict[str, Any], env, name: str | None = None):
     if kind == "sb3":
         if "model" not in spec:
             raise ValueError("policy 'sb3' needs model: PATH (a saved model .zip or its run directory)")
-        predictor = import_target(POLICIES[kind])(spec["model"], env)
+        predictor = import_target(POLICIES[kind].target)(spec["model"], env)
         return SB3Policy(predictor, deterministic=bool(params.get("deterministic", True)), name=label)
-    cls = import_target(POLICIES[kind])
+    cls = import_target(POLICIES[kind].target)
     if kind == "q-learning-lqr":
         agent = cls(env, name=label, **params)
         agent.learn(**dict(spec.get("learn") or {}))

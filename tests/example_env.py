@@ -17,6 +17,7 @@ from gymnasium import spaces
 from attitude_envs import validation
 from attitude_envs.cost import QuadraticCost
 from attitude_envs.envs.base import AttitudeEnv
+from attitude_envs.evaluation.success import FINAL_STATE_FRACTION
 from attitude_envs.presets import Preset, Sourced, register
 from attitude_envs.sensors import Channel
 
@@ -48,6 +49,7 @@ class SingleAxisEnv(AttitudeEnv):
     env_name = "SingleAxis-v0"
     default_preset = "demo"
     metadata = {"render_modes": []}
+    success_metric = FINAL_STATE_FRACTION  # how campaigns judge an episode (attitude_envs.evaluation.success)
 
     def __init__(
         self,

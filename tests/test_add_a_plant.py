@@ -77,3 +77,13 @@ def test_faults_sensors_and_hint_come_from_the_base():
 def test_unknown_keyword_and_preset_get_clear_errors():
     with pytest.raises(ValueError, match="did you mean 'demo'"):
         SingleAxisEnv(preset="dem")
+
+
+def test_the_example_plant_declares_how_campaigns_judge_it():
+    from example_env import SingleAxisEnv
+
+    env = SingleAxisEnv()
+    _, first = env.reset(seed=0)
+    metric = env.success_metric
+    assert metric.name == "final_state_fraction"
+    assert metric.value(first, first) == 1.0  # the start judged against itself

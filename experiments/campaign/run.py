@@ -42,7 +42,7 @@ def _n_trained(trained: list[dict[str, Any]]) -> int:
 def available(agent: AgentSpec) -> str | None:
     """None if the agent's code imports here, else the reason."""
     try:
-        import_target(POLICIES[agent.spec["policy"]])
+        import_target(POLICIES[agent.spec["policy"]].target)
         if agent.train is not None:
             algorithm_class(agent.train["algo"], agent.train.get("backend", "sb3"))  # checks the name too
     except (PolicyUnavailable, ValueError) as exc:
