@@ -16,7 +16,10 @@ from experiments.sb3.tuning import tune  # noqa: E402
 
 ENV = "attitude_envs/LinearSystem-v0"
 KWARGS = {"episode_steps": 50}
-FIXED = {"n_envs": 1, "batch_size": 64}
+# Fixed overrides win over the sampled values (the sampler still draws every parameter, and
+# trials.csv lists them): one short rollout size and one epoch keep each trial to a few
+# seconds of PPO; what is checked is the search (trials, journal, resume, pruning hooks, best.yml).
+FIXED = {"n_envs": 1, "batch_size": 64, "n_steps": 256, "n_epochs": 1}
 
 
 def _rows(out):
@@ -26,7 +29,8 @@ def _rows(out):
 
 def test_tune_runs_trials_resumes_and_writes_a_zoo_entry(tmp_path):
     out = tmp_path / "study"
-    common = dict(env_kwargs=KWARGS, timesteps=4000, n_evaluations=2, eval_episodes=2, overrides=FIXED, backend="sb3")
+    # 2 evaluations of 2 rollouts each (n_steps fixed: a budget of 2 × the largest sampled n_steps is not needed)
+    common = dict(env_kwargs=KWARGS, timesteps=1024, n_evaluations=2, eval_episodes=2, overrides=FIXED, backend="sb3")
     first = tune("ppo", ENV, out, n_trials=2, **common)
     assert first["n_complete"] == 2 and first["n_pruned"] == 0
     rows = _rows(out)
