@@ -47,16 +47,19 @@ def number(name: str, value, accepted: str = "a number") -> float:
     raise ValueError(f"{name} must be {accepted}, got {value!r} ({type(value).__name__}){hint}")
 
 
+def interval(low: float, high: float, open_low: bool = False, open_high: bool = False) -> str:
+    """The interval as an error message writes it: ``[0, 1)``, ``(0, inf)`` (an infinite end is open)."""
+    left = "(" if open_low or math.isinf(low) else "["
+    right = ")" if open_high or math.isinf(high) else "]"
+    return f"{left}{low:g}, {high:g}{right}"
+
+
 def in_range(
     name: str, value, low: float = -math.inf, high: float = math.inf, *, open_low: bool = False, open_high: bool = False
 ) -> float:
     """A finite number in the interval from ``low`` to ``high`` (closed unless ``open_low`` /
     ``open_high``), as a float; a ``ValueError`` naming ``name``, the value and the interval."""
-    accepted = f"{'(' if open_low else '['}{low:g}, {high:g}{')' if open_high else ']'}"
-    if math.isinf(low):
-        accepted = "(" + accepted[1:]
-    if math.isinf(high):
-        accepted = accepted[:-1] + ")"
+    accepted = interval(low, high, open_low, open_high)
     v = number(name, value, f"a number in {accepted}")
     inside = (v > low if open_low else v >= low) and (v < high if open_high else v <= high)
     if not (math.isfinite(v) and inside):

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 import attitude_envs  # noqa: F401  (registers the env ids)
+from attitude_envs import validation
 from attitude_envs.evaluation.success import SuccessMetric
 from attitude_envs.make import check_env_id
 from experiments.optimum_table import solve_by_default
@@ -120,12 +121,6 @@ def _name(where: str, value: Any) -> str:
     return value
 
 
-def _interval(low: float, high: float, open_low: bool, open_high: bool) -> str:
-    left = "(" if open_low or math.isinf(low) else "["
-    right = ")" if open_high or math.isinf(high) else "]"
-    return f"{left}{low:g}, {high:g}{right}"
-
-
 def _number(
     where: str,
     value: Any,
@@ -143,7 +138,9 @@ def _number(
     ok = ok and (not integer or float(value).is_integer())
     ok = ok and (value > low if open_low else value >= low) and (value < high if open_high else value <= high)
     kind = "an integer" if integer else "a number"
-    _require(ok, f"{where} must be {kind} in {_interval(low, high, open_low, open_high)}{absent}, got {value!r}")
+    _require(
+        ok, f"{where} must be {kind} in {validation.interval(low, high, open_low, open_high)}{absent}, got {value!r}"
+    )
     return value
 
 
