@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.linalg
-import scipy.optimize
 
 from attitude_envs import validation
 
@@ -106,6 +105,8 @@ class WheelAllocator:
         ones = np.ones((n, 1))
         a_ub = np.vstack([np.hstack([self._null, -ones]), np.hstack([-self._null, -ones])])
         b_ub = np.concatenate([-u0, u0])
+        import scipy.optimize  # only here: it costs ~1 s of every command line's start-up
+
         res = scipy.optimize.linprog(cost, A_ub=a_ub, b_ub=b_ub, bounds=[(None, None)] * (k + 1), method="highs")
         if not res.success:  # pragma: no cover - the LP is always feasible and bounded
             return u0

@@ -96,7 +96,7 @@ class MPCPolicy:
         if int(horizon_steps) < 1:
             raise ValueError(f"horizon_steps must be an integer >= 1, got {horizon_steps!r}")
         self.name = name or "mpc"
-        self.horizon_steps = n_h = int(horizon_steps)
+        self.horizon_steps = int(horizon_steps)
         self._model = model
         #: what the MPC knows of the plant (:func:`model_parameters`)
         self.model_parameters = model_parameters(env)
@@ -109,13 +109,23 @@ class MPCPolicy:
         _, self.terminal_weight, _ = dlqr(lin.A, lin.B, lin.Q, lin.R, lin.N)
         n = model.params.n_wheels
         self._n_y, self._n_u = 7 + n, self.model_step.size1_in(1)
+        self._max_iter, self._tol = int(max_iter), float(validation.positive("tol", tol))
+        self._solver_options = dict(solver_options or {})
+        self._build_solver()
+        self.solve_times_s: list[float] = []
+        self.failures = 0
+        self._guess: tuple[np.ndarray, np.ndarray] | None = None
 
+    def _build_solver(self) -> None:
+        """The NLP of :attr:`model_step` and :attr:`terminal_weight` (direct multiple shooting),
+        its IPOPT solver and bounds; called again by subclasses that change the model."""
+        model, n_h = self._model, self.horizon_steps
+        n = model.params.n_wheels
         y = casadi.MX.sym("Y", self._n_y, n_h + 1)
         a = casadi.MX.sym("A", self._n_u, n_h)
         y0 = casadi.MX.sym("y0", self._n_y)
         target = casadi.MX.sym("q_T", 4)
-        times = casadi.DM.zeros(1, n_h)  # the nominal model is time-invariant
-        y_next, costs = self.model_step.map(n_h)(y[:, :n_h], a, times, casadi.repmat(target, 1, n_h))
+        y_next, costs = self._stage_dynamics(y[:, :n_h], a, target)
         x_n = error_state(self.model_parameters, y[:, n_h], target, smooth=True)
         objective = casadi.sum2(costs) + casadi.bilin(casadi.DM(self.terminal_weight), x_n, x_n)
         constraints = [y[:, 0] - y0, casadi.vec(y[:, 1:] - y_next)]
@@ -132,10 +142,10 @@ class MPCPolicy:
             **_QUIET,
             "expand": True,
             "ipopt.mu_strategy": "adaptive",
-            "ipopt.max_iter": int(max_iter),
-            "ipopt.tol": float(validation.positive("tol", tol)),
+            "ipopt.max_iter": self._max_iter,
+            "ipopt.tol": self._tol,
         }
-        opts.update(solver_options or {})
+        opts.update(self._solver_options)
         self._solver = casadi.nlpsol("mpc", "ipopt", nlp, opts)
         n_a = self._n_u * n_h
         n_g = self._n_eq + (n * n_h if self._frame == "body" else 0)
@@ -143,9 +153,13 @@ class MPCPolicy:
         self._ubx = np.r_[np.ones(n_a), np.full(self._n_y * (n_h + 1), np.inf)]
         self._lbg = np.r_[np.zeros(self._n_eq), -np.ones(n_g - self._n_eq)]
         self._ubg = np.r_[np.zeros(self._n_eq), np.ones(n_g - self._n_eq)]
-        self.solve_times_s: list[float] = []
-        self.failures = 0
-        self._guess: tuple[np.ndarray, np.ndarray] | None = None
+
+    def _stage_dynamics(self, y, a, target):
+        """``(y_next, costs)`` (MX) of the horizon's stages from their states ``y`` (n_y × N)
+        and actions ``a`` (n_u × N): :attr:`model_step` mapped over the stages."""
+        n_h = y.shape[1]
+        times = casadi.DM.zeros(1, n_h)  # the model is time-invariant
+        return self.model_step.map(n_h)(y, a, times, casadi.repmat(target, 1, n_h))
 
     def reset(self, seed: int | None = None) -> None:
         self._guess = None
@@ -157,7 +171,7 @@ class MPCPolicy:
         target = np.asarray(m["target_attitude"], dtype=float)
         y0 = np.r_[q if q @ target >= 0.0 else -q, m["rate_rad_s"], m["wheel_speed_rad_s"]]
         if not np.all(np.isfinite(y0)):
-            return self._lqr.act(obs, info)  # a dropout: nothing to predict from
+            return self._fallback_action(obs, info)  # a dropout: nothing to predict from
         a_guess, y_guess = self._initial_guess(y0, target, obs, info)
         t0 = time.perf_counter()
         sol = self._solver(
@@ -177,13 +191,17 @@ class MPCPolicy:
             self.failures += 1
         if not np.all(np.isfinite(w)):
             self._guess = None
-            return self._lqr.act(obs, info)
+            return self._fallback_action(obs, info)
         # warm start of the next step: the solution shifted by one step, its last entry repeated
         self._guess = (
             np.column_stack([a_opt[:, 1:], a_opt[:, -1:]]),
             np.column_stack([y_opt[:, 1:], y_opt[:, -1:]]),
         )
         return np.clip(a_opt[:, 0], -1.0, 1.0).astype(np.float32)
+
+    def _fallback_action(self, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
+        """The action when there is nothing to solve from or the solve diverged: the LQR's."""
+        return self._lqr.act(obs, info)
 
     def _initial_guess(self, y0: np.ndarray, target: np.ndarray, obs, info) -> tuple[np.ndarray, np.ndarray]:
         """The shifted previous solution, or (first step) the LQR's rollout on the nominal model."""

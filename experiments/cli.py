@@ -33,6 +33,7 @@ import yaml
 import attitude_envs  # registers the env ids
 from attitude_envs import presets
 from attitude_envs.evaluation import rollout
+from attitude_envs.registration import LEARNING_TASKS, quiet_version_warnings, task_defaults
 from attitude_envs.scenarios import list_scenarios, load_scenario
 from baselines.base import ZeroPolicy
 from baselines.lqr import LQRPolicy
@@ -55,6 +56,9 @@ from experiments.sb3.backends import BACKENDS
 from experiments.sb3.hyperparams import load_yaml, parse_overrides, read_yaml
 from experiments.sb3.registry import ALGORITHMS
 from experiments.seeds import SYNTAX, seeds_arg
+
+#: every registered id of the suite: the papers' problems (-v0) and the learning tasks (-v1)
+ALL_IDS = (*attitude_envs.ENV_IDS, *LEARNING_TASKS)
 
 
 def _demo(args: argparse.Namespace) -> int:
@@ -83,6 +87,9 @@ def _demo(args: argparse.Namespace) -> int:
 def _envs(args: argparse.Namespace) -> int:
     for env_id in attitude_envs.ENV_IDS:
         print(env_id)
+        v1 = next(k for k, (v0, _) in LEARNING_TASKS.items() if v0 == env_id)
+        task = ", ".join(f"{k}={v!r}" for k, v in task_defaults(v1).items())
+        print(f"  learning task {v1}: {task}")
         for p in presets.for_env(env_id):
             default = " (default)" if p.default else ""
             aliases = f" [alias: {', '.join(p.aliases)}]" if p.aliases else ""
@@ -281,9 +288,11 @@ def _algo_label(model: Path) -> str:
 
 
 def _print_campaign(result, report) -> None:
-    from experiments.report import leaderboard_markdown, leaderboards  # scipy.stats: not at start-up (see _evaluate)
+    # scipy.stats: not at start-up (see _evaluate)
+    from experiments.report import campaign_thresholds, leaderboard_markdown, leaderboards
 
-    print(leaderboard_markdown(leaderboards(result.rows), result.campaign.agent_notes))
+    boards = leaderboards(result.rows, campaign_thresholds(result.campaign))
+    print(leaderboard_markdown(boards, result.campaign.agent_notes))
     print(
         f"{result.episodes_run} episodes run, {result.episodes_skipped} already done, {result.wall_time_s:.1f} s on "
         f"{result.executor}; report: {report}"
@@ -381,7 +390,7 @@ def int_at_least(low: int, high: int | None = None):
 
 
 def _add_env_options(p: argparse.ArgumentParser, default: str = ENV_DEFAULT) -> None:
-    p.add_argument("--env", default=default, help=f"registered env id: {', '.join(attitude_envs.ENV_IDS)}")
+    p.add_argument("--env", default=default, help=f"registered env id: {', '.join(ALL_IDS)}")
     p.add_argument(
         "--env-kwargs", help="env keyword arguments as YAML/JSON (or @FILE), e.g. '{preset: pyramid-4wheel}'"
     )
@@ -595,7 +604,7 @@ def build_parser() -> argparse.ArgumentParser:
         description=(
             "Evaluate policies on an env × scenario × fault × seed grid. "
             f"Policies: {', '.join(p for p in POLICIES if p != 'sb3')} (saved SB3 models: --model). "
-            f"Env ids: {', '.join(attitude_envs.ENV_IDS)}. Scenario presets: {', '.join(list_scenarios())}."
+            f"Env ids: {', '.join(ALL_IDS)}. Scenario presets: {', '.join(list_scenarios())}."
         ),
     )
     _add_env_options(ev)
@@ -720,6 +729,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
+    quiet_version_warnings()  # the -v0 ids are the papers' problems, not out of date
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:  # no subcommand: what there is to run

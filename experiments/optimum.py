@@ -15,11 +15,17 @@ solve converged. Results are cached on disk (:func:`cache_dir`), keyed by a hash
 id, keyword arguments, seed, reset options, solver settings and package versions, so
 repeated campaign cells are free.
 
+The replay also measures the episode with the env's success metric
+(:attr:`OptimumResult.measurements`, :mod:`attitude_envs.evaluation.success`), so a report can
+say whether the optimum itself succeeds (it need not: J weighs the whole episode, success
+only its end).
+
 Requires CasADi: ``pip install 'attitude-envs[optimal]'``.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import os
@@ -28,7 +34,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import gymnasium as gym
 import numpy as np
@@ -72,7 +78,10 @@ class OptimumResult:
     NLP objective; ``j_warm``: the warm start's cost in the env (``warm_start`` names it);
     ``solve_s``: IPOPT wall time, s; ``total_s``: the whole solve (problem build, warm
     start, NLP construction, IPOPT, replay), s; ``status``: IPOPT's return status; ``terminated``:
-    the replay ended before the time limit; ``actions``: (n_steps, n_u) normalized actions.
+    the replay ended before the time limit; ``actions``: (n_steps, n_u) normalized actions;
+    ``measurements``: the env's success-metric measurements of the replay
+    (:meth:`~attitude_envs.evaluation.success.SuccessMetric.measurements`, e.g.
+    ``{"final_error_deg": 3.1}``, deg), None for a cache entry written before they were kept.
     """
 
     env_id: str
@@ -92,6 +101,7 @@ class OptimumResult:
     actions: np.ndarray = field(repr=False)
     oracle: bool = True
     cached: bool = False
+    measurements: dict[str, float] | None = None
 
     @property
     def solved(self) -> bool:
@@ -146,17 +156,41 @@ def _cache_key(env_id, env_kwargs, seed, options, settings) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
-def replay(env, actions: np.ndarray, seed: int | None, options: dict | None) -> tuple[float, bool]:
-    """``(J, terminated)``: the open-loop ``actions`` through the real env from
-    ``reset(seed=, options=)`` (J = sum of ``info["cost"]``)."""
-    env.reset(seed=seed, options=options)
+class Replay(NamedTuple):
+    """What :func:`replay_measured` returns: ``J`` (sum of ``info["cost"]``, the env's cost
+    units), ``terminated`` (a limit crossed before the time limit) and ``measurements`` (the
+    env's success-metric measurements from the reset info and the last info)."""
+
+    J: float
+    terminated: bool
+    measurements: dict[str, float]
+
+
+def replay_measured(env, actions: np.ndarray, seed: int | None, options: dict | None) -> Replay:
+    """The open-loop ``actions`` through the real env from ``reset(seed=, options=)``: J,
+    whether it terminated, and ``env.unwrapped.success_metric.measurements(first, last)``
+    (first: the reset's info, last: the last step's; the reset's twice without actions)."""
+    _, first = env.reset(seed=seed, options=options)
+    last = first
+    metric = env.unwrapped.success_metric
     total = 0.0
     for a in actions:
-        _, _, terminated, truncated, info = env.step(np.asarray(a, dtype=float))
-        total += float(info["cost"])
+        _, _, terminated, truncated, last = env.step(np.asarray(a, dtype=float))
+        total += float(last["cost"])
         if terminated or truncated:
-            return total, bool(terminated)
-    return total, False
+            return Replay(total, bool(terminated), _floats(metric.measurements(first, last)))
+    return Replay(total, False, _floats(metric.measurements(first, last)))
+
+
+def _floats(measurements: dict[str, Any]) -> dict[str, float]:
+    return {k: float(v) for k, v in measurements.items()}
+
+
+def replay(env, actions: np.ndarray, seed: int | None, options: dict | None) -> tuple[float, bool]:
+    """``(J, terminated)`` of :func:`replay_measured` (J = sum of ``info["cost"]``); the
+    success-metric measurements are its third item."""
+    r = replay_measured(env, actions, seed, options)
+    return r.J, r.terminated
 
 
 def baseline_rollout(env, spec: tuple[str, dict], seed: int | None, options: dict | None, n_steps: int):
@@ -304,12 +338,10 @@ def solve_episode(
     use_cache = cache and (warm_start is None or isinstance(warm_start, str))
     path = cache_dir() / f"{_cache_key(env_id, env_kwargs, seed, options, settings)}.json" if use_cache else None
     if path is not None and path.is_file():
-        try:
-            data = json.loads(path.read_text())
-            data["actions"] = np.asarray(data["actions"], dtype=float)
-            return OptimumResult(**{**data, "cached": True})
-        except (ValueError, TypeError, KeyError):
-            pass  # an unreadable or outdated entry: solve again and overwrite it
+        found = _read_cache(path)
+        if found is not None:
+            return found
+        # else an unreadable or outdated entry: solve again and overwrite it
     start = time.perf_counter()
     env = gym.make(full_id(env_id), **env_kwargs)
     try:
@@ -317,7 +349,7 @@ def solve_episode(
         actions0, j_warm, label = _warm_start(env, problem, warm_start, seed, options)
         actions, j_nlp, status, iterations, solve_s = solve_problem(problem, actions0, max_iter, tol, jit=jit)
         actions = np.clip(actions, problem.a_lb, problem.a_ub)
-        j_star, terminated = replay(env, actions, seed, options)
+        j_star, terminated, measurements = replay_measured(env, actions, seed, options)
     finally:
         env.close()
     result = OptimumResult(
@@ -336,15 +368,59 @@ def solve_episode(
         terminated=terminated,
         notes=problem.notes,
         actions=actions,
+        measurements=measurements,
     )
     if path is not None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        data = {**result.row(), "actions": actions.tolist()}
-        data.pop("cached")
-        tmp = path.with_suffix(".tmp")
-        tmp.write_text(json.dumps(data))
-        tmp.replace(path)
+        _write_cache(path, result)
     return result
+
+
+def _write_cache(path: Path, result: OptimumResult) -> None:
+    """``result`` (actions included) to the cache file ``path``, atomically."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    data = {**result.row(), "actions": np.asarray(result.actions).tolist()}
+    data.pop("cached")
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(data))
+    tmp.replace(path)
+
+
+def _read_cache(path: Path) -> OptimumResult | None:
+    """The cached result in ``path`` (``cached=True``), None when unreadable or outdated. An
+    entry written before measurements were kept gets them by replaying its actions
+    (:func:`with_measurements`) and is rewritten with them; where the replay no longer gives
+    its J* (the env changed), its measurements stay None."""
+    try:
+        data = json.loads(path.read_text())
+        data["actions"] = np.asarray(data["actions"], dtype=float)
+        result = OptimumResult(**{**data, "cached": True})
+    except (ValueError, TypeError, KeyError):
+        return None
+    if result.measurements is None:
+        try:
+            result = with_measurements(result)
+        except ValueError:
+            return result
+        _write_cache(path, result)
+    return result
+
+
+def with_measurements(result: OptimumResult, rtol: float = 1e-9) -> OptimumResult:
+    """``result`` with :attr:`~OptimumResult.measurements` and ``terminated`` of replaying its
+    actions through the env (:func:`replay_measured`; one episode, no solve). ValueError when
+    the replay's J differs from ``result.j_star`` by more than ``rtol`` (relative): the env or
+    the actions are not the ones J* was computed with, so the measurements would not be J*'s."""
+    env = gym.make(full_id(result.env_id), **dict(result.env_kwargs))
+    try:
+        j, terminated, measurements = replay_measured(env, result.actions, result.seed, result.options)
+    finally:
+        env.close()
+    if not abs(j - result.j_star) <= rtol * max(abs(result.j_star), 1e-300):
+        raise ValueError(
+            f"replaying the J* actions of {result.env_id} seed {result.seed} gives J = {j!r}, not "
+            f"j_star = {result.j_star!r} (relative difference above {rtol:g}): measurements not taken"
+        )
+    return dataclasses.replace(result, terminated=terminated, measurements=measurements)
 
 
 def cached_result(
@@ -360,14 +436,7 @@ def cached_result(
     it was never solved (nothing is solved here)."""
     settings = {"warm_start": warm_start, "max_iter": int(max_iter), "tol": float(tol)}
     path = cache_dir() / f"{_cache_key(env_id, dict(env_kwargs or {}), seed, options, settings)}.json"
-    if not path.is_file():
-        return None
-    try:
-        data = json.loads(path.read_text())
-        data["actions"] = np.asarray(data["actions"], dtype=float)
-        return OptimumResult(**{**data, "cached": True})
-    except (ValueError, TypeError, KeyError):
-        return None
+    return _read_cache(path) if path.is_file() else None
 
 
 def solve_episodes(

@@ -9,8 +9,12 @@ zero                no torque (free drift)                                      
 lqr                 ``baselines.lqr.LQRPolicy`` on the nominal linearization     discretization, Q, R
 lqr-ft              fault-tolerant LQR: IMM FDI + redesign over the healthy       discretization,
                     wheels (``baselines.fault_tolerant``)                        degraded_effectiveness, fdi
-mpc                 nonlinear MPC on the nominal gyrostat (``baselines.mpc``;    horizon_steps, max_iter,
-                    needs CasADi: ``pip install 'attitude-envs[optimal]'``)      tol, solver_options
+mpc                 model-predictive control on each plant's nominal symbolic    see each module
+                    model (``baselines.mpc``, ``mpc_slosh``, ``mpc_magnetorquer``,
+                    ``mpc_linear``; needs CasADi: ``pip install
+                    'attitude-envs[optimal]'``)
+mpc-ft              the gyrostat MPC with the IMM fault detector's actuator      fdi, horizon_steps, ...
+                    model (``baselines.mpc_fault_tolerant``)
 quaternion-lqr      quaternion LQR law of the feedback-linearization paper       Q, R, stiffness, saturation
 feedback-linearization  that paper's feedback linearization + LQR outer loop      Q, R, output, q4_min, ...
 linear-lqr          discrete LQR on a LinearSystem-v0 env's (A, B, Q, R)         —
@@ -45,18 +49,43 @@ GYROSTATS = ("ReactionWheel", "AirBearing")
 @dataclass(frozen=True)
 class PolicyEntry:
     """A registered policy: ``target`` the ``"module:attribute"`` of a class or factory called as
-    ``cls(env, **params)``; ``envs`` the envs it applies to, by name (the env id without
-    namespace and version), None for every env."""
+    ``cls(env, **params)``, or a mapping env name → such a target (one name, one design per
+    plant: ``mpc``); ``envs`` the envs it applies to, by name (the env id without namespace and
+    version), None for every env (the mapping's keys for a mapping)."""
 
-    target: str
+    target: str | dict[str, str]
     envs: tuple[str, ...] | None = None
+
+    def __post_init__(self) -> None:
+        if isinstance(self.target, dict) and self.envs is None:
+            object.__setattr__(self, "envs", tuple(self.target))
+
+    def target_for(self, env_id: str | None) -> str:
+        """The target that builds this policy for ``env_id`` (any env for a single target)."""
+        if isinstance(self.target, str):
+            return self.target
+        return self.target[env_name(env_id)] if env_id is not None else next(iter(self.target.values()))
+
+    @property
+    def targets(self) -> tuple[str, ...]:
+        """Every target of the entry."""
+        return (self.target,) if isinstance(self.target, str) else tuple(dict.fromkeys(self.target.values()))
 
 
 POLICIES: dict[str, PolicyEntry] = {
     "zero": PolicyEntry("baselines.base:ZeroPolicy"),
     "lqr": PolicyEntry("baselines.lqr:LQRPolicy", GYROSTATS),
     "lqr-ft": PolicyEntry("baselines.fault_tolerant:FaultTolerantLQRPolicy", GYROSTATS),
-    "mpc": PolicyEntry("baselines.mpc:MPCPolicy", GYROSTATS),
+    "mpc": PolicyEntry(
+        {
+            "ReactionWheel": "baselines.mpc:MPCPolicy",
+            "AirBearing": "baselines.mpc:MPCPolicy",
+            "FuelSlosh": "baselines.mpc_slosh:SloshMPCPolicy",
+            "Magnetorquer": "baselines.mpc_magnetorquer:MagnetorquerMPCPolicy",
+            "LinearSystem": "baselines.mpc_linear:LinearMPCPolicy",
+        }
+    ),
+    "mpc-ft": PolicyEntry("baselines.mpc_fault_tolerant:FaultTolerantMPCPolicy", GYROSTATS),
     "quaternion-lqr": PolicyEntry("baselines.quaternion_lqr:QuaternionLQRPolicy", GYROSTATS),
     "feedback-linearization": PolicyEntry("baselines.feedback_linearization:FeedbackLinearizationPolicy", GYROSTATS),
     "linear-lqr": PolicyEntry("baselines.linear_lqr:LinearLQRPolicy", ("LinearSystem",)),
@@ -129,9 +158,12 @@ def build_policy(spec: dict[str, Any], env, name: str | None = None):
     if kind == "sb3":
         if "model" not in spec:
             raise ValueError("policy 'sb3' needs model: PATH (a saved model .zip or its run directory)")
-        predictor = import_target(POLICIES[kind].target)(spec["model"], env)
+        predictor = import_target(POLICIES[kind].target_for(None))(spec["model"], env)
         return SB3Policy(predictor, deterministic=bool(params.get("deterministic", True)), name=label)
-    cls = import_target(POLICIES[kind].target)
+    env_id = env.spec.id if getattr(env, "spec", None) is not None else None
+    if env_id is None and not isinstance(POLICIES[kind].target, str):
+        env_id = f"attitude_envs/{env.unwrapped.env_name}"
+    cls = import_target(POLICIES[kind].target_for(env_id))
     if kind == "q-learning-lqr":
         agent = cls(env, name=label, **params)
         agent.learn(**dict(spec.get("learn") or {}))

@@ -28,10 +28,12 @@ import numpy as np
 from gymnasium.wrappers import RecordVideo
 from scipy import stats
 
+from attitude_envs.evaluation.success import METRICS
 from attitude_envs.evaluation.trace import record_episode, record_state_trace
 from attitude_envs.info import policy_view
 from experiments.campaign.episode import success_criterion
 from experiments.campaign.jobs import episode_jobs
+from experiments.campaign.store import J_STAR_PREFIX
 from experiments.machine_reference import REFERENCE_ENV
 from experiments.optimum_table import COMMAND, DESCRIPTION, SOURCES, TABLE_FILE
 from experiments.policies import build_policy
@@ -72,12 +74,19 @@ def is_deterministic(values: Sequence[float]) -> bool:
     return len(x) > 1 and bool(np.all(x == x[0]))
 
 
-def leaderboards(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str, str], list[dict[str, Any]]]:
+def leaderboards(
+    rows: Sequence[Mapping[str, Any]], thresholds: Mapping[str, float] | None = None
+) -> dict[tuple[str, str, str], list[dict[str, Any]]]:
     """``(env, scenario, fault)`` → one entry per agent, best first: the agents whose every
     episode ran to the time limit by J mean, then those with episodes that terminated early
     (a limit crossed: the vehicle lost), by the fraction that did, then J. J sums the cost
     only up to the end of the episode, so an episode cut short costs less; ranking it by J
-    alone would reward ending it (an agent trained on the reward −cost can learn exactly that)."""
+    alone would reward ending it (an agent trained on the reward −cost can learn exactly that).
+
+    Where the rows carry J* (``j_star``), each board ends with J*'s own line
+    (:func:`oracle_entry`, ``"oracle": True``, agent :data:`ORACLE_AGENT`): unranked, no
+    agent. ``thresholds``: success-metric name → the campaign's threshold
+    (:func:`campaign_thresholds`) that J*'s success is judged at (default: each metric's own)."""
     cells: dict[tuple[str, str, str], dict[str, list[Mapping[str, Any]]]] = {}
     for r in rows:
         cells.setdefault((r["env"], r["scenario"], r["fault"]), {}).setdefault(r["agent"], []).append(r)
@@ -107,8 +116,106 @@ def leaderboards(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str, str]
                     entry[m] = _finite_mean([r.get(m) for r in rs])
             board.append(entry)
         board.sort(key=lambda e: (not np.isfinite(e["J_mean"]), e["terminated_rate"], e["J_mean"]))
-        out[cell] = board
+        oracle = oracle_entry([r for rs in agents.values() for r in rs], thresholds, board[0])
+        out[cell] = board + ([oracle] if oracle is not None else [])
     return dict(sorted(out.items()))
+
+
+#: the name of J*'s own line on a leaderboard (not an agent: unranked, never "best")
+ORACLE_AGENT = "J* (oracle)"
+
+
+def is_oracle(entry: Mapping[str, Any]) -> bool:
+    """Whether a leaderboard entry is J*'s own line (:func:`oracle_entry`), not an agent."""
+    return bool(entry.get("oracle"))
+
+
+def campaign_thresholds(campaign: Any) -> dict[str, float]:
+    """Success-metric name → ``campaign``'s threshold (``campaign.success_threshold(metric)``)
+    for every metric of :data:`~attitude_envs.evaluation.success.METRICS`."""
+    return {name: float(campaign.success_threshold(metric)) for name, metric in METRICS.items()}
+
+
+def _known_flag(value: Any) -> bool | None:
+    """A row's boolean, None when unknown (None, ``""`` or NaN, as a CSV row carries it)."""
+    if value is None or value == "" or (isinstance(value, float) and np.isnan(value)):
+        return None
+    return _flag(value)
+
+
+def oracle_success(row: Mapping[str, Any], thresholds: Mapping[str, float] | None = None) -> bool | None:
+    """Whether J* itself succeeds on ``row``'s episode, by the campaign's criterion: J* finite,
+    its replay not terminated and its success-metric measurements (``j_star_<name>``
+    columns, :func:`experiments.campaign.store.optimum_outcome`) meeting the metric
+    (:meth:`~attitude_envs.evaluation.success.SuccessMetric.met`) at ``thresholds[metric]``
+    (default: the metric's own). None when J*'s measurements are unknown."""
+    metric = METRICS.get(str(row.get(f"{J_STAR_PREFIX}metric") or ""))
+    terminated = _known_flag(row.get(f"{J_STAR_PREFIX}terminated"))
+    j_star = float(row.get("j_star", float("nan")))
+    if metric is None or terminated is None or not np.isfinite(j_star):
+        return None
+    try:
+        measured = {n: float(row[f"{J_STAR_PREFIX}{n}"]) for n in metric.measurement_names()}
+    except (KeyError, TypeError, ValueError):
+        return None
+    threshold = (thresholds or {}).get(metric.name, metric.threshold)
+    return bool(not terminated and metric.met(measured, threshold))
+
+
+def oracle_entry(
+    rows: Sequence[Mapping[str, Any]],
+    thresholds: Mapping[str, float] | None = None,
+    like: Mapping[str, Any] | None = None,
+) -> dict[str, Any] | None:
+    """J*'s own line for one cell's ``rows`` (every agent's; one J* per episode, so episodes
+    are the distinct seeds), None when the rows carry no ``j_star``: ``J_mean`` the mean J*
+    (over the episodes that have one), its CI and IQM, ``J_over_J_star`` 1 by construction,
+    ``success_rate`` J*'s own (:func:`oracle_success`) and ``terminated_rate`` its replay's —
+    each NaN unless known for every episode (``success_known``, ``terminated_known``: how
+    many are). The paper metrics of ``like`` (an agent's entry) are NaN but
+    ``final_error_deg`` (deg), which J*'s measurements give where known for every episode."""
+    if not any("j_star" in r for r in rows):
+        return None
+    episodes = list({r["seed"]: r for r in rows}.values())
+    n = len(episodes)
+    js = [float(r.get("j_star", float("nan"))) for r in episodes]
+    finite = [j for j in js if np.isfinite(j)]
+    deterministic = is_deterministic(finite)
+    lo, hi = (float("nan"), float("nan")) if deterministic else bootstrap_ci(finite)
+    success = [oracle_success(r, thresholds) for r in episodes]
+    ended = [_known_flag(r.get(f"{J_STAR_PREFIX}terminated")) for r in episodes]
+    known_success = [s for s in success if s is not None]
+    known_ended = [t for t in ended if t is not None]
+    entry: dict[str, Any] = {
+        "agent": ORACLE_AGENT,
+        "oracle": True,
+        "episodes": n,
+        "train_seeds": 0,
+        "J_mean": _finite_mean(finite),
+        "J_ci_low": lo,
+        "J_ci_high": hi,
+        "deterministic": deterministic,
+        "J_iqm": iqm(finite),
+        "success_rate": float(np.mean(known_success)) if len(known_success) == n else float("nan"),
+        "success_known": len(known_success),
+        "terminated_rate": float(np.mean(known_ended)) if len(known_ended) == n else float("nan"),
+        "terminated_known": len(known_ended),
+        "recovery_time_s": float("nan"),
+        "J_over_J_star": 1.0 if finite else float("nan"),
+        "J_over_J_star_ci_low": float("nan"),
+        "J_over_J_star_ci_high": float("nan"),
+        "J_over_J_star_median": 1.0 if finite else float("nan"),
+        "J_over_J_star_deterministic": bool(finite),
+        "J_over_J_star_episodes": len(finite),
+    }
+    for m in PAPER_METRICS:
+        if like is not None and m in like:
+            entry[m] = float("nan")
+    if "final_error_deg" in entry:
+        errors = [r.get(f"{J_STAR_PREFIX}final_error_deg") for r in episodes]
+        if all(e not in (None, "") and np.isfinite(float(e)) for e in errors):
+            entry["final_error_deg"] = _finite_mean(errors)
+    return entry
 
 
 def _flag(value: Any) -> bool:
@@ -208,24 +315,35 @@ def leaderboard_markdown(
         ]
         lines = [f"### {env} · {scenario} · fault: {fault}", "", "| " + " | ".join(head) + " |"]
         lines.append("|" + "---|" * len(head))
-        for i, e in enumerate(board, 1):
+        rank = 0
+        for e in board:
             flag = "" if e["episodes"] >= MIN_EPISODES else " (< 5 episodes)"
+            oracle = is_oracle(e)
+            rank += not oracle
             cells = [
-                str(i),
-                _agent_cell(e["agent"], notes.get(e["agent"])),
+                "—" if oracle else str(rank),
+                _agent_cell(e["agent"], None if oracle else notes.get(e["agent"])),
                 f"{e['episodes']}{flag}",
                 _fmt(e["J_mean"]),
                 _ci_cell(e),
                 _fmt(e["J_iqm"]),
                 _ratio_cell(e),
-                f"{100 * e['success_rate']:.0f} %",
-                f"{100 * e.get('terminated_rate', 0.0):.0f} %",
+                _rate_cell(e, "success_rate", "success_known", "J* success"),
+                _rate_cell(e, "terminated_rate", "terminated_known", "J* ended early"),
                 _fmt(e["recovery_time_s"]),
                 *[_fmt(e.get(m, float("nan"))) for m in extra],
             ]
             lines.append("| " + " | ".join(cells) + " |")
         parts.append("\n".join(lines))
     return "\n\n".join(parts) + "\n"
+
+
+def _rate_cell(e: Mapping[str, Any], rate: str, known: str, what: str) -> str:
+    """``20 %``, or for J*'s line with some episodes unknown ``— (J* success: 12 of 20 episodes known)``."""
+    value = float(e.get(rate, 0.0))
+    if np.isfinite(value):
+        return f"{100 * value:.0f} %"
+    return f"— ({what}: {e.get(known, 0)} of {e['episodes']} episodes known)"
 
 
 def _agent_cell(agent: str, note: str | None) -> str:
@@ -258,7 +376,13 @@ def _optimum_legend(rows: Sequence[Mapping[str, Any]]) -> list[str]:
         "missing": "not available",
     }
     got = "; ".join(f"{n} from {where[s]}" if s in ("table", "cache") else f"{n} {where[s]}" for s, n in counts.items())
-    return [DESCRIPTION, f"J* of this report's {len(episodes)} distinct episodes: {got}.", ""]
+    oracle = (
+        f"The line {ORACLE_AGENT} of each leaderboard is J* itself, unranked (no agent): J mean is the mean J*, "
+        "J / J* is 1 by construction, success is whether the optimum's own episode (its actions replayed) meets "
+        "the same criterion as the agents', and ended early is whether that replay terminated; — where J*'s "
+        "measurements are unknown for some episode (a J* solved before they were kept)."
+    )
+    return [DESCRIPTION, f"J* of this report's {len(episodes)} distinct episodes: {got}.", "", oracle, ""]
 
 
 def _plots():
@@ -274,7 +398,7 @@ def plot_leaderboard(boards, path: str | Path) -> Path:
     cells = list(boards)
     fig, axes = plt.subplots(len(cells), 1, figsize=(7.5, 2.4 * len(cells) + 0.6), squeeze=False)
     for ax, cell in zip(axes[:, 0], cells, strict=True):
-        board = boards[cell]
+        board = [e for e in boards[cell] if not is_oracle(e)]
         names = [e["agent"] for e in board]
         mean = np.array([e["J_mean"] for e in board])
         err = np.array([[e["J_mean"] - e["J_ci_low"], e["J_ci_high"] - e["J_mean"]] for e in board]).T
@@ -351,7 +475,7 @@ def write_report(
     """``report.md`` (metadata, leaderboards, figures), ``leaderboard.json`` and ``metadata.json``."""
     out_dir = Path(out_dir)
     notes = list(dict.fromkeys(notes))
-    boards = leaderboards(rows)
+    boards = leaderboards(rows, metadata.get("success_thresholds"))
     serial = [{"env": c[0], "scenario": c[1], "fault": c[2], "board": b} for c, b in boards.items()]
     atomic_write(out_dir / "leaderboard.json", json.dumps(serial, indent=2) + "\n")
     atomic_write(out_dir / "metadata.json", json.dumps(dict(metadata), indent=2, default=str) + "\n")
@@ -373,6 +497,9 @@ def write_report(
             lines.append(f"| {key} | {metadata[key]} |")
     for agent, budget in (metadata.get("training_budget") or {}).items():
         lines.append(f"| training budget: {agent} | {budget} |")
+    for agent, task in (metadata.get("training_task") or {}).items():
+        if task:
+            lines.append(f"| training task: {agent} | {task} |")
     for agent, model in (metadata.get("models") or {}).items():
         lines.append(f"| model: {agent} | {model} |")
     for env, criterion in (metadata.get("success_criteria") or {}).items():
@@ -468,31 +595,90 @@ def history_agents(
     analytic, trained = _best(board, False, learned, drift), _best(board, True, learned, drift)
     picked = [e["agent"] for e in (analytic, trained) if e is not None]
     if len(picked) < 2:
-        picked = [e["agent"] for e in board if e["agent"] not in drift][:2]
+        picked = [e["agent"] for e in board if e["agent"] not in drift and not is_oracle(e)][:2]
     return picked
+
+
+def _training_runs(result, agent) -> list[Path]:
+    """The run directories of a trained agent (one per training seed), sorted."""
+    jobs = episode_jobs(result.campaign, result.out_dir)
+    return sorted({Path(j["policy"]["model"]).parent.parent for j in jobs if j["key"]["agent"] == agent.name})
 
 
 def _training_summary(result, agent) -> str:
     """A trained agent's budget (``config.json`` of each run) and the snapshot its episodes
-    ran: ``best snapshot at N steps`` (per run, from ``best/best.json``) or ``final snapshot``."""
-    jobs = episode_jobs(result.campaign, result.out_dir)
-    runs = sorted({Path(j["policy"]["model"]) for j in jobs if j["key"]["agent"] == agent.name})
-    budgets, best_steps = set(), []
-    backends = set()
-    for model in runs:
-        config = model.parent.parent / "config.json"
+    ran: ``best snapshot at N steps`` (per run, from ``best/best.json``; ``0 (the untrained
+    policy)`` when training never beat it) or ``final snapshot``, with the validation J
+    (the run's own eval seeds, 10000+) of the best and of the final policy."""
+    budgets, best_steps, backends, validation = set(), [], set(), []
+    select = agent.train.get("select", "best")
+    for run in _training_runs(result, agent):
+        config = run / "config.json"
         if config.is_file():
             saved = json.loads(config.read_text())
             budgets.add(saved["total_timesteps"])
             backends.add(saved.get("backend", "sb3"))
-        best = model.parent / "best.json"
-        if model.parent.name == "best" and best.is_file():
-            best_steps.append(str(json.loads(best.read_text())["timesteps"]))
+        best = run / "best" / "best.json"
+        if select == "best" and best.is_file():
+            steps = json.loads(best.read_text())["timesteps"]
+            best_steps.append(f"{steps} (the untrained policy)" if steps == 0 else str(steps))
+        rows = _evaluation_rows(run)
+        if rows:
+            j_best, j_final = min(r[1] for r in rows), rows[-1][1]
+            validation.append(f"{_fmt(j_best)}/{_fmt(j_final)}")
     t = agent.train
     steps = ", ".join(map(str, sorted(budgets))) or t.get("timesteps", "file default")
     snapshot = f"best snapshot at {', '.join(best_steps)} steps" if best_steps else "final snapshot"
+    if validation:
+        snapshot += f"; validation J best/final per seed: {', '.join(validation)}"
     backend = "/".join(sorted(backends)) or t.get("backend", "sb3")
     return f"{t['algo']} ({backend}), {steps} steps × seeds {t.get('seeds', [0])}, evaluated: {snapshot}"
+
+
+def _evaluation_rows(run: Path) -> list[tuple[int, float]]:
+    """``(timesteps, J_mean)`` of a training run's ``evaluations.csv`` (empty without one)."""
+    path = run / "evaluations.csv"
+    if not path.is_file():
+        return []
+    rows = path.read_text(encoding="utf-8").splitlines()[1:]
+    return [(int(r.split(",")[0]), float(r.split(",")[1])) for r in rows if r]
+
+
+def _training_task(result, agent) -> str:
+    """What a trained agent learned on: its env id, decision period, discount and horizon
+    ``Δt/(1 − γ)``, episode (s and decisions), and its training wall time per seed (every
+    segment of a resumed run, ``timing.jsonl``; machine-dependent, so apart from the budget)."""
+    parts, walls = [], []
+    for run in _training_runs(result, agent):
+        config = run / "config.json"
+        if config.is_file() and not parts:
+            saved = json.loads(config.read_text())
+            parts.append(_task_text(saved["env_id"], saved["env_kwargs"], saved["hyperparams"]))
+        timing = run / "timing.jsonl"
+        if timing.is_file():
+            lines = [json.loads(x) for x in timing.read_text(encoding="utf-8").splitlines() if x.strip()]
+            walls.append(f"{sum(float(x['wall_time_s']) for x in lines):.0f} s")
+    if walls:
+        parts.append(f"training wall time per seed: {', '.join(walls)}")
+    return "; ".join(parts)
+
+
+def _task_text(env_id: str, env_kwargs: Mapping[str, Any], hyperparams: Mapping[str, Any]) -> str:
+    """``AirBearing-v1: decisions every 0.5 s, γ 0.96 (horizon 12.5 s), episodes of 20 s (40 decisions)``."""
+    env = gym.make(env_id, **{k: v for k, v in env_kwargs.items() if k != "faults"})
+    try:
+        base = env.unwrapped
+        dt = float(getattr(base, "control_dt_s", getattr(getattr(base, "model", None), "dt_s", float("nan"))))
+        length = getattr(base, "episode_duration_s", None)
+        if length is None:
+            length = base.episode_steps * base.model.dt_s
+    finally:
+        env.close()
+    gamma = float(hyperparams.get("gamma", 0.99))
+    return (
+        f"{env_id.split('/')[-1]}: decisions every {dt:g} s, γ {gamma:g} (horizon Δt/(1 − γ) = {dt / (1 - gamma):.3g} s), "
+        f"episodes of {float(length):g} s ({round(float(length) / dt)} decisions)"
+    )
 
 
 def snapshot_description(model: str | Path) -> str:
@@ -597,6 +783,7 @@ def write_campaign_report(result, video: bool | None = None, command: str | None
                     "episode videos off for this campaign (video: false; rendering a 60 s episode takes minutes)"
                 )
     budget = {a.name: _training_summary(result, a) for a in result.campaign.agents if a.train is not None}
+    tasks = {a.name: _training_task(result, a) for a in result.campaign.agents if a.train is not None}
     models = {
         a.name: f"{a.spec['model']} ({snapshot_description(a.spec['model'])})"
         for a in result.campaign.agents
@@ -613,6 +800,11 @@ def write_campaign_report(result, video: bool | None = None, command: str | None
         for fault, faults in e.faults.items():
             if faults:
                 definitions[f"fault: {e.name} · {fault}"] = f"`{json.dumps(faults)}`"
+    for a in result.campaign.agents:  # an agent's own task on the cells' episodes (J* stays the cell's)
+        if a.env_id is not None or a.env_kwargs:
+            own = [a.env_id.split("/")[-1]] if a.env_id is not None else []
+            own += [f"`{json.dumps(a.env_kwargs)}`"] if a.env_kwargs else []
+            definitions[f"agent task: {a.name}"] = f"plays the cells' episodes on {' '.join(own)}"
     metadata = {
         "campaign": result.campaign.name,
         "source": result.campaign.source,
@@ -625,8 +817,10 @@ def write_campaign_report(result, video: bool | None = None, command: str | None
         "wall_time_s": round(result.wall_time_s, 1),
         "wall_time_all_runs_s": _all_runs(result),
         "training_budget": budget,
+        "training_task": tasks,
         "models": models,
         "success_criteria": criteria,
+        "success_thresholds": campaign_thresholds(result.campaign),  # J*'s own success (leaderboards)
         "definitions": definitions,
         "trained": result.trained,
     }
@@ -640,7 +834,7 @@ def _best(
 ) -> Mapping[str, Any] | None:
     """The lowest-J entry among the learned (``trained``) or the other agents; free drift
     (``drift``: the agents with ``policy: zero``) is no controller."""
-    pick = [e for e in board if (e["agent"] in trained) == learned and e["agent"] not in drift]
+    pick = [e for e in board if (e["agent"] in trained) == learned and e["agent"] not in drift and not is_oracle(e)]
     return pick[0] if pick else None
 
 
@@ -677,7 +871,7 @@ def write_campaign_index(out_dir: str | Path, results: Sequence[tuple[str, Any]]
     lines += ["", "| campaign | env · scenario · fault | best analytic | best learned |", "|---|---|---|---|"]
     for name, result in results:
         trained, drift = learned_agents(result.campaign), free_drift_agents(result.campaign)
-        for cell, board in leaderboards(result.rows).items():
+        for cell, board in leaderboards(result.rows, campaign_thresholds(result.campaign)).items():
             analytic, learned = _best(board, False, trained, drift), _best(board, True, trained, drift)
             lines.append(f"| {name} | {' · '.join(cell)} | {_best_cell(analytic)} | {_best_cell(learned)} |")
     return atomic_write(out_dir / "index.md", "\n".join(lines) + "\n")

@@ -122,6 +122,7 @@ OUT_OF_RANGE = {
         "episode_steps": 0,
         "divergence_threshold": 0.0,
         "dt_s": 0.0,
+        "control_dt_s": 0.0,
     },
     "attitude_envs/FuelSlosh-v0": {
         "max_gimbal_deg": 91.0,

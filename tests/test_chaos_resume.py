@@ -206,7 +206,14 @@ def test_training_killed_anywhere_resumes_to_the_same_bytes(chaos, backend):
     tmp, results = chaos["training" if backend == "sb3" else "training-sbx"]
     ref, run = tmp / "reference", tmp / "killed"
     rows = (ref / "evaluations.csv").read_text().splitlines()
-    assert [r.split(",")[0] for r in rows] == ["timesteps", "500", "1000", "1500", "2000"]  # exactly the budget
+    assert [r.split(",")[0] for r in rows] == [
+        "timesteps",
+        "0",
+        "500",
+        "1000",
+        "1500",
+        "2000",
+    ]  # the initial policy, then the budget
     killed, steps, logs = zip(*results, strict=True)
     assert all(killed[:3]) and steps[0] == 0 and 0 < steps[1] < 2000 and 0 < steps[2] < 2000, steps
     assert steps[3] == 2000

@@ -110,6 +110,10 @@ def test_campaign_report_has_j_over_j_star_from_a_table(tmp_path, monkeypatch):
     lqr_line = next(line for line in report.splitlines() if " | lqr | " in line)
     ratio = lqr_line.split(" | ")[6]
     assert ratio != "—" and float(ratio.split()[0]) > 0
+    # J* itself, unranked and last; this table has no measurements: its success is unknown
+    assert board[-1]["agent"] == "J* (oracle)" and board[-1]["J_mean"] == 2.5
+    oracle_line = next(line for line in report.splitlines() if "| J* (oracle) |" in line)
+    assert oracle_line.startswith("| — |") and "— (J* success: 0 of 2 episodes known)" in oracle_line
     # the csv carries the columns too
     header = (tmp_path / "out" / "episodes.csv").read_text().splitlines()[0].split(",")
     assert {"j_star", "j_over_j_star", "j_star_source"} <= set(header)
@@ -139,6 +143,13 @@ def test_campaign_solves_j_star_once_per_episode_and_resumes(tmp_path, monkeypat
     assert len(lines) == 4
     again = run_campaign(config, tmp_path / "out", workers=1)  # resumed: nothing solved again
     assert len(calls) == 4 and [r["j_star"] for r in again.rows] == [r["j_star"] for r in first.rows]
+    # J*'s own outcome: measured on its replay, joined into every row, judged on the leaderboard
+    for r in again.rows:
+        assert r["j_star_metric"] == "final_error_deg" and r["j_star_terminated"] is False
+        assert r["j_star_final_error_deg"] >= 0.0
+    oracle = leaderboards(again.rows)[("rw", "random", "none")][-1]
+    met = [r["j_star_final_error_deg"] <= 2.0 for r in again.rows if r["fault"] == "none" and r["agent"] == "lqr"]
+    assert oracle["agent"] == "J* (oracle)" and oracle["success_rate"] == pytest.approx(np.mean(met))
 
 
 def test_optimum_config_is_validated():

@@ -46,7 +46,7 @@ def test_train_runs_on_the_native_batched_env_of_every_env_id(tmp_path, env_id):
     result = _train(tmp_path / "run", env_id)
     assert result.timesteps == 500 and np.isfinite(result.last_eval["J_mean"])
     rows = (tmp_path / "run" / "evaluations.csv").read_text().splitlines()
-    assert [r.split(",")[0] for r in rows[1:]] == ["250", "500"]
+    assert [r.split(",")[0] for r in rows[1:]] == ["0", "250", "500"]
     from experiments.sb3.checkpoint import read_checkpoint
 
     model = read_checkpoint(tmp_path / "run" / "checkpoints" / "step_000000000500")[0]

@@ -61,6 +61,7 @@ SAC_TINY = {
 
 
 def _sac(out, total, resume=False, seed=3):
+    # without the 0-step candidate: step 100 is then the best snapshot (the kill windows below)
     return train(
         "sac",
         RW,
@@ -71,6 +72,7 @@ def _sac(out, total, resume=False, seed=3):
         total_timesteps=total,
         checkpoint_freq=100,
         eval_freq=100,
+        evaluate_initial=False,
         eval_episodes=1,
         resume=resume,
     )
@@ -104,18 +106,19 @@ def test_segments_with_the_full_schedule_budget_train_as_one_run(tmp_path):
     bitwise one run. Without it, the first segment anneals to zero by its own end."""
     tiny = {**SAC_TINY, "learning_rate": "lin_1e-3"}
     common = dict(env_kwargs=SHORT, seed=3, overrides=tiny, checkpoint_freq=100, eval_freq=100, eval_episodes=1)
+    # 200 steps in two segments of 100 (learning starts at 50: both segments take gradient steps)
     reference = tmp_path / "one-run"
-    train("sac", RW, reference, total_timesteps=300, **common)
+    train("sac", RW, reference, total_timesteps=200, **common)
     segmented = tmp_path / "segments"
-    train("sac", RW, segmented, total_timesteps=200, schedule_timesteps=300, **common)
-    train("sac", RW, segmented, total_timesteps=300, schedule_timesteps=300, resume=True, **common)
+    train("sac", RW, segmented, total_timesteps=100, schedule_timesteps=200, **common)
+    train("sac", RW, segmented, total_timesteps=200, schedule_timesteps=200, resume=True, **common)
     _same_run(segmented, reference)
     sawtooth = tmp_path / "per-segment"
-    train("sac", RW, sawtooth, total_timesteps=200, **common)
-    train("sac", RW, sawtooth, total_timesteps=300, resume=True, **common)
+    train("sac", RW, sawtooth, total_timesteps=100, **common)
+    train("sac", RW, sawtooth, total_timesteps=200, resume=True, **common)
     assert _weights(sawtooth) != _weights(reference)
     with pytest.raises(ValueError, match="schedule_timesteps must be >= total_timesteps"):
-        train("sac", RW, tmp_path / "bad", total_timesteps=300, schedule_timesteps=200, **common)
+        train("sac", RW, tmp_path / "bad", total_timesteps=200, schedule_timesteps=100, **common)
 
 
 def test_resume_continues_a_killed_run_with_its_replay_buffer(tmp_path, sac_400):
@@ -197,6 +200,24 @@ def test_kill_around_a_checkpoint_resumes_to_the_same_run(tmp_path, monkeypatch,
     _same_run(out, sac_400)
 
 
+def test_the_initial_policy_is_the_first_candidate_for_the_best_snapshot(tmp_path):
+    """Evaluated at 0 steps: a run whose training never beats its untrained policy keeps that
+    one as its best snapshot (reports then say so) instead of its least bad trained policy;
+    training itself is the same bits as without the evaluation."""
+    options = dict(env_kwargs=SHORT, seed=3, overrides=SAC_TINY, total_timesteps=200, eval_episodes=1)
+    options |= dict(checkpoint_freq=100, eval_freq=100)
+    with_initial = train("sac", RW, tmp_path / "with", **options)
+    without = train("sac", RW, tmp_path / "without", evaluate_initial=False, **options)
+    rows = (tmp_path / "with" / "evaluations.csv").read_text().splitlines()
+    assert [r.split(",")[0] for r in rows[1:]] == ["0", "100", "200"]
+    assert rows[2:] == (tmp_path / "without" / "evaluations.csv").read_text().splitlines()[1:]
+    assert _weights(tmp_path / "with") == _weights(tmp_path / "without")
+    J = {int(r.split(",")[0]): float(r.split(",")[1]) for r in rows[1:]}
+    best = json.loads((tmp_path / "with" / "best" / "best.json").read_text())
+    assert best["timesteps"] == min(J, key=J.get) and best["J_mean"] == min(J.values())
+    assert with_initial.timesteps == without.timesteps == 200
+
+
 def test_resume_without_a_checkpoint_is_an_error(tmp_path):
     with pytest.raises(ValueError, match="no complete checkpoint"):
         _sac(tmp_path / "empty", 100, resume=True)
@@ -213,7 +234,11 @@ def test_budget_is_rounded_up_to_whole_rollouts_the_same_way_when_resumed(tmp_pa
     ref = ppo(tmp_path / "ref")
     assert ref.timesteps == 1200
     rows = (tmp_path / "ref" / "evaluations.csv").read_text().splitlines()
-    assert [r.split(",")[0] for r in rows[1:]] == ["600", "1200"]  # first rollout ends at or after 500, 1000
+    assert [r.split(",")[0] for r in rows[1:]] == [
+        "0",
+        "600",
+        "1200",
+    ]  # the initial policy; the first rollout ends at or after 500, 1000
     import shutil
 
     shutil.copytree(tmp_path / "ref", tmp_path / "killed")  # killed after the 600-step checkpoint

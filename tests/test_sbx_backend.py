@@ -105,7 +105,7 @@ def test_sbx_sac_resumes_a_killed_run_bitwise(tmp_path, monkeypatch):
     resumed = train("sac", RW, tmp_path / "killed", resume=True, **without_backend)  # keeps the run's backend
     assert resumed.resumed_from == 400
     ref_csv = (tmp_path / "reference" / "evaluations.csv").read_text()
-    assert (tmp_path / "killed" / "evaluations.csv").read_text() == ref_csv and ref_csv.count("\n") == 4
+    assert (tmp_path / "killed" / "evaluations.csv").read_text() == ref_csv and ref_csv.count("\n") == 5
     obs = np.random.default_rng(0).normal(size=(16, 6)).astype(np.float32)
     same = [load_trained(r.model_path).predict(obs, deterministic=True)[0] for r in (reference, resumed)]
     assert np.array_equal(*same)

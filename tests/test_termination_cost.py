@@ -64,10 +64,13 @@ def _terminal_error_state(env, info) -> np.ndarray:
     return env.model.error_state(s["attitude"], s["rate_rad_s"], s["wheel_speed_rad_s"], s["target_attitude"])
 
 
+@pytest.mark.parametrize("mode", ["hold", "episode"])
 @pytest.mark.parametrize("case", sorted(CASES))
-def test_a_limit_crossing_is_charged_the_terminal_running_cost_over_the_rest(case):
+def test_a_limit_crossing_is_charged_the_terminal_running_cost_over_the_rest(case, mode):
+    """``"hold"``: over the rest of the horizon, ``(T − t)·xᵀQx``; ``"episode"`` (the v1 envs):
+    over a whole episode, ``T·xᵀQx``."""
     env_id, kwargs, action, max_steps = CASES[case]
-    env, held, terminated = _run(env_id, kwargs, action, max_steps)
+    env, held, terminated = _run(env_id, dict(kwargs, termination_cost=mode), action, max_steps)
     assert terminated, f"{case}: the action should cross a limit within {max_steps} steps"
     _, free, terminated_free = _run(env_id, dict(kwargs, termination_cost="none"), action, max_steps)
     assert terminated_free and len(free) == len(held)
@@ -79,6 +82,8 @@ def test_a_limit_crossing_is_charged_the_terminal_running_cost_over_the_rest(cas
     else:
         remaining = env.episode_duration_s - held[-1]["time_s"]
     assert remaining > 0
+    if mode == "episode":
+        remaining = env.episode_steps if env.env_name == "LinearSystem-v0" else env.episode_duration_s
     charge = float(x @ env.model.cost.Q @ x) * remaining if env.env_name != "LinearSystem-v0" else None
     if charge is None:
         charge = float(x @ env.cost.Q @ x) * remaining
@@ -117,7 +122,7 @@ def test_batched_envs_charge_the_single_envs_bits(case):
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_termination_cost_rejects_unknown_modes_by_name(case):
     env_id, kwargs, _, _ = CASES[case]
-    with pytest.raises(ValueError, match=r"termination_cost must be one of \['hold', 'none'\], got 'zero'"):
+    with pytest.raises(ValueError, match=r"termination_cost must be one of \['episode', 'hold', 'none'\], got 'zero'"):
         gym.make(env_id, **kwargs, termination_cost="zero")
 
 

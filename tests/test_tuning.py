@@ -59,8 +59,10 @@ def test_tune_rejects_bad_arguments_by_name(tmp_path):
 def test_tune_command_line(tmp_path, capsys):
     out = tmp_path / "cli"
     argv = ["tune", "--algo", "ppo", "--env", ENV, "--env-kwargs", "{episode_steps: 50}", "--out", str(out)]
-    argv += ["--trials", "1", "--timesteps", "2000", "--evaluations", "1", "--eval-episodes", "2", "--backend", "sb3"]
-    argv += ["--params", "n_envs:1", "batch_size:64"]
+    # the fixed --params win over the sampled ones (n_steps and n_epochs too: two short rollouts of one
+    # epoch, not up to 2000 steps x 20 epochs); what is checked is the command line, not the search
+    argv += ["--trials", "1", "--timesteps", "512", "--evaluations", "1", "--eval-episodes", "2", "--backend", "sb3"]
+    argv += ["--params", "n_envs:1", "batch_size:64", "n_steps:256", "n_epochs:1"]
     assert main(argv) == 0
     printed = capsys.readouterr().out
     assert "1 trials complete, 0 pruned" in printed and "best eval J = " in printed

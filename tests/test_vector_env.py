@@ -104,8 +104,11 @@ def test_sub_envs_match_single_envs_bitwise_in_every_kernel_path(kwargs):
     assert ended >= n
 
 
-def test_linear_system_batch_matches_single_envs_across_autoreset_with_noise():
+@pytest.mark.parametrize("control_dt_s", [None, 0.03], ids=["k1", "k3"])
+def test_linear_system_batch_matches_single_envs_across_autoreset_with_noise(control_dt_s):
     kwargs = {"x0_std": 0.1, "process_noise_std": 0.01, "episode_steps": 5}
+    if control_dt_s is not None:  # 3 plant steps of 0.01 s per decision (LinearSystem's decision period)
+        kwargs |= {"dt_s": 0.01, "control_dt_s": control_dt_s, "episode_steps": 15}
     n = 3
     vec = gym.make_vec("attitude_envs/LinearSystem-v0", num_envs=n, vectorization_mode="vector_entry_point", **kwargs)
     singles = [gym.make("attitude_envs/LinearSystem-v0", **kwargs).unwrapped for _ in range(n)]
@@ -222,9 +225,12 @@ def test_sb3_trains_directly_on_the_batched_env():
     assert model.num_timesteps >= 256
 
 
+@pytest.mark.parametrize("control_dt_s", [None, 5.0], ids=["k1", "k500"])
 @pytest.mark.parametrize("noise", [0.0, 0.01])
-def test_linear_system_batch_matches_single_envs_bitwise(noise):
+def test_linear_system_batch_matches_single_envs_bitwise(noise, control_dt_s):
     kwargs = {"x0_std": 0.1, "process_noise_std": noise, "episode_steps": 15}
+    if control_dt_s is not None:  # heravi-2017 (dt_s 0.01 s) deciding every 5 s: 500 plant steps
+        kwargs |= {"control_dt_s": control_dt_s, "episode_steps": 7500}
     n = 3
     vec = gym.make_vec("attitude_envs/LinearSystem-v0", num_envs=n, vectorization_mode="vector_entry_point", **kwargs)
     singles = [gym.make("attitude_envs/LinearSystem-v0", **kwargs).unwrapped for _ in range(n)]

@@ -23,11 +23,14 @@ class NominalModel(NamedTuple):
 
 
 def reporting_model(env, input_map) -> NominalModel | None:
-    """Discrete (A, B) and stage-cost weights (Q, R, N) of the env's nominal model, in the
+    """Discrete (A, B) and stage-cost weights (Q, R, N) of the env's nominal model of its
+    decision period (``env.unwrapped.decision_model`` where the env has one), in the
     learner's input coordinates ``v`` (actuators ``u = M v``: ``B M``, ``MᵀRM``, ``N M``), for
     the spectral-radius diagnostic and the reference optimum of
     :meth:`agents.QLearningLQR.compare_with_certainty_equivalence` only."""
-    model = getattr(env.unwrapped, "model", None)
+    # LinearSystem-v0's decision-period model (input held over control_dt_s; its ``model``
+    # when one plant step is one decision): the transitions the learner sees
+    model = getattr(env.unwrapped, "decision_model", None) or getattr(env.unwrapped, "model", None)
     try:
         if model is not None and hasattr(model, "A") and getattr(model, "dt_s", None) is not None:
             lin = model

@@ -114,7 +114,7 @@ class AirBearingEnv(ReactionWheelEnv):
     ``success_metric`` is ``FINAL_ERROR_DEG``, the final attitude error angle (deg, default
     threshold 2°).
 
-    **Version history.** v0: a limit crossing charged the terminal running cost over the rest of the episode (``termination_cost``, 2026-11); the paper's platform as ReactionWheel-v0's gyrostat with the
+    **Version history.** v1 (``attitude_envs/AirBearing-v1``, 2026-11-27): the learning task — decisions every 0.5 s over the same 0.01 s RK4 physics (40 per 20 s episode) and a limit crossing charged ``T·xᵀQx`` (``termination_cost="episode"``); the plant, the episodes and J are v0's. v0: a limit crossing charged the terminal running cost over the rest of the episode (``termination_cost``, 2026-11); the paper's platform as ReactionWheel-v0's gyrostat with the
     offset torque and tilt stop in the compiled step; a natively batched env; the preset
     through :mod:`attitude_envs.presets`; infos split into ``truth`` and ``measured``.
     """

@@ -45,7 +45,7 @@ _NOT_KEYWORDS = {"self", "preset", "__class__", "render_mode"}
 
 #: the accepted values of every env's ``termination_cost`` keyword (see
 #: :meth:`AttitudeEnv.batch_termination_cost`)
-TERMINATION_COSTS = ("hold", "none")
+TERMINATION_COSTS = ("hold", "episode", "none")
 
 
 @functools.cache
@@ -139,6 +139,10 @@ class AttitudeEnv(gym.Env):
     #: takes :func:`~attitude_envs.evaluation.metrics.episode_metrics`; else
     #: :func:`~attitude_envs.evaluation.trace.record_state_trace` only
     wheel_trace: ClassVar[bool] = False
+    #: the keywords that pose the learning task on the same episodes: how often the agent
+    #: decides and what a limit crossing costs, not the plant, its draws or the running cost
+    #: (an agent in a campaign may set them on a cell's episodes; the ``-v1`` ids change them)
+    task_keywords: ClassVar[frozenset[str]] = frozenset({"control_dt_s", "termination_cost"})
     #: why ``step`` may not simply go on: "not reset" (until the first reset), "terminated"
     #: or "truncated" (the episode ended), "warned" (and the warning was given); None while
     #: an episode runs
@@ -217,21 +221,32 @@ class AttitudeEnv(gym.Env):
     def batch_termination_cost(self, x: np.ndarray, elapsed: np.ndarray) -> np.ndarray:
         """The cost charged on the step that ends an episode by crossing a limit, for rows
         ``x`` (E × n) of true error states at that step and the time ``elapsed`` (E; s, or
-        steps for a discrete-time env) at its end: with ``termination_cost="hold"`` the
-        running state cost ``xᵀQx`` held over the rest of the horizon, ``(T − t) xᵀQx``;
-        with ``"none"`` zeros.
+        steps for a discrete-time env) at its end, by ``termination_cost``:
 
-        Without it a terminated episode costs nothing more, so an agent maximizing the
+        * ``"hold"`` (the v0 envs): the running state cost ``xᵀQx`` held over the rest of
+          the horizon, ``(T − t) xᵀQx``;
+        * ``"episode"`` (the v1 envs): ``xᵀQx`` held over a whole episode, ``T xᵀQx``;
+        * ``"none"``: zeros.
+
+        Without a charge a terminated episode costs nothing more, so an agent maximizing the
         return −J learns to cross a limit early (the learned agents on FuelSlosh-v0 did,
-        within 1–3 steps). Holding the terminal state prices the rest of the horizon at the
-        state the episode ended in, in the units of J. Each row is summed on its own, so
-        the single and the batched envs charge the same bits."""
+        within 1–3 steps). ``"hold"`` prices the rest of the horizon at the state the episode
+        ended in, which is what the undiscounted J of holding that state would add; but a
+        learner that bootstraps its value at the time limit (PPO, SAC) values holding a
+        state of running cost ``c`` at ``c·Δt/(1 − γ)`` at every time, and ``(T − t)·c``
+        falls below that near the end of the episode, so there a crossing pays in its
+        objective. ``"episode"`` charges ``T·c``: at least the rest of the horizon at every
+        ``t``, and at least ``c·Δt/(1 − γ)`` for every discount whose horizon ``Δt/(1 − γ)``
+        is at most the episode ``T`` (every shipped recipe's is: a test checks). Each row is
+        summed on its own, so the single and the batched envs charge the same bits."""
         x = np.ascontiguousarray(x, dtype=float)  # one memory layout: the same products' bits
         out = np.zeros(len(x))
-        if self.termination_cost == "hold":
-            for i in range(len(x)):
-                row = x[i]
-                out[i] = float(row @ self._hold_q @ row) * max(self._horizon - float(elapsed[i]), 0.0)
+        if self.termination_cost == "none":
+            return out
+        for i in range(len(x)):
+            row = x[i]
+            held = self._horizon if self.termination_cost == "episode" else max(self._horizon - float(elapsed[i]), 0.0)
+            out[i] = float(row @ self._hold_q @ row) * held
         return out
 
     # ------------------------------------------------------------------ episode

@@ -107,7 +107,7 @@ class FuelSloshEnv(AttitudeEnv):
     ``sensors``                 dict             None         —         ``{"state": {...}}``, :mod:`attitude_envs.sensors`
     ``fault_hint``              bool             False        —         append the active-fault flags
     ``termination_cost``        str              "hold"       —         ``"hold"``: charge a limit crossing (see
-                                                                        Episode end); ``"none"``: no charge
+                                                                        Episode end); ``"episode"`` (v1): ``T·xᵀQx``; ``"none"``: none
     ``fill_preset``             str              None         —         deprecated: ``preset="i"`` … ``"iv"``
     ==========================  ===============  ===========  ========  ==========================================
 
@@ -143,7 +143,7 @@ class FuelSloshEnv(AttitudeEnv):
     ``FINAL_STATE_FRACTION``, the norm of the true reduced state ``truth["x"]`` at the end
     over its norm at the start (default threshold 0.1).
 
-    **Version history.** v0: a limit crossing charged the terminal running cost over the rest of the episode (``termination_cost``, 2026-11); the full 5-DOF plant with one compiled RK4 step; presets
+    **Version history.** v1 (``attitude_envs/FuelSlosh-v1``, 2026-11-27): the learning task — decisions every 0.25 s over the same 0.05 s RK4 physics, 100 s episodes from random starts within the paper's magnitudes (``randomize_initial_state``; 400 decisions) and a limit crossing charged ``T·xᵀQx`` (``termination_cost="episode"``); the plant and J are v0's. v0: a limit crossing charged the terminal running cost over the rest of the episode (``termination_cost``, 2026-11); the full 5-DOF plant with one compiled RK4 step; presets
     ``navabi-fill-i`` … ``-iv`` replace ``fill_preset`` (kept, deprecated); infos follow
     the truth/measured contract; ``new_inputs`` moved from the top level to
     ``truth["new_inputs"]`` (it is truth-derived: it reveals actuator faults).

@@ -13,7 +13,7 @@ from attitude_envs.cost import QuadraticCost
 from attitude_envs.envs.base import AttitudeEnv
 from attitude_envs.evaluation.success import FINAL_STATE_FRACTION
 from attitude_envs.linearization import LinearModel
-from attitude_envs.plants import linear_kernels
+from attitude_envs.plants import linear_hold, linear_kernels
 from attitude_envs.sensors import Channel
 
 ENV = "LinearSystem-v0"
@@ -31,7 +31,8 @@ DEFAULT_PRESET = _DefaultPreset()
 
 
 class LinearSystemEnv(AttitudeEnv):
-    """Discrete linear plant ``x⁺ = A x + B u + w`` with stage cost ``xᵀQx + uᵀRu``.
+    """Discrete linear plant ``x⁺ = A x + B u + w`` with stage cost ``xᵀQx + uᵀRu``, the
+    input held over ``k = control_dt_s / dt_s`` plant steps per decision.
 
     **Description.** A learner's test bench: the plant is exactly linear and known (the
     model's Riccati solution is the optimal controller), so a model-free learner can be
@@ -40,25 +41,41 @@ class LinearSystemEnv(AttitudeEnv):
     Euler (eqs. 61–62) with Δt = 0.01 s; any ``A``, ``B`` can be given instead. One
     compiled call per step (:func:`attitude_envs.plants.linear_kernels.linear_step`).
 
+    **Decision period.** The matrices are the plant over ``dt_s``; the agent acts every
+    ``control_dt_s = k · dt_s`` (default ``dt_s``, k = 1) and its input is held (zero-order
+    hold) over the k plant steps. A step applies the exact discretization
+    ``x⁺ = Aᵏ x + (Σ_{i<k} Aⁱ) B u`` and charges the exact sum of the k plant steps' stage
+    costs, ``xᵀQ_k x + 2xᵀN_k u + uᵀR_k u`` (:func:`attitude_envs.plants.linear_hold.hold_model`,
+    precomputed once; the matrices are ``env.unwrapped.decision_model``), so J of a
+    piecewise-constant input is the same quantity at every k. With process noise and k > 1
+    the k plant steps are taken one by one in one compiled call
+    (:func:`attitude_envs.plants.linear_hold.noisy_held_steps`, k draws of ``w``), bitwise the
+    k = 1 env fed the held action.
+
     **Action space.** ``Box(-1, 1, (m,), float32)``, clipped (saturation); the physical
     input is ``u = action_scale · a``.
 
     **Observation space.** float32 ``x`` (n) of the float64 state, measured when sensors
     are on; with ``fault_hint`` m + 1 flags in [0, 1] appended (actuators, then the
     ``state`` sensor). Bounds: ``‖A‖∞ · divergence_threshold + ‖B‖∞ · max(action_scale)
-    + 10 · process_noise_std`` (what one step can reach from a non-terminated state).
+    + 10 · process_noise_std`` (what one step can reach from a non-terminated state), with
+    k > 1 ``‖Aᵏ‖∞ · divergence_threshold + ‖B_k‖∞ · max(action_scale) + 10 · process_noise_std
+    · Σ_{i<k} ‖Aⁱ‖∞``.
 
     **Reward.** ``−(xᵀQx + uᵀRu)`` with ``x`` the state the step starts from and ``u`` the
-    applied input.
+    applied input; with k > 1 the sum of the k plant steps' such costs,
+    ``−(xᵀQ_k x + 2xᵀN_k u + uᵀR_k u)`` (see Decision period).
 
     **Starting state.** ``x0 ~ N(x0_mean, diag(x0_std²))`` from the env's RNG, or
     ``reset(options={"state": x0, "faults": [...]})``.
 
     **Episode end.** Terminated when ``‖x‖∞ > divergence_threshold`` or the state is not
-    finite (the observation is then zeros); truncated after ``episode_steps`` steps. A
-    finite step that crosses the threshold is charged, on top of its cost, the terminal
-    state's ``xᵀQx`` once per remaining step, ``(episode_steps − k) xᵀQx``
-    (``termination_cost="hold"``; ``"none"``: nothing more).
+    finite (the observation is then zeros), checked at the end of each env step (after its
+    k plant steps); truncated after ``episode_steps`` plant steps (``episode_steps / k`` env
+    steps). A finite step that crosses the threshold is charged, on top of its cost, the
+    terminal state's ``xᵀQx`` once per remaining plant step, ``(episode_steps − t) xᵀQx``
+    with ``t`` the plant steps elapsed (``termination_cost="hold"``; ``"episode"``:
+    ``episode_steps · xᵀQx``; ``"none"``: nothing more).
 
     **Arguments** (None takes the preset's value, or the neutral default without preset):
 
@@ -72,15 +89,20 @@ class LinearSystemEnv(AttitudeEnv):
     ``x0_mean``               n floats        preset / 0   state   mean initial state
     ``x0_std``                float or n      preset / 1   state   initial-state standard deviation (≥ 0)
     ``process_noise_std``     float ≥ 0       0            state   ``w ~ N(0, process_noise_std²)`` per entry
+                                                                   and plant step
     ``action_scale``          float or m > 0  preset / 1   input   physical input of a unit action
-    ``episode_steps``         int ≥ 1         1000         steps   time limit
+    ``episode_steps``         int ≥ 1         1000         steps   time limit, plant steps of dt_s (a multiple
+                                                                   of k): ``episode_steps · dt_s`` s
     ``divergence_threshold``  float > 0       1e6          state   termination limit on ‖x‖∞
     ``dt_s``                  float > 0       preset / 1   s       the period the matrices represent (time_s)
-    ``faults``                list of dicts   None         —       :mod:`attitude_envs.faults` (time = steps·dt_s)
+    ``control_dt_s``          float > 0       ``dt_s``     s       decision period, a whole multiple k·dt_s
+                                                                   (k ≥ 1; input held over k plant steps)
+    ``faults``                list of dicts   None         —       :mod:`attitude_envs.faults` (time = plant
+                                                                   steps·dt_s, taken at each decision)
     ``sensors``               dict            None         —       ``{"state": {...}}``, :mod:`attitude_envs.sensors`
     ``fault_hint``            bool            False        —       append the active-fault flags
-    ``termination_cost``      str             "hold"       —       ``"hold"``: charge a divergence (see Episode
-                                                                   end); ``"none"``: no charge
+    ``termination_cost``      str             "hold"       —       ``"hold"``/``"episode"``: charge a divergence
+                                                                   (see Episode end); ``"none"``: no charge
     ========================  ==============  ===========  ======  ==============================================
 
     **Presets.** ``heravi-2017`` (default): Heravi & Novinzadeh
@@ -104,18 +126,24 @@ class LinearSystemEnv(AttitudeEnv):
     faults at the observation time), ``sensor_bias`` (with sensors). ``measured``: the
     measurement of ``truth["state"]``, the one in the observation (sensors are only sampled
     at observation times; with sensors off it equals ``truth["state"]``). Top level:
-    ``cost``, ``time_s`` (steps · dt_s), ``commanded`` (``action_scale ·`` the clipped
-    action, before faults) and, with sensors, ``sensors`` (``{"state": reading}``).
+    ``cost``, ``time_s`` (plant steps · dt_s), ``commanded`` (``action_scale ·`` the clipped
+    action, before faults) and, with sensors, ``sensors`` (``{"state": reading}``). An
+    actuator fault is applied as it is at the decision time (plant steps · dt_s) and held
+    over the decision period, like the input.
 
-    ``env.unwrapped.model`` is the :class:`LinearModel` (A, B, Q, R, dt_s). The batched env
-    uses the public members :attr:`state`, :attr:`process_noise_std`, :attr:`action_scale`,
-    :attr:`cost`, :attr:`episode_steps`, :attr:`divergence_threshold` and the base's
-    ``fault_layer``.
+    ``env.unwrapped.model`` is the :class:`LinearModel` of the plant step (A, B, Q, R, dt_s);
+    ``env.unwrapped.decision_model`` the one of the decision period (``Aᵏ``, ``B_k``, ``Q_k``,
+    ``R_k``, ``N_k``, ``control_dt_s``; ``model`` itself when k = 1), the model a controller
+    acting every ``control_dt_s`` designs for; ``env.unwrapped.control_dt_s`` (s) and
+    ``env.unwrapped.decision_steps`` (k). The batched env uses the public members
+    :attr:`state`, :attr:`process_noise_std`, :attr:`action_scale`, :attr:`cost`,
+    :attr:`decision_model`, :attr:`decision_steps`, :attr:`episode_steps`,
+    :attr:`divergence_threshold` and the base's ``fault_layer``.
 
     **Success** (:mod:`attitude_envs.evaluation.success`): ``success_metric`` is
     ``FINAL_STATE_FRACTION``, ‖x‖ at the end over ‖x‖ at the start (default threshold 0.1).
 
-    **Version history.** v0: a limit crossing charged the terminal running cost over the rest of the episode (``termination_cost``, 2026-11); presets through :mod:`attitude_envs.presets` (``"spec-001"`` is
+    **Version history.** v1 (``attitude_envs/LinearSystem-v1``, 2026-11-27): the learning task — Heravi & Novinzadeh 2017's 400 s regulation (``preset="heravi-2017"``, ``episode_steps=40000``) decided every 5 s (``control_dt_s``: the exact 500-step hold of the 0.01 s model, the same J) and a divergence charged ``T·xᵀQx`` (``termination_cost="episode"``). v0: a limit crossing charged the terminal running cost over the rest of the episode (``termination_cost``, 2026-11); presets through :mod:`attitude_envs.presets` (``"spec-001"`` is
     an alias of ``heravi-2017``); a user's ``A``/``B`` no longer inherit the default
     preset's ``x0_mean`` and ``action_scale``; infos follow the truth/measured contract
     (``truth["state"]`` is the state after the step, ``truth["previous_state"]`` the one
@@ -141,6 +169,7 @@ class LinearSystemEnv(AttitudeEnv):
         episode_steps: int = 1000,
         divergence_threshold: float = 1e6,
         dt_s: float | None = None,
+        control_dt_s: float | None = None,
         faults: list[dict] | None = None,
         sensors: dict | None = None,
         fault_hint: bool = False,
@@ -180,7 +209,18 @@ class LinearSystemEnv(AttitudeEnv):
         self.action_scale = np.broadcast_to(scale, (m,)).copy() if scale.ndim == 0 else scale
         if self.action_scale.shape != (m,) or np.any(self.action_scale <= 0):
             raise ValueError(f"action_scale must be > 0, a scalar or length {m}, got {scale.tolist()}")
+        #: the decision period (s), k = ``decision_steps`` plant steps of ``dt_s``
+        self.control_dt_s = dt if cfg.get("control_dt_s") is None else decision_period(cfg["control_dt_s"], dt)
+        #: plant steps per env step, k = control_dt_s / dt_s (the input is held over them)
+        self.decision_steps = round(self.control_dt_s / dt)
+        #: the model of the decision period (input held over k plant steps; ``model`` when k = 1)
+        self.decision_model = linear_hold.hold_model(self.model, self.decision_steps)
         self.episode_steps = validation.integer("episode_steps", episode_steps, 1)
+        if self.episode_steps % self.decision_steps:
+            raise ValueError(
+                f"episode_steps must be a multiple of the plant steps per decision k = control_dt_s / dt_s = "
+                f"{self.control_dt_s:g} / {dt:g} = {self.decision_steps}, got episode_steps={self.episode_steps}"
+            )
         self.divergence_threshold = validation.positive("divergence_threshold", divergence_threshold)
         self._init_termination_cost(termination_cost, cost.Q, self.episode_steps)
         if render_mode is not None:
@@ -194,11 +234,19 @@ class LinearSystemEnv(AttitudeEnv):
             sensors=sensors,
             fault_hint=fault_hint,
         )
-        # |x⁺|∞ <= ‖A‖∞ |x|∞ + ‖B‖∞ |u|∞ (+ noise, 10σ margin) while |x|∞ <= divergence_threshold.
+        # |x⁺|∞ <= ‖A‖∞ |x|∞ + ‖B‖∞ |u|∞ (+ noise, 10σ margin) while |x|∞ <= divergence_threshold;
+        # over k held steps A_k = Aᵏ, B_k and the noise Σ_{i<k} Aⁱ w_{k−1−i}.
+        held = self.decision_model
+        noise_gain = 1.0
+        if self.decision_steps > 1 and self.process_noise_std > 0:
+            noise_gain, power = 0.0, np.eye(n)
+            for _ in range(self.decision_steps):  # construction only: Σ_{i<k} ‖Aⁱ‖∞
+                noise_gain += float(np.linalg.norm(power, np.inf))
+                power = a_mat @ power
         bound = (
-            self.divergence_threshold * max(1.0, np.linalg.norm(a_mat, np.inf))
-            + np.linalg.norm(b_mat, np.inf) * float(np.max(self.action_scale))
-            + 10.0 * self.process_noise_std
+            self.divergence_threshold * max(1.0, np.linalg.norm(held.A, np.inf))
+            + np.linalg.norm(held.B, np.inf) * float(np.max(self.action_scale))
+            + 10.0 * self.process_noise_std * noise_gain
         )
         low, high = self._hint_bounds(np.full(n, -bound), np.full(n, bound))
         self.observation_space = spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
@@ -239,11 +287,21 @@ class LinearSystemEnv(AttitudeEnv):
         u = self._deliver(commanded, t_s)
         x = self._x
         x_next = np.empty_like(x)
-        cost = linear_kernels.linear_step(x, u, self.model.A, self.model.B, self.cost.Q, self.cost.R, x_next)
-        if self.process_noise_std > 0:
-            x_next = x_next + self.process_noise_std * self.np_random.normal(size=self.model.n)
+        k, noisy = self.decision_steps, self.process_noise_std > 0
+        if k == 1:
+            cost = linear_kernels.linear_step(x, u, self.model.A, self.model.B, self.cost.Q, self.cost.R, x_next)
+            if noisy:
+                x_next = x_next + self.process_noise_std * self.np_random.normal(size=self.model.n)
+        elif noisy:  # the k plant steps one by one, each with its draw of w
+            noise = self.process_noise_std * self.np_random.normal(size=(k, self.model.n))
+            cost = linear_hold.noisy_held_steps(
+                x, u, self.model.A, self.model.B, self.cost.Q, self.cost.R, noise, x_next
+            )
+        else:  # exact discretization over the decision period
+            d = self.decision_model
+            cost = linear_hold.held_step(x, u, d.A, d.B, d.Q, d.N, d.R, x_next)
         self._x = x_next
-        self._steps += 1
+        self._steps += k  # plant steps: time, fault onsets, time limit and termination charge
         t_next = self._steps * self.model.dt_s
         finite = bool(np.isfinite(x_next).all())
         terminated = not finite or bool(np.abs(x_next).max() > self.divergence_threshold)
@@ -270,3 +328,16 @@ class LinearSystemEnv(AttitudeEnv):
         info = self._make_info(truth=truth, measured=measured, cost=cost, time_s=t_next, **public)
         obs = self._with_hint(measured, t_next) if finite else np.zeros(self.observation_space.shape, np.float32)
         return obs, -cost, terminated, truncated, info
+
+
+def decision_period(control_dt_s: float, dt_s: float) -> float:
+    """``control_dt_s`` (s) checked to be a whole multiple ``k ≥ 1`` of ``dt_s`` (s; relative
+    tolerance 1e-9); a ``ValueError`` naming both and the accepted values otherwise."""
+    value = validation.positive("control_dt_s", control_dt_s)
+    k = round(value / dt_s)
+    if k < 1 or abs(k * dt_s - value) > 1e-9 * value:
+        raise ValueError(
+            f"control_dt_s must be a whole multiple k >= 1 of dt_s={dt_s:g} (k·{dt_s:g} s: {dt_s:g}, "
+            f"{2 * dt_s:g}, {3 * dt_s:g}, ...), got {control_dt_s!r}"
+        )
+    return value

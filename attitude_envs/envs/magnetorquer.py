@@ -192,7 +192,7 @@ class MagnetorquerEnv(AttitudeEnv):
     ``sensors``                      dict          None                —         :mod:`attitude_envs.sensors`
     ``fault_hint``                   bool          False               —         append the 8 active-fault flags
     ``termination_cost``             str           "hold"              —         ``"hold"``: charge tumbling (see Episode
-                                                                                 end); ``"none"``: no charge
+                                                                                 end); ``"episode"`` (v1): ``T·xᵀQx``; ``"none"``: none
     ===============================  ============  ==================  ========  ==========================================
 
     **Presets.** ``"sadigh-2022"`` (default): the paper's spacecraft, orbit and actuators
@@ -232,7 +232,7 @@ class MagnetorquerEnv(AttitudeEnv):
     ``FINAL_ERROR_DEG``, the final attitude error angle to the reference (deg, default
     threshold 2°).
 
-    **Version history.** v0: a limit crossing charged the terminal running cost over the rest of the episode (``termination_cost``, 2026-11); the plant, orbit, field and reference of the paper; ``info``
+    **Version history.** v1 (``attitude_envs/Magnetorquer-v1``, 2026-11-27): the learning task — decisions every 10 s over 0.5 s RK4 sub-steps, 300 s of the slew (30 decisions), the geomagnetic field in the observation (``observe_field``: the only torque is m × b) and a limit crossing charged ``T·xᵀQx`` (``termination_cost="episode"``); the plant, orbit, field and J are v0's. v0: a limit crossing charged the terminal running cost over the rest of the episode (``termination_cost``, 2026-11); the plant, orbit, field and reference of the paper; ``info``
     split into ``truth`` and ``measured`` (:mod:`attitude_envs.info`), the paper's values
     as presets.
     """
@@ -241,6 +241,8 @@ class MagnetorquerEnv(AttitudeEnv):
     default_preset = "sadigh-2022"
     success_metric = FINAL_ERROR_DEG
     metadata = {"render_modes": []}
+
+    task_keywords = AttitudeEnv.task_keywords | {"observe_field"}
 
     def __init__(
         self,

@@ -175,7 +175,7 @@ class ReactionWheelEnv(AttitudeEnv):
     ``fault_hint``              bool        False             —           append N + 3 active-fault flags to the observation
     ``termination_cost``        str         "hold"            —           ``"hold"``: a limit crossing is charged the
                                                                           terminal running cost over the rest (see Episode
-                                                                          end); ``"none"``: no charge
+                                                                          end); ``"episode"`` (v1): ``T·xᵀQx``; ``"none"``: no charge
     ``render_mode``             str         None              —           ``"rgb_array"`` or ``"human"`` (matplotlib)
     ==========================  ==========  ================  ==========  ==================================================
 
@@ -222,7 +222,7 @@ class ReactionWheelEnv(AttitudeEnv):
     ``FINAL_ERROR_DEG``, the final attitude error angle (deg, default threshold 2°);
     ``wheel_trace`` is True (episodes record as an ``EpisodeTrace``).
 
-    **Version history.** v0: a limit crossing charged the terminal running cost over the rest of the episode (``termination_cost``, 2026-11); the exact gyrostat with RK4 sub-steps and the integrated
+    **Version history.** v1 (``attitude_envs/ReactionWheel-v1``, 2026-11-27): a limit crossing charged ``T·xᵀQx`` (``termination_cost="episode"``: at least what holding the state costs a learner that bootstraps at the time limit); everything else v0's. v0: a limit crossing charged the terminal running cost over the rest of the episode (``termination_cost``, 2026-11); the exact gyrostat with RK4 sub-steps and the integrated
     cost; actuator faults, sensors and ``fault_hint``; one compiled step shared with the
     natively batched env (bitwise identical); ``action_frame="body"``; the air-bearing
     offset torque and tilt stop (for AirBearing-v0), ``true_offset_torque_nm``; presets

@@ -20,7 +20,7 @@ finite J and an episode that was not terminated (``experiments.campaign``).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -65,9 +65,26 @@ class SuccessMetric:
 
     def measurements(self, first: Info, last: Info) -> dict[str, float]:
         """The measured values the decision compares, named for tables: ``final_<quantity>``,
-        and ``initial_<quantity>`` first for a relative metric."""
+        and ``initial_<quantity>`` first for a relative metric (in :attr:`unit` for an absolute
+        metric, in the quantity's own units for a relative one)."""
         end = {f"final_{self.quantity}": self.measure(last)}
         return {f"initial_{self.quantity}": self.measure(first), **end} if self.relative else end
+
+    def measurement_names(self) -> tuple[str, ...]:
+        """The keys of :meth:`measurements`, in its order."""
+        end = f"final_{self.quantity}"
+        return (f"initial_{self.quantity}", end) if self.relative else (end,)
+
+    def met(self, measurements: Mapping[str, float], threshold: float | None = None) -> bool:
+        """Whether the episode whose :meth:`measurements` these are meets the metric at
+        ``threshold`` (default :attr:`threshold`): the same comparison as :meth:`succeeded`
+        (``end ≤ threshold × start`` for a relative metric), so the two always agree. A NaN
+        measurement never meets it; KeyError when a measurement of this metric is missing."""
+        limit = self.threshold if threshold is None else float(threshold)
+        end = float(measurements[f"final_{self.quantity}"])
+        if self.relative:
+            return bool(end <= limit * float(measurements[f"initial_{self.quantity}"]))
+        return bool(end <= limit)
 
     def describe(self, threshold: float | None = None) -> str:
         """The criterion as one line, e.g. ``final attitude error ≤ 2°``."""
@@ -108,3 +125,13 @@ FINAL_STATE_FRACTION = SuccessMetric(
     measure=true_state_norm,
     relative=True,
 )
+
+#: the metrics envs declare, by :attr:`SuccessMetric.name`
+METRICS: dict[str, SuccessMetric] = {m.name: m for m in (FINAL_ERROR_DEG, FINAL_STATE_FRACTION)}
+
+
+def metric_of(names: Iterable[str]) -> SuccessMetric | None:
+    """The metric of :data:`METRICS` whose :meth:`~SuccessMetric.measurements` have exactly
+    the keys ``names`` (e.g. ``{"final_error_deg"}``), or None when none has."""
+    have = set(names)
+    return next((m for m in METRICS.values() if set(m.measurement_names()) == have), None)

@@ -39,7 +39,14 @@ import numpy as np
 from attitude_envs.symbolic import actuators
 from attitude_envs.symbolic.problem import DiscreteProblem
 
-__all__ = ["GyrostatParameters", "build_air_bearing", "build_reaction_wheel", "error_state", "step_function"]
+__all__ = [
+    "GyrostatParameters",
+    "build_air_bearing",
+    "build_reaction_wheel",
+    "error_state",
+    "step_function",
+    "with_effectiveness",
+]
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,7 +63,11 @@ class GyrostatParameters:
     ``n_substeps`` RK4 sub-steps of ``integrator_dt_s``. Time-varying inputs, functions of the
     time ``t`` the step receives: ``external_torque`` (``t -> T_ext`` (3) as a CasADi
     expression, or None) and ``faults`` (realized actuator faults,
-    :attr:`attitude_envs.faults.ActuatorFaults.realized`; empty: healthy).
+    :attr:`attitude_envs.faults.ActuatorFaults.realized`; empty: healthy). A controller's
+    belief about its actuators: ``effectiveness`` (N values in [0, 1], or None: all 1), the
+    fraction of its commanded motor torque each wheel delivers at every time (0: an outage),
+    applied to the command after the allocation and the per-wheel clip, as the env's
+    ``outage``/``loss_of_effectiveness`` faults do (:func:`with_effectiveness`).
     """
 
     inertia_kg_m2: np.ndarray
@@ -76,6 +87,7 @@ class GyrostatParameters:
     integrator_dt_s: float
     external_torque: Callable[[Any], Any] | None = None
     faults: tuple = ()
+    effectiveness: np.ndarray | None = None
 
     @property
     def n_wheels(self) -> int:
@@ -126,6 +138,17 @@ class GyrostatParameters:
             external_torque=_disturbance(env),
             faults=tuple(env.fault_layer.realized),
         )
+
+
+def with_effectiveness(params: GyrostatParameters, effectiveness) -> GyrostatParameters:
+    """``params`` with the wheels' assumed ``effectiveness`` (N values in [0, 1]; all ones gives
+    the healthy model, whose step is bit-identical to ``params``' own). ValueError otherwise."""
+    eff = np.asarray(effectiveness, dtype=float)
+    if eff.shape != (params.n_wheels,) or not np.all((eff >= 0.0) & (eff <= 1.0)):
+        raise ValueError(
+            f"effectiveness must be {params.n_wheels} values in [0, 1] (one per wheel), got {effectiveness!r}"
+        )
+    return replace(params, effectiveness=eff.copy())
 
 
 def _disturbance(env):
@@ -223,6 +246,10 @@ def step_function(params: GyrostatParameters, smooth: bool = False) -> casadi.Fu
             commanded = actuators.clip(commanded, -max_torque, max_torque)
     else:
         commanded = a_c * max_torque
+    eff = params.effectiveness
+    if eff is not None and np.any(np.asarray(eff) != 1.0):  # all ones: the healthy graph, bit-identical
+        # delivered = e ⊙ commanded: the env's outage (e = 0) and loss of effectiveness (e = 1 − value)
+        commanded = commanded * casadi.DM(np.asarray(eff, dtype=float))
     cmd = actuators.delivered(commanded, t0, params.faults, np.full(n, max_torque))
 
     z, cost = y, casadi.SX(0.0)

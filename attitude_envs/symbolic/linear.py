@@ -40,3 +40,31 @@ def build_linear_system(env) -> DiscreteProblem:
         g=None,
         notes="divergence_threshold termination not modelled (no constraint)",
     )
+
+
+def model_step_function(A, B, Q, R, N=None) -> casadi.Function:
+    """``(x (n), u (m)) -> (x_next (n), cost (1))`` of the NOMINAL discrete linear model
+    ``x⁺ = A x + B u`` with step cost ``xᵀQx + 2xᵀNu + uᵀRu`` (``N=None``: no cross term) on
+    the state the step starts from, for a model-based controller. ``u`` is the physical input
+    (the env's ``action_scale · a``), not clipped and without faults; with the env's matrices
+    (``env.model``, ``env.cost``) and ``N=None`` it is the env's fault-free step to round-off.
+    ``A``, ``B``, ``Q``, ``R``, ``N`` may also be a k-step (decision-period) model with its
+    exactly discretized cost (cross term ``N``)."""
+    A, B = np.asarray(A, float), np.asarray(B, float)
+    n, m = B.shape
+    if A.shape != (n, n):
+        raise ValueError(f"A must be {n}x{n} (the rows of B), got shape {A.shape}")
+    Q, R = np.asarray(Q, float), np.asarray(R, float)
+    if Q.shape != (n, n) or R.shape != (m, m):
+        raise ValueError(f"Q must be {n}x{n} and R {m}x{m}, got shapes {Q.shape} and {R.shape}")
+    x = casadi.SX.sym("x", n)
+    u = casadi.SX.sym("u", m)
+    x_next = casadi.mtimes(casadi.DM(A), x) + casadi.mtimes(casadi.DM(B), u)
+    cost = casadi.bilin(casadi.DM(Q), x, x) + casadi.bilin(casadi.DM(R), u, u)
+    if N is not None:
+        N = np.asarray(N, float)
+        if N.shape != (n, m):
+            raise ValueError(f"N must be {n}x{m}, got shape {N.shape}")
+        if np.any(N):
+            cost = cost + 2.0 * casadi.bilin(casadi.DM(N), x, u)
+    return casadi.Function("linear_model_step", [x, u], [x_next, cost], ["x", "u"], ["x_next", "cost"])

@@ -200,11 +200,18 @@ def step_function(env) -> casadi.Function:
     _check_supported(env)
     plant = _Plant(env)
     limits = np.asarray(env.model.params.limits, dtype=float)
+    return _build_step(plant, limits, float(env.control_dt_s), env.fault_layer.realized)
+
+
+def _build_step(plant: _Plant, limits: np.ndarray, control_dt_s: float, realized) -> casadi.Function:
+    """The SX step of :func:`step_function` for ``plant`` (its ``h``, ``n_sub``), the actuator
+    ``limits``, the control period (s) and the realized actuator faults ``realized`` (the
+    fault layer's, or ``[]`` for a healthy model)."""
     y = casadi.SX.sym("y", 8)
     a = casadi.SX.sym("a", 4)
     p = casadi.SX.sym("p", 1 + (2 * plant.n_sub + 1) * N_FIELDS)
     commanded = actuators.clip(a, -1.0, 1.0) * casadi.DM(limits)
-    cmd = actuators.delivered(commanded, p[0] * env.control_dt_s, env.fault_layer.realized, limits)
+    cmd = actuators.delivered(commanded, p[0] * control_dt_s, realized, limits)
     m = [cmd[0], cmd[1], cmd[2]]
     h = plant.h
     aug = [y[i] for i in range(8)] + [0.0]
@@ -263,3 +270,106 @@ def build_magnetorquer(env) -> DiscreteProblem:
         notes="; ".join(notes),
         params=params,
     )
+
+
+# ----------------------------------------------------------------------------- nominal model
+def disturbance_columns(n_sub: int) -> np.ndarray:
+    """Indices of the disturbance entries (3 per context, ``2·n_sub + 1`` contexts) in a
+    per-step parameter row ``p = [k, contexts]`` of a step with ``n_sub`` RK4 sub-steps."""
+    if int(n_sub) < 1:
+        raise ValueError(f"n_sub must be an integer >= 1, got {n_sub!r}")
+    starts = 1 + N_FIELDS * np.arange(2 * int(n_sub) + 1) + _DIST
+    return (starts[:, None] + np.arange(3)[None, :]).ravel()
+
+
+def nominal_substeps(env, control_dt_s: float | None = None, integrator_dt_s: float | None = None) -> tuple[float, int]:
+    """``(h, n_sub)`` of a model step of ``control_dt_s`` (s; default the env's) with RK4
+    sub-steps of ``integrator_dt_s`` (s; default the env's): ValueError unless the period is
+    a whole multiple of the sub-step."""
+    dt = float(env.control_dt_s if control_dt_s is None else control_dt_s)
+    h = float(env.integrator_dt_s if integrator_dt_s is None else integrator_dt_s)
+    if not (math.isfinite(dt) and dt > 0.0):
+        raise ValueError(f"control_dt_s must be a finite number > 0 s, got {control_dt_s!r}")
+    if not (math.isfinite(h) and 0.0 < h <= dt):
+        raise ValueError(f"integrator_dt_s must be in (0, control_dt_s = {dt}] s, got {integrator_dt_s!r}")
+    n_sub = round(dt / h)
+    if abs(n_sub * h - dt) > 1e-9 * dt:
+        raise ValueError(f"control_dt_s ({dt} s) must be a whole multiple of integrator_dt_s, got {h} s")
+    return dt / n_sub, int(n_sub)
+
+
+def nominal_constants(env) -> tuple[np.ndarray, np.ndarray]:
+    """``(shared, episode)`` in the kernels' layouts for what a controller of the unwrapped
+    Magnetorquer-v0 ``env`` may know after its reset: the env's configuration
+    (``kernel_constants``: wheel, limits, field model, reference, Q, R) with no time-varying
+    inertia (Sadigh et al. 2022 eq. 35 is the unknown truth) and no disturbance, and the episode's
+    orbit (the known ephemeris) with the NOMINAL inertia ``env.model.params`` (no drawn
+    dispersion) and no disturbance. Fresh arrays."""
+    shared = np.array(env.kernel_constants, dtype=float)
+    shared[kernels.SH_DJ] = 0.0
+    shared[kernels.SH_DIST] = kernels.DIST_NONE
+    params = env.model.params
+    orbit = np.array(env.episode_constants[kernels.EN_ORBIT : kernels.EN_ORBIT + kernels.ORBIT_SIZE], dtype=float)
+    episode = kernels.pack_env(params.inertia_kg_m2, params.inertia_eff_inv, orbit, np.zeros(3))
+    return shared, episode
+
+
+def nominal_step_parameters(
+    env,
+    start_times_s,
+    control_dt_s: float | None = None,
+    integrator_dt_s: float | None = None,
+    constants: tuple[np.ndarray, np.ndarray] | None = None,
+) -> np.ndarray:
+    """Per-step parameters ``[k, contexts]`` of :func:`nominal_step_function` for steps of
+    ``control_dt_s`` (s) starting at ``start_times_s`` (s, any times, e.g. past the episode's
+    end): the contexts at each sub-step's start, middle and at the step's end, built by the
+    env's compiled ``context_into`` from :func:`nominal_constants` (or ``constants``), so the
+    disturbance entries (:func:`disturbance_columns`) are zero; ``k = t / control_dt_s``."""
+    _check_supported(env)
+    h, n_sub = nominal_substeps(env, control_dt_s, integrator_dt_s)
+    dt = h * n_sub
+    shared, episode = nominal_constants(env) if constants is None else constants
+    table = np.asarray(env.field.table, dtype=float)
+    starts = np.atleast_1d(np.asarray(start_times_s, dtype=float))
+    ctx = np.empty(kernels.CONTEXT_SIZE)
+    out = np.empty((starts.size, 2 * n_sub + 1, N_FIELDS))
+    for k, t0 in enumerate(starts):
+        times = []
+        for j in range(n_sub):
+            ts = t0 + j * h
+            times += [ts, ts + 0.5 * h]
+        times.append(t0 + dt)
+        for i, t in enumerate(times):
+            kernels.context_into(t, shared, episode, table, ctx, 0)
+            out[k, i] = ctx[_FIELDS]
+    return np.column_stack([starts / dt, out.reshape(starts.size, -1)])
+
+
+def nominal_step_function(
+    env, control_dt_s: float | None = None, integrator_dt_s: float | None = None
+) -> casadi.Function:
+    """The healthy-model step of the unwrapped ``env``, ``(x (8), a (4), p) -> (x_next, cost)``
+    as :func:`step_function` (same equations, RK4 sub-steps, action clip, wheel momentum limit,
+    stage cost ∫ xᵀQx + uᵀRu dt) but with no actuator faults, a step of ``control_dt_s`` (s)
+    and sub-steps of ``integrator_dt_s`` (s; both default to the env's). With the rows of
+    :func:`nominal_step_parameters` it is the nominal plant (nominal inertia, no ΔJ(t), the
+    disturbance written into :func:`disturbance_columns`; zero there)."""
+    _check_supported(env)
+    h, n_sub = nominal_substeps(env, control_dt_s, integrator_dt_s)
+    plant = _Plant(env)
+    plant.h, plant.n_sub = h, n_sub
+    limits = np.asarray(env.model.params.limits, dtype=float)
+    return _build_step(plant, limits, h * n_sub, [])
+
+
+def error_function(env) -> casadi.Function:
+    """``(y (8), c (N_FIELDS)) -> x (6)``: the error state ``[q_e,vec, ω_e]`` of the state
+    ``y = [q, ω_bo (rad/s), Ω]`` against the reference of the time context ``c`` (one context
+    of a parameter row, e.g. the last one of a step: its end), as the kernels' ``error_state``."""
+    plant = _Plant(env)
+    y = casadi.SX.sym("y", 8)
+    c = casadi.SX.sym("c", N_FIELDS)
+    n = 1.0 / casadi.sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2] + y[3] * y[3])
+    err = plant._error_state(y[0] * n, y[1] * n, y[2] * n, y[3] * n, y[4], y[5], y[6], c)  # noqa: SLF001 (this module's class)
+    return casadi.Function("magnetorquer_error", [y, c], [casadi.vertcat(*err)], ["y", "c"], ["x"])

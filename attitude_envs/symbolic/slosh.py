@@ -139,7 +139,14 @@ def step_function(env) -> casadi.Function:
     k = casadi.SX.sym("k")
     commanded = actuators.clip(a, -1.0, 1.0) * casadi.DM(limits)
     applied = actuators.delivered(commanded, k * env.control_dt_s, env.fault_layer.realized, limits)
-    delta, moment = applied[0], applied[1]
+    y_next, cost = _rk4_control_step(pk, h, n_sub, Q, R, y, applied[0], applied[1])
+    return casadi.Function("fuel_slosh_step", [y, a, k], [y_next, cost], ["x", "a", "k"], ["x_next", "cost"])
+
+
+def _rk4_control_step(pk, h: float, n_sub: int, Q, R, y, delta, moment):
+    """``(y_next, cost)``: ``n_sub`` classical RK4 sub-steps of ``h`` seconds of the state ``y``
+    (10) and the stage-cost integral under the held gimbal angle ``delta`` (rad) and pitch
+    moment ``moment`` (N·m) — the compiled kernel's control step (same operation order)."""
     sin_d, cos_d = casadi.sin(delta), casadi.cos(delta)
     n = slosh.N_STATE + 1
     aug = [y[i] for i in range(slosh.N_STATE)] + [0.0]
@@ -149,8 +156,32 @@ def step_function(env) -> casadi.Function:
         k3 = _augmented(pk, Q, R, [aug[i] + 0.5 * h * k2[i] for i in range(n)], sin_d, cos_d, moment)
         k4 = _augmented(pk, Q, R, [aug[i] + h * k3[i] for i in range(n)], sin_d, cos_d, moment)
         aug = [aug[i] + (h / 6.0) * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]) for i in range(n)]
-    y_next = casadi.vertcat(*aug[: slosh.N_STATE])
-    return casadi.Function("fuel_slosh_step", [y, a, k], [y_next, aug[-1]], ["x", "a", "k"], ["x_next", "cost"])
+    return casadi.vertcat(*aug[: slosh.N_STATE]), aug[-1]
+
+
+def nominal_step_function(env) -> casadi.Function:
+    """``(y (10), a (2), d (2)) -> (y_next (10), cost (1))``: one control step of the NOMINAL
+    FuelSlosh-v0 plant of the unwrapped ``env`` (its kernel constants: plant, integrator,
+    control period, cost weights; no faults) for a model-based controller.
+
+    The applied inputs are ``[δ (rad), M_c (N·m)] = a · actuator_limits + d``: the normalized
+    action ``a`` is NOT clipped (a controller bounds it) and ``d`` is an additive input
+    disturbance in physical units (rad, N·m; zero for the nominal plant — the offset-free MPC's
+    estimate of actuator faults). With ``|a_i| ≤ 1`` and ``d = 0`` the step equals
+    :func:`step_function` of a fault-free env (and the env's step) to round-off."""
+    const = np.asarray(env.kernel_constants)
+    pk = const[: kernels.N_PACKED]
+    h = float(const[kernels.N_PACKED])
+    n_sub = int(const[kernels.N_PACKED + 1])
+    Q = np.asarray(env.model.cost.Q, float)
+    R = np.asarray(env.model.cost.R, float)
+    limits = np.asarray(env.actuator_limits, float)
+    y = casadi.SX.sym("y", slosh.N_STATE)
+    a = casadi.SX.sym("a", 2)
+    d = casadi.SX.sym("d", 2)
+    applied = a * casadi.DM(limits) + d
+    y_next, cost = _rk4_control_step(pk, h, n_sub, Q, R, y, applied[0], applied[1])
+    return casadi.Function("fuel_slosh_nominal_step", [y, a, d], [y_next, cost], ["x", "a", "d"], ["x_next", "cost"])
 
 
 def limits_function(env) -> casadi.Function:

@@ -13,6 +13,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
+from attitude_envs.registration import quiet_version_warnings
 from experiments.campaign.spec import Campaign
 from experiments.processes import die_with_parent, pin_to_one_core, pool_context
 from experiments.sb3.hyperparams import load_hyperparams
@@ -23,6 +24,7 @@ def _init_worker(parent_pid: int, counter) -> None:
     (:func:`die_with_parent`); with a ``counter``, worker ``i`` runs on CPU ``i`` of the allowed
     ones (:func:`pin_to_one_core`: one JAX thread pool per worker, no contention between workers)."""
     die_with_parent(parent_pid)
+    quiet_version_warnings()
     if counter is not None:
         with counter.get_lock():
             index = counter.value

@@ -8,7 +8,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from experiments.campaign.spec import Campaign
+from experiments.campaign.spec import Campaign, play_env
 
 KEY_COLUMNS = ("env", "scenario", "fault", "agent", "train_seed", "seed")
 
@@ -39,13 +39,14 @@ def training_jobs(campaign: Campaign, out_dir: Path, skip_agents: Iterable[str] 
             if agent.train is None or agent.name in skip:
                 continue
             t = agent.train
+            env_id, kwargs = play_env(agent, env.id, env.kwargs)
             for seed in t["seeds"]:
                 jobs.append(
                     {
                         "kind": "train",
                         "algo": t["algo"],
-                        "env_id": env.id,
-                        "env_kwargs": {**env.kwargs, **dict(t.get("env_kwargs") or {})},
+                        "env_id": env_id,
+                        "env_kwargs": {**kwargs, **copy.deepcopy(dict(t.get("env_kwargs") or {}))},
                         "seed": int(seed),
                         "timesteps": t.get("timesteps"),
                         "overrides": {**dict(t.get("overrides") or {}), **_backend_override(t)},
@@ -59,7 +60,9 @@ def training_jobs(campaign: Campaign, out_dir: Path, skip_agents: Iterable[str] 
 
 
 def episode_jobs(campaign: Campaign, out_dir: Path, skip_agents: Iterable[str] = ()) -> list[dict[str, Any]]:
-    """One job per env × scenario × fault × agent (× training seed) × seed, in key order."""
+    """One job per env × scenario × fault × agent (× training seed) × seed, in key order. A job
+    plays on the agent's env (``env_id``, ``env_kwargs``: :func:`~experiments.campaign.spec.play_env`)
+    the episode of its cell (``cell_env_id``, ``cell_env_kwargs``: what J* is solved for)."""
     skip = set(skip_agents)
     jobs = []
     for env in campaign.envs:
@@ -71,6 +74,7 @@ def episode_jobs(campaign: Campaign, out_dir: Path, skip_agents: Iterable[str] =
                 for agent in campaign.agents_for(env):
                     if agent.name in skip:
                         continue
+                    play_id, play_kwargs = play_env(agent, env.id, kwargs)
                     train_seeds = agent.train["seeds"] if agent.train else [None]
                     for tseed in train_seeds:
                         spec = dict(agent.spec)
@@ -90,8 +94,10 @@ def episode_jobs(campaign: Campaign, out_dir: Path, skip_agents: Iterable[str] =
                                 {
                                     "kind": "episode",
                                     "key": key,
-                                    "env_id": env.id,
-                                    "env_kwargs": kwargs,
+                                    "env_id": play_id,
+                                    "env_kwargs": play_kwargs,
+                                    "cell_env_id": env.id,  # the episode J* is solved for
+                                    "cell_env_kwargs": kwargs,
                                     "options": dict(scenario.get("options") or {}),
                                     "policy": spec,
                                     "metrics": dict(campaign.metrics),

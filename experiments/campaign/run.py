@@ -13,13 +13,15 @@ from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
+import numpy as np
 
 from attitude_envs.evaluation.runner import write_json
+from attitude_envs.info import TRUTH
 from attitude_envs.make import make_checked
 from experiments.campaign.episode import run_job
 from experiments.campaign.executors import executor_name, make_executor, trains_with_sbx
 from experiments.campaign.jobs import episode_jobs, key_of, training_jobs
-from experiments.campaign.spec import AgentSpec, Campaign, load_campaign
+from experiments.campaign.spec import AgentSpec, Campaign, EnvSpec, load_campaign, play_env
 from experiments.campaign.store import (
     RUN_STATUSES,
     CampaignResult,
@@ -42,7 +44,8 @@ def _n_trained(trained: list[dict[str, Any]]) -> int:
 def available(agent: AgentSpec) -> str | None:
     """None if the agent's code imports here, else the reason."""
     try:
-        import_target(POLICIES[agent.spec["policy"]].target)
+        for target in POLICIES[agent.spec["policy"]].targets:
+            import_target(target)
         if agent.train is not None:
             algorithm_class(agent.train["algo"], agent.train.get("backend", "sb3"))  # checks the name too
     except (PolicyUnavailable, ValueError) as exc:
@@ -62,13 +65,56 @@ def probe_models(campaign: Campaign, skipped: dict[str, str]) -> None:
                     kwargs["faults"] = copy.deepcopy(faults)
                 make_checked(env.id, **kwargs).close()
         for agent in campaign.agents_for(env):
+            if agent.name not in skipped and (agent.env_id is not None or agent.env_kwargs):
+                check_same_episodes(campaign, env, agent)
             if agent.name in skipped or agent.spec["policy"] != "sb3" or agent.train is not None:
                 continue
-            instance = gym.make(env.id, **env.kwargs)
+            play_id, play_kwargs = play_env(agent, env.id, env.kwargs)
+            instance = gym.make(play_id, **play_kwargs)
             try:
                 build_policy(agent.spec, instance, name=agent.name)
             finally:
                 instance.close()
+
+
+def _episode_signature(env: gym.Env, seed: int, options: dict[str, Any] | None) -> tuple[np.ndarray, float]:
+    """The true start state of episode ``seed`` and the episode's length (s, or model steps)."""
+    _, info = env.reset(seed=seed, options=copy.deepcopy(options) or None)
+    state = info[TRUTH]["state"]
+    if isinstance(state, dict):
+        state = np.concatenate([np.ravel(np.asarray(v, dtype=float)) for v in state.values()])
+    base = env.unwrapped
+    length = getattr(base, "episode_duration_s", None)
+    if length is None:
+        length = base.episode_steps * base.model.dt_s
+    return np.ravel(np.asarray(state, dtype=float)), float(length)
+
+
+def check_same_episodes(campaign: Campaign, env: EnvSpec, agent: AgentSpec) -> None:
+    """``ValueError`` unless ``agent``'s own env (:func:`play_env`) plays ``env``'s episodes:
+    the same true start state on the campaign's first seed and the same episode length in
+    every scenario and fault (an agent's task may change how often it decides and what a
+    limit crossing costs, never the episode it is scored on against the cell's J*)."""
+    seed = campaign.seeds[0]
+    for scenario in env.scenarios:
+        for faults in env.faults.values():
+            kwargs = {**env.kwargs, **dict(scenario.get("env_kwargs") or {})}
+            if faults:
+                kwargs["faults"] = copy.deepcopy(faults)
+            play_id, play_kwargs = play_env(agent, env.id, kwargs)
+            cell, own = make_checked(env.id, **kwargs), make_checked(play_id, **play_kwargs)
+            try:
+                options = scenario.get("options")
+                (x0, t0), (x1, t1) = _episode_signature(cell, seed, options), _episode_signature(own, seed, options)
+            finally:
+                cell.close()
+                own.close()
+            if x0.shape != x1.shape or not np.array_equal(x0, x1) or t0 != t1:
+                raise ValueError(
+                    f"agent {agent.name!r} plays env {env.name!r} on {play_id} {play_kwargs}, whose episodes differ "
+                    f"from the cell's (start state or length {t1:g} vs {t0:g}): set the episode's keywords "
+                    f"(episode length, start) in envs[{env.name}].kwargs so both versions play the same episodes"
+                )
 
 
 def prepare_campaign(

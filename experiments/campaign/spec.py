@@ -16,6 +16,9 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
+from gymnasium.envs.registration import load_env_creator
+
 import attitude_envs  # noqa: F401  (registers the env ids)
 from attitude_envs import validation
 from attitude_envs.evaluation.success import SuccessMetric
@@ -34,7 +37,7 @@ SELECT = ("best", "final")  # which snapshot of a trained agent is evaluated
 TOP_KEYS = ("name", "description", "seeds", "envs", "agents", "metrics", "success_error_deg")
 TOP_KEYS += ("success_state_fraction", "video", "optimum")
 ENV_KEYS = ("name", "id", "kwargs", "scenarios", "faults")
-AGENT_KEYS = ("name", "policy", "params", "model", "learn", "envs", "optional", "train", "note")
+AGENT_KEYS = ("name", "policy", "params", "model", "learn", "envs", "optional", "train", "note", "env_id", "env_kwargs")
 TRAIN_KEYS = ("algo", "backend", "timesteps", "seeds", "select", "env_kwargs", "overrides", "hyperparams_file")
 TRAIN_KEYS += ("checkpoint_freq", "eval_freq")
 
@@ -64,7 +67,14 @@ class EnvSpec:
 class AgentSpec:
     """One agent: ``spec`` is what :func:`~experiments.policies.build_policy` gets; ``train``
     (SB3 agents trained by the campaign) has its ``seeds`` parsed to a list; ``note`` is shown
-    beside the agent in the report's leaderboards."""
+    beside the agent in the report's leaderboards.
+
+    ``env_id`` and ``env_kwargs`` pose the agent's own task on the cells' episodes (see
+    :func:`play_env`): another version of the cell's env (``AirBearing-v1``'s learning task on
+    an ``AirBearing-v0`` cell) and task keywords (``control_dt_s``, ``termination_cost``, …:
+    ``task_keywords`` of the env class). The episodes, the running cost and J* stay the
+    cell's, so J / J* compares agents that decide at different periods on the same yardstick
+    (J* is solved at the cell's period)."""
 
     name: str
     spec: dict[str, Any]
@@ -72,6 +82,27 @@ class AgentSpec:
     optional: bool
     train: dict[str, Any] | None
     note: str | None = None
+    env_id: str | None = None
+    env_kwargs: dict[str, Any] = field(default_factory=dict)
+
+
+def task_keywords(env_id: str) -> frozenset[str]:
+    """The task keywords of the env class of ``env_id`` (empty for an env without them)."""
+    entry = gym.spec(env_id).entry_point
+    creator = load_env_creator(entry) if isinstance(entry, str) else entry
+    return frozenset(getattr(creator, "task_keywords", ()))
+
+
+def play_env(agent: AgentSpec, env_id: str, kwargs: dict[str, Any]) -> tuple[str, dict[str, Any]]:
+    """The env id and keyword arguments ``agent`` plays a cell of ``env_id`` built with
+    ``kwargs`` on: the cell's own without an agent ``env_id``/``env_kwargs``; with an
+    ``env_id``, the cell's kwargs less its task keywords (the agent's env sets its own), then
+    the agent's ``env_kwargs`` over them."""
+    if agent.env_id is None and not agent.env_kwargs:
+        return env_id, kwargs
+    task = task_keywords(env_id)
+    base = {k: v for k, v in kwargs.items() if agent.env_id is None or k not in task}
+    return agent.env_id or env_id, {**base, **copy.deepcopy(agent.env_kwargs)}
 
 
 @dataclass
@@ -190,8 +221,9 @@ def _env(i: int, e: Any) -> EnvSpec:
     return EnvSpec(name, str(e["id"]), _mapping(f"envs[{i}].kwargs", e.get("kwargs")), list(scenarios), dict(faults))
 
 
-def _train(where: str, train: Any, envs: list[EnvSpec]) -> dict[str, Any]:
-    """The checked ``train`` mapping of an agent trained on ``envs``, its ``seeds`` parsed."""
+def _train(where: str, train: Any, envs: list[EnvSpec], env_id: str | None = None) -> dict[str, Any]:
+    """The checked ``train`` mapping of an agent trained on ``envs`` (on its own ``env_id``
+    when it names one: its hyperparameter entry), its ``seeds`` parsed."""
     _require(isinstance(train, dict) and "algo" in train, f"{where} needs an algo, got {train!r}")
     _known(where, train, TRAIN_KEYS)
     check_backend(train.get("backend", "sb3"), check_algorithm(train["algo"]))
@@ -210,7 +242,7 @@ def _train(where: str, train: Any, envs: list[EnvSpec]) -> dict[str, Any]:
     _require(hp_file is None or isinstance(hp_file, str), f"{where}.hyperparams_file must be a path, got {hp_file!r}")
     for env in envs:
         try:
-            load_hyperparams(train["algo"], env.id, hp_file, overrides)
+            load_hyperparams(train["algo"], env_id or env.id, hp_file, overrides)
         except ValueError as exc:
             raise ValueError(f"{where} on env {env.name!r}: {exc}") from None
     return train
@@ -238,10 +270,11 @@ def _agent(i: int, a: Any, envs: list[EnvSpec]) -> AgentSpec:
                 check_policy_env(str(a["policy"]), env.id)
             except ValueError as exc:
                 raise ValueError(f"agents[{i}] ({name}) on env {env.name!r}: {exc}") from None
+    agent_env_id, agent_env_kwargs = _agent_task(i, name, a, [e for e in envs if only is None or e.name in only])
     train = a.get("train")
     if train is not None:
         _require(a["policy"] == "sb3", f"agents[{i}] ({name}): train is only for policy sb3")
-        train = _train(f"agents[{i}].train", train, [e for e in envs if only is None or e.name in only])
+        train = _train(f"agents[{i}].train", train, [e for e in envs if only is None or e.name in only], agent_env_id)
     elif a["policy"] == "sb3":
         _require("model" in a, f"agents[{i}] ({name}): policy sb3 needs model: PATH or train: {{algo: ...}}")
     if "model" in a:
@@ -255,8 +288,36 @@ def _agent(i: int, a: Any, envs: list[EnvSpec]) -> AgentSpec:
         note is None or isinstance(note, str) and note.strip() != "" and "\n" not in note.strip(),
         f"agents[{i}].note must be one line of text (shown beside the agent in the report), got {note!r}",
     )
-    spec = {k: v for k, v in a.items() if k not in ("envs", "optional", "train", "note")}
-    return AgentSpec(name, spec, only, optional, train, note.strip() if note is not None else None)
+    spec = {k: v for k, v in a.items() if k not in ("envs", "optional", "train", "note", "env_id", "env_kwargs")}
+    note = note.strip() if note is not None else None
+    return AgentSpec(name, spec, only, optional, train, note, agent_env_id, agent_env_kwargs)
+
+
+def _agent_task(i: int, name: str, a: dict[str, Any], envs: list[EnvSpec]) -> tuple[str | None, dict[str, Any]]:
+    """The checked ``env_id`` and ``env_kwargs`` of agent ``a`` on ``envs`` (see :class:`AgentSpec`)."""
+    env_id = a.get("env_id")
+    if env_id is not None:
+        _require(isinstance(env_id, str), f"agents[{i}].env_id must be an env id, got {env_id!r}")
+        try:
+            check_env_id(env_id)
+        except ValueError as exc:
+            raise ValueError(f"agents[{i}].env_id: {exc}") from None
+        for env in envs:
+            _require(
+                gym.spec(env_id).entry_point == gym.spec(env.id).entry_point,
+                f"agents[{i}] ({name}).env_id {env_id!r} is not a version of env {env.name!r} ({env.id}): "
+                "an agent plays the cell's episodes, on the same plant",
+            )
+    kwargs = _mapping(f"agents[{i}].env_kwargs", a.get("env_kwargs"))
+    for env in envs:
+        accepted = task_keywords(env.id)
+        bad = sorted(set(kwargs) - accepted)
+        _require(
+            not bad,
+            f"agents[{i}] ({name}).env_kwargs may set only the task keywords of env {env.name!r} "
+            f"{sorted(accepted)} (the episodes stay the cell's), got {bad}",
+        )
+    return env_id, kwargs
 
 
 def _fingerprint(data: dict[str, Any]) -> str:

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from attitude_envs.evaluation.runner import write_csv
+from attitude_envs.evaluation.success import metric_of
 from experiments.campaign.jobs import key_of, sort_key
 from experiments.campaign.spec import Campaign
 from experiments.machine_reference import reference_steps_per_s
@@ -164,13 +165,16 @@ class ResultStore:
 
     def with_optimum(self, row: dict[str, Any]) -> dict[str, Any]:
         """``row`` with ``j_star`` (its episode's oracle optimum; NaN when unknown),
-        ``j_over_j_star`` (J / J*) and ``j_star_source`` (table, cache, solved, unsupported, missing)."""
+        ``j_over_j_star`` (J / J*), ``j_star_source`` (table, cache, solved, unsupported, missing)
+        and J*'s own outcome (:func:`optimum_outcome`): ``j_star_metric``, ``j_star_terminated``
+        and one ``j_star_<measurement>`` column per success-metric measurement."""
         found = self._optimum_cells.get((row["env"], row["scenario"], row["fault"], row["seed"]))
         j_star = float(found["j_star"]) if found is not None else float("nan")
         J = float(row["J"])
         ratio = J / j_star if np.isfinite(j_star) and j_star > 0 and not np.isnan(J) else float("nan")
         source = found["source"] if found is not None else "missing"
-        return {**row, "j_star": j_star, "j_over_j_star": ratio, "j_star_source": source}
+        outcome = optimum_outcome(found if found is not None and np.isfinite(j_star) else None)
+        return {**row, "j_star": j_star, "j_over_j_star": ratio, "j_star_source": source, **outcome}
 
     def sorted_rows(self) -> list[dict[str, Any]]:
         return [self.with_optimum(self.rows[k]) for k in sorted(self.rows, key=sort_key)]
@@ -180,6 +184,27 @@ class ResultStore:
         write_csv([for_table(r) for r in self.sorted_rows()], tmp)
         os.replace(tmp, self.csv)
         return self.csv
+
+
+#: the prefix of J*'s own columns in an episode row (:func:`optimum_outcome`)
+J_STAR_PREFIX = "j_star_"
+
+
+def optimum_outcome(optimum_row: dict[str, Any] | None) -> dict[str, Any]:
+    """J*'s own episode outcome as flat episode-row columns: ``j_star_metric`` (the env's
+    success-metric name, :data:`attitude_envs.evaluation.success.METRICS`, ``""`` when
+    unknown), ``j_star_terminated`` (its replay ended early; None when unknown) and
+    ``j_star_<name>`` per measurement (e.g. ``j_star_final_error_deg``, deg; for a relative
+    metric ``j_star_initial_state_norm`` and ``j_star_final_state_norm``). Unknown without a
+    J* row, for a row without ``measurements`` (a J* table entry or solver cache entry from
+    before they were kept) or with measurements of no known metric."""
+    measurements = (optimum_row or {}).get("measurements")
+    terminated = (optimum_row or {}).get("terminated")
+    metric = metric_of(measurements) if measurements else None
+    if metric is None or terminated is None:
+        return {f"{J_STAR_PREFIX}metric": "", f"{J_STAR_PREFIX}terminated": None}
+    out: dict[str, Any] = {f"{J_STAR_PREFIX}metric": metric.name, f"{J_STAR_PREFIX}terminated": bool(terminated)}
+    return out | {f"{J_STAR_PREFIX}{k}": float(v) for k, v in measurements.items()}
 
 
 def for_table(row: dict[str, Any]) -> dict[str, Any]:

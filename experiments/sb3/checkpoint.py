@@ -30,6 +30,7 @@ from typing import Any
 import cloudpickle
 import numpy as np
 import torch
+from numba.core.dispatcher import Dispatcher
 from stable_baselines3.common.logger import Logger
 from stable_baselines3.common.vec_env import VecNormalize
 
@@ -83,19 +84,51 @@ def restore_rng(state: dict[str, Any]) -> None:
         torch.cuda.set_rng_state_all(state["cuda"])
 
 
+_DISK_CACHED_KERNEL = "numba-disk-cached"
+
+
+def _source_stamp(func) -> tuple[float, int] | None:
+    """``(mtime, size)`` of the file that defines ``func`` (numba's test of a stale disk cache), or None."""
+    try:
+        st = os.stat(func.__code__.co_filename)
+    except (AttributeError, OSError):
+        return None
+    return st.st_mtime, st.st_size
+
+
 class _RunPickler(cloudpickle.Pickler):
     """Pickles the algorithm object whole (env included, in the same pass so that objects the
-    model and the env share stay shared), except its logger, which the next ``learn()`` rebuilds."""
+    model and the env share stay shared), except its logger, which the next ``learn()`` rebuilds.
+
+    A numba kernel compiled with ``cache=True`` (an env's batched step) keeps its disk cache:
+    numba rebuilds an unpickled kernel without it, so a run resumed in a new process compiled the
+    env's step again (5–25 s) instead of loading it. The kernel is pickled as numba pickles it,
+    beside the stamp of its source file; :class:`_RunUnpickler` turns its cache back on when that
+    file is unchanged (numba's own test: the function, its globals and so its code are the same)."""
 
     def persistent_id(self, obj):
-        return "logger" if isinstance(obj, Logger) else None
+        if isinstance(obj, Logger):
+            return "logger"
+        if isinstance(obj, Dispatcher) and obj.stats.cache_path is not None:
+            data = cloudpickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
+            return (_DISK_CACHED_KERNEL, _source_stamp(obj.py_func), data)
+        return None
 
 
 class _RunUnpickler(pickle.Unpickler):
     def persistent_load(self, pid):
-        if pid != "logger":
-            raise pickle.UnpicklingError(f"unknown persistent id {pid!r}")
-        return None
+        if pid == "logger":
+            return None
+        if isinstance(pid, tuple) and len(pid) == 3 and pid[0] == _DISK_CACHED_KERNEL:
+            _, stamp, data = pid
+            kernel = pickle.loads(data)  # this process's own kernel when it already has it
+            if kernel.stats.cache_path is None and stamp is not None and _source_stamp(kernel.py_func) == stamp:
+                try:
+                    kernel.enable_caching()
+                except RuntimeError:  # numba finds no cache location for the file: compile, as before
+                    pass
+            return kernel
+        raise pickle.UnpicklingError(f"unknown persistent id {pid!r}")
 
 
 def _env_state(venv) -> dict[str, Any]:

@@ -99,6 +99,7 @@ def train(
     verbose: int = 0,
     progress: bool | str = False,
     schedule_timesteps: int | None = None,
+    evaluate_initial: bool = True,
 ) -> TrainResult:
     """Train (or with ``resume`` continue) an agent; returns where the final model was saved.
 
@@ -123,6 +124,8 @@ def train(
     ``schedule_timesteps``: the budget the hyperparameter schedules (``lin_3e-4`` …) anneal over
     (default ``total_timesteps``). A search that trains a trial in segments passes its full budget
     here, so that each segment trains as the same part of one uninterrupted run would.
+    ``evaluate_initial``: evaluate the untrained policy at 0 steps as the first candidate for
+    the best snapshot (a run that never beats it keeps it, and its report says so).
     ``progress``: True a bar with ETA on a terminal, else a status line every 30 s; a string is
     its label and means status lines (campaign workers); ``progress_bar``: SB3's own bar instead
     (one per segment).
@@ -232,6 +235,16 @@ def train(
             flush=True,
         )
     start = time.perf_counter()
+    if evaluate_initial and run["best"] is None and int(model.num_timesteps) == 0:
+        # the initial policy is a candidate snapshot too: a run that never beats it says so
+        # (its best snapshot is at 0 steps) instead of presenting its least bad trained policy.
+        # Deterministic evaluation draws from no global generator, so training is unchanged.
+        row = {"timesteps": 0, **evaluate_cost(_predictor(model, hp["frame_stack"]), eval_env, seeds)}
+        text = evaluations.row_text(row, header=True)
+        evaluations.append(text)
+        run["eval_log"] += text
+        run["best"], run["last_eval"] = row, row
+        save_snapshot(model, out_dir / "best", meta={"best.json": json.dumps(row) + "\n"})
     if rng is not None:
         restore_rng(rng)  # last: nothing may draw from the global generators between here and learn()
     try:
@@ -268,6 +281,11 @@ def train(
     finally:
         if callback is not None:
             callback.close()
+    wall = time.perf_counter() - start
+    if not already_complete:  # the run's training time over all its segments (the report sums them)
+        segment = {"from_timesteps": resumed_from or 0, "to_timesteps": int(model.num_timesteps), "wall_time_s": wall}
+        with (out_dir / "timing.jsonl").open("a", encoding="utf-8") as fh:
+            fh.write(json.dumps(segment) + "\n")
     final = out_dir / "final"
     marker = {"timesteps": int(model.num_timesteps)}
     if read_json(final / "final.json") != marker or not (final / "model.zip").is_file():
@@ -279,7 +297,7 @@ def train(
         model_path=final / "model.zip",
         timesteps=int(model.num_timesteps),
         resumed_from=resumed_from,
-        wall_time_s=time.perf_counter() - start,
+        wall_time_s=wall,
         last_eval=run["last_eval"],
         already_complete=already_complete,
     )

@@ -98,6 +98,7 @@ def _objective(spec: dict[str, Any]):
                 eval_episodes=int(spec["eval_episodes"]),
                 resume=k > 1,
                 backend=spec["backend"],
+                evaluate_initial=False,  # a trial is scored on what its recipe trains, not on its initial policy
             )
             best = _best_eval_j(run)
             trial.report(best, result.timesteps)

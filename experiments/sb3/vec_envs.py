@@ -1,6 +1,6 @@
 """The envs ``train`` trains and evaluates on: the natively batched env where there is one.
 
-Every env id with a vector entry point (:data:`attitude_envs.registration.VECTOR_ENTRY_POINTS`)
+Every env id with a vector entry point (``-v0`` and ``-v1``: :mod:`attitude_envs.registration`)
 trains on :class:`~experiments.sb3.sb3_vec_env.SB3VecEnv` (one compiled call steps all
 sub-envs, bitwise the single envs, no per-step deep copies of infos) under
 :class:`PicklableVecMonitor` (the episode statistics SB3 logs); kwargs the batched env does not
@@ -16,7 +16,6 @@ import gymnasium as gym
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import VecEnv, VecFrameStack, VecMonitor
 
-from attitude_envs.registration import VECTOR_ENTRY_POINTS
 from experiments.sb3.sb3_vec_env import SB3VecEnv
 
 
@@ -47,7 +46,7 @@ def batched_supported(env_id: str, env: gym.Env) -> bool:
     """True where ``env_id`` has a natively batched env that supports ``env``'s options."""
     base = env.unwrapped
     sensors = getattr(base, "sensor_layer", None)
-    return env_id in VECTOR_ENTRY_POINTS and not (
+    return gym.spec(env_id).vector_entry_point is not None and not (
         (sensors is not None and sensors.enabled) or getattr(base, "fault_hint", False)
     )
 

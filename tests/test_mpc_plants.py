@@ -1,0 +1,169 @@
+"""The MPC baselines of FuelSlosh-v0 (baselines.mpc_slosh) and LinearSystem-v0 (baselines.mpc_linear):
+prediction model = env step, short episodes with successful solves, linear MPC = LQR off the bounds."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+pytest.importorskip("casadi")
+
+import gymnasium as gym  # noqa: E402
+
+import attitude_envs  # noqa: E402, F401  (registers the envs)
+from baselines.linear_lqr import LinearLQRPolicy  # noqa: E402
+from baselines.mpc_linear import LinearMPCPolicy, decision_matrices  # noqa: E402
+from baselines.mpc_slosh import SloshMPCPolicy, measured_full_state  # noqa: E402
+
+SLOSH_KW = {"preset": "navabi-fill-i", "episode_duration_s": 100.0, "randomize_initial_state": True}
+LINEAR_KW = {"preset": "heravi-2017", "episode_steps": 40000}
+
+
+def _make(env_id: str, **kwargs):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        return gym.make(env_id, **kwargs)
+
+
+def test_slosh_prediction_model_matches_env_step():
+    env = _make("attitude_envs/FuelSlosh-v0", **SLOSH_KW)
+    _, info = env.reset(seed=3)
+    policy = SloshMPCPolicy(env, horizon_steps=2)
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        y = env.unwrapped.state
+        np.testing.assert_array_equal(measured_full_state(info["measured"]), y)
+        a = rng.uniform(-0.05, 0.05, 2)  # small: no termination limit crossed (no extra charge)
+        _, reward, terminated, _, info = env.step(a.astype(np.float32))
+        assert not terminated
+        a32 = a.astype(np.float32).astype(float)  # the env receives the float32 action
+        y_pred, cost_pred = policy.model_step(y, a32, np.zeros(2))
+        y_next = env.unwrapped.state
+        scale = np.maximum(1.0, np.abs(y_next))
+        assert np.max(np.abs(np.asarray(y_pred).ravel() - y_next) / scale) <= 1e-9
+        assert abs(float(cost_pred) + reward) <= 1e-9 * max(1.0, abs(reward))
+
+
+def test_linear_prediction_model_matches_env_step():
+    env = _make("attitude_envs/LinearSystem-v0", **LINEAR_KW)
+    obs, _ = env.reset(seed=1)
+    policy = LinearMPCPolicy(env, horizon_steps=3)
+    scale = env.unwrapped.action_scale
+    rng = np.random.default_rng(1)
+    for _ in range(5):
+        x = env.unwrapped.state.copy()
+        a = rng.uniform(-1.0, 1.0, 3).astype(np.float32)
+        x_pred, cost_pred = policy.model_step(x, scale * a.astype(float))
+        _, reward, _, _, _ = env.step(a)
+        np.testing.assert_allclose(np.asarray(x_pred).ravel(), env.unwrapped.state, rtol=0, atol=1e-9)
+        assert abs(float(cost_pred) + reward) <= 1e-9 * max(1.0, abs(reward))
+
+
+@pytest.mark.parametrize("faults, effectiveness", [(False, True), (True, False), (True, True)])
+def test_slosh_mpc_short_episode(faults, effectiveness):
+    kwargs = dict(SLOSH_KW, episode_duration_s=2.0)
+    if faults:  # onset inside the episode: the offset-free estimate must pick up the bias
+        kwargs["faults"] = [{"kind": "bias", "target": "actuator", "index": 1, "value": 200.0, "onset_s": 0.5}]
+    env = _make("attitude_envs/FuelSlosh-v0", **kwargs)
+    policy = SloshMPCPolicy(env, horizon_steps=3, estimate_effectiveness=effectiveness)
+    limits = env.unwrapped.actuator_limits
+    obs, info = env.reset(seed=2)
+    policy.reset(2)
+    steps, previous = 0, None
+    while True:
+        a = policy.act(obs, info)  # updates the estimates from the last step
+        assert a.shape == (2,) and np.all(np.abs(a) <= 1.0)
+        if previous is not None and steps >= 16:  # window past the onset: the fitted actuator
+            a_prev, applied_prev = previous  # model reproduces the last applied input (< 1e-4 of the limits)
+            predicted = policy.effectiveness_estimate * a_prev * limits + policy.disturbance_estimate
+            assert np.all(np.abs(predicted - applied_prev) <= 1e-4 * limits), (predicted, applied_prev)
+        obs, _, terminated, truncated, info = env.step(a)
+        previous = (a.astype(float), info["truth"]["applied"])
+        steps += 1
+        if terminated or truncated:
+            break
+    assert not terminated and steps == 20
+    assert len(policy.solve_times_s) == steps and policy.failures == 0
+    if not effectiveness:  # a pure bias is estimated exactly as the input disturbance
+        np.testing.assert_allclose(policy.disturbance_estimate, [0.0, 200.0 if faults else 0.0], atol=1e-3)
+
+
+def test_linear_mpc_short_episode_and_equals_lqr_off_bounds():
+    env = _make("attitude_envs/LinearSystem-v0", **dict(LINEAR_KW, episode_steps=30))
+    mpc = LinearMPCPolicy(env, horizon_steps=10, unconstrained_shortcut=False)
+    lqr = LinearLQRPolicy(env)
+    obs, info = env.reset(seed=0)
+    mpc.reset(0)
+    while True:
+        a = mpc.act(obs, info)
+        np.testing.assert_allclose(a, lqr.act(obs, info), rtol=0, atol=1e-6)
+        obs, _, terminated, truncated, info = env.step(a)
+        if terminated or truncated:
+            break
+    assert mpc.qp_solves == 30 and mpc.failures == 0 and len(mpc.solve_times_s) == 30
+
+
+def test_linear_mpc_respects_bounds_where_lqr_saturates():
+    env = _make("attitude_envs/LinearSystem-v0", **dict(LINEAR_KW, episode_steps=5))
+    mpc = LinearMPCPolicy(env, horizon_steps=10)
+    env.reset(seed=0)
+    x0 = 50.0 * np.ones(6)  # far out: the LQR's input exceeds the bound
+    assert np.max(np.abs(mpc.gain @ x0)) > np.max(env.unwrapped.action_scale)
+    u = mpc.plan(x0)
+    assert mpc.qp_solves == 1 and mpc.failures == 0
+    assert np.all(np.abs(u) <= np.asarray(env.unwrapped.action_scale) + 1e-9)
+
+
+def test_decision_matrices_fallback_is_the_env_model():
+    env = _make("attitude_envs/LinearSystem-v0", **LINEAR_KW)
+    m = decision_matrices(env)
+    base = env.unwrapped
+    if getattr(base, "decision_model", None) is None:
+        np.testing.assert_array_equal(m.A, base.model.A)
+        np.testing.assert_array_equal(m.B, base.model.B)
+        np.testing.assert_array_equal(m.Q, base.cost.Q)
+        assert not np.any(m.N) and m.dt_s == base.model.dt_s
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [({"horizon_steps": 0}, "horizon_steps"), ({"qp_solver": "nope"}, "qp_solver")],
+)
+def test_linear_mpc_bad_input(kwargs, match):
+    env = _make("attitude_envs/LinearSystem-v0", **LINEAR_KW)
+    with pytest.raises(ValueError, match=match):
+        LinearMPCPolicy(env, **kwargs)
+
+
+def test_slosh_mpc_bad_input():
+    env = _make("attitude_envs/FuelSlosh-v0", **SLOSH_KW)
+    with pytest.raises(ValueError, match="horizon_steps"):
+        SloshMPCPolicy(env, horizon_steps=0)
+    with pytest.raises(ValueError, match="disturbance_gain"):
+        SloshMPCPolicy(env, disturbance_gain=1.5)
+
+
+def test_linear_mpc_at_a_longer_decision_period():
+    """With ``control_dt_s`` = k·dt_s the MPC predicts with the env's decision model (k-step
+    matrices, cost with cross term) and equals that model's discrete LQR off the bounds."""
+    try:
+        env = _make("attitude_envs/LinearSystem-v0", **dict(LINEAR_KW, episode_steps=50), control_dt_s=0.05)
+    except TypeError:
+        pytest.skip("LinearSystem-v0 has no control_dt_s")
+    obs, info = env.reset(seed=0)
+    mpc = LinearMPCPolicy(env, horizon_steps=5, unconstrained_shortcut=False)
+    d = env.unwrapped.decision_model
+    np.testing.assert_array_equal(mpc.matrices.A, d.A)
+    np.testing.assert_array_equal(mpc.matrices.N, d.N)
+    scale = env.unwrapped.action_scale
+    for _ in range(3):
+        x = env.unwrapped.state.copy()
+        a = mpc.act(obs, info)
+        k_gain = mpc.gain
+        np.testing.assert_allclose(a, np.clip(-k_gain @ x / scale, -1, 1), rtol=0, atol=1e-6)
+        x_pred, cost_pred = mpc.model_step(x, scale * a.astype(float))
+        obs, reward, _, _, info = env.step(a)
+        np.testing.assert_allclose(np.asarray(x_pred).ravel(), env.unwrapped.state, rtol=0, atol=1e-9)
+        assert abs(float(cost_pred) + reward) <= 1e-9 * max(1.0, abs(reward))
