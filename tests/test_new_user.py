@@ -31,7 +31,7 @@ def test_every_policy_declares_the_envs_it_applies_to():
     for entry in POLICIES.values():
         envs = entry.envs
         assert envs is None or set(envs) <= {e.split("/")[1].split("-v")[0] for e in attitude_envs.ENV_IDS}
-    assert policies_for("attitude_envs/LinearSystem-v0") == ["zero", "linear-lqr", "q-learning-lqr", "sb3"]
+    assert policies_for("attitude_envs/LinearSystem-v0") == ["zero", "mpc", "linear-lqr", "q-learning-lqr", "sb3"]
     assert "slosh-fuzzy" in policies_for("attitude_envs/FuelSlosh-v0")
     assert "lqr" not in policies_for("attitude_envs/Magnetorquer-v0")
 
@@ -42,7 +42,7 @@ def test_a_policy_on_an_env_it_does_not_fit_is_a_one_line_error_listing_those_th
     err = _one_line_error(capsys, "'slosh-pd' does not apply to attitude_envs/LinearSystem-v0", "FuelSlosh")
     assert "linear-lqr, q-learning-lqr" in err
     assert not (tmp_path / "episodes.csv").exists()
-    with pytest.raises(ValueError, match="policies for Magnetorquer: zero, amnftsmc"):
+    with pytest.raises(ValueError, match="policies for Magnetorquer: zero, mpc, amnftsmc"):
         build_policy({"policy": "lqr"}, gym.make("attitude_envs/Magnetorquer-v0"))
     check_policy_env("zero", "attitude_envs/FuelSlosh-v0")  # applies everywhere
 

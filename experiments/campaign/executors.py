@@ -161,7 +161,8 @@ def trains_with_sbx(campaign: Campaign) -> bool:
             t = agent.train
             if t is None:
                 continue
-            entry = load_hyperparams(t["algo"], env.id, t.get("hyperparams_file"), t.get("overrides"))
+            env_id = agent.env_id or env.id  # an agent training on its own task uses that task's entry
+            entry = load_hyperparams(t["algo"], env_id, t.get("hyperparams_file"), t.get("overrides"))
             if str(t.get("backend", entry.get("backend", "sb3"))).lower() == "sbx":
                 return True
     return False
