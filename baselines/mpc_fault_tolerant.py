@@ -189,33 +189,26 @@ class FaultTolerantMPCPolicy(MPCPolicy):
     def _key(eff: np.ndarray) -> tuple[float, ...]:
         return tuple(float(e) for e in eff)
 
+    #: what one actuator configuration of the MPC consists of (cached per effectiveness pattern)
+    _CONFIGURATION = (
+        "horizon_steps",
+        "_coarse_active",
+        "model_parameters",
+        "model_step",
+        "terminal_weight",
+        "_solver",
+        "_lbx",
+        "_ubx",
+        "_lbg",
+        "_ubg",
+    )
+
     def _configuration(self) -> tuple:
-        return (
-            self.horizon_steps,
-            self._coarse_active,
-            self.model_parameters,
-            self.model_step,
-            self.terminal_weight,
-            self._solver,
-            self._lbx,
-            self._ubx,
-            self._lbg,
-            self._ubg,
-        )
+        return tuple(getattr(self, name) for name in self._CONFIGURATION)
 
     def _apply(self, config: tuple) -> None:
-        (
-            self.horizon_steps,
-            self._coarse_active,
-            self.model_parameters,
-            self.model_step,
-            self.terminal_weight,
-            self._solver,
-            self._lbx,
-            self._ubx,
-            self._lbg,
-            self._ubg,
-        ) = config
+        for name, value in zip(self._CONFIGURATION, config, strict=True):
+            setattr(self, name, value)
 
     def reset(self, seed: int | None = None) -> None:
         super().reset(seed)
