@@ -25,7 +25,7 @@ import numpy as np
 from numba import njit
 
 from attitude_envs.linearization import LinearModel
-from attitude_envs.plants.kernel_math import quad_form
+from attitude_envs.plants.linear_kernels import linear_step
 
 
 def held_sums(F: np.ndarray, W: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
@@ -90,22 +90,15 @@ def hold_model(model: LinearModel, k: int) -> LinearModel:
 @njit(cache=True, error_model="numpy")
 def held_step(x, u, A, B, Q, N, R, out):
     """``out = A x + B u``; returns ``xᵀQx + 2xᵀNu + uᵀRu`` (the decision-period model's
-    matrices of :func:`hold_model`)."""
+    matrices of :func:`hold_model`): the single step's arithmetic plus the cross term."""
     n, m = B.shape
-    for i in range(n):
-        acc = 0.0
-        for j in range(n):
-            acc += A[i, j] * x[j]
-        for j in range(m):
-            acc += B[i, j] * u[j]
-        out[i] = acc
     cross = 0.0
     for i in range(n):
         acc = 0.0
         for j in range(m):
             acc += N[i, j] * u[j]
         cross += x[i] * acc
-    return quad_form(Q, x, n) + 2.0 * cross + quad_form(R, u, m)
+    return linear_step(x, u, A, B, Q, R, out) + 2.0 * cross
 
 
 @njit(cache=True, error_model="numpy")
@@ -122,19 +115,11 @@ def noisy_held_steps(x, u, A, B, Q, R, noise, out):
     uᵀRu)``. Each step is the arithmetic of the single step
     (:func:`attitude_envs.plants.linear_kernels.linear_step`, then ``+ noise[j]``), so the
     result is bitwise that of ``k`` single steps with the same draws."""
-    n, m = B.shape
     cur = x.copy()
     total = 0.0
     for s in range(noise.shape[0]):
-        for i in range(n):
-            acc = 0.0
-            for j in range(n):
-                acc += A[i, j] * cur[j]
-            for j in range(m):
-                acc += B[i, j] * u[j]
-            out[i] = acc
-        total += quad_form(Q, cur, n) + quad_form(R, u, m)
-        for i in range(n):
+        total += linear_step(cur, u, A, B, Q, R, out)
+        for i in range(cur.shape[0]):
             out[i] = out[i] + noise[s, i]
             cur[i] = out[i]
     return total
