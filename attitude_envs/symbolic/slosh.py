@@ -127,13 +127,7 @@ def _augmented(pk, Q, R, aug, sin_d, cos_d, moment) -> list:
 def step_function(env) -> casadi.Function:
     """``(y (10), a (2), k (1)) -> (y_next (10), cost (1))``: one FuelSlosh-v0 control step of
     the unwrapped ``env`` (its kernel constants, limits and this episode's realized faults)."""
-    const = np.asarray(env.kernel_constants)
-    pk = const[: kernels.N_PACKED]
-    h = float(const[kernels.N_PACKED])
-    n_sub = int(const[kernels.N_PACKED + 1])
-    Q = np.asarray(env.model.cost.Q, float)
-    R = np.asarray(env.model.cost.R, float)
-    limits = np.asarray(env.actuator_limits, float)
+    pk, h, n_sub, Q, R, limits = _step_constants(env)
     y = casadi.SX.sym("y", slosh.N_STATE)
     a = casadi.SX.sym("a", 2)
     k = casadi.SX.sym("k")
@@ -141,6 +135,18 @@ def step_function(env) -> casadi.Function:
     applied = actuators.delivered(commanded, k * env.control_dt_s, env.fault_layer.realized, limits)
     y_next, cost = _rk4_control_step(pk, h, n_sub, Q, R, y, applied[0], applied[1])
     return casadi.Function("fuel_slosh_step", [y, a, k], [y_next, cost], ["x", "a", "k"], ["x_next", "cost"])
+
+
+def _step_constants(env) -> tuple:
+    """``(packed plant constants, RK4 sub-step h (s), sub-steps per control step, Q, R,
+    actuator limits)`` of the unwrapped FuelSlosh-v0 ``env``: what both symbolic steps read."""
+    const = np.asarray(env.kernel_constants)
+    pk = const[: kernels.N_PACKED]
+    h = float(const[kernels.N_PACKED])
+    n_sub = int(const[kernels.N_PACKED + 1])
+    Q = np.asarray(env.model.cost.Q, float)
+    R = np.asarray(env.model.cost.R, float)
+    return pk, h, n_sub, Q, R, np.asarray(env.actuator_limits, float)
 
 
 def _rk4_control_step(pk, h: float, n_sub: int, Q, R, y, delta, moment):
@@ -169,13 +175,7 @@ def nominal_step_function(env) -> casadi.Function:
     disturbance in physical units (rad, N·m; zero for the nominal plant — the offset-free MPC's
     estimate of actuator faults). With ``|a_i| ≤ 1`` and ``d = 0`` the step equals
     :func:`step_function` of a fault-free env (and the env's step) to round-off."""
-    const = np.asarray(env.kernel_constants)
-    pk = const[: kernels.N_PACKED]
-    h = float(const[kernels.N_PACKED])
-    n_sub = int(const[kernels.N_PACKED + 1])
-    Q = np.asarray(env.model.cost.Q, float)
-    R = np.asarray(env.model.cost.R, float)
-    limits = np.asarray(env.actuator_limits, float)
+    pk, h, n_sub, Q, R, limits = _step_constants(env)
     y = casadi.SX.sym("y", slosh.N_STATE)
     a = casadi.SX.sym("a", 2)
     d = casadi.SX.sym("d", 2)
