@@ -63,6 +63,11 @@ class Disturbance:
         return view
 
     @property
+    def random_phase(self) -> bool:
+        """True when the sinusoid's phases are drawn per episode (``phase_rad="random"``)."""
+        return bool(getattr(self, "_random_phase", False))
+
+    @property
     def walk_nm(self) -> np.ndarray:
         """The random walk's current value, the torque held over this control step, N·m; a
         read-only view (zeros for the other kinds)."""

@@ -275,13 +275,14 @@ def _check_models(env_id: str, env_kwargs: dict, models: list[str]) -> None:
 
 
 def _algo_label(model: Path) -> str:
-    """The agent's name in the tables: the run's algorithm (``config.json``; ``-sbx`` appended for
-    an SBX model), else ``sb3``."""
+    """The agent's name in the tables: the run's algorithm (``config.json``; ``-sbx`` / ``-jax``
+    appended for a model of those backends), else ``sb3``."""
     for config in (model.parent / "config.json", model.parent.parent / "config.json"):
         if config.is_file():
             try:
                 saved = json.loads(config.read_text(encoding="utf-8"))
-                return str(saved["algo"]) + ("-sbx" if saved.get("backend") == "sbx" else "")
+                backend = saved.get("backend", "sb3")
+                return str(saved["algo"]) + (f"-{backend}" if backend in ("sbx", "jax") else "")
             except (ValueError, KeyError):
                 break
     return "sb3"
@@ -398,6 +399,10 @@ def _add_env_options(p: argparse.ArgumentParser, default: str = ENV_DEFAULT) -> 
 
 
 def _tune(args: argparse.Namespace) -> int:
+    if args.backend == "jax":  # a population search with the fused JAX trainer (no optuna)
+        return _tune_population(args)
+    if args.shape_groups != 1:
+        raise ValueError("--shape-groups is the population search's (--backend jax)")
     try:  # optional: the tune extra (optuna) and the sb3 extra
         import optuna  # noqa: F401
 
@@ -429,6 +434,38 @@ def _tune(args: argparse.Namespace) -> int:
     if summary["best_value"] is not None:
         print(
             f"best eval J = {summary['best_value']:.6g} (trial {summary['best_trial']}): {Path(args.out) / 'best.yml'}"
+        )
+    return 0
+
+
+def _tune_population(args: argparse.Namespace) -> int:
+    from experiments.sb3.jax_tuning import tune_population  # optional: the jax and sb3 extras
+
+    if args.jobs not in (None, 1):
+        raise ValueError("--jobs: the population search (--backend jax) trains every setting in one process")
+    summary = tune_population(
+        args.algo,
+        args.env,
+        args.out,
+        env_kwargs=_env_kwargs(args),
+        n_trials=args.trials,
+        timesteps=args.timesteps,
+        n_evaluations=args.evaluations,
+        eval_episodes=args.eval_episodes,
+        overrides=parse_overrides(args.params),
+        seed=args.seed,
+        sampler_seed=args.sampler_seed,
+        shape_groups=args.shape_groups,
+    )
+    groups = summary["groups"]
+    print(
+        f"tuned {args.algo} (jax) on {args.env}: {summary['n_complete']} of {args.trials} settings in "
+        f"{len(groups)} compiled program(s) ({sum(g['compile_s'] for g in groups):.1f} s compiling, "
+        f"{sum(g['train_s'] for g in groups):.1f} s training); trials: {Path(args.out) / 'trials.csv'}"
+    )
+    if summary["best_value"] is not None:
+        print(
+            f"best eval J = {summary['best_value']:.6g} (setting {summary['best_trial']}): {Path(args.out) / 'best.yml'}"
         )
     return 0
 
@@ -578,7 +615,8 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument(
         "--backend",
         choices=BACKENDS,
-        help="sb3 (PyTorch) or sbx (JAX: pip install 'attitude-envs[sbx]'); default: the hyperparameter entry's backend, else sb3",
+        help="sb3 (PyTorch), sbx (JAX: pip install 'attitude-envs[sbx]') or jax (PPO: the fused JAX trainer on the "
+        "env's JAX plant, pip install 'attitude-envs[jax]'); default: the hyperparameter entry's backend, else sb3",
     )
     tr.add_argument("--checkpoint-freq", type=int_at_least(1), default=10_000, help="env steps between checkpoints")
     tr.add_argument("--eval-freq", type=int_at_least(1), default=10_000, help="env steps between evaluations of J")
@@ -673,7 +711,19 @@ def build_parser() -> argparse.ArgumentParser:
     tu.add_argument("--evaluations", type=int_at_least(1), default=3, help="evaluations per trial (pruning points)")
     tu.add_argument("--eval-episodes", type=int_at_least(1), default=10, help="episodes per evaluation (seeds 10000+i)")
     tu.add_argument("--params", nargs="*", help="fixed hyperparameter overrides key:value (Zoo syntax)")
-    tu.add_argument("--backend", choices=BACKENDS, help="sb3 or sbx; default: the hyperparameter entry's")
+    tu.add_argument(
+        "--backend",
+        choices=BACKENDS,
+        help="sb3 or sbx (optuna, one trial after the other) or jax (a population search: --trials settings drawn "
+        "from the same ranges, trained side by side by the fused JAX trainer); default: the hyperparameter entry's",
+    )
+    tu.add_argument(
+        "--shape-groups",
+        type=int_at_least(1),
+        default=1,
+        help="--backend jax: groups of settings with drawn shapes (n_steps, batch_size, n_epochs, network), one "
+        "compiled program each (default 1: every setting keeps the entry's shapes, only its floats are drawn)",
+    )
     tu.add_argument("--seed", type=int_at_least(0), default=0, help="training seed of every trial")
     tu.add_argument("--sampler-seed", type=int_at_least(0), default=0, help="seed of the TPE sampler")
     _add_jobs_option(tu, "worker processes sharing the study (>= 1)", default=1)

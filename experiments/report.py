@@ -668,16 +668,13 @@ def _task_text(env_id: str, env_kwargs: Mapping[str, Any], hyperparams: Mapping[
     env = gym.make(env_id, **{k: v for k, v in env_kwargs.items() if k != "faults"})
     try:
         base = env.unwrapped
-        dt = float(getattr(base, "control_dt_s", getattr(getattr(base, "model", None), "dt_s", float("nan"))))
-        length = getattr(base, "episode_duration_s", None)
-        if length is None:
-            length = base.episode_steps * base.model.dt_s
+        dt, length, decisions = float(base.control_dt_s), base.episode_length_s, base.decisions_per_episode
     finally:
         env.close()
     gamma = float(hyperparams.get("gamma", 0.99))
     return (
         f"{env_id.split('/')[-1]}: decisions every {dt:g} s, γ {gamma:g} (horizon Δt/(1 − γ) = {dt / (1 - gamma):.3g} s), "
-        f"episodes of {float(length):g} s ({round(float(length) / dt)} decisions)"
+        f"episodes of {float(length):g} s ({decisions} decisions)"
     )
 
 

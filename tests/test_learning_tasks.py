@@ -39,10 +39,7 @@ DIVES = {
 
 
 def _episode_length(env) -> float:
-    base = env.unwrapped
-    if hasattr(base, "episode_duration_s"):
-        return float(base.episode_duration_s)
-    return float(base.episode_steps * base.model.dt_s)
+    return env.unwrapped.episode_length_s
 
 
 def _decision_period(env) -> float:
@@ -181,3 +178,18 @@ def test_a_dive_into_a_limit_never_pays_in_the_learners_objective(env_id):
         g_survive = -float(np.dot(discounts[: len(survive)], survive)) - discounts[len(survive) - 1] * tail
         assert g_dive < g_survive, f"{algo} (γ {gamma}) on {env_id}: a dive pays ({g_dive:g} ≥ {g_survive:g})"
     assert base.termination_cost == "episode"
+
+
+@pytest.mark.parametrize("env_id", V1)
+def test_a_search_draws_only_discounts_whose_horizon_fits_the_episode(env_id):
+    """``attitude-envs tune`` (optuna and the JAX population) draws γ from :func:`gamma_choices`
+    of the task: at least three values, every horizon 1/(1 − γ) within the episode's decisions."""
+    from experiments.sb3.tuning import PPO_SPACE, gamma_choices, ppo_space, task_decisions
+
+    decisions = task_decisions(env_id)
+    assert decisions == gym.make(env_id).unwrapped.decisions_per_episode
+    choices = ppo_space(decisions)["gamma"]
+    assert len(choices) >= 3
+    assert all(0.0 < g < 1.0 and 1.0 / (1.0 - g) <= decisions * (1 + 1e-9) for g in choices), choices
+    assert gamma_choices(10**6) == PPO_SPACE["gamma"]  # a long task keeps the Zoo's list
+    assert gamma_choices(40) == [0.8, 0.9, 0.95, 0.975]  # AirBearing-v1: 1/8 … the whole 40 decisions

@@ -164,12 +164,24 @@ def test_a_model_evaluated_on_another_env_is_a_one_line_error(tiny_run, tmp_path
 
 
 def test_the_env_layer_imports_nothing_of_training_or_process_management():
-    """Importing every module of attitude_envs loads neither the RL libraries nor tqdm, nor a layer above."""
+    """Importing every module of attitude_envs loads neither the RL libraries nor tqdm, nor a layer above; only
+    its ``jax`` subpackage (the JAX-native plants, an optional extra) loads jax, and no RL library either."""
     code = (
         "import importlib, pkgutil, sys, attitude_envs\n"
-        "for m in pkgutil.walk_packages(attitude_envs.__path__, 'attitude_envs.'):\n"
-        "    importlib.import_module(m.name)\n"
+        "def walk(path, prefix):\n"  # pkgutil.walk_packages would import attitude_envs.jax to recurse into it
+        "    for m in pkgutil.iter_modules(path, prefix):\n"
+        "        if m.name != 'attitude_envs.jax':\n"
+        "            module = importlib.import_module(m.name)\n"
+        "            if m.ispkg:\n"
+        "                walk(module.__path__, m.name + '.')\n"
+        "walk(attitude_envs.__path__, 'attitude_envs.')\n"
         "bad = sorted({n.split('.')[0] for n in sys.modules} & "
+        "{'stable_baselines3', 'sbx', 'torch', 'tqdm', 'optuna', 'ray', 'jax', 'flax', 'optax', "
+        "'experiments', 'agents', 'baselines'})\n"
+        "import attitude_envs.jax\n"
+        "for m in pkgutil.walk_packages(attitude_envs.jax.__path__, 'attitude_envs.jax.'):\n"
+        "    importlib.import_module(m.name)\n"
+        "bad += sorted({n.split('.')[0] for n in sys.modules} & "
         "{'stable_baselines3', 'sbx', 'torch', 'tqdm', 'optuna', 'ray', 'experiments', 'agents', 'baselines'})\n"
         "print(bad)\n"
     )

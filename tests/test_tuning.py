@@ -92,3 +92,29 @@ def test_parallel_workers_share_one_study(tmp_path):
     # each worker samples with its own seed: no point is trained twice (one seed made pairs)
     points = {tuple(sorted((k, v) for k, v in r.items() if k.startswith("param_"))) for r in rows}
     assert len(points) == len(rows), rows
+
+
+@pytest.mark.parametrize("algo", ["ppo", "sac"])
+def test_every_drawn_setting_is_an_entry_the_algorithm_builds(algo):
+    """Each algorithm's sampler draws Zoo overrides that its hyperparameter entry takes and
+    Stable-Baselines3 builds (here the extremes of every range), with γ within the task's episode."""
+    import gymnasium as gym
+    import optuna
+    from stable_baselines3 import PPO, SAC
+
+    from experiments.sb3.hyperparams import load_hyperparams, split_hyperparams
+    from experiments.sb3.tuning import sample, search_space, task_decisions
+
+    env_id = "attitude_envs/AirBearing-v1"
+    space = search_space(algo, task_decisions(env_id))
+    assert max(space["gamma"]) <= 1 - 1 / 40  # 40 decisions per episode
+    for pick in (0, -1):
+        params = {k: (v[pick] if isinstance(v, list) else v[1:][pick]) for k, v in space.items()}
+        overrides = sample(optuna.trial.FixedTrial(params), algo, space)
+        entry = load_hyperparams(algo, env_id, overrides={**overrides, "backend": "sb3"})
+        split = split_hyperparams(entry, n_actions=3, algo=algo)
+        assert split["kwargs"]["gamma"] == params["gamma"]
+        env = gym.make(env_id)
+        model = {"ppo": PPO, "sac": SAC}[algo](split["policy"], env, **split["kwargs"])
+        assert model.gamma == params["gamma"]
+        env.close()

@@ -249,6 +249,18 @@ class AttitudeEnv(gym.Env):
             out[i] = float(row @ self._hold_q @ row) * held
         return out
 
+    # ------------------------------------------------------------------ the learning task
+    @property
+    def episode_length_s(self) -> float:
+        """An episode's time limit, s (``episode_duration_s``; LinearSystem: its plant steps × ``dt_s``)."""
+        return float(self.episode_duration_s)
+
+    @property
+    def decisions_per_episode(self) -> int:
+        """Env steps (decisions of ``control_dt_s`` s) in an episode that reaches its time limit:
+        a discount's horizon ``1/(1 − γ)`` decisions beyond this is past the episode."""
+        return max(1, round(self.episode_length_s / float(self.control_dt_s)))
+
     # ------------------------------------------------------------------ episode
     def _step_out_of_episode(self) -> None:
         """``step`` outside an episode: before the first reset a ``ResetNeeded`` error; after

@@ -307,6 +307,12 @@ class FuelSloshEnv(AttitudeEnv):
         return self._y.copy()
 
     @property
+    def initial_state(self) -> np.ndarray:
+        """The fixed start state ``[v_x, v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2]`` (m/s, rad, rad/s; the
+        ``initial_state`` keyword, order of ``reset(options={"state": ...})``), a copy."""
+        return self._initial.copy()
+
+    @property
     def observation_index(self) -> np.ndarray:
         """Full-state indices of the observation's entries (before any fault flags), read-only."""
         return self._obs_index

@@ -256,9 +256,25 @@ class LinearSystemEnv(AttitudeEnv):
         self._sensing = self.sensor_layer.enabled
 
     @property
+    def episode_length_s(self) -> float:
+        """An episode's time limit, s: ``episode_steps · dt_s``."""
+        return self.episode_steps * float(self.model.dt_s)
+
+    @property
     def state(self) -> np.ndarray:
         """The true state ``x`` (n), a copy."""
         return self._x.copy()
+
+    @property
+    def reset_distribution(self) -> dict[str, np.ndarray]:
+        """How :meth:`reset` draws ``x0 ~ N(x0_mean, diag(x0_std²))`` (read only, copies):
+        ``x0_mean`` and ``x0_std`` (n, state units)."""
+        return {"x0_mean": self._x0_mean.copy(), "x0_std": self._x0_std.copy()}
+
+    @property
+    def steps_taken(self) -> int:
+        """Plant steps of ``dt_s`` taken in the current episode (``time_s = steps_taken · dt_s``)."""
+        return self._steps
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)

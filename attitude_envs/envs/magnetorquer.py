@@ -484,6 +484,26 @@ class MagnetorquerEnv(AttitudeEnv):
         return view
 
     @property
+    def reset_distribution(self) -> dict[str, Any]:
+        """How :meth:`reset` draws an episode (read only): ``task``, ``initial_angle_deg``
+        (regulation: the start within this angle of the target, deg),
+        ``initial_rate_max_rad_s`` (ω_bo uniform in ±this, rad/s), ``mean_anomaly_deg`` (a
+        number, deg, or ``"random"``: uniform in [0, 360)) and ``inertia_uncertainty`` (an
+        :class:`~attitude_envs.uncertainty.InertiaUncertainty`, or None)."""
+        return {
+            "task": self.task,
+            "initial_angle_deg": self._initial_angle,
+            "initial_rate_max_rad_s": self._rate_max,
+            "mean_anomaly_deg": self._orbit_cfg["mean_anomaly_deg"],
+            "inertia_uncertainty": self._uncertainty,
+        }
+
+    @property
+    def steps_taken(self) -> int:
+        """Control steps taken in the current episode (``time_s = steps_taken · control_dt_s``)."""
+        return self._steps
+
+    @property
     def observation_size(self) -> int:
         """Entries of the observation the compiled step builds (7, or 10 with
         ``observe_field``; without the ``fault_hint`` flags)."""

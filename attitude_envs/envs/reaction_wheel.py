@@ -430,6 +430,28 @@ class ReactionWheelEnv(AttitudeEnv):
         return self._true_params.offset_torque_nm
 
     @property
+    def reset_distribution(self) -> dict[str, Any]:
+        """What :meth:`reset_episode` draws the episode from (copies, for tools that draw it
+        themselves, e.g. :mod:`attitude_envs.jax`): ``initial_attitude`` and
+        ``target_attitude`` (fixed quaternions, or None: drawn within ``initial_angle_deg``
+        and ``target_angle_deg``, deg), ``initial_rate_rad_s`` (fixed, rad/s, or None: uniform
+        in ± ``initial_rate_max_rad_s``) and ``inertia_uncertainty``
+        (:class:`~attitude_envs.uncertainty.InertiaUncertainty`, frozen, or None)."""
+
+        def copy(a):
+            return None if a is None else a.copy()
+
+        return {
+            "initial_attitude": copy(self._initial_fixed),
+            "initial_angle_deg": self._initial_angle,
+            "target_attitude": copy(self._target_fixed),
+            "target_angle_deg": self._target_angle,
+            "initial_rate_rad_s": copy(self._rate_fixed),
+            "initial_rate_max_rad_s": self._rate_max,
+            "inertia_uncertainty": self._uncertainty,
+        }
+
+    @property
     def n_substeps(self) -> int:
         """RK4 sub-steps per control period (``control_dt_s / integrator_dt_s``)."""
         return self._substeps

@@ -154,8 +154,8 @@ def executor_name(ray_address: str | None = None, workers: int | None = None) ->
 
 
 def trains_with_sbx(campaign: Campaign) -> bool:
-    """Whether any training job of ``campaign`` runs on SBX (its ``train.backend``, else its
-    hyperparameter entry's)."""
+    """Whether any training job of ``campaign`` runs on JAX: SBX or the fused ``jax`` backend (its
+    ``train.backend``, else its hyperparameter entry's; their workers are pinned to one CPU each)."""
     for env in campaign.envs:
         for agent in campaign.agents_for(env):
             t = agent.train
@@ -163,6 +163,6 @@ def trains_with_sbx(campaign: Campaign) -> bool:
                 continue
             env_id = agent.env_id or env.id  # an agent training on its own task uses that task's entry
             entry = load_hyperparams(t["algo"], env_id, t.get("hyperparams_file"), t.get("overrides"))
-            if str(t.get("backend", entry.get("backend", "sb3"))).lower() == "sbx":
+            if str(t.get("backend", entry.get("backend", "sb3"))).lower() in ("sbx", "jax"):
                 return True
     return False

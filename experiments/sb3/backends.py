@@ -1,16 +1,25 @@
-"""Training backends: Stable-Baselines3 (PyTorch, the default) and SBX (the SB3 maintainers' JAX
-port with the same API, the optional ``sbx`` extra).
+"""Training backends: Stable-Baselines3 (PyTorch, the default), SBX (the SB3 maintainers' JAX
+port with the same API, the optional ``sbx`` extra) and ``jax`` (PPO only: the suite's fused
+trainer, :mod:`agents.fused_ppo`, one jitted program per run on the JAX plants of
+:mod:`attitude_envs.jax`; the optional ``jax`` extra; :mod:`experiments.sb3.jax_training`).
 
 A Zoo-format hyperparameter entry may say ``backend: sbx``; ``train --backend`` overrides it.
-The same entry serves both backends: :func:`policy_kwargs_for` maps what differs (activation
+The same entry serves every backend: :func:`policy_kwargs_for` maps what differs (activation
 classes, PPO's orthogonal initialization, on in SB3 and off in SBX by default).
 """
 
 from __future__ import annotations
 
+import importlib.util
+import sys
 from typing import Any
 
-BACKENDS = ("sb3", "sbx")
+BACKENDS = ("sb3", "sbx", "jax")
+
+#: the algorithms the fused JAX trainer implements
+JAX_ALGORITHMS = ("ppo",)
+#: the packages the jax backend needs (the jax extra)
+JAX_PACKAGES = ("jax", "flax", "optax")
 
 # the algorithms SBX implements (same names and constructor arguments as SB3's)
 SBX_ALGORITHMS = {"ppo": "PPO", "sac": "SAC", "td3": "TD3", "ddpg": "DDPG", "tqc": "TQC"}
@@ -22,6 +31,16 @@ SBX_ALGORITHMS = {"ppo": "PPO", "sac": "SAC", "td3": "TD3", "ddpg": "DDPG", "tqc
 # (experiments.processes.pin_to_one_core); a single `train` run keeps JAX's default.
 
 
+def _installed(package: str) -> bool:
+    """Whether ``package`` can be imported (without importing it)."""
+    if package in sys.modules:
+        return sys.modules[package] is not None  # None: blocked (as tests simulate a missing package)
+    try:
+        return importlib.util.find_spec(package) is not None
+    except (ImportError, ValueError):
+        return False
+
+
 def check_backend(backend: str, algo: str) -> str:
     """The lower-cased backend name; ``ValueError`` naming the accepted ones otherwise (SBX: for
     the algorithms it implements)."""
@@ -30,6 +49,17 @@ def check_backend(backend: str, algo: str) -> str:
         raise ValueError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
     if key == "sbx" and algo not in SBX_ALGORITHMS:
         raise ValueError(f"backend 'sbx' implements {sorted(SBX_ALGORITHMS)}, not {algo!r}; use backend 'sb3'")
+    if key == "jax":
+        if algo not in JAX_ALGORITHMS:
+            raise ValueError(
+                f"backend 'jax' implements {list(JAX_ALGORITHMS)}, not {algo!r}; use backend 'sb3' or 'sbx'"
+            )
+        missing = [name for name in JAX_PACKAGES if not _installed(name)]
+        if missing:
+            raise ValueError(
+                f"backend 'jax' needs the optional packages {', '.join(JAX_PACKAGES)} (missing: {', '.join(missing)}): "
+                "pip install 'attitude-envs[jax]'; or train with --backend sb3"
+            )
     return key
 
 

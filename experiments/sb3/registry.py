@@ -28,9 +28,16 @@ def check_algorithm(name: str) -> str:
 
 def algorithm_class(name: str, backend: str = "sb3"):
     """The class of ``name`` on ``backend`` (``"sb3"``: Stable-Baselines3 or sb3-contrib; ``"sbx"``:
-    its JAX port); ``ValueError`` if unknown or its package is not installed."""
-    if check_backend(backend, check_algorithm(name)) == "sbx":
+    its JAX port; ``"jax"``: the fused trainer's numpy predictor, whose ``load`` reads its model
+    file, :class:`agents.fused_ppo.NumpyPPOPolicy`); ``ValueError`` if unknown or its package is
+    not installed."""
+    checked = check_backend(backend, check_algorithm(name))
+    if checked == "sbx":
         return sbx_class(check_algorithm(name))
+    if checked == "jax":
+        from agents.fused_ppo.export import NumpyPPOPolicy  # numpy only
+
+        return NumpyPPOPolicy
     module, cls, _ = ALGORITHMS[check_algorithm(name)]
     try:
         return getattr(importlib.import_module(module), cls)

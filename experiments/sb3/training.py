@@ -29,6 +29,7 @@ from stable_baselines3.common.vec_env import VecNormalize
 
 from attitude_envs.make import check_env_id, make_checked
 from experiments.jsonable import json_ready
+from experiments.sb3.backends import check_backend
 from experiments.sb3.callbacks import (
     EvalLog,
     NormalizedPredictor,
@@ -118,9 +119,11 @@ def train(
     Training and evaluation run on the natively batched env of ``env_id``
     (:mod:`experiments.sb3.vec_envs`; evaluation plays its episodes as one batch); kwargs it
     does not support (sensors, ``fault_hint``) fall back to single envs.
-    ``backend``: ``"sb3"`` (PyTorch) or ``"sbx"`` (JAX, the ``sbx`` extra; :mod:`experiments.sb3.backends`);
-    default: the entry's ``backend`` key, else ``"sb3"``. Checkpoints, exact resume, best/final
-    snapshots and :func:`load_trained` work the same on both.
+    ``backend``: ``"sb3"`` (PyTorch), ``"sbx"`` (JAX, the ``sbx`` extra) or ``"jax"`` (PPO only:
+    the fused trainer on the env's JAX plant, the ``jax`` extra; :mod:`experiments.sb3.jax_training`;
+    :mod:`experiments.sb3.backends`); default: the entry's ``backend`` key, else ``"sb3"``.
+    Checkpoints, resume, best/final snapshots and :func:`load_trained` work the same on all
+    three (``progress_bar`` and ``tensorboard`` are SB3's: the jax backend ignores them).
     ``schedule_timesteps``: the budget the hyperparameter schedules (``lin_3e-4`` …) anneal over
     (default ``total_timesteps``). A search that trains a trial in segments passes its full budget
     here, so that each segment trains as the same part of one uninterrupted run would.
@@ -148,6 +151,31 @@ def train(
     if backend is not None:
         overrides = {**(overrides or {}), "backend": backend}
     entry = load_hyperparams(algo, env_id, hyperparams_file, overrides)
+    if str(entry.get("backend", "sb3")).lower() == "jax":  # the fused JAX trainer: its own loop, same layout
+        check_backend("jax", algo)
+        from experiments.sb3.jax_training import train_jax
+
+        return TrainResult(
+            **train_jax(
+                algo,
+                env_id,
+                out_dir,
+                entry,
+                env_kwargs,
+                eval_kwargs,
+                int(seed),
+                total_timesteps,
+                schedule_timesteps,
+                int(checkpoint_freq),
+                int(eval_freq),
+                int(eval_episodes),
+                int(eval_seed),
+                resume,
+                progress,
+                verbose,
+                evaluate_initial,
+            )
+        )
     probe = make_checked(env_id, **env_kwargs)  # validates the env kwargs before anything is written
     n_actions = int(np.prod(probe.action_space.shape))
     batched = batched_supported(env_id, probe)
@@ -387,15 +415,25 @@ def load_trained(model_path: str | Path, env: gym.Env | None = None):
                 f"model {str(model_path)!r} was trained on {saved['env_id']} (its run's config.json), "
                 f"not on {env.spec.id}: evaluate it on {saved['env_id']}"
             )
-    model = algorithm_class(algo, backend).load(model_path, device="cpu")
+    if backend == "jax":  # a fused-PPO model file plays on numpy: no jax needed to load it
+        from agents.fused_ppo.export import NumpyPPOPolicy
+
+        model = NumpyPPOPolicy.load(model_path)
+    else:
+        model = algorithm_class(algo, backend).load(model_path, device="cpu")
     if env is not None:
         for what in ("observation_space", "action_space"):
             ours, theirs = getattr(env, what), getattr(model, what)
             if what == "observation_space" and frame_stack > 1:  # VecFrameStack's stacked space
                 ours = gym.spaces.Box(np.repeat(ours.low, frame_stack, -1), np.repeat(ours.high, frame_stack, -1))
+            # a fused-PPO model file (backend jax) keeps the observation's shape only
+            bounds_known = not (backend == "jax" and what == "observation_space")
             if ours.shape != theirs.shape or not (
-                np.allclose(getattr(ours, "low", 0), getattr(theirs, "low", 0))
-                and np.allclose(getattr(ours, "high", 0), getattr(theirs, "high", 0))
+                not bounds_known
+                or (
+                    np.allclose(getattr(ours, "low", 0), getattr(theirs, "low", 0))
+                    and np.allclose(getattr(ours, "high", 0), getattr(theirs, "high", 0))
+                )
             ):
                 raise ValueError(
                     f"model {str(model_path)!r} was trained for a different env: its {what} is {theirs}, the env's is {ours}"
@@ -420,6 +458,7 @@ _POLICY_MODULES = {
     "sb3_contrib.ppo_recurrent": "recurrentppo",
     "sb3_contrib.common.recurrent": "recurrentppo",
     "stable_baselines3.common.policies": "ppo",  # PPO and A2C share the actor-critic policy
+    "agents.fused_ppo": "ppo",  # the jax backend's model file (agents.fused_ppo.export)
 }
 
 
@@ -444,5 +483,5 @@ def _algo_of(model_path: Path, saved: dict[str, Any] | None) -> tuple[str, str]:
     module = str(data.get("policy_class", {}).get("__module__", ""))
     for prefix, algo in _POLICY_MODULES.items():
         if module.startswith(prefix):
-            return algo, "sbx" if prefix.startswith("sbx.") else "sb3"
+            return algo, "sbx" if prefix.startswith("sbx.") else "jax" if prefix.startswith("agents.") else "sb3"
     raise ValueError(f"cannot tell the algorithm of {str(model_path)!r}; keep its config.json beside it")

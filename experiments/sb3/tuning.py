@@ -43,34 +43,128 @@ def _optuna():
     return optuna
 
 
-def sample_ppo(trial) -> dict[str, Any]:
-    """PPO overrides in Zoo syntax (the Zoo's ``sample_ppo_params`` ranges, without the
-    ones the suite fixes: gSDE stays as the entry sets it)."""
-    n_steps = trial.suggest_categorical("n_steps", [256, 512, 1000, 2000])
-    batch_size = trial.suggest_categorical("batch_size", [64, 128, 256, 512])
-    gamma = trial.suggest_categorical("gamma", [0.98, 0.99, 0.995, 0.998, 0.999])
-    lr = trial.suggest_float("learning_rate", 1e-5, 1e-3, log=True)
-    n_epochs = trial.suggest_categorical("n_epochs", [5, 10, 20])
-    gae_lambda = trial.suggest_categorical("gae_lambda", [0.9, 0.95, 0.98])
-    clip = trial.suggest_categorical("clip_range", [0.1, 0.2, 0.3])
-    log_std = trial.suggest_float("log_std_init", -3.0, 0.0)
-    width = trial.suggest_categorical("width", [64, 128, 256])
-    depth = trial.suggest_categorical("depth", [1, 2, 3])
-    arch = [width] * depth
-    return {
-        "n_steps": n_steps,
-        "batch_size": batch_size,
-        "gamma": gamma,
-        "learning_rate": f"lin_{lr:.3g}",
-        "n_epochs": n_epochs,
-        "gae_lambda": gae_lambda,
-        "clip_range": clip,
-        "policy_kwargs": f"dict(log_std_init={log_std:.3g}, net_arch=dict(pi={arch}, vf={arch}))",
-    }
+#: PPO's search space (the Zoo's ``sample_ppo_params`` ranges, without the ones the suite fixes:
+#: gSDE stays as the entry sets it), in the order the sampler draws: a list is categorical,
+#: ``("log", low, high)`` log-uniform, ``("uniform", low, high)`` uniform. The jax backend's
+#: population search (:mod:`experiments.sb3.jax_tuning`) draws from the same space.
+PPO_SPACE: dict[str, Any] = {
+    "n_steps": [256, 512, 1000, 2000],
+    "batch_size": [64, 128, 256, 512],
+    "gamma": [0.98, 0.99, 0.995, 0.998, 0.999],
+    "learning_rate": ("log", 1e-5, 1e-3),
+    "n_epochs": [5, 10, 20],
+    "gae_lambda": [0.9, 0.95, 0.98],
+    "clip_range": [0.1, 0.2, 0.3],
+    "log_std_init": ("uniform", -3.0, 0.0),
+    "width": [64, 128, 256],
+    "depth": [1, 2, 3],
+}
+
+#: SAC's search space (the Zoo's ``sample_sac_params`` ranges, in part; ``gradient_steps`` follows
+#: ``train_freq`` as there), in :data:`PPO_SPACE`'s notation
+SAC_SPACE: dict[str, Any] = {
+    "gamma": [0.98, 0.99, 0.995, 0.998, 0.999],
+    "learning_rate": ("log", 1e-5, 1e-2),
+    "batch_size": [64, 128, 256, 512],
+    "buffer_size": [10_000, 100_000, 1_000_000],
+    "learning_starts": [0, 1000, 10_000],
+    "train_freq": [1, 4, 8, 16, 32],
+    "tau": [0.005, 0.01, 0.02, 0.05],
+    "log_std_init": ("uniform", -4.0, 1.0),
+    "width": [64, 256, 400],
+    "depth": [2, 3],
+}
 
 
-#: the samplers by algorithm (the Zoo's hyperparams_opt.py, in part)
-SAMPLERS: dict[str, Callable[[Any], dict[str, Any]]] = {"ppo": sample_ppo}
+def gamma_choices(decisions: int) -> list[float]:
+    """The discounts a search may draw on a task of ``decisions`` decisions per episode: those of
+    :data:`PPO_SPACE` whose horizon ``1/(1 − γ)`` decisions fits in the episode (the ``"episode"``
+    termination charge prices a limit crossing above holding the state only for those: see
+    :meth:`attitude_envs.envs.base.AttitudeEnv.batch_termination_cost`); where fewer than three
+    fit (the ``-v1`` tasks of tens of decisions), horizons of 1/8, 1/4, 1/2 and the whole episode,
+    γ rounded down to 4 decimals so that no horizon passes the episode."""
+    decisions = int(decisions)
+    if decisions < 1:
+        raise ValueError(f"decisions must be >= 1, got {decisions}")
+    fitting = [
+        g for g in PPO_SPACE["gamma"] if 1.0 / (1.0 - g) <= decisions * (1 + 1e-9)
+    ]  # 1e-9: rounding of 1/(1 − γ)
+    if len(fitting) >= 3:
+        return fitting
+    horizons = [h for h in (decisions / 8, decisions / 4, decisions / 2, decisions) if h >= 2]
+    return sorted({math.floor((1.0 - 1.0 / h) * 1e4) / 1e4 for h in horizons}) or [0.5]
+
+
+def ppo_space(decisions: int | None = None) -> dict[str, Any]:
+    """:data:`PPO_SPACE` for a task of ``decisions`` decisions per episode (its ``gamma`` from
+    :func:`gamma_choices`; None: the Zoo's list unchanged)."""
+    return search_space("ppo", decisions)
+
+
+def search_space(algo: str, decisions: int | None = None) -> dict[str, Any]:
+    """``algo``'s search space (:data:`PPO_SPACE`, :data:`SAC_SPACE`) for a task of ``decisions``
+    decisions per episode (its ``gamma`` from :func:`gamma_choices`; None: the Zoo's list)."""
+    space = dict(SAMPLERS[algo][0])
+    if decisions is not None:
+        space["gamma"] = gamma_choices(decisions)
+    return space
+
+
+def task_decisions(env_id: str, env_kwargs: dict[str, Any] | None = None) -> int:
+    """Decisions per episode of ``env_id`` built with ``env_kwargs`` (validated as ``make`` does)."""
+    from attitude_envs.make import make_checked
+
+    env = make_checked(env_id, **dict(env_kwargs or {}))
+    try:
+        return int(env.unwrapped.decisions_per_episode)
+    finally:
+        env.close()
+
+
+def ppo_overrides(params: dict[str, Any]) -> dict[str, Any]:
+    """The Zoo overrides of drawn :data:`PPO_SPACE` values (``width`` × ``depth``: both nets)."""
+    arch = [params["width"]] * params["depth"]
+    out = {k: params[k] for k in ("n_steps", "batch_size", "gamma")}
+    out["learning_rate"] = f"lin_{params['learning_rate']:.3g}"
+    out |= {k: params[k] for k in ("n_epochs", "gae_lambda", "clip_range")}
+    out["policy_kwargs"] = f"dict(log_std_init={params['log_std_init']:.3g}, net_arch=dict(pi={arch}, vf={arch}))"
+    return out
+
+
+def sac_overrides(params: dict[str, Any]) -> dict[str, Any]:
+    """The Zoo overrides of drawn :data:`SAC_SPACE` values (constant learning rate and
+    ``gradient_steps = train_freq``, as the Zoo's sampler; ``width`` × ``depth``: actor and critics)."""
+    arch = [params["width"]] * params["depth"]
+    out = {k: params[k] for k in ("gamma", "batch_size", "buffer_size", "learning_starts", "train_freq", "tau")}
+    out["learning_rate"] = float(f"{params['learning_rate']:.3g}")
+    out["gradient_steps"] = params["train_freq"]
+    out["policy_kwargs"] = f"dict(log_std_init={params['log_std_init']:.3g}, net_arch={arch})"
+    return out
+
+
+def sample(trial, algo: str, space: dict[str, Any] | None = None) -> dict[str, Any]:
+    """``algo``'s overrides in Zoo syntax drawn by an optuna ``trial`` from ``space`` (default
+    its Zoo space; a task's: :func:`search_space`)."""
+    default, to_overrides = SAMPLERS[algo]
+    params = {}
+    for name, values in (space or default).items():
+        if isinstance(values, list):
+            params[name] = trial.suggest_categorical(name, values)
+        else:
+            params[name] = trial.suggest_float(name, values[1], values[2], log=values[0] == "log")
+    return to_overrides(params)
+
+
+def sample_ppo(trial, space: dict[str, Any] | None = None) -> dict[str, Any]:
+    """PPO overrides drawn by an optuna ``trial`` (:func:`sample`)."""
+    return sample(trial, "ppo", space)
+
+
+#: the search space and its Zoo overrides, by algorithm (the Zoo's hyperparams_opt.py, in part)
+SAMPLERS: dict[str, tuple[dict[str, Any], Callable[[dict[str, Any]], dict[str, Any]]]] = {
+    "ppo": (PPO_SPACE, ppo_overrides),
+    "sac": (SAC_SPACE, sac_overrides),
+}
 
 
 def _objective(spec: dict[str, Any]):
@@ -80,7 +174,8 @@ def _objective(spec: dict[str, Any]):
     every = max(1, budget // n_eval)
 
     def objective(trial) -> float:
-        overrides = {**SAMPLERS[spec["algo"]](trial), **spec["overrides"]}  # the fixed ones win
+        drawn = sample(trial, spec["algo"], search_space(spec["algo"], spec["decisions"]))
+        overrides = {**drawn, **spec["overrides"]}  # the fixed ones win
         trial.set_user_attr("overrides", overrides)
         run = out / f"trial-{trial.number:03d}"
         for k in range(1, n_eval + 1):
@@ -197,6 +292,7 @@ def tune(
         "backend": backend,
         "seed": int(seed),
         "sampler_seed": int(sampler_seed),
+        "decisions": task_decisions(env_id, env_kwargs),  # γ is drawn within the episode (gamma_choices)
     }
     _study(spec)  # created once, before the workers share it
     if int(jobs) == 1:

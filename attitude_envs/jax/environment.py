@@ -1,0 +1,103 @@
+"""The base of the JAX-native plants: gymnax 1.0's ``Environment`` API, mirrored.
+
+gymnax 1.0.1 pins ``gymnasium<1.4`` and this suite pins gymnasium 1.4, so the API is
+reproduced here rather than inherited (same method names, signatures, return values and
+autoreset semantics as ``gymnax.environments.environment.Environment``):
+
+* ``env.reset(key, params) -> (obs, state)``
+* ``env.step(key, state, action, params) -> (obs, state, reward, terminated, truncated, info)``;
+  when the step ends the episode (``terminated`` at a limit, ``truncated`` at the time limit)
+  the returned ``obs`` and ``state`` are those of a fresh episode drawn with the step's key,
+  and ``info["final_observation"]`` holds the last observation of the episode that ended;
+  ``info["terminated"]``, ``info["truncated"]`` repeat the flags.
+* ``env.action_space(params)``, ``env.observation_space(params)``,
+  ``env.default_params``, ``env.name``, ``env.num_actions``.
+
+A plant subclasses :class:`Environment` and implements ``step_env`` and ``reset_env``. What
+fixes array shapes or the compiled program's branches (wheel count, sub-steps, observation
+layout) is an attribute of the env object, static under ``jax.jit``; every number that may
+vary between plants, faults or tasks lives in the ``EnvParams`` pytree, so ``jax.vmap`` over
+params randomizes plants and faults in one compiled program.
+
+Every env reports ``info["cost"]``, the running cost J accrued over the step (the reward is
+``-cost``, termination charge included), and ``info["time_s"]``, the time at the step's end.
+"""
+
+from __future__ import annotations
+
+from functools import partial
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+from flax import struct
+
+
+@struct.dataclass
+class EnvState:
+    """The state every plant's carries: ``time``, the decisions taken in the episode."""
+
+    time: jax.Array
+
+
+@struct.dataclass
+class EnvParams:
+    """The parameters every plant's carries: ``max_steps_in_episode`` (decisions)."""
+
+    max_steps_in_episode: int = 1
+
+
+class Environment:
+    """gymnax 1.0's environment API (see the module docstring)."""
+
+    @property
+    def default_params(self) -> Any:
+        raise NotImplementedError
+
+    @partial(jax.jit, static_argnames=("self",))
+    def step(self, key: jax.Array, state: Any, action: jax.Array, params: Any = None):
+        """One decision with autoreset (gymnax 1.0's ``step``)."""
+        if params is None:
+            params = self.default_params
+        key_step, key_reset = jax.random.split(key)
+        obs_st, state_st, reward, terminated, info = self.step_env(key_step, state, action, params)
+        truncated = jnp.logical_and(self.is_truncated(state_st, params), jnp.logical_not(terminated))
+        done = jnp.logical_or(terminated, truncated)
+        obs_re, state_re = self.reset_env(key_reset, params)
+        state = jax.tree.map(lambda x, y: jax.lax.select(done, x, y), state_re, state_st)
+        obs = jax.lax.select(done, obs_re, obs_st)
+        info = {**info, "terminated": terminated, "truncated": truncated, "final_observation": obs_st}
+        return obs, state, reward, terminated, truncated, info
+
+    @partial(jax.jit, static_argnames=("self",))
+    def reset(self, key: jax.Array, params: Any = None):
+        """A fresh episode drawn with ``key`` (gymnax 1.0's ``reset``)."""
+        if params is None:
+            params = self.default_params
+        return self.reset_env(key, params)
+
+    def step_env(self, key: jax.Array, state: Any, action: jax.Array, params: Any):
+        """The plant's step without autoreset: ``(obs, state, reward, terminated, info)``."""
+        raise NotImplementedError
+
+    def reset_env(self, key: jax.Array, params: Any):
+        """The plant's episode draw: ``(obs, state)``."""
+        raise NotImplementedError
+
+    def is_truncated(self, state: Any, params: Any) -> jax.Array:
+        """The time limit: ``state.time >= params.max_steps_in_episode``."""
+        return state.time >= params.max_steps_in_episode
+
+    @property
+    def name(self) -> str:
+        return type(self).__name__
+
+    @property
+    def num_actions(self) -> int:
+        return int(self.action_space(self.default_params).shape[0])
+
+    def action_space(self, params: Any = None):
+        raise NotImplementedError
+
+    def observation_space(self, params: Any = None):
+        raise NotImplementedError

@@ -1,0 +1,535 @@
+"""FuelSlosh-v0/-v1 in JAX: the planar spacecraft burn with two-pendulum fuel slosh of
+:class:`attitude_envs.envs.fuel_slosh.FuelSloshEnv` (Navabi & Davoodi; year not in our copy,
+≥ 2012), one decision per step.
+
+The plant is the full 5-DOF nonlinear model in mass-matrix form (the paper's eqs. 11–14,
+re-derived from its Lagrangian, eqs. 1–10; :mod:`attitude_envs.plants.slosh`),
+``M(ψ) ṡ = f(s, ψ) + G(δ, M_c)`` with ``s = [v_x, v_z, Ω, ψ̇1, ψ̇2]``, solved as the numba
+kernel solves it (:func:`attitude_envs.plants.slosh_kernels.derivative_into`: the
+translational block eliminated in closed form, an unrolled LDLᵀ of the 3×3 Schur
+complement). A decision holds ``[δ (rad), M_c (N·m)]`` over ``n_substeps`` classical RK4
+sub-steps of ``integrator_dt_s`` s, with the stage cost ``xᵀQx + u_cᵀRu_c`` (Q, R of the
+paper's eqs. 30–31 by default) and the new inputs ``u_c = [a_z, Ω̇]`` integrated as three
+extra states (:func:`attitude_envs.plants.slosh_kernels.control_step`), in the kernel's
+order of operations: under ``jax.enable_x64`` a step matches the numba env's to rounding
+(XLA's CPU backend fuses ``a·b + c`` into FMAs where numba rounds the product, so the two
+differ by ulps; over a 100 s open-loop episode the state agrees to ~1e-13–1e-12, the
+cost to ~1e-12 relative: tests/test_jax_fuel_slosh.py). A non-finite action (the numba env
+raises) gives a non-finite step, which terminates.
+
+Time is counted as the numba env counts it: ``state.time`` in decisions, ``time_s = time ·
+control_dt_s``; the actuator faults are applied at the decision's start time and held over
+it; a limit crossing is charged :func:`attitude_envs.jax.cost.termination_charge` with the
+horizon ``episode_duration_s`` and the elapsed time at the step's end.
+
+Full state ``y`` (10, SI): ``[X, Z, θ, ψ1, ψ2, v_x, v_z, Ω, ψ̇1, ψ̇2]`` (m, rad, m/s,
+rad/s; :mod:`attitude_envs.plants.slosh`); reduced (error) state
+``x = [v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2]``.
+
+Modeled: every keyword of the numba env (``preset``/``params``, limits, periods, ``Q``,
+``R``, ``observe_slosh``, ``initial_state``, ``randomize_initial_state``, the termination
+limits and ``termination_cost``, actuator ``faults`` with per-episode draws, ``fault_hint``)
+except ``sensors`` and sensor-target faults, for which :func:`from_env` raises a
+``ValueError`` naming them. ``design_v_x_m_s`` only sets the nominal linear model
+(``numba_env.model``), not the step.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+from attitude_envs.envs.fuel_slosh import FuelSloshEnv as NumbaFuelSloshEnv
+from attitude_envs.integrators import substeps
+from attitude_envs.jax import cost as jcost
+from attitude_envs.jax import faults as jfaults
+from attitude_envs.jax.environment import Environment
+from attitude_envs.jax.spaces import Box
+from attitude_envs.plants import slosh
+from attitude_envs.plants.slosh_model import REDUCED_INDEX
+from attitude_envs.presets.navabi_slosh import PAPER_INITIAL_STATE
+
+#: full-state indices of the start state ``[v_x, v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2]``
+INITIAL_ORDER = (slosh.IVX, slosh.IVZ, slosh.ITH, slosh.IOM, slosh.IPSI1, slosh.IDPSI1, slosh.IPSI2, slosh.IDPSI2)
+#: entries of the start state ``randomize_initial_state`` draws: v_z, θ, ψ1, ψ2
+RANDOM_START = (1, 2, 4, 6)
+_REDUCED = tuple(int(i) for i in REDUCED_INDEX)
+N_ACTUATORS = 2  # gimbal angle δ (rad), pitch moment M_c (N·m)
+
+
+@struct.dataclass
+class EnvState:
+    """One episode's state: ``time`` (decisions taken), ``y`` (10, the full state of
+    :mod:`attitude_envs.plants.slosh`, SI), the episode's realized actuator ``faults`` and
+    their runtime ``fault_state`` (latched stuck values, intermittent phases; times in s)."""
+
+    time: jax.Array
+    y: jax.Array
+    faults: jfaults.FaultParams
+    fault_state: jfaults.FaultState
+
+
+@struct.dataclass
+class EnvParams:
+    """Every number of the plant and the task (a pytree: ``jax.vmap`` over it randomizes
+    plants, faults and tasks).
+
+    * the plant (Navabi & Davoodi, Table 3; :class:`attitude_envs.plants.slosh.SloshParams`):
+      ``mass_kg``, ``inertia_kg_m2`` (vehicle), ``fuel_mass_kg``, ``fuel_inertia_kg_m2``
+      (rigid fuel), ``slosh_mass_kg`` (2), ``slosh_inertia_kg_m2`` (2), ``hinge_m`` (2,
+      a_i), ``length_m`` (2, l_i), ``fuel_offset_m`` (a0), ``b_m``, ``d_m`` (m),
+      ``thrust_n`` (N), ``damping_kg_m2_s`` (2, ε_i);
+    * ``actuator_limits`` (2): ``[max gimbal (rad), max moment (N·m)]``, the scale of a unit
+      action and the actuators' own limits;
+    * ``control_dt_s`` (s, the decision period), ``integrator_dt_s`` (s, the RK4 sub-step;
+      the env's static ``n_substeps`` times it must be ``control_dt_s``);
+    * ``Q`` (7×7) on ``x``, ``R`` (2×2) on ``[a_z, Ω̇]`` (the paper's eqs. 30–31 by default);
+    * ``max_slosh_angle_rad``, ``max_pitch_rate_rad_s``, ``max_pitch_angle_rad``: the
+      termination limits on |ψ_i|, |Ω|, |θ|;
+    * ``termination_mode`` (:func:`attitude_envs.jax.cost.mode_code`), ``horizon_s`` (s, the
+      charge's horizon T: ``episode_duration_s``);
+    * the start: ``initial_state`` (8, ``[v_x, v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2]`` m/s, rad, rad/s),
+      ``initial_random`` (8, bool) and ``initial_half_width`` (8): entry k is drawn
+      ``U(−w_k, w_k)`` where ``initial_random[k]``, else fixed;
+    * ``faults``: the actuator faults of every episode (an env with ``redraw_faults`` draws
+      each episode's from its fault configs instead, as the numba env does);
+    * ``max_steps_in_episode``: the time limit in decisions.
+    """
+
+    mass_kg: jax.Array
+    inertia_kg_m2: jax.Array
+    fuel_mass_kg: jax.Array
+    fuel_inertia_kg_m2: jax.Array
+    slosh_mass_kg: jax.Array
+    slosh_inertia_kg_m2: jax.Array
+    hinge_m: jax.Array
+    length_m: jax.Array
+    fuel_offset_m: jax.Array
+    b_m: jax.Array
+    d_m: jax.Array
+    thrust_n: jax.Array
+    damping_kg_m2_s: jax.Array
+    actuator_limits: jax.Array
+    control_dt_s: jax.Array
+    integrator_dt_s: jax.Array
+    Q: jax.Array
+    R: jax.Array
+    max_slosh_angle_rad: jax.Array
+    max_pitch_rate_rad_s: jax.Array
+    max_pitch_angle_rad: jax.Array
+    termination_mode: jax.Array
+    horizon_s: jax.Array
+    initial_state: jax.Array
+    initial_random: jax.Array
+    initial_half_width: jax.Array
+    faults: jfaults.FaultParams
+    max_steps_in_episode: jax.Array
+
+
+def _take(v: jax.Array, index: tuple[int, ...]) -> jax.Array:
+    """``v[index]`` for static indices, by slices (cheaper to compile than a gather, also
+    under ``vmap``)."""
+    return jnp.stack([v[i] for i in index])
+
+
+def plant_constants(params: EnvParams) -> jax.Array:
+    """The numba kernels' packed constants (:func:`attitude_envs.plants.slosh_kernels.pack`):
+    ``[m_t, S_z, I_rigid, m1 l1, m2 l2, J1, J2, a1, a2, ε1, ε2, F, b + d]`` in kg, kg·m,
+    kg·m², kg·m, kg·m, kg·m², kg·m², m, m, kg·m²/s, kg·m²/s, N, m, derived from the physical
+    parameters as :class:`~attitude_envs.plants.slosh.SloshParams` derives them."""
+    m_i, l_i, a_i = params.slosh_mass_kg, params.length_m, params.hinge_m
+    total = params.mass_kg + params.fuel_mass_kg + (m_i[0] + m_i[1])
+    ml = m_i * l_i
+    J = params.slosh_inertia_kg_m2 + m_i * l_i**2
+    s_z = params.mass_kg * params.b_m - params.fuel_mass_kg * params.fuel_offset_m - (m_i[0] * a_i[0] + m_i[1] * a_i[1])
+    sq = a_i**2 + l_i**2
+    i_rigid = (
+        params.inertia_kg_m2
+        + params.fuel_inertia_kg_m2
+        + (params.slosh_inertia_kg_m2[0] + params.slosh_inertia_kg_m2[1])
+        + params.mass_kg * params.b_m**2
+        + params.fuel_mass_kg * params.fuel_offset_m**2
+        + (m_i[0] * sq[0] + m_i[1] * sq[1])
+    )
+    eps = params.damping_kg_m2_s
+    return jnp.stack(
+        [total, s_z, i_rigid, ml[0], ml[1], J[0], J[1], a_i[0], a_i[1], eps[0], eps[1], params.thrust_n]
+        + [params.b_m + params.d_m]
+    )
+
+
+def derivative(pk: jax.Array, y: jax.Array, sin_d: jax.Array, cos_d: jax.Array, moment: jax.Array) -> jax.Array:
+    """``ẏ`` (10) of the full state ``y`` under gimbal sin/cos and pitch moment (N·m), with
+    the packed constants ``pk`` (:func:`plant_constants`): kinematics, then ``M ṡ = f + G``
+    (the paper's eqs. 11–14) solved as
+    :func:`attitude_envs.plants.slosh_kernels.derivative_into` solves it."""
+    mt, sz, irigid, ml1, ml2, j1, j2, a1, a2, eps1, eps2, thrust, lever = (pk[i] for i in range(13))
+    th, p1, p2, vx, vz, om, dp1, dp2 = (y[i] for i in range(2, 10))
+    c, s = jnp.cos(th), jnp.sin(th)
+    s1, c1 = jnp.sin(p1), jnp.cos(p1)
+    s2, c2 = jnp.sin(p2), jnp.cos(p2)
+    # mass matrix entries (slosh_kernels.mass_entries)
+    mls1, mls2 = ml1 * s1, ml2 * s2
+    mlc1, mlc2 = ml1 * c1, ml2 * c2
+    m02 = mls1 + mls2
+    m12 = sz + (mlc1 + mlc2)
+    m22 = irigid - 2.0 * (mlc1 * a1 + mlc2 * a2)
+    m03, m04, m13, m14 = mls1, mls2, mlc1, mlc2
+    m23 = j1 - mlc1 * a1
+    m24 = j2 - mlc2 * a2
+    # generalized forces f(s, ψ) + G(δ, M_c) (slosh_kernels.force_entries)
+    w1 = (om + dp1) * (om + dp1)
+    w2 = (om + dp2) * (om + dp2)
+    fs, fc = thrust * sin_d, thrust * cos_d
+    f0 = fc - mt * om * vz - sz * om * om - (mlc1 * w1 + mlc2 * w2)
+    f1 = fs + mt * om * vx + (mls1 * w1 + mls2 * w2)
+    f2 = (
+        moment
+        + lever * fs
+        + om * vx * (sz + (mlc1 + mlc2))
+        - om * vz * (mls1 + mls2)
+        - (mls1 * a1 * (2.0 * om * dp1 + dp1 * dp1) + mls2 * a2 * (2.0 * om * dp2 + dp2 * dp2))
+    )
+    f3 = mls1 * a1 * om * om + ml1 * om * (vx * c1 - vz * s1) - eps1 * dp1
+    f4 = mls2 * a2 * om * om + ml2 * om * (vx * c2 - vz * s2) - eps2 * dp2
+    # Schur complement S = D − CᵀC/m_t on [Ω̇, ψ̈1, ψ̈2], rhs r = f_rot − Cᵀ f_trans/m_t
+    inv_mt = 1.0 / mt
+    s00 = m22 - (m02 * m02 + m12 * m12) * inv_mt
+    s10 = m23 - (m03 * m02 + m13 * m12) * inv_mt
+    s20 = m24 - (m04 * m02 + m14 * m12) * inv_mt
+    s11 = j1 - (m03 * m03 + m13 * m13) * inv_mt
+    s21 = -(m04 * m03 + m14 * m13) * inv_mt
+    s22 = j2 - (m04 * m04 + m14 * m14) * inv_mt
+    r0 = f2 - (m02 * f0 + m12 * f1) * inv_mt
+    r1 = f3 - (m03 * f0 + m13 * f1) * inv_mt
+    r2 = f4 - (m04 * f0 + m14 * f1) * inv_mt
+    # LDLᵀ (S is symmetric positive definite: no pivoting)
+    d0 = s00
+    l10 = s10 / d0
+    l20 = s20 / d0
+    d1 = s11 - l10 * s10
+    l21 = (s21 - l20 * s10) / d1
+    d2 = s22 - l20 * s20 - l21 * l21 * d1
+    z1 = r1 - l10 * r0
+    z2 = r2 - l20 * r0 - l21 * z1
+    ddp2 = z2 / d2
+    ddp1 = z1 / d1 - l21 * ddp2
+    dom = r0 / d0 - l10 * ddp1 - l20 * ddp2
+    dvx = (f0 - m02 * dom - m03 * ddp1 - m04 * ddp2) * inv_mt
+    dvz = (f1 - m12 * dom - m13 * ddp1 - m14 * ddp2) * inv_mt
+    return jnp.stack([vx * c + vz * s, -vx * s + vz * c, om, dp1, dp2, dvx, dvz, dom, ddp1, ddp2])
+
+
+def _augmented(pk, aug, sin_d, cos_d, moment, Q, R) -> jax.Array:
+    """ẏ (10), the stage cost ``xᵀQx + u_cᵀRu_c`` and the new inputs ``u_c = [a_z, Ω̇]``
+    (``a_z = v̇_z − Ω v_x`` of the tank centre, m/s²; Ω̇ rad/s²)."""
+    dy = derivative(pk, aug, sin_d, cos_d, moment)
+    a_z = dy[slosh.IVZ] - aug[slosh.IOM] * aug[slosh.IVX]
+    dom = dy[slosh.IOM]
+    x = _take(aug, _REDUCED)
+    u = jnp.stack([a_z, dom])
+    stage = x @ (Q @ x) + u @ (R @ u)
+    return jnp.concatenate([dy, jnp.stack([stage, a_z, dom])])
+
+
+def control_step(
+    y: jax.Array, inputs: jax.Array, params: EnvParams, n_substeps: int
+) -> tuple[jax.Array, jax.Array, jax.Array]:
+    """Advance the full state ``y`` over ``n_substeps`` classical RK4 sub-steps of
+    ``params.integrator_dt_s`` s with ``inputs = [δ (rad), M_c (N·m)]`` held
+    (:func:`attitude_envs.plants.slosh_kernels.control_step`): ``(y⁺, cost, new_inputs)``,
+    the step cost ∫(xᵀQx + u_cᵀRu_c) dt and the step means of ``[a_z, Ω̇]`` (m/s², rad/s²)."""
+    pk = plant_constants(params)
+    h = params.integrator_dt_s
+    sin_d, cos_d, moment = jnp.sin(inputs[0]), jnp.cos(inputs[0]), inputs[1]
+
+    def f(a):
+        return _augmented(pk, a, sin_d, cos_d, moment, params.Q, params.R)
+
+    # classical RK4, its four stages as a loop (one copy of the derivative in the compiled
+    # program: half the compile time of the unrolled stages): stage i evaluates at
+    # aug + offset[i]·k_{i−1} and accumulates weight[i]·k_i, in the kernel's order
+    # (((k0 + 2k1) + 2k2) + k3; 2k is exact, so the sums round as the kernel's do)
+    offset = jnp.stack([jnp.zeros_like(h), 0.5 * h, 0.5 * h, h])
+    weight = jnp.array([1.0, 2.0, 2.0, 1.0], dtype=offset.dtype)
+
+    def substep(_, aug):
+        def stage(i, carry):
+            k, acc = carry
+            k = f(aug + offset[i] * k)
+            return k, acc + weight[i] * k
+
+        zero = jnp.zeros_like(aug)
+        _, acc = jax.lax.fori_loop(0, 4, stage, (zero, zero))
+        return aug + (h / 6.0) * acc
+
+    aug = jnp.concatenate([y, jnp.zeros(3, y.dtype)])
+    aug = jax.lax.fori_loop(0, n_substeps, substep, aug)
+    return aug[:10], aug[10], aug[11:13] / params.control_dt_s
+
+
+class FuelSloshEnv(Environment):
+    """The JAX plant of FuelSlosh-v0/-v1 (module docstring). Static (fixed at construction,
+    part of the compiled program): ``n_substeps`` RK4 sub-steps per decision, the
+    observation layout ``obs_index`` (full-state indices: ``[v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2,
+    v_x]``, or ``[v_z, θ, Ω, v_x]`` without ``observe_slosh``), ``fault_hint`` (append 3
+    active-fault flags: gimbal, moment, then the ``state`` sensor, never faulted here), the
+    fault configs (``fault_configs``; ``redraw_faults``: draw the faults per episode).
+
+    Action: ``Box(-1, 1, (2,))``, clipped: ``δ = a0 · max gimbal``, ``M_c = a1 · max moment``.
+    Observation: the state entries (m/s, rad, rad/s) in the compute dtype (float64 under
+    x64; the numba env casts to float32), then the hint flags; zeros when the step's state
+    is not finite (as the numba env's). Reward ``−cost``."""
+
+    def __init__(
+        self,
+        n_substeps: int,
+        default_params: EnvParams,
+        *,
+        obs_index: tuple[int, ...] = tuple(int(i) for i in REDUCED_INDEX) + (slosh.IVX,),
+        fault_hint: bool = False,
+        n_hint_flags: int = 3,
+        fault_configs: tuple[dict, ...] = (),
+        redraw_faults: bool = False,
+    ) -> None:
+        self.n_substeps = int(n_substeps)
+        self.obs_index = tuple(int(i) for i in obs_index)
+        self.fault_hint = bool(fault_hint)
+        self.n_hint_flags = int(n_hint_flags) if self.fault_hint else 0
+        if self.fault_hint and self.n_hint_flags < N_ACTUATORS:
+            raise ValueError(f"n_hint_flags must be >= {N_ACTUATORS} with fault_hint, got {n_hint_flags}")
+        self.fault_configs = tuple(dict(c) for c in fault_configs)
+        self.redraw_faults = bool(redraw_faults)
+        self.n_faults = int(default_params.faults.kind.shape[-1])
+        self.obs_size = len(self.obs_index) + self.n_hint_flags
+        self._default_params = default_params
+
+    @property
+    def default_params(self) -> EnvParams:
+        return self._default_params
+
+    @property
+    def name(self) -> str:
+        return "FuelSlosh"
+
+    # ------------------------------------------------------------------ dynamics
+    def _observe(self, y: jax.Array, faults: jfaults.FaultParams, t_s) -> jax.Array:
+        obs = _take(y, self.obs_index)
+        if not self.fault_hint:
+            return obs
+        flags = jfaults.active_flags(faults, t_s, N_ACTUATORS).astype(y.dtype)
+        return jnp.concatenate([obs, flags, jnp.zeros(self.n_hint_flags - N_ACTUATORS, y.dtype)])
+
+    def step_env(self, key: jax.Array, state: EnvState, action: jax.Array, params: EnvParams):
+        """One decision: clip the action to [-1, 1], scale it to ``[δ (rad), M_c (N·m)]``,
+        apply the actuator faults at the decision's start time ``time · control_dt_s`` s,
+        advance the plant over the RK4 sub-steps and charge their cost, plus the termination
+        charge on a finite step that crosses a slosh, pitch-rate or pitch limit. A
+        non-finite step terminates (no charge; observation zeros). Reward ``−cost``; info
+        ``cost``, ``time_s`` (s), ``commanded`` and ``applied`` (``[δ rad, M_c N·m]`` before
+        clipping, after clipping and faults), ``new_inputs`` (step-mean ``[a_z m/s², Ω̇
+        rad/s²]``)."""
+        dtype = state.y.dtype
+        t_s = state.time * params.control_dt_s
+        a = jnp.asarray(action, dtype)
+        limits = params.actuator_limits
+        commanded = a * limits
+        applied = jnp.clip(a, -1.0, 1.0) * limits
+        if self.n_faults:
+            applied, fault_state = jfaults.apply(state.faults, state.fault_state, key, applied, t_s, limits)
+        else:
+            fault_state = state.fault_state
+        y, cost, new_inputs = control_step(state.y, applied, params, self.n_substeps)
+        time = state.time + 1
+        t_next = time * params.control_dt_s
+        finite = jnp.isfinite(cost) & jnp.all(jnp.isfinite(y)) & jnp.all(jnp.isfinite(new_inputs))
+        crossed = (
+            (jnp.maximum(jnp.abs(y[slosh.IPSI1]), jnp.abs(y[slosh.IPSI2])) > params.max_slosh_angle_rad)
+            | (jnp.abs(y[slosh.IOM]) > params.max_pitch_rate_rad_s)
+            | (jnp.abs(y[slosh.ITH]) > params.max_pitch_angle_rad)
+        )
+        terminated = ~finite | crossed
+        x = _take(y, _REDUCED)
+        charge = jcost.termination_charge(params.termination_mode, x, params.Q, params.horizon_s, t_next)
+        cost = jnp.where(terminated & finite, cost + charge, cost)
+        obs = self._observe(y, state.faults, t_next)
+        obs = jnp.where(finite, obs, jnp.zeros_like(obs))
+        new_state = EnvState(time=time, y=y, faults=state.faults, fault_state=fault_state)
+        info = {
+            "cost": cost,
+            "time_s": t_next,
+            "commanded": commanded,
+            "applied": applied,
+            "new_inputs": new_inputs,
+        }
+        return obs, new_state, -cost, terminated, info
+
+    def reset_env(self, key: jax.Array, params: EnvParams):
+        """A fresh episode: the start state (entry k ``U(−w_k, w_k)`` where
+        ``initial_random[k]``, else ``initial_state[k]``; the numba env's law), the episode's
+        faults (``params.faults``, or drawn from the fault configs with ``redraw_faults``)
+        and their initial runtime state."""
+        key_init, key_faults, key_state = jax.random.split(key, 3)
+        dtype = params.initial_state.dtype
+        w = params.initial_half_width
+        drawn = jax.random.uniform(key_init, (8,), dtype, minval=-w, maxval=w)
+        init = jnp.where(params.initial_random, drawn, params.initial_state)
+        entries = [jnp.zeros((), dtype)] * slosh.N_STATE
+        for j, i in enumerate(INITIAL_ORDER):
+            entries[i] = init[j]
+        y = jnp.stack(entries)
+        faults = params.faults
+        if self.redraw_faults:
+            faults = jfaults.realize(key_faults, list(self.fault_configs), N_ACTUATORS)
+            faults = jax.tree.map(lambda new, old: new.astype(old.dtype), faults, params.faults)
+        state = EnvState(
+            time=jnp.zeros((), jnp.int32),
+            y=y,
+            faults=faults,
+            fault_state=jfaults.initial_state(key_state, faults),
+        )
+        return self._observe(y, faults, jnp.zeros((), dtype)), state
+
+    # ------------------------------------------------------------------ spaces
+    def action_space(self, params: EnvParams | None = None) -> Box:
+        """``Box(-1, 1, (2,))``: the normalized ``[δ, M_c]``."""
+        return Box(-1.0, 1.0, (N_ACTUATORS,), jnp.float32)
+
+    def observation_space(self, params: EnvParams | None = None) -> Box:
+        """The numba env's bounds: speeds ±1e4 m/s, θ and Ω within twice their termination
+        limits, ψ_i within twice theirs, ψ̇_i ±50 rad/s; the hint flags in [0, 1]."""
+        p = self.default_params if params is None else params
+        bound = {
+            slosh.IVZ: 1e4,
+            slosh.IVX: 1e4,
+            slosh.ITH: 2 * float(p.max_pitch_angle_rad),
+            slosh.IOM: 2 * float(p.max_pitch_rate_rad_s),
+            slosh.IPSI1: 2 * float(p.max_slosh_angle_rad),
+            slosh.IPSI2: 2 * float(p.max_slosh_angle_rad),
+            slosh.IDPSI1: 50.0,
+            slosh.IDPSI2: 50.0,
+        }
+        high = np.array([bound[i] for i in self.obs_index])
+        low = np.concatenate([-high, np.zeros(self.n_hint_flags)])
+        high = np.concatenate([high, np.ones(self.n_hint_flags)])
+        return Box(low, high, (self.obs_size,), jnp.result_type(float))
+
+    # ------------------------------------------------------------------ numba bridge
+    def state_from(self, numba_env: Any, key: jax.Array | None = None, time: int = 0) -> EnvState:
+        """The JAX state of the numba env's current episode: its full state ``y``, realized
+        actuator faults and their runtime state; ``time`` the decisions it has taken (0 after
+        its reset: the numba env keeps its counter private). An intermittent fault not yet
+        evaluated (no first switch drawn) gets its first switch time drawn with ``key``
+        (default ``PRNGKey(0)``) from the same law."""
+        realized = numba_env.fault_layer.realized
+        faults = jfaults.from_realized(realized, self.n_faults)
+        first = jax.jit(jfaults.initial_state)(jax.random.PRNGKey(0) if key is None else key, faults)
+        held = np.zeros(self.n_faults)
+        holding = np.zeros(self.n_faults, bool)
+        on = np.zeros(self.n_faults, bool)
+        next_switch = np.asarray(first.next_switch, dtype=float).copy()
+        for j, f in enumerate(realized):
+            holding[j] = f.held is not None
+            held[j] = 0.0 if f.held is None else f.held
+            if f.next_switch_s is not None:
+                on[j] = f.on
+                next_switch[j] = f.next_switch_s
+        return EnvState(
+            time=jnp.asarray(int(time), jnp.int32),
+            y=jnp.asarray(np.asarray(numba_env.state, dtype=float)),
+            faults=faults,
+            fault_state=jfaults.FaultState(
+                held=jnp.asarray(held),
+                holding=jnp.asarray(holding),
+                on=jnp.asarray(on),
+                next_switch=jnp.asarray(next_switch),
+            ),
+        )
+
+
+def episode_steps(episode_duration_s: float, control_dt_s: float) -> int:
+    """The decisions after which the numba env truncates: the least ``n ≥ 1`` with
+    ``n · control_dt_s >= episode_duration_s − 1e-9 · control_dt_s`` in float64, as its
+    ``step`` tests it (s)."""
+    threshold = episode_duration_s - 1e-9 * control_dt_s
+    n = max(1, math.floor(threshold / control_dt_s) - 2)
+    while n * control_dt_s < threshold:
+        n += 1
+    return n
+
+
+def from_env(numba_env: Any) -> tuple[FuelSloshEnv, EnvParams]:
+    """The JAX plant and its ``EnvParams`` of a numba
+    :class:`~attitude_envs.envs.fuel_slosh.FuelSloshEnv` (unwrapped, as built). A
+    ``ValueError`` names what the JAX plant does not model (``sensors``, sensor faults)."""
+    if not isinstance(numba_env, NumbaFuelSloshEnv):
+        raise ValueError(
+            f"FuelSlosh JAX plant: from_env needs an unwrapped FuelSloshEnv, got {type(numba_env).__name__}"
+        )
+    sensors = numba_env.sensor_layer
+    if sensors.config:
+        raise ValueError("FuelSlosh JAX plant: keyword 'sensors' is not modeled (the state is observed exactly)")
+    if sensors.fault_configs:
+        raise ValueError("FuelSlosh JAX plant: 'faults' with target 'sensor' are not modeled (actuator faults only)")
+    p = numba_env.model.params
+    configs = tuple(dict(c) for c in numba_env.fault_layer.configs)
+    # one compiled draw (eager, its many small ops would each compile); with random fields
+    # this is only the default: each episode draws its own (``redraw_faults``)
+    faults = jax.jit(lambda key: jfaults.realize(key, list(configs), N_ACTUATORS))(jax.random.PRNGKey(0))
+    n_sub = substeps(numba_env.control_dt_s, numba_env.integrator_dt_s)
+    randomize = bool(numba_env.randomize_initial_state)
+    initial_random = np.zeros(8, bool)
+    if randomize:
+        initial_random[list(RANDOM_START)] = True
+    half_width = np.where(initial_random, np.abs(PAPER_INITIAL_STATE), 0.0)
+
+    def f(v: Any) -> jax.Array:
+        return jnp.asarray(np.asarray(v, dtype=float))
+
+    params = EnvParams(
+        mass_kg=f(p.mass_kg),
+        inertia_kg_m2=f(p.inertia_kg_m2),
+        fuel_mass_kg=f(p.fuel_mass_kg),
+        fuel_inertia_kg_m2=f(p.fuel_inertia_kg_m2),
+        slosh_mass_kg=f(p.slosh_mass_kg),
+        slosh_inertia_kg_m2=f(p.slosh_inertia_kg_m2),
+        hinge_m=f(p.hinge_m),
+        length_m=f(p.length_m),
+        fuel_offset_m=f(p.fuel_offset_m),
+        b_m=f(p.b_m),
+        d_m=f(p.d_m),
+        thrust_n=f(p.thrust_n),
+        damping_kg_m2_s=f(p.damping_kg_m2_s),
+        actuator_limits=f(numba_env.actuator_limits),
+        control_dt_s=f(numba_env.control_dt_s),
+        integrator_dt_s=f(numba_env.integrator_dt_s),
+        Q=f(numba_env.model.cost.Q),
+        R=f(numba_env.model.cost.R),
+        max_slosh_angle_rad=f(numba_env.max_slosh_angle_rad),
+        max_pitch_rate_rad_s=f(numba_env.max_pitch_rate_rad_s),
+        max_pitch_angle_rad=f(numba_env.max_pitch_angle_rad),
+        termination_mode=jnp.asarray(jcost.mode_code(numba_env.termination_cost), jnp.int32),
+        horizon_s=f(numba_env.episode_duration_s),
+        initial_state=f(numba_env.initial_state),
+        initial_random=jnp.asarray(initial_random),
+        initial_half_width=f(half_width),
+        faults=faults,
+        max_steps_in_episode=jnp.asarray(
+            episode_steps(numba_env.episode_duration_s, numba_env.control_dt_s), jnp.int32
+        ),
+    )
+    env = FuelSloshEnv(
+        n_sub,
+        params,
+        obs_index=tuple(int(i) for i in numba_env.observation_index),
+        fault_hint=numba_env.fault_hint,
+        n_hint_flags=numba_env.n_hint_flags,
+        fault_configs=configs,
+        redraw_faults=any(jfaults.draws_per_episode(c) for c in configs),
+    )
+    return env, params

@@ -1,0 +1,759 @@
+"""ReactionWheel and AirBearing (the gyrostat) as a JAX-native plant in gymnax 1.0's API.
+
+The step is :mod:`attitude_envs.plants.gyrostat_kernels`'s, operation for operation: the
+exact gyrostat ``I_eff ω̇ = −ω × (Iω + J_s A Ω) − A u + T_ext + p × K(q)``,
+``Ω̇_i = u_i / J_s − a_i·ω̇``, ``q̇ = ½ q ⊗ [ω, 0]`` (:mod:`attitude_envs.plants.gyrostat`;
+the offset torque ``p × K`` is Ahangarani Farahani et al.'s air-bearing gravity torque, eqs.
+6–9), classical RK4 with ``n_substeps`` sub-steps of ``integrator_dt_s`` per decision, the
+stage cost ``xᵀQx + u_cᵀRu_c`` integrated as an extra state, the quaternion renormalized
+after every sub-step, the motor driver's speed limit before each sub-step. Sums are written
+in the kernel's order, so under ``jax_enable_x64`` a trajectory matches the numba env's to
+rounding: XLA fuses multiply-adds (FMA) where the numba kernel does not, about one ulp per
+step (bit for bit with ``XLA_FLAGS=--xla_cpu_max_isa=SSE4_2``); a test checks whole episodes.
+
+Per decision (``t = time · control_dt_s``): the action is clipped and scaled (or allocated,
+``action_frame="body"``) to motor torques as :meth:`ReactionWheelEnv.commanded_torques`
+does, the actuator faults act on them (:func:`attitude_envs.jax.faults.apply`, as the numba
+env's fault layer), the RK4 sub-steps run, and a limit crossing (tumbling, the roll/pitch
+stop, a non-finite state) terminates the episode with the termination charge
+(:func:`attitude_envs.jax.cost.termination_charge`). ``info``: ``cost`` (J over the step,
+charge included; reward ``−cost``), ``time_s``, ``error_angle_deg``, ``applied`` (mean
+motor torque delivered over the step, N·m), ``commanded`` (N·m) and, with a tilt stop,
+``tilt_limit_hit``. Observations are in the compute dtype (float64 under x64; the numba env
+casts to float32). ``reset_env`` draws from the numba env's laws (not its draws), and an
+``intermittent`` fault's dwell times come from the step's key.
+
+Actuator faults that draw per episode (``index: "random"``, ``{"uniform": [a, b]}`` values,
+onsets, durations) are drawn by ``reset_env`` from its key with
+:func:`attitude_envs.jax.faults.realize` (the env's static ``fault_configs``, when
+``redraw_faults``), as the numba env redraws them at each reset (the same law, not the same
+draws); the episode's faults live in the state (``EnvState.faults``), so the autoreset of
+``step`` starts each episode with its own.
+
+Modeled: every keyword of ReactionWheel-v0/-v1 and AirBearing-v0/-v1 but these, for which
+:func:`from_env` (and :func:`attitude_envs.jax.make`) raises a one-line ``ValueError``
+naming them: ``sensors`` and sensor faults; a ``disturbance`` other than ``"constant"``
+(sinusoidal, random walk); ``inertia_uncertainty`` of kind ``"random"`` (``"fixed"`` is
+modeled; vmap over :func:`with_inertia` instead); ``render_mode``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+from attitude_envs.envs.air_bearing import AirBearingEnv
+from attitude_envs.envs.reaction_wheel import ReactionWheelEnv
+from attitude_envs.faults import ActuatorFaults
+from attitude_envs.jax import faults as jfaults
+from attitude_envs.jax.cost import mode_code, termination_charge
+from attitude_envs.jax.environment import Environment
+from attitude_envs.jax.spaces import Box
+
+#: 2·(180/π): ``degrees(2 a)`` as the numba env computes it (times 2 is exact)
+_TWO_RAD_TO_DEG = 2.0 * (180.0 / np.pi)
+#: start-attitude laws (``EnvParams.initial_mode``)
+START_FIXED, START_AXIS_ANGLE, START_EULER = 0, 1, 2
+#: the cyclic index permutations of a cross product's products
+_P1, _P2 = np.array([1, 2, 0], dtype=np.int32), np.array([2, 0, 1], dtype=np.int32)
+#: sensor channels whose fault flags follow the actuators' in a ``fault_hint`` observation
+_N_SENSOR_CHANNELS = 3
+
+
+@struct.dataclass
+class EnvState:
+    """One episode's state: ``time`` (decisions taken), the physical state ``attitude``
+    (4, scalar-last unit quaternion, body to inertial), ``rate_rad_s`` (3, body rate, rad/s),
+    ``wheel_speed_rad_s`` (N, relative to the body, rad/s), the episode's
+    ``target_attitude`` (4), its realized actuator ``faults`` (``params.faults``, or drawn
+    at the reset with ``redraw_faults``) and their runtime ``fault_state``."""
+
+    time: jax.Array
+    attitude: jax.Array
+    rate_rad_s: jax.Array
+    wheel_speed_rad_s: jax.Array
+    target_attitude: jax.Array
+    faults: jfaults.FaultParams
+    fault_state: jfaults.FaultState
+
+
+@struct.dataclass
+class EnvParams:
+    """Every number of a gyrostat task (SI units; arrays, so ``jax.vmap`` randomizes them).
+
+    Plant: ``inertia_kg_m2`` (3×3, whole spacecraft, wheels' spin inertia included) and its
+    ``inertia_eff_inv`` ``(I − J_s A Aᵀ)⁻¹`` (keep them consistent: :func:`with_inertia`),
+    ``wheel_axes`` (3×N unit columns), ``wheel_inertia_kg_m2`` (J_s), ``max_wheel_torque_nm``,
+    ``max_wheel_speed_rad_s`` (inf: none), ``offset_torque_nm`` (3, the true plant's
+    ``m g r_s``), ``action_map`` (N×3: the body-frame allocation ``−A⁺`` times the torque
+    limit). Steps: ``control_dt_s``, ``integrator_dt_s`` (their ratio is the env's static
+    ``n_substeps``), ``episode_duration_s``, ``max_steps_in_episode`` (decisions).
+    Cost: ``Q``, ``R``, ``termination_mode`` (:func:`attitude_envs.jax.cost.mode_code`).
+    Limits: ``max_rate_rad_s`` (tumbling), ``tilt_sin``, ``tilt_cos`` (sine and cosine of
+    the roll/pitch stop; 2 and −2: none). Start: ``initial_mode`` (:data:`START_FIXED`
+    ``initial_attitude``, :data:`START_AXIS_ANGLE` within ``initial_angle_deg`` of identity,
+    :data:`START_EULER` 3-2-1 angles uniform in ± ``initial_euler_max_deg``), rate
+    ``initial_rate_rad_s`` when ``rate_fixed`` else uniform in ± ``initial_rate_max_rad_s``,
+    target ``target_attitude`` when ``target_fixed`` else within ``target_angle_deg``.
+    ``disturbance_torque_nm`` (3, N·m, body axes): the constant external torque (zeros:
+    none). ``faults``: the realized actuator faults of every episode (on the motor torques,
+    N·m; padded with kind 0 to a common length when params of several fault sets are
+    stacked); an env with ``redraw_faults`` draws each episode's from its fault configs
+    instead (padded to this length), as the numba env does."""
+
+    max_steps_in_episode: jax.Array
+    inertia_kg_m2: jax.Array
+    inertia_eff_inv: jax.Array
+    wheel_axes: jax.Array
+    wheel_inertia_kg_m2: jax.Array
+    max_wheel_torque_nm: jax.Array
+    max_wheel_speed_rad_s: jax.Array
+    offset_torque_nm: jax.Array
+    action_map: jax.Array
+    control_dt_s: jax.Array
+    integrator_dt_s: jax.Array
+    episode_duration_s: jax.Array
+    Q: jax.Array
+    R: jax.Array
+    termination_mode: jax.Array
+    max_rate_rad_s: jax.Array
+    tilt_sin: jax.Array
+    tilt_cos: jax.Array
+    initial_mode: jax.Array
+    initial_attitude: jax.Array
+    initial_angle_deg: jax.Array
+    initial_euler_max_deg: jax.Array
+    rate_fixed: jax.Array
+    initial_rate_rad_s: jax.Array
+    initial_rate_max_rad_s: jax.Array
+    target_fixed: jax.Array
+    target_attitude: jax.Array
+    target_angle_deg: jax.Array
+    disturbance_torque_nm: jax.Array
+    faults: jfaults.FaultParams
+
+
+def with_inertia(params: EnvParams, inertia_kg_m2: jax.Array) -> EnvParams:
+    """``params`` on a body of inertia ``inertia_kg_m2`` (3×3, kg·m², wheels' spin inertia
+    included), with ``inertia_eff_inv`` recomputed (traceable: ``jax.vmap`` it over inertias)."""
+    inertia = jnp.asarray(inertia_kg_m2, dtype=params.inertia_kg_m2.dtype)
+    a = params.wheel_axes
+    eff = inertia - params.wheel_inertia_kg_m2 * a @ a.T
+    return params.replace(inertia_kg_m2=inertia, inertia_eff_inv=jnp.linalg.inv(eff))
+
+
+# ---------------------------------------------------------------------------- the kernel's math
+# Each entry computed with the products and the summation order of gyrostat_kernels' lanes
+# (3-vector ops where the kernel repeats one expression per axis).
+
+
+def _error_state(y: jax.Array, target: jax.Array, j_s, n: int, include_h: bool):
+    """``x = [q_e,vec, ω, (J_s Ω)]`` with ``q_e = q_T* ⊗ q/|q|`` (``q_e,w ≥ 0``) and ``q_e,w``
+    (``_error_state_lane``)."""
+    qx, qy, qz, qw = y[0], y[1], y[2], y[3]
+    norm = jnp.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+    qx, qy, qz, qw = qx / norm, qy / norm, qz / norm, qw / norm
+    px, py, pz, pw = -target[0], -target[1], -target[2], target[3]
+    ex = pw * qx + px * qw + py * qz - pz * qy
+    ey = pw * qy - px * qz + py * qw + pz * qx
+    ez = pw * qz + px * qy - py * qx + pz * qw
+    ew = pw * qw - px * qx - py * qy - pz * qz
+    sign = jnp.where(ew < 0.0, -1.0, 1.0).astype(ew.dtype)
+    parts = [jnp.stack([sign * ex, sign * ey, sign * ez]), y[4:7]]
+    if include_h:
+        parts.append(j_s * y[7 : 7 + n])
+    return jnp.concatenate(parts), sign * ew
+
+
+def _quad_form(M: jax.Array, v: jax.Array, k: int):
+    """``vᵀMv`` summed row by row (:func:`attitude_envs.plants.kernel_math.quad_form`): each
+    row's ``Σ_j M_ij v_j`` in ``j`` order (a vector op per ``j``), then ``Σ_i v_i (Mv)_i``."""
+    acc = M[:, 0] * v[0]
+    for j in range(1, k):
+        acc = acc + M[:, j] * v[j]
+    terms = v[:k] * acc
+    total = terms[0]
+    for i in range(1, k):
+        total = total + terms[i]
+    return total
+
+
+def _cross_terms(a: jax.Array, b: jax.Array) -> jax.Array:
+    """``a × b`` as ``a[1,2,0]·b[2,0,1] − a[2,0,1]·b[1,2,0]`` (the kernel's products)."""
+    return a[_P1] * b[_P2] - a[_P2] * b[_P1]
+
+
+def _derivative(y: jax.Array, u: jax.Array, uj: jax.Array, ext: jax.Array, p: EnvParams, n: int) -> jax.Array:
+    """``ẏ`` of ``y = [q, ω, Ω]`` (``_derivative_lane``, the same products and sums per
+    entry, as 3-vector ops): motor torques ``u`` (N·m) and ``uj = u / J_s``, external torque
+    ``ext`` (3, N·m, body axes).
+
+    ``I_eff ω̇ = −ω × (Iω + J_s A Ω) − A u + T_ext + p × K``, ``Ω̇_i = u_i / J_s − a_i·ω̇``,
+    ``q̇ = ½ q ⊗ [ω, 0]``."""
+    I, M, A, j_s = p.inertia_kg_m2, p.inertia_eff_inv, p.wheel_axes, p.wheel_inertia_kg_m2
+    qv, qw, w = y[0:3], y[3], y[4:7]
+    qx, qy, qz = qv[0], qv[1], qv[2]
+    h = I[:, 0] * w[0] + I[:, 1] * w[1] + I[:, 2] * w[2]
+    # gravity torque p × K, K = R(q)ᵀ e_Z (Ahangarani Farahani et al., eqs. 6–9); p = 0 adds 0
+    k = jnp.stack([2.0 * (qx * qz - qy * qw), 2.0 * (qy * qz + qx * qw), 1.0 - 2.0 * (qx * qx + qy * qy)])
+    r = ext + _cross_terms(p.offset_torque_nm, k)
+    hw = j_s * y[7 : 7 + n]
+    for i in range(n):
+        h = h + A[:, i] * hw[i]
+        r = r - A[:, i] * u[i]
+    r = r - _cross_terms(w, h)
+    d = M[:, 0] * r[0] + M[:, 1] * r[1] + M[:, 2] * r[2]
+    q_dot_v = 0.5 * (qw * w + qv[_P1] * w[_P2] - qv[_P2] * w[_P1])
+    q_dot_w = -0.5 * (qx * w[0] + qy * w[1] + qz * w[2])
+    wheel_dot = uj - (A[0] * d[0] + A[1] * d[1] + A[2] * d[2])
+    return jnp.concatenate([q_dot_v, q_dot_w[None], d, wheel_dot])
+
+
+def _tilt_exceeded(q: jax.Array, tilt_sin, tilt_cos) -> jax.Array:
+    """Roll or pitch (3-2-1) beyond the stop ``L``: ``|sin θ| > sin L`` or ``cos φ < cos L``
+    (``_tilt_lane``, no inverse trigonometry)."""
+    qx, qy, qz, qw = q[0], q[1], q[2], q[3]
+    n2 = qx * qx + qy * qy + qz * qz + qw * qw
+    s = 2.0 * (qw * qx + qy * qz)
+    c = n2 - 2.0 * (qx * qx + qy * qy)
+    sin_pitch = 2.0 * (qw * qy - qz * qx) / n2
+    return (jnp.abs(sin_pitch) > tilt_sin) | (c < tilt_cos * jnp.sqrt(s * s + c * c))
+
+
+def _clip(v, lo, hi):
+    """``min(max(v, lo), hi)`` as the kernel's two selects."""
+    v = jnp.where(v < lo, lo, v)
+    return jnp.where(v > hi, hi, v)
+
+
+def _from_axis_angle(axis: jax.Array, angle_rad) -> jax.Array:
+    """The rotation by ``angle_rad`` about ``axis`` (any length): with a standard normal
+    ``axis`` and a uniform angle, :func:`attitude_envs.quaternion.random_within_angle`'s law."""
+    half = 0.5 * angle_rad
+    return jnp.concatenate([jnp.sin(half) * axis / jnp.sqrt(axis @ axis), jnp.cos(half)[None]])
+
+
+def _from_euler_321_deg(euler_deg: jax.Array) -> jax.Array:
+    """The quaternion of 3-2-1 Euler angles [roll, pitch, yaw], deg
+    (:func:`attitude_envs.quaternion.from_euler_321_deg`)."""
+    phi, theta, psi = jnp.radians(euler_deg) * 0.5
+    sf, cf, st, ct, sp, cp = jnp.sin(phi), jnp.cos(phi), jnp.sin(theta), jnp.cos(theta), jnp.sin(psi), jnp.cos(psi)
+    return jnp.stack(
+        [
+            sf * ct * cp - cf * st * sp,
+            cf * st * cp + sf * ct * sp,
+            cf * ct * sp - sf * st * cp,
+            cf * ct * cp + sf * st * sp,
+        ]
+    )
+
+
+class GyrostatEnv(Environment):
+    """ReactionWheel-v0/-v1 and AirBearing-v0/-v1 in JAX (see the module docstring).
+
+    Static (fixed at construction, part of the compiled program): ``n_wheels``,
+    ``n_substeps``, ``include_wheel_momentum`` (``x`` carries ``J_s Ω``), ``body_cost_input``
+    (``u_c = −A u``, else ``u``), ``observe_wheel_speeds``, ``body_action_frame``,
+    ``fault_hint``, ``has_tilt_stop``, the fault configs (``fault_configs``, validated
+    fault dicts; ``redraw_faults``: ``reset_env`` draws each episode's faults from them).
+    Envs with equal static attributes are equal (they share compiled code; the fault
+    configs count only with ``redraw_faults``, so envs of different fixed faults share it).
+    Build one with :func:`from_env` or :func:`attitude_envs.jax.make`."""
+
+    def __init__(
+        self,
+        *,
+        n_wheels: int,
+        n_substeps: int,
+        include_wheel_momentum: bool,
+        body_cost_input: bool,
+        observe_wheel_speeds: bool,
+        body_action_frame: bool,
+        fault_hint: bool,
+        has_tilt_stop: bool,
+        env_name: str = "ReactionWheel",
+        params: EnvParams | None = None,
+        fault_configs: tuple[dict, ...] = (),
+        redraw_faults: bool = False,
+    ) -> None:
+        self.n_wheels = int(n_wheels)
+        self.n_substeps = int(n_substeps)
+        self.include_wheel_momentum = bool(include_wheel_momentum)
+        self.body_cost_input = bool(body_cost_input)
+        self.observe_wheel_speeds = bool(observe_wheel_speeds)
+        self.body_action_frame = bool(body_action_frame)
+        self.fault_hint = bool(fault_hint)
+        self.has_tilt_stop = bool(has_tilt_stop)
+        self.env_name = str(env_name)
+        self.fault_configs = tuple(dict(c) for c in fault_configs)
+        self.redraw_faults = bool(redraw_faults)
+        self._params = params
+
+    # static identity: equal layouts share jit caches
+    def _static(self) -> tuple:
+        return (
+            self.n_wheels,
+            self.n_substeps,
+            self.include_wheel_momentum,
+            self.body_cost_input,
+            self.observe_wheel_speeds,
+            self.body_action_frame,
+            self.fault_hint,
+            self.has_tilt_stop,
+            self.env_name,
+            self.redraw_faults,
+            _frozen(self.fault_configs) if self.redraw_faults else (),
+        )
+
+    def __hash__(self) -> int:
+        return hash(self._static())
+
+    def __eq__(self, other: object) -> bool:
+        return type(other) is type(self) and other._static() == self._static()
+
+    # equal envs share compiled code, so their default params must not be traced into it:
+    # resolved here, before the jitted step and reset
+    def step(self, key: jax.Array, state: EnvState, action: jax.Array, params: EnvParams | None = None):
+        """One decision with autoreset (gymnax 1.0's ``step``, see :class:`Environment`)."""
+        return super().step(key, state, action, self.default_params if params is None else params)
+
+    def reset(self, key: jax.Array, params: EnvParams | None = None):
+        """A fresh episode drawn with ``key`` (gymnax 1.0's ``reset``)."""
+        return super().reset(key, self.default_params if params is None else params)
+
+    @property
+    def name(self) -> str:
+        return self.env_name
+
+    @property
+    def default_params(self) -> EnvParams:
+        if self._params is None:
+            raise ValueError("this GyrostatEnv has no default params: build it with from_env or attitude_envs.jax.make")
+        return self._params
+
+    @property
+    def n_state(self) -> int:
+        """Entries of the error state ``x`` (6, plus N with wheel momentum)."""
+        return 6 + (self.n_wheels if self.include_wheel_momentum else 0)
+
+    @property
+    def n_obs(self) -> int:
+        """Entries of the observation: ``x``, ``Ω/Ω_max`` (N, with ``observe_wheel_speeds``),
+        the ``fault_hint`` flags (N + 3)."""
+        n = self.n_state + (self.n_wheels if self.observe_wheel_speeds else 0)
+        return n + (self.n_wheels + _N_SENSOR_CHANNELS if self.fault_hint else 0)
+
+    # ------------------------------------------------------------------ spaces
+    def action_space(self, params: EnvParams | None = None) -> Box:
+        """``Box(-1, 1)``: per wheel (motor torque / limit) or, in the body frame, 3 (body
+        torque demand / limit)."""
+        return Box(-1.0, 1.0, (3 if self.body_action_frame else self.n_wheels,), dtype=jnp.result_type(float))
+
+    def observation_space(self, params: EnvParams | None = None) -> Box:
+        """The numba env's bounds: ``|q_e,vec| ≤ 1``, rates within 2 × ``max_rate_rad_s``,
+        wheel momentum within 1.5 J_s Ω_max, ``|Ω/Ω_max| ≤ 1.5``, flags in [0, 1]."""
+        p = self.default_params if params is None else params
+        rate = 2.0 * float(p.max_rate_rad_s)
+        high = [np.ones(3), np.full(3, rate)]
+        if self.include_wheel_momentum:
+            h = 1.5 * float(p.wheel_inertia_kg_m2) * float(p.max_wheel_speed_rad_s)
+            high.append(np.full(self.n_wheels, h if np.isfinite(h) else 1e6))
+        if self.observe_wheel_speeds:
+            high.append(np.full(self.n_wheels, 1.5))
+        high = np.concatenate(high)
+        low = -high
+        if self.fault_hint:
+            n_flags = self.n_wheels + _N_SENSOR_CHANNELS
+            low, high = np.concatenate([low, np.zeros(n_flags)]), np.concatenate([high, np.ones(n_flags)])
+        return Box(low, high, (self.n_obs,), dtype=jnp.result_type(float))
+
+    # ------------------------------------------------------------------ the plant
+    def commanded_torques(self, action: jax.Array, params: EnvParams) -> jax.Array:
+        """Motor torques (N·m) of an action (:meth:`ReactionWheelEnv.commanded_torques`):
+        clipped to [-1, 1] and scaled, or allocated in the body frame and clipped per wheel."""
+        dtype = params.inertia_kg_m2.dtype
+        a = jnp.minimum(jnp.maximum(jnp.asarray(action, dtype=dtype), -1.0), 1.0)
+        limit = params.max_wheel_torque_nm
+        if not self.body_action_frame:
+            return a * limit
+        m = params.action_map
+        torque = a[0:1] * m[:, 0] + a[1:2] * m[:, 1] + a[2:3] * m[:, 2]
+        return jnp.minimum(jnp.maximum(torque, -limit), limit)
+
+    def _rk4(self, y: jax.Array, cmd: jax.Array, target: jax.Array, p: EnvParams):
+        """``n_substeps`` RK4 sub-steps of ``y = [q, ω, Ω]`` with the motor command ``cmd``
+        (N·m) held, the stage cost against ``target``; returns the new ``y``, the integrated
+        stage cost and the mean motor torque delivered (N·m) (the kernel's sub-step loop)."""
+        n, h, j_s = self.n_wheels, p.integrator_dt_s, p.wheel_inertia_kg_m2
+        n_sub = self.n_substeps
+        m_cost = 3 if self.body_cost_input else n
+        A = p.wheel_axes
+
+        def substep(j, carry):
+            aug, applied = carry
+            # motor driver: torque limit, then no torque beyond ±max_speed over the next h
+            wheel = aug[7 : 7 + n]
+            v = _clip(cmd, -p.max_wheel_torque_nm, p.max_wheel_torque_nm)
+            hi = j_s / h * (p.max_wheel_speed_rad_s - wheel)
+            lo = j_s / h * (-p.max_wheel_speed_rad_s - wheel)
+            limited = _clip(_clip(v, lo, hi), -p.max_wheel_torque_nm, p.max_wheel_torque_nm)
+            u = jnp.where(p.max_wheel_speed_rad_s < jnp.inf, limited, v)
+            applied = applied + u / n_sub
+            uj = u / j_s
+            if self.body_cost_input:  # u_c = −A u, summed over the wheels in order
+                uc = 0.0 - A[:, 0] * u[0]
+                for i in range(1, n):
+                    uc = uc - A[:, i] * u[i]
+            else:
+                uc = u
+            ru = _quad_form(p.R, uc, m_cost)
+
+            def stage(s, carry):  # classical RK4: stages at t, t + h/2, t + h/2, t + h
+                k, acc = carry
+                tmp = jnp.where(s == 0, aug, aug + jnp.where(s == 3, h, 0.5 * h) * k)
+                dy = _derivative(tmp, u, uj, p.disturbance_torque_nm, p, n)
+                x, _ = _error_state(tmp, target, j_s, n, self.include_wheel_momentum)
+                stage_cost = _quad_form(p.Q, x, self.n_state) + ru
+                k = jnp.concatenate([dy, stage_cost[None]])
+                # acc = k1 + 2 k2 + 2 k3 + k4, summed in that order
+                return k, jnp.where(s == 0, k, acc + jnp.where(s == 3, 1.0, 2.0) * k)
+
+            _, acc = jax.lax.fori_loop(0, 4, stage, (jnp.zeros_like(aug), jnp.zeros_like(aug)))
+            aug = aug + (h / 6.0) * acc
+            q = aug[0:4]
+            norm = jnp.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+            aug = jnp.concatenate([q / norm, aug[4:]])
+            return aug, applied
+
+        aug0 = jnp.concatenate([y, jnp.zeros(1, dtype=y.dtype)])
+        aug, applied = jax.lax.fori_loop(0, n_sub, substep, (aug0, jnp.zeros(n, dtype=y.dtype)))
+        return aug[:-1], aug[-1], applied
+
+    def _observe(self, y: jax.Array, target: jax.Array, faults: jfaults.FaultParams, t_s, params: EnvParams):
+        """The observation of state ``y`` at ``t_s`` (s) under the episode's ``faults``, the
+        error state ``x`` and ``q_e,w``."""
+        x, qe_w = _error_state(y, target, params.wheel_inertia_kg_m2, self.n_wheels, self.include_wheel_momentum)
+        parts = [x]
+        if self.observe_wheel_speeds:
+            parts.append(y[7:] / params.max_wheel_speed_rad_s)
+        if self.fault_hint:
+            flags = jfaults.active_flags(faults, t_s, self.n_wheels).astype(y.dtype)
+            parts += [flags, jnp.zeros(_N_SENSOR_CHANNELS, dtype=y.dtype)]
+        return jnp.concatenate(parts), x, qe_w
+
+    def step_env(self, key: jax.Array, state: EnvState, action: jax.Array, params: EnvParams):
+        """One decision (``control_dt_s``) without autoreset:
+        ``(obs, state, reward, terminated, info)``."""
+        p = params
+        dtype = p.inertia_kg_m2.dtype
+        t0 = state.time.astype(dtype) * p.control_dt_s
+        commanded = self.commanded_torques(action, p)
+        delivered, fault_state = jfaults.apply(
+            state.faults,
+            state.fault_state,
+            key,
+            commanded,
+            t0,
+            jnp.broadcast_to(p.max_wheel_torque_nm, commanded.shape),
+        )
+        y = jnp.concatenate([state.attitude, state.rate_rad_s, state.wheel_speed_rad_s])
+        y_new, cost, applied = self._rk4(y, delivered, state.target_attitude, p)
+        time = state.time + 1
+        t1 = time.astype(dtype) * p.control_dt_s
+        obs, x, qe_w = self._observe(y_new, state.target_attitude, state.faults, t1, p)
+        finite = jnp.all(jnp.isfinite(y_new)) & jnp.isfinite(cost)
+        rate = jnp.max(jnp.abs(y_new[4:7]))
+        tilt = _tilt_exceeded(y_new[0:4], p.tilt_sin, p.tilt_cos)
+        terminated = jnp.logical_not(finite) | (rate > p.max_rate_rad_s) | tilt
+        charge = termination_charge(p.termination_mode, x, p.Q, p.episode_duration_s, t1)
+        cost = cost + jnp.where(terminated & finite, charge, 0.0)
+        obs = jnp.where(finite, obs, jnp.zeros_like(obs))
+        new_state = EnvState(
+            time=time,
+            attitude=y_new[0:4],
+            rate_rad_s=y_new[4:7],
+            wheel_speed_rad_s=y_new[7:],
+            target_attitude=state.target_attitude,
+            faults=state.faults,
+            fault_state=fault_state,
+        )
+        info = {
+            "cost": cost,
+            "time_s": t1,
+            "error_angle_deg": jnp.arccos(jnp.minimum(1.0, qe_w)) * _TWO_RAD_TO_DEG,
+            "applied": applied,
+            "commanded": commanded,
+        }
+        if self.has_tilt_stop:
+            info["tilt_limit_hit"] = tilt
+        return obs, new_state, -cost, terminated, info
+
+    def reset_env(self, key: jax.Array, params: EnvParams):
+        """A fresh episode: start attitude, body rate (rad/s) and target drawn from the numba
+        env's laws (not its draws), wheels at rest, the episode's faults (``params.faults``,
+        or drawn from the fault configs with ``redraw_faults``) and their runtime state at
+        its start. ``(obs, state)``."""
+        p = params
+        dtype = p.inertia_kg_m2.dtype
+        # one uniform draw for everything (each draw compiles a threefry program); the two
+        # standard normal axes from 6 of them, as jax.random.normal makes its normals. A
+        # third key only when the faults are drawn (the other draws stay as they were)
+        if self.redraw_faults:
+            k_draw, k_fault, k_realize = jax.random.split(key, 3)
+        else:
+            k_draw, k_fault = jax.random.split(key)
+        u = jax.random.uniform(k_draw, (14,), dtype=dtype, minval=-1.0, maxval=1.0)
+        lo = np.nextafter(np.array(-1.0, dtype), np.array(0.0, dtype))  # erf_inv(-1) = -inf
+        axes = (np.sqrt(2.0) * jax.lax.erf_inv(jnp.maximum(u[8:], lo))).reshape(2, 3)
+        u = 0.5 * (u[:8] + 1.0)  # U(0, 1)
+        # rotations about uniformly random axes by angles uniform in [0, max]
+        axis_angle = _from_axis_angle(axes[0], jnp.radians(u[0] * p.initial_angle_deg))
+        drawn_target = _from_axis_angle(axes[1], jnp.radians(u[1] * p.target_angle_deg))
+        euler = p.initial_euler_max_deg * (2.0 * u[2:5] - 1.0)  # AirBearing: 3-2-1 angles uniform in ±max
+        q0 = jnp.select(
+            [p.initial_mode == START_EULER, p.initial_mode == START_AXIS_ANGLE],
+            [_from_euler_321_deg(euler), axis_angle],
+            p.initial_attitude,
+        )
+        target = jnp.where(p.target_fixed, p.target_attitude, drawn_target)
+        rate = jnp.where(p.rate_fixed, p.initial_rate_rad_s, p.initial_rate_max_rad_s * (2.0 * u[5:8] - 1.0))
+        faults = p.faults
+        if self.redraw_faults:
+            faults = self._draw_faults(k_realize, p.faults)
+        state = EnvState(
+            time=jnp.zeros((), dtype=jnp.int32),
+            attitude=q0,
+            rate_rad_s=rate,
+            wheel_speed_rad_s=jnp.zeros(self.n_wheels, dtype=dtype),
+            target_attitude=target,
+            faults=faults,
+            fault_state=jfaults.initial_state(k_fault, faults),
+        )
+        return self.get_obs(state, p), state
+
+    def _draw_faults(self, key: jax.Array, like: jfaults.FaultParams) -> jfaults.FaultParams:
+        """One episode's faults drawn from ``fault_configs`` with ``key``, padded (kind 0) to
+        the entries of ``like`` (the params' faults) and in its dtypes, so that drawn and
+        given faults stack (``step``'s autoreset selects between them)."""
+        drawn = jfaults.realize(key, list(self.fault_configs), self.n_wheels)
+        extra = like.n_faults - drawn.n_faults
+        if extra < 0:
+            raise ValueError(
+                f"params.faults has {like.n_faults} entries, fewer than the {drawn.n_faults} the fault configs draw"
+            )
+        if extra:
+            pad = jfaults.no_faults(extra)
+            drawn = jax.tree.map(lambda a, b: jnp.concatenate([a, b.astype(a.dtype)]), drawn, pad)
+        return jax.tree.map(lambda new, old: new.astype(old.dtype), drawn, like)
+
+    def get_obs(self, state: EnvState, params: EnvParams) -> jax.Array:
+        """The observation of ``state`` (the error state, wheel speeds, fault flags)."""
+        y = jnp.concatenate([state.attitude, state.rate_rad_s, state.wheel_speed_rad_s])
+        t_s = state.time.astype(y.dtype) * params.control_dt_s
+        return self._observe(y, state.target_attitude, state.faults, t_s, params)[0]
+
+    # ------------------------------------------------------------------ from the numba env
+    def state_from(
+        self, numba_env: Any, time: int = 0, key: jax.Array | None = None, n_faults: int | None = None
+    ) -> EnvState:
+        """The JAX state of ``numba_env``'s current episode: its state row, target, realized
+        faults and their runtime state (from ``fault_layer.realized``). The numba env exposes no step
+        counter: ``time`` is the decisions it took (0 after ``reset``).
+        ``key`` draws the first switch of intermittent faults that have not acted yet
+        (the numba layer draws it at their first step). ``n_faults``: the fault entries of the
+        params it will step under (default: the env's default params', or more if realized)."""
+        env = getattr(numba_env, "unwrapped", numba_env)
+        _check_modeled(env, episode=True)
+        dtype = jnp.result_type(float)
+        row = np.array(env.state_row, dtype=float)
+        realized = env.fault_layer.realized
+        if n_faults is None:
+            n_faults = 0 if self._params is None else self._params.faults.n_faults
+        fp = jfaults.from_realized(realized, max(n_faults, len(realized)))
+        fresh = jfaults.initial_state(jax.random.PRNGKey(0) if key is None else key, fp)
+        held = np.array(fresh.held)
+        holding = np.array(fresh.holding)
+        on = np.array(fresh.on)
+        next_switch = np.array(fresh.next_switch)
+        for j, f in enumerate(realized):
+            if f.held is not None:
+                held[j], holding[j] = f.held, True
+            if f.next_switch_s is not None:
+                on[j], next_switch[j] = f.on, f.next_switch_s
+        return EnvState(
+            time=jnp.asarray(time, dtype=jnp.int32),
+            attitude=jnp.asarray(row[:4], dtype=dtype),
+            rate_rad_s=jnp.asarray(row[4:7], dtype=dtype),
+            wheel_speed_rad_s=jnp.asarray(row[7:], dtype=dtype),
+            target_attitude=jnp.asarray(np.array(env.target_attitude), dtype=dtype),
+            faults=_as_dtype(fp, dtype),
+            fault_state=jfaults.FaultState(
+                held=jnp.asarray(held, dtype=dtype),
+                holding=jnp.asarray(holding),
+                on=jnp.asarray(on),
+                next_switch=jnp.asarray(next_switch, dtype=dtype),
+            ),
+        )
+
+
+def episode_params(numba_env: Any, params: EnvParams, n_faults: int | None = None) -> EnvParams:
+    """``params`` with ``numba_env``'s current episode's realized faults (padded to
+    ``n_faults`` entries, default ``params``' count, or more if realized) and true inertia
+    (kg·m², drawn per episode with ``inertia_uncertainty``): the params under which the JAX
+    step follows that episode, e.g. after ``reset(options={"faults": ...})``, with random
+    fault draws or a random inertia."""
+    env = getattr(numba_env, "unwrapped", numba_env)
+    realized = env.fault_layer.realized
+    n = params.faults.n_faults if n_faults is None else n_faults
+    dtype = params.inertia_kg_m2.dtype
+    mats = np.array(env.kernel_matrices, dtype=float)
+    return params.replace(
+        faults=_as_dtype(jfaults.from_realized(realized, max(n, len(realized))), dtype),
+        inertia_kg_m2=jnp.asarray(mats[:9].reshape(3, 3), dtype=dtype),
+        inertia_eff_inv=jnp.asarray(mats[9:].reshape(3, 3), dtype=dtype),
+    )
+
+
+def _as_dtype(fp: jfaults.FaultParams, dtype) -> jfaults.FaultParams:
+    """``fp`` with its float arrays in ``dtype``."""
+    return jax.tree.map(lambda a: a.astype(dtype) if jnp.issubdtype(a.dtype, jnp.floating) else a, fp)
+
+
+def _frozen(value: Any) -> Any:
+    """``value`` (fault dicts: dicts, lists, arrays, numbers) as a hashable equal-by-value tuple."""
+    if isinstance(value, dict):
+        return tuple(sorted((str(k), _frozen(v)) for k, v in value.items()))
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return tuple(_frozen(v) for v in value)
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def _check_modeled(env: Any, episode: bool = False) -> None:
+    """A one-line ``ValueError`` naming the first keyword or configuration of ``env`` that
+    the JAX gyrostat does not model (with ``episode``: only what the current episode uses)."""
+    if not isinstance(env, ReactionWheelEnv):
+        raise ValueError(f"the JAX gyrostat takes a ReactionWheel or AirBearing env, got {type(env).__name__}")
+    if env.sensor_layer.enabled:
+        raise ValueError("sensors (and sensor faults) are not modeled by the JAX gyrostat: it observes the truth")
+    dist = env.disturbance
+    if dist is not None and dist.kind != "constant":
+        raise ValueError(f"disturbance of kind {dist.kind!r} is not modeled by the JAX gyrostat (only 'constant')")
+    if episode:
+        return
+    law = env.reset_distribution
+    unc = law["inertia_uncertainty"]
+    if unc is not None and unc.kind != "fixed":
+        raise ValueError(
+            f"inertia_uncertainty of kind {unc.kind!r} is not modeled by the JAX gyrostat "
+            "(vmap over params with attitude_envs.jax.gyrostat.with_inertia instead)"
+        )
+    if env.render_mode is not None:
+        raise ValueError(f"render_mode={env.render_mode!r} is not modeled by the JAX gyrostat (it does not render)")
+
+
+def max_steps(control_dt_s: float, episode_duration_s: float) -> int:
+    """The decisions of an episode: the first ``k`` with ``k·dt ≥ T − 10⁻⁹·dt``, the numba
+    kernel's truncation test."""
+    dt, limit = control_dt_s, episode_duration_s - 1e-9 * control_dt_s
+    k = max(1, math.ceil(limit / dt))
+    while k * dt < limit:
+        k += 1
+    while k > 1 and (k - 1) * dt >= limit:
+        k -= 1
+    return k
+
+
+def from_env(numba_env: Any) -> tuple[GyrostatEnv, EnvParams]:
+    """The JAX gyrostat of a numba ReactionWheel or AirBearing env (its keywords as built)
+    and its ``EnvParams``; a one-line ``ValueError`` names any configuration not modeled."""
+    env = getattr(numba_env, "unwrapped", numba_env)
+    _check_modeled(env)
+    model = env.model
+    plant = model.params
+    law = env.reset_distribution
+    unc = law["inertia_uncertainty"]
+    inertia = plant.inertia_kg_m2 if unc is None else unc.inertia_kg_m2
+    inertia_eff_inv = plant.inertia_eff_inv if unc is None else plant.with_inertia(unc.inertia_kg_m2).inertia_eff_inv
+    n = plant.n_wheels
+    configs = tuple(dict(c) for c in env.fault_layer.configs)
+    # the default faults: the numba layer's draw with a fixed generator (no JAX program to
+    # compile; realize's layout). With random fields only a default: each episode draws its
+    # own (``redraw_faults``)
+    layer = ActuatorFaults(list(configs), n, plant.max_wheel_torque_nm)
+    layer.reset(np.random.default_rng(0))
+    dtype = jnp.result_type(float)
+
+    def f(v):
+        return jnp.asarray(np.asarray(v, dtype=float), dtype=dtype)
+
+    tilt = env.tilt_limit_deg
+    if tilt is None:
+        tilt_sin, tilt_cos = 2.0, -2.0  # never: |sin θ| ≤ 1, cos φ ≥ −1 (pack_constants)
+    else:
+        rad = math.radians(tilt)
+        tilt_sin, tilt_cos = float(np.sin(rad)), float(np.cos(rad))
+    if law["initial_attitude"] is not None:
+        mode = START_FIXED
+    elif isinstance(env, AirBearingEnv):
+        mode = START_EULER
+    else:
+        mode = START_AXIS_ANGLE
+    euler_max = env.initial_euler_max_deg if isinstance(env, AirBearingEnv) else np.zeros(3)
+    dist = env.disturbance
+    identity = np.array([0.0, 0.0, 0.0, 1.0])
+    body_frame = env.action_frame == "body"
+    params = EnvParams(
+        max_steps_in_episode=jnp.asarray(max_steps(env.control_dt_s, env.episode_duration_s), dtype=jnp.int32),
+        inertia_kg_m2=f(inertia),
+        inertia_eff_inv=f(inertia_eff_inv),
+        wheel_axes=f(plant.wheel_axes),
+        wheel_inertia_kg_m2=f(plant.wheel_inertia_kg_m2),
+        max_wheel_torque_nm=f(plant.max_wheel_torque_nm),
+        max_wheel_speed_rad_s=f(plant.max_wheel_speed_rad_s),
+        offset_torque_nm=f(env.true_offset_torque_nm),
+        action_map=f(model.allocation * plant.max_wheel_torque_nm),
+        control_dt_s=f(env.control_dt_s),
+        integrator_dt_s=f(env.integrator_dt_s),
+        episode_duration_s=f(env.episode_duration_s),
+        Q=f(model.cost.Q),
+        R=f(model.cost.R),
+        termination_mode=jnp.asarray(mode_code(env.termination_cost), dtype=jnp.int32),
+        max_rate_rad_s=f(env.max_rate_rad_s),
+        tilt_sin=f(tilt_sin),
+        tilt_cos=f(tilt_cos),
+        initial_mode=jnp.asarray(mode, dtype=jnp.int32),
+        initial_attitude=f(identity if law["initial_attitude"] is None else law["initial_attitude"]),
+        initial_angle_deg=f(law["initial_angle_deg"]),
+        initial_euler_max_deg=f(euler_max),
+        rate_fixed=jnp.asarray(law["initial_rate_rad_s"] is not None),
+        initial_rate_rad_s=f(np.zeros(3) if law["initial_rate_rad_s"] is None else law["initial_rate_rad_s"]),
+        initial_rate_max_rad_s=f(law["initial_rate_max_rad_s"]),
+        target_fixed=jnp.asarray(law["target_attitude"] is not None),
+        target_attitude=f(identity if law["target_attitude"] is None else law["target_attitude"]),
+        target_angle_deg=f(law["target_angle_deg"]),
+        disturbance_torque_nm=f(np.zeros(3) if dist is None else dist.torque_nm),
+        faults=_as_dtype(jfaults.from_realized(layer.realized), dtype),
+    )
+    jenv = GyrostatEnv(
+        n_wheels=n,
+        n_substeps=env.n_substeps,
+        include_wheel_momentum=model.include_wheel_momentum,
+        body_cost_input=model.cost_input == "body",
+        observe_wheel_speeds=env.observe_wheel_speeds,
+        body_action_frame=body_frame,
+        fault_hint=env.fault_hint,
+        has_tilt_stop=tilt is not None,
+        env_name=env.env_name.rsplit("-v", 1)[0],
+        params=params,
+        fault_configs=configs,
+        redraw_faults=any(jfaults.draws_per_episode(c) for c in configs),
+    )
+    return jenv, params
+
+
+__all__ = ["EnvParams", "EnvState", "GyrostatEnv", "episode_params", "from_env", "max_steps", "with_inertia"]

@@ -1,0 +1,357 @@
+"""LinearSystem-v0/-v1 in JAX: the discrete LTI plant ``x⁺ = A x + B u (+ w)`` of
+:class:`attitude_envs.envs.linear_system.LinearSystemEnv`, one decision per step.
+
+A decision holds the input over ``k = control_dt_s / dt_s`` plant steps of ``dt_s`` s. Without
+process noise the step is the exact discretization of the hold,
+``x⁺ = A_k x + B_k u`` with ``A_k = Aᵏ``, ``B_k = (Σ_{i<k} Aⁱ) B``, charged the exact sum of
+the k plant steps' stage costs ``xᵀQ_k x + 2xᵀN_k u + uᵀR_k u``
+(:func:`attitude_envs.plants.linear_hold.hold_model`, the numba env's ``decision_model``;
+``held_step``); with process noise the k plant steps are taken one by one, each with its
+draw ``w ~ N(0, σ² I)`` (``noisy_held_steps``). The default preset is the linearized
+quaternion/rate model of Heravi & Novinzadeh (2017), eq. 59, forward-Euler discretized
+(eqs. 61–62) with Δt = 0.01 s; the -v1 learning task decides every 5 s (k = 500).
+
+Time is counted as the numba env counts it: ``state.time`` in decisions, the plant steps
+``time · k`` for the time (``time_s = time · k · dt_s``), the fault onsets (the actuator
+faults are applied at the decision's start time and held over it) and the termination
+charge (``horizon_steps`` and the elapsed plant steps, :func:`attitude_envs.jax.cost.termination_charge`).
+
+Modeled: every keyword of the numba env except ``sensors`` and sensor-target faults (a
+``ValueError`` names them); actuator faults (``faults``, per-episode draws included) and
+``fault_hint``; process noise (the same law, draws from the step's key).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+from attitude_envs.faults import RealizedFault
+from attitude_envs.jax import cost as jcost
+from attitude_envs.jax import faults as jfaults
+from attitude_envs.jax.environment import Environment
+from attitude_envs.jax.spaces import Box
+
+
+@struct.dataclass
+class EnvState:
+    """One episode's state: ``time`` (decisions taken), ``x`` (n, the plant state in the
+    units of the model), the episode's realized actuator ``faults`` and their runtime
+    ``fault_state`` (latched stuck values, intermittent phases; times in s)."""
+
+    time: jax.Array
+    x: jax.Array
+    faults: jfaults.FaultParams
+    fault_state: jfaults.FaultState
+
+
+@struct.dataclass
+class EnvParams:
+    """Every number of the plant (a pytree: ``jax.vmap`` over it randomizes plants).
+
+    * ``A`` (n×n), ``B`` (n×m), ``Q`` (n×n), ``R`` (m×m): the plant step of ``dt_s`` s and its
+      stage cost ``xᵀQx + uᵀRu`` (per plant step; ``Q`` also weighs the termination charge);
+    * ``A_k``, ``B_k``, ``Q_k``, ``R_k``, ``N_k`` (n×m): the decision step (input held over
+      k plant steps) and its exact cost ``xᵀQ_k x + 2xᵀN_k u + uᵀR_k u``;
+    * ``dt_s`` (s), ``action_scale`` (m; physical input of a unit action, also the actuator
+      limits), ``x0_mean``, ``x0_std`` (n; ``x0 ~ N(x0_mean, diag(x0_std²))``),
+      ``process_noise_std`` (σ of ``w`` per entry and plant step; read only by an env built
+      with ``noisy=True``), ``divergence_threshold`` (limit on ‖x‖∞);
+    * ``termination_mode`` (:func:`attitude_envs.jax.cost.mode_code`) and ``horizon_steps``
+      (the episode's plant steps, the charge's horizon T);
+    * ``faults``: the actuator faults of every episode (an env with ``redraw_faults`` draws
+      each episode's from its fault configs instead, as the numba env does);
+    * ``max_steps_in_episode``: the time limit in decisions (``episode_steps / k``).
+    """
+
+    A: jax.Array
+    B: jax.Array
+    Q: jax.Array
+    R: jax.Array
+    A_k: jax.Array
+    B_k: jax.Array
+    Q_k: jax.Array
+    R_k: jax.Array
+    N_k: jax.Array
+    dt_s: jax.Array
+    action_scale: jax.Array
+    x0_mean: jax.Array
+    x0_std: jax.Array
+    process_noise_std: jax.Array
+    divergence_threshold: jax.Array
+    termination_mode: jax.Array
+    horizon_steps: jax.Array
+    faults: jfaults.FaultParams
+    max_steps_in_episode: jax.Array
+
+
+class LinearSystemEnv(Environment):
+    """The JAX plant of LinearSystem-v0/-v1 (module docstring). Static (fixed at
+    construction, part of the compiled program): ``n`` states, ``m`` inputs,
+    ``decision_steps`` k, ``noisy`` (k plant steps with process noise instead of the exact
+    hold), ``fault_hint`` (the observation appends m + 1 active-fault flags: the actuators,
+    then the ``state`` sensor, never faulted here), the fault configs (``fault_configs``,
+    ``redraw_faults``: draw the faults per episode), the observation bounds.
+
+    Observation: ``x`` (n) in the compute dtype, then the hint flags; zeros when the state
+    is not finite (as the numba env's)."""
+
+    def __init__(
+        self,
+        n: int,
+        m: int,
+        decision_steps: int,
+        default_params: EnvParams,
+        *,
+        noisy: bool = False,
+        fault_hint: bool = False,
+        fault_configs: tuple[dict, ...] = (),
+        redraw_faults: bool = False,
+        obs_bound: float = np.inf,
+    ) -> None:
+        self.n = int(n)
+        self.m = int(m)
+        self.decision_steps = int(decision_steps)
+        self.noisy = bool(noisy)
+        self.fault_hint = bool(fault_hint)
+        self.fault_configs = tuple(dict(c) for c in fault_configs)
+        self.redraw_faults = bool(redraw_faults)
+        self.n_faults = int(default_params.faults.kind.shape[-1])
+        self.obs_size = self.n + (self.m + 1 if self.fault_hint else 0)
+        self.obs_bound = float(obs_bound)
+        self._default_params = default_params
+
+    @property
+    def default_params(self) -> EnvParams:
+        return self._default_params
+
+    @property
+    def name(self) -> str:
+        return "LinearSystem"
+
+    # ------------------------------------------------------------------ dynamics
+    def plant_step(self, x: jax.Array, u: jax.Array, noise: jax.Array | None, params: EnvParams):
+        """One decision from ``x`` with the delivered input ``u`` (physical) held:
+        ``(x⁺, cost)``. ``noise`` None: the exact hold (``held_step``); else the k plant
+        steps one by one, ``noise[j]`` (n, already scaled by σ) added after step j
+        (``noisy_held_steps``), cost the sum of their stage costs."""
+        if noise is None:
+            x_next = params.A_k @ x + params.B_k @ u
+            cost = x @ params.Q_k @ x + u @ params.R_k @ u + 2.0 * (x @ (params.N_k @ u))
+            return x_next, cost
+        drive = params.B @ u
+        stage_u = u @ params.R @ u
+
+        def one(cur, w):
+            return params.A @ cur + drive + w, cur @ params.Q @ cur + stage_u
+
+        x_next, stages = jax.lax.scan(one, x, noise)
+        return x_next, jnp.sum(stages)
+
+    def _observe(self, x: jax.Array, faults: jfaults.FaultParams, t_s) -> jax.Array:
+        if not self.fault_hint:
+            return x
+        flags = jfaults.active_flags(faults, t_s, self.m).astype(x.dtype)
+        return jnp.concatenate([x, flags, jnp.zeros(1, x.dtype)])
+
+    def step_env(self, key: jax.Array, state: EnvState, action: jax.Array, params: EnvParams):
+        """One decision: clip the action to [-1, 1], scale it to the physical input, apply
+        the actuator faults at the decision's start time ``time · k · dt_s`` s, advance the
+        plant k plant steps and charge their cost (plus the termination charge on a finite
+        step that crosses ``divergence_threshold``). Reward ``−cost``."""
+        dtype = state.x.dtype
+        # a split only when both draw (noise, intermittent faults): fewer programs to compile
+        key_noise, key_fault = jax.random.split(key) if self.noisy and self.n_faults else (key, key)
+        k = self.decision_steps
+        steps = state.time * k
+        t_s = _seconds(steps, params.dt_s, dtype)
+        a = jnp.clip(jnp.asarray(action, dtype), -1.0, 1.0)
+        commanded = params.action_scale * a
+        if self.n_faults:
+            u, fault_state = jfaults.apply(
+                state.faults, state.fault_state, key_fault, commanded, t_s, params.action_scale
+            )
+        else:
+            u, fault_state = commanded, state.fault_state
+        noise = None
+        if self.noisy:
+            noise = params.process_noise_std * jax.random.normal(key_noise, (k, self.n), dtype)
+        x_next, cost = self.plant_step(state.x, u, noise, params)
+        steps_next = steps + k
+        elapsed = steps_next.astype(dtype)
+        t_next = _seconds(steps_next, params.dt_s, dtype)
+        finite = jnp.all(jnp.isfinite(x_next))
+        terminated = jnp.logical_or(~finite, jnp.max(jnp.abs(x_next)) > params.divergence_threshold)
+        charge = jcost.termination_charge(params.termination_mode, x_next, params.Q, params.horizon_steps, elapsed)
+        cost = cost + jnp.where(terminated & finite, charge, 0.0)
+        obs = self._observe(x_next, state.faults, t_next)
+        obs = jnp.where(finite, obs, jnp.zeros_like(obs))
+        new_state = EnvState(time=state.time + 1, x=x_next, faults=state.faults, fault_state=fault_state)
+        info = {"cost": cost, "time_s": t_next, "commanded": commanded, "applied": u}
+        return obs, new_state, -cost, terminated, info
+
+    def reset_env(self, key: jax.Array, params: EnvParams):
+        """A fresh episode: ``x0 = x0_mean + x0_std · N(0, I)``, the episode's faults
+        (``params.faults``, or drawn from the fault configs with ``redraw_faults``) and
+        their initial runtime state."""
+        key_x, key_faults, key_state = jax.random.split(key, 3) if self.n_faults else (key, key, key)
+        dtype = params.x0_mean.dtype
+        x0 = params.x0_mean + params.x0_std * jax.random.normal(key_x, (self.n,), dtype)
+        faults = params.faults
+        if self.redraw_faults:
+            faults = jfaults.realize(key_faults, list(self.fault_configs), self.m)
+            faults = jax.tree.map(lambda new, old: new.astype(old.dtype), faults, params.faults)
+        state = EnvState(
+            time=jnp.zeros((), jnp.int32),
+            x=x0,
+            faults=faults,
+            fault_state=jfaults.initial_state(key_state, faults),
+        )
+        return self._observe(x0, faults, jnp.zeros((), dtype)), state
+
+    # ------------------------------------------------------------------ spaces
+    def action_space(self, params: EnvParams | None = None) -> Box:
+        """``Box(-1, 1, (m,))``: the normalized input (``u = action_scale · a``)."""
+        return Box(-1.0, 1.0, (self.m,), jnp.float32)
+
+    def observation_space(self, params: EnvParams | None = None) -> Box:
+        """``x`` within ± the numba env's bound (what one step can reach from a
+        non-terminated state), then the hint flags in [0, 1]."""
+        hint = self.obs_size - self.n
+        low = np.concatenate([np.full(self.n, -self.obs_bound), np.zeros(hint)])
+        high = np.concatenate([np.full(self.n, self.obs_bound), np.ones(hint)])
+        return Box(low, high, (self.obs_size,), jnp.result_type(float))
+
+    # ------------------------------------------------------------------ numba bridge
+    def state_from(self, numba_env: Any, key: jax.Array | None = None) -> EnvState:
+        """The JAX state of the numba env's current episode: its state ``x``, decisions
+        taken, realized actuator faults and their runtime state. An intermittent fault not
+        yet evaluated (no first switch drawn) gets its first switch time drawn with ``key``
+        (default ``PRNGKey(0)``) from the same law."""
+        realized = numba_env.fault_layer.realized
+        faults = jfaults.from_realized(realized, self.n_faults)
+        held = np.zeros(self.n_faults)
+        holding = np.zeros(self.n_faults, bool)
+        on = np.zeros(self.n_faults, bool)
+        next_switch = np.asarray(faults.onset, dtype=float).copy()  # read only by intermittent faults
+        if any(f.kind == "intermittent" and f.next_switch_s is None for f in realized):
+            first = jfaults.initial_state(jax.random.PRNGKey(0) if key is None else key, faults)
+            next_switch = np.asarray(first.next_switch, dtype=float).copy()
+        for j, f in enumerate(realized):
+            holding[j] = f.held is not None
+            held[j] = 0.0 if f.held is None else f.held
+            if f.next_switch_s is not None:
+                on[j] = f.on
+                next_switch[j] = f.next_switch_s
+        steps = int(numba_env.steps_taken)  # plant steps elapsed
+        return EnvState(
+            time=jnp.asarray(steps // self.decision_steps, jnp.int32),
+            x=jnp.asarray(numba_env.state, dtype=float),
+            faults=faults,
+            fault_state=jfaults.FaultState(
+                held=jnp.asarray(held),
+                holding=jnp.asarray(holding),
+                on=jnp.asarray(on),
+                next_switch=jnp.asarray(next_switch),
+            ),
+        )
+
+
+def _seconds(steps: jax.Array, dt_s: jax.Array, dtype) -> jax.Array:
+    """The time (s) after ``steps`` plant steps of ``dt_s`` s: the numba env's product
+    ``steps · dt_s`` in float64 (bit for bit, so fault onsets switch on the same step). In
+    float32 the product can round a decision time just below an onset (20 · 0.01f < 0.2f), so
+    when ``1 / dt_s`` is an integer (0.01 s: 100 steps per s) the time is ``steps / (1 / dt_s)``,
+    correctly rounded; otherwise the product."""
+    n = steps.astype(dtype)
+    if jnp.dtype(dtype) == jnp.float64:
+        return n * dt_s
+    rate = 1.0 / dt_s
+    whole = jnp.round(rate)
+    # a select, so that XLA does not simplify n / (1 / dt) back into the product n · dt
+    return jnp.where(jnp.abs(rate - whole) <= 1e-6 * whole, n / whole, n * dt_s)
+
+
+def _nominal_faults(configs: tuple[dict, ...], n_actuators: int) -> jfaults.FaultParams:
+    """The faults of ``configs`` (validated fault dicts) as :func:`attitude_envs.jax.faults.realize`
+    lays them out, without a draw: the given numbers, a ``"random"`` index as 0 and a
+    ``{"uniform": [a, b]}`` as its midpoint (an env that draws redraws them per episode)."""
+
+    def number(spec: Any) -> float:
+        return 0.5 * (float(spec["uniform"][0]) + float(spec["uniform"][1])) if isinstance(spec, dict) else float(spec)
+
+    realized = []
+    for c in configs:
+        index = c.get("index", "random")
+        indices = range(n_actuators) if index == "all" else [0 if index == "random" else int(index)]
+        for i in indices:
+            realized.append(
+                RealizedFault(
+                    c["kind"],
+                    i,
+                    None if c.get("value") is None else number(c["value"]),
+                    number(c.get("onset_s", 0.0)),
+                    None if c.get("duration_s") is None else number(c["duration_s"]),
+                    None if c.get("schedule") is None else np.asarray(c["schedule"], dtype=float),
+                    float(c.get("mean_on_s", 1.0)),
+                    float(c.get("mean_off_s", 1.0)),
+                )
+            )
+    return jfaults.from_realized(realized)
+
+
+def from_env(numba_env: Any) -> tuple[LinearSystemEnv, EnvParams]:
+    """The JAX plant and its ``EnvParams`` of a numba
+    :class:`~attitude_envs.envs.linear_system.LinearSystemEnv` (unwrapped, as built).
+    A ``ValueError`` names what the JAX plant does not model (``sensors``, sensor faults)."""
+    sensors = numba_env.sensor_layer
+    if sensors.config:
+        raise ValueError("LinearSystem JAX plant: keyword 'sensors' is not modeled (the state is observed exactly)")
+    if sensors.fault_configs:
+        raise ValueError("LinearSystem JAX plant: 'faults' with target 'sensor' are not modeled (actuator faults only)")
+    model, held = numba_env.model, numba_env.decision_model
+    n, m, k = model.n, model.m, int(numba_env.decision_steps)
+    configs = tuple(dict(c) for c in numba_env.fault_layer.configs)
+    faults = _nominal_faults(configs, m)
+    N_k = np.zeros((n, m)) if held.N is None else np.asarray(held.N, float)
+
+    def f(v: Any) -> jax.Array:
+        return jnp.asarray(np.asarray(v, dtype=float))
+
+    params = EnvParams(
+        A=f(model.A),
+        B=f(model.B),
+        Q=f(numba_env.cost.Q),
+        R=f(numba_env.cost.R),
+        A_k=f(held.A),
+        B_k=f(held.B),
+        Q_k=f(held.Q),
+        R_k=f(held.R),
+        N_k=f(N_k),
+        dt_s=f(model.dt_s),
+        action_scale=f(numba_env.action_scale),
+        x0_mean=f(numba_env.reset_distribution["x0_mean"]),
+        x0_std=f(numba_env.reset_distribution["x0_std"]),
+        process_noise_std=f(numba_env.process_noise_std),
+        divergence_threshold=f(numba_env.divergence_threshold),
+        termination_mode=jnp.asarray(jcost.mode_code(numba_env.termination_cost), jnp.int32),
+        horizon_steps=f(numba_env.episode_steps),
+        faults=faults,
+        max_steps_in_episode=jnp.asarray(numba_env.episode_steps // k, jnp.int32),
+    )
+    env = LinearSystemEnv(
+        n,
+        m,
+        k,
+        params,
+        noisy=numba_env.process_noise_std > 0,
+        fault_hint=numba_env.fault_hint,
+        fault_configs=configs,
+        redraw_faults=any(jfaults.draws_per_episode(c) for c in configs),
+        obs_bound=float(numba_env.observation_space.high[0]),
+    )
+    return env, params

@@ -1,0 +1,937 @@
+"""Magnetorquer-v0/-v1 in JAX: the nano-satellite of Sadigh, Kashaninia & Dehghan (2022) with
+three magnetorquers and one reaction wheel on body y, on a Keplerian orbit through the
+geomagnetic field (:class:`attitude_envs.envs.magnetorquer.MagnetorquerEnv`).
+
+The step is the numba kernel's (:mod:`attitude_envs.plants.magnetorquer_kernels`), the same
+operations in the same order (but for the 3-vector products, which XLA may sum in another
+order: the two agree to ~1e-15 per step under ``jax_enable_x64``): per control step the delivered command ``[m (3, A·m²), T_w (N·m)]`` is held
+over ``n_substeps`` classical RK4 sub-steps of ``integrator_dt_s`` with the stage cost
+``xᵀQx + uᵀRu`` as a ninth state, the quaternion renormalized after every sub-step and the
+wheel torque zeroed on a sub-step whose start has ``|h_w| ≥ max_wheel_momentum_nms`` and the
+torque would raise it. The dynamics are the exact gyrostat equations with one wheel on
+``e_y`` (:mod:`attitude_envs.plants.magnetorquer`; the paper's eqs. 1–8 with consistent
+wheel bookkeeping):
+
+    I_eff ω̇_bi = −ω_bi × (I ω_bi + J_w e_y Ω) + e_y T_w + m × b + τ_ext,   I_eff = I − J_w e_y e_yᵀ
+    J_w (Ω̇ + ω̇_bi,y) = −T_w,   ω_bi = ω_bo + R ω_oi,   ω_oi = [0, −ν̇, 0]      (eq. 3)
+    ω̇_bo = ω̇_bi + ω_bo × R ω_oi − R ω̇_oi,   q̇ = ½ q ⊗ [ω_bo, 0]             (eqs. 12, 1)
+
+with ``R`` (orbital → body) of eq. (4), the field ``b = R b_o`` of eq. (9) (the axial dipole at
+the actual position, or the as-printed orbital-frame formula), the disturbance of eq. (39)
+(or a constant, sinusoidal or random-walk torque), the optional gravity gradient and the
+time-varying inertia ΔJ(t) of eq. (35). Everything that depends on time only (orbit by
+Kepler's equation, field, reference slew of eqs. 36–38, inertia, disturbance) is evaluated
+once per step at the 2·n_substeps + 1 stage times, then the sub-steps scan over it.
+
+Time is counted as the numba env counts it: ``state.time`` decisions, ``t = time ·
+control_dt_s`` s; the actuator faults (:func:`attitude_envs.jax.faults.apply`) act at the
+step's start time and are held over it; the episode is truncated when ``t ≥
+episode_duration_s − 1e-9·control_dt_s`` (``max_steps_in_episode``) and terminated on a
+non-finite state or ``max|ω_bo| > max_rate_rad_s``, the latter charged
+:func:`attitude_envs.jax.cost.termination_charge` at the step's end time.
+
+Modeled: every keyword of the numba env except ``sensors`` and sensor-target faults,
+``field_model="igrf"`` (the IGRF table needs ``ppigrf`` on the host per episode) and an
+``inertia_uncertainty`` that could make ``I + ΔJ(t)`` indefinite (the numba env raises at
+such a reset); :func:`from_env` raises a ``ValueError`` naming them. Episode draws (orbit
+start, regulation attitude and rate, inertia dispersion, sinusoid phases, fault draws) follow
+the numba env's laws with ``jax.random`` (the same laws, not the same draws; the inertia
+dispersion takes the first of :data:`MOMENT_CANDIDATES` draws that meets the triangle
+inequality, where the numba env redraws up to 1000 times); so do a random-walk
+disturbance's increments and intermittent faults' dwell times. A non-finite action is not
+rejected (the numba env raises): it makes the state non-finite, which terminates.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+from attitude_envs.faults import ActuatorFaults
+from attitude_envs.jax import cost as jcost
+from attitude_envs.jax import faults as jfaults
+from attitude_envs.jax.environment import Environment
+from attitude_envs.jax.spaces import Box
+from attitude_envs.plants import magnetorquer_kernels as K
+
+N_ACTUATORS = 4  # m_x, m_y, m_z (A·m²), wheel torque (N·m)
+N_SENSOR_FLAGS = 4  # gyro, star tracker, tachometer, magnetometer: never faulted here
+_DEG, _RAD = 180.0 / math.pi, math.pi / 180.0  # the kernel's round trip through degrees
+_UNCERTAINTY_CODES = {None: 0, "fixed": 1, "random": 2}
+
+
+@struct.dataclass
+class EnvState:
+    """One episode's state.
+
+    * ``time``: decisions taken (``t = time · control_dt_s`` s);
+    * ``attitude`` (4, scalar last: body relative to the orbital frame), ``rate_rad_s`` (3,
+      ω_bo, rad/s, body axes), ``wheel_speed_rad_s`` (1, Ω relative to the body, rad/s);
+    * ``mean_anomaly0_rad``: the orbit phase (mean anomaly at t = 0, rad);
+    * ``inertia_kg_m2`` (3×3, the episode's true inertia without ΔJ(t), kg·m²) and
+      ``inertia_eff_inv`` (its ``(I − J_w e_y e_yᵀ)⁻¹``, 1/(kg·m²));
+    * ``disturbance`` (3): the held torque (constant, random walk; N·m) or the sinusoid's
+      phases (rad) this episode;
+    * ``faults``: the episode's realized actuator faults, ``fault_state`` their runtime state.
+    """
+
+    time: jax.Array
+    attitude: jax.Array
+    rate_rad_s: jax.Array
+    wheel_speed_rad_s: jax.Array
+    mean_anomaly0_rad: jax.Array
+    inertia_kg_m2: jax.Array
+    inertia_eff_inv: jax.Array
+    disturbance: jax.Array
+    faults: jfaults.FaultParams
+    fault_state: jfaults.FaultState
+
+
+@struct.dataclass
+class EnvParams:
+    """Every number of the plant and the task (a pytree: ``jax.vmap`` over it randomizes
+    plants, orbits, faults and tasks in one compiled program). SI units.
+
+    * plant: ``inertia_kg_m2`` (nominal J_t with the wheel, 3×3) and its
+      ``inertia_eff_inv``, ``wheel_inertia_kg_m2``, ``max_dipole_am2`` (per axis, A·m²),
+      ``max_wheel_torque_nm``, ``max_wheel_momentum_nms``, ``max_rate_rad_s`` (tumbling limit);
+    * orbit (:class:`attitude_envs.plants.orbit.KeplerOrbit`): ``orbit_circular`` (the paper's
+      circular approximation), ``semi_major_axis_m``, ``eccentricity``, ``mean_motion_rad_s``,
+      ``semi_latus_rectum_m``, ``angular_momentum_m2_s``, ``mu_m3_s2``, the unit vectors
+      ``node``, ``in_plane``, ``normal`` (ECI), ``arg_perigee_rad``, ``inclination_rad``;
+    * field: ``field_printed`` (eq. 9 as printed in the orbital frame, else the axial dipole
+      at the position), ``dipole_strength_t_m3`` (μ_e, T·m³);
+    * ``reference``: the smooth bang-bang slew of eqs. 36–38 in the kernel's packed layout
+      (:func:`attitude_envs.plants.magnetorquer_kernels.pack_reference`);
+    * disturbance: ``disturbance_code`` (the kernel's ``DIST_*``), ``disturbance_scale``,
+      ``disturbance_rate_rad_s`` (ω0 of eq. 39), ``disturbance_harmonic`` (k = 1, or 2 with the
+      second harmonic), ``disturbance_amplitude_nm`` (3) and ``disturbance_period_s`` (the
+      sinusoid), ``disturbance_initial`` (3: the constant torque or the walk's start, N·m, or
+      the sinusoid's fixed phases, rad), ``disturbance_random_phase``,
+      ``disturbance_walk_std`` (N·m/√s); ``gravity_gradient``;
+    * ΔJ(t) of eq. (35): ``time_varying_inertia`` and ``delta_j_amplitude_kg_m2``,
+      ``delta_j_frequency_rad_s``, ``delta_j_phase_rad`` (3 each);
+    * time: ``control_dt_s``, ``integrator_dt_s`` (the RK4 sub-step h; the env's
+      ``n_substeps`` is static), ``episode_duration_s`` (the charge's horizon T),
+      ``max_steps_in_episode`` (decisions);
+    * cost: ``Q`` (6×6 on ``[q_e,vec, ω_e]``), ``R`` (3×3 on the body torque, 1/(N·m)²),
+      ``termination_mode`` (:func:`attitude_envs.jax.cost.mode_code`);
+    * initial state: ``regulation`` (else tracking: q = q_d(0)), ``initial_angle_deg``,
+      ``initial_rate_max_rad_s``, ``mean_anomaly_random`` (uniform in [0°, 360°)) or
+      ``mean_anomaly_deg``; ``uncertainty_code`` (0 none, 1 fixed, 2 random),
+      ``uncertainty_inertia_kg_m2`` and ``uncertainty_eff_inv`` (fixed), ``principal_moments``,
+      ``principal_axes`` (of the nominal inertia), ``moment_scale``, ``axis_angle_deg``
+      (random: :class:`attitude_envs.uncertainty.InertiaUncertainty`);
+    * ``faults``: the actuator faults of every episode (an env with ``redraw_faults`` draws
+      each episode's from its fault configs instead, as the numba env does).
+    """
+
+    inertia_kg_m2: jax.Array
+    inertia_eff_inv: jax.Array
+    wheel_inertia_kg_m2: jax.Array
+    max_dipole_am2: jax.Array
+    max_wheel_torque_nm: jax.Array
+    max_wheel_momentum_nms: jax.Array
+    max_rate_rad_s: jax.Array
+    orbit_circular: jax.Array
+    semi_major_axis_m: jax.Array
+    eccentricity: jax.Array
+    mean_motion_rad_s: jax.Array
+    semi_latus_rectum_m: jax.Array
+    angular_momentum_m2_s: jax.Array
+    mu_m3_s2: jax.Array
+    node: jax.Array
+    in_plane: jax.Array
+    normal: jax.Array
+    arg_perigee_rad: jax.Array
+    inclination_rad: jax.Array
+    field_printed: jax.Array
+    dipole_strength_t_m3: jax.Array
+    reference: jax.Array
+    disturbance_code: jax.Array
+    disturbance_scale: jax.Array
+    disturbance_rate_rad_s: jax.Array
+    disturbance_harmonic: jax.Array
+    disturbance_amplitude_nm: jax.Array
+    disturbance_period_s: jax.Array
+    disturbance_initial: jax.Array
+    disturbance_random_phase: jax.Array
+    disturbance_walk_std: jax.Array
+    gravity_gradient: jax.Array
+    time_varying_inertia: jax.Array
+    delta_j_amplitude_kg_m2: jax.Array
+    delta_j_frequency_rad_s: jax.Array
+    delta_j_phase_rad: jax.Array
+    control_dt_s: jax.Array
+    integrator_dt_s: jax.Array
+    episode_duration_s: jax.Array
+    Q: jax.Array
+    R: jax.Array
+    termination_mode: jax.Array
+    regulation: jax.Array
+    initial_angle_deg: jax.Array
+    initial_rate_max_rad_s: jax.Array
+    mean_anomaly_random: jax.Array
+    mean_anomaly_deg: jax.Array
+    uncertainty_code: jax.Array
+    uncertainty_inertia_kg_m2: jax.Array
+    uncertainty_eff_inv: jax.Array
+    principal_moments: jax.Array
+    principal_axes: jax.Array
+    moment_scale: jax.Array
+    axis_angle_deg: jax.Array
+    faults: jfaults.FaultParams
+    max_steps_in_episode: jax.Array
+
+
+class Context(NamedTuple):
+    """What depends on time only, at one time: orbit rate ν̇ (rad/s), ν̈ (rad/s²), radius (m),
+    field in the orbital frame (3, T), reference ``q_d`` (4) and ``ω_d`` (3, rad/s), true
+    inertia ``I + ΔJ(t)`` and its ``I_eff⁻¹`` (3×3), disturbance torque (3, N·m, without
+    gravity gradient)."""
+
+    rate: jax.Array
+    rate_dot: jax.Array
+    radius: jax.Array
+    field: jax.Array
+    q_d: jax.Array
+    w_d: jax.Array
+    inertia: jax.Array
+    eff_inv: jax.Array
+    disturbance: jax.Array
+
+
+# ----------------------------------------------------------------------------- time context
+def true_anomaly(mean_anomaly0_rad: jax.Array, params: EnvParams, t_s: jax.Array) -> jax.Array:
+    """ν(t), rad, from Kepler's equation ``M = E − e sin E`` (Newton until ``|ΔE| < 1e-13``,
+    at most 30 iterations, as :func:`~attitude_envs.plants.magnetorquer_kernels.true_anomaly`)."""
+    mean = mean_anomaly0_rad + params.mean_motion_rad_s * t_s
+    e = params.eccentricity
+
+    def cond(carry):
+        _, i, done = carry
+        return jnp.logical_and(jnp.logical_not(done), i < 30)
+
+    def body(carry):
+        ecc, i, _ = carry
+        step = (ecc - e * jnp.sin(ecc) - mean) / (1.0 - e * jnp.cos(ecc))
+        return ecc - step, i + 1, jnp.abs(step) < 1e-13
+
+    ecc, _, _ = jax.lax.while_loop(cond, body, (mean + e * jnp.sin(mean), 0, jnp.asarray(False)))
+    nu = 2.0 * jnp.arctan2(jnp.sqrt(1 + e) * jnp.sin(ecc / 2), jnp.sqrt(1 - e) * jnp.cos(ecc / 2))
+    return jnp.where(e == 0.0, mean, nu)
+
+
+def orbital_to_body(q: jax.Array) -> jax.Array:
+    """``R`` (orbital → body) of Sadigh et al. 2022 eq. (4) of a scalar-last ``q`` (3×3)."""
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    return jnp.stack(
+        [
+            jnp.stack([1 - 2 * (y * y + z * z), 2 * (x * y + z * w), 2 * (x * z - y * w)]),
+            jnp.stack([2 * (x * y - z * w), 1 - 2 * (x * x + z * z), 2 * (y * z + x * w)]),
+            jnp.stack([2 * (x * z + y * w), 2 * (y * z - x * w), 1 - 2 * (x * x + y * y)]),
+        ]
+    )
+
+
+def _field_orbital(params: EnvParams, r, u, pos, frame_t) -> jax.Array:
+    """The field in the orbital frame (T): eq. (9) as printed (``field_printed``), or the axial
+    dipole ``μ_e/r³ [3(m̂·r̂)r̂ − m̂]``, ``m̂ = −z``, at the ECI position rotated to the frame."""
+    si = jnp.sin(params.inclination_rad)
+    k = params.dipole_strength_t_m3 / r**3
+    printed = jnp.stack([k * (jnp.cos(u) * si), k * jnp.cos(params.inclination_rad), k * (-2.0 * jnp.sin(u) * si)])
+    px, py, pz = pos[0], pos[1], pos[2]
+    rr = jnp.sqrt(px * px + py * py + pz * pz)
+    rx, ry, rz = px / rr, py / rr, pz / rr
+    kd = params.dipole_strength_t_m3 / rr**3
+    s = 3.0 * (-rz)
+    b = jnp.stack([kd * (s * rx), kd * (s * ry), kd * (s * rz + 1.0)])
+    dipole = frame_t @ b  # eci_from_orbitalᵀ b
+    return jnp.where(params.field_printed, printed, dipole)
+
+
+def reference(ref: jax.Array, t_s: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """Desired quaternion ``q_d`` (scalar last, w ≥ 0) and body rate ``ω_d`` (rad/s) of the
+    smooth bang-bang 3-2-1 slew (Sadigh et al. 2022 eqs. 36–38) at ``t_s``; held at t ≤ 0 and
+    t ≥ t_f (:func:`~attitude_envs.plants.magnetorquer_kernels.reference_into`)."""
+    # profile (∫∫f, ∫f) of the piece t falls in (Horner, highest power first), else the
+    # linear continuation after t_f
+    pieces = ref[K.REF_PIECES : K.REF_PIECES + 3 * K.REF_PIECE_SIZE].reshape(3, K.REF_PIECE_SIZE)
+    coefs = pieces[:, 2 + K.REF_COEFS : 2 + 3 * K.REF_COEFS].reshape(3, 2, K.REF_COEFS)  # [∫f, ∫∫f]
+    acc = jnp.zeros((3, 2), ref.dtype)
+    for i in range(K.REF_COEFS):
+        acc = acc * t_s + coefs[:, :, i]
+    p = ref[K.REF_FINAL_P] + ref[K.REF_FINAL_V] * (t_s - ref[K.REF_TF])
+    v = ref[K.REF_FINAL_V]
+    for k in (2, 1, 0):
+        inside = t_s <= pieces[k, 1]
+        p, v = jnp.where(inside, acc[k, 1], p), jnp.where(inside, acc[k, 0], v)
+    g0, g1, g2 = ref[K.REF_GAIN], ref[K.REF_GAIN + 1], ref[K.REF_GAIN + 2]
+    phi = ref[K.REF_START] + g0 * p
+    theta = ref[K.REF_START + 1] + g1 * p
+    psi = ref[K.REF_START + 2] + g2 * p
+    dphi, dtheta, dpsi = g0 * v, g1 * v, g2 * v
+    hf, ht, hp = (phi * _DEG) * _RAD * 0.5, (theta * _DEG) * _RAD * 0.5, (psi * _DEG) * _RAD * 0.5
+    sf, cf, st, ct = jnp.sin(hf), jnp.cos(hf), jnp.sin(ht), jnp.cos(ht)
+    sp, cp = jnp.sin(hp), jnp.cos(hp)
+    q = jnp.stack(
+        [
+            sf * ct * cp - cf * st * sp,
+            cf * st * cp + sf * ct * sp,
+            cf * ct * sp - sf * st * cp,
+            cf * ct * cp + sf * st * sp,
+        ]
+    )
+    q = jnp.where(q[3] < 0, -q, q)
+    sf, cf, st, ct = jnp.sin(phi), jnp.cos(phi), jnp.sin(theta), jnp.cos(theta)
+    w = jnp.stack([dphi - dpsi * st, dtheta * cf + dpsi * sf * ct, -dtheta * sf + dpsi * cf * ct])
+    held_start = ref[K.REF_HELD_START : K.REF_HELD_START + 7]
+    held_end = ref[K.REF_HELD_END : K.REF_HELD_END + 7]
+    qw = jnp.concatenate([q, w])
+    qw = jnp.where(t_s >= ref[K.REF_TF], held_end, qw)
+    qw = jnp.where(jnp.logical_or(ref[K.REF_CONST] != 0.0, t_s <= 0.0), held_start, qw)
+    return qw[:4], qw[4:]
+
+
+def _inverse3(m):
+    """``inv(m)`` of a 3×3 matrix by its adjugate (the kernel's ``inverse3_into``)."""
+    a, b, c = m[0, 0], m[0, 1], m[0, 2]
+    d, e, f = m[1, 0], m[1, 1], m[1, 2]
+    g, h, i = m[2, 0], m[2, 1], m[2, 2]
+    c00, c01, c02 = e * i - f * h, f * g - d * i, d * h - e * g
+    inv_det = 1.0 / (a * c00 + b * c01 + c * c02)
+    return jnp.stack(
+        [
+            jnp.stack([c00 * inv_det, (c * h - b * i) * inv_det, (b * f - c * e) * inv_det]),
+            jnp.stack([c01 * inv_det, (a * i - c * g) * inv_det, (c * d - a * f) * inv_det]),
+            jnp.stack([c02 * inv_det, (b * g - a * h) * inv_det, (a * e - b * d) * inv_det]),
+        ]
+    )
+
+
+def disturbance_torque(params: EnvParams, disturbance: jax.Array, t_s: jax.Array) -> jax.Array:
+    """The external torque at ``t_s`` (N·m, body axes, without gravity gradient): Sadigh et
+    al. 2022 eq. (39) ``d_j = d0 + d1 sin(ω0 t + φ_j1) + d2 sin(k ω0 t + φ_j2)`` (d0 = 1e-7,
+    d1 = d2 = 1e-5), the held ``disturbance`` torque, or a sinusoid with the phases
+    ``disturbance``; times ``disturbance_scale``."""
+    scale = params.disturbance_scale
+    a = params.disturbance_rate_rad_s * t_s
+    b = params.disturbance_harmonic * params.disturbance_rate_rad_s * t_s
+    q = math.pi / 4
+    sa_p, sa_m = jnp.sin(a + q), jnp.sin(a - q)
+    sb_m, sb_p = jnp.sin(b - q), jnp.sin(b + q)
+    paper = jnp.stack(
+        [
+            scale * (1e-7 + 1e-5 * sa_p + 1e-5 * sb_m),
+            scale * (1e-7 + 1e-5 * sa_m + 1e-5 * sb_p),
+            scale * (1e-7 + 1e-5 * jnp.sin(a) + 1e-5 * jnp.sin(b + 2 * q)),
+        ]
+    )
+    held = scale * disturbance
+    arg = 2 * math.pi * t_s / params.disturbance_period_s
+    sinusoid = scale * (params.disturbance_amplitude_nm * jnp.sin(arg + disturbance))
+    code = params.disturbance_code
+    return jnp.select(
+        [code == K.DIST_PAPER, code == K.DIST_HELD, code == K.DIST_SINUSOIDAL],
+        [paper, held, sinusoid],
+        jnp.zeros_like(paper),
+    )
+
+
+def orbit_field(
+    params: EnvParams, mean_anomaly0_rad: jax.Array, t_s: jax.Array
+) -> tuple[jax.Array, jax.Array, jax.Array, jax.Array]:
+    """The orbit's ν̇ (rad/s), ν̈ (rad/s²) and radius (m) and the field in the orbital frame
+    (3, T) at ``t_s`` (s): Keplerian, or the circular approximation
+    (:func:`~attitude_envs.plants.magnetorquer_kernels.orbit_state_into`, ``field_orbital_into``)."""
+    nu = true_anomaly(mean_anomaly0_rad, params, t_s)
+    e, h = params.eccentricity, params.angular_momentum_m2_s
+    r_k = params.semi_latus_rectum_m / (1.0 + e * jnp.cos(nu))
+    nd_k = h / r_k**2
+    r_dot = params.mu_m3_s2 / h * e * jnp.sin(nu)
+    ndd_k = -2.0 * nd_k * r_dot / r_k
+    u_c = params.arg_perigee_rad + mean_anomaly0_rad + params.mean_motion_rad_s * t_s
+    circ = params.orbit_circular
+    u = jnp.where(circ, u_c, params.arg_perigee_rad + nu)
+    r = jnp.where(circ, params.semi_major_axis_m, r_k)
+    nd = jnp.where(circ, params.mean_motion_rad_s, nd_k)
+    ndd = jnp.where(circ, 0.0, ndd_k)
+    cu, su = jnp.cos(u), jnp.sin(u)
+    r_hat = params.node * cu + params.in_plane * su
+    t_hat = -params.node * su + params.in_plane * cu
+    pos = r * r_hat
+    # LVLH: x = t̂, y = −ĥ (anti-normal), z = −r̂ (nadir)
+    field = _field_orbital(params, r, u, pos, jnp.stack([t_hat, -params.normal, -r_hat]))
+    return nd, ndd, r, field
+
+
+def context(params: EnvParams, state: EnvState, t_s: jax.Array) -> Context:
+    """Everything that depends on time only at ``t_s`` (s): the orbit and the field
+    (:func:`orbit_field`), the reference, ``I + ΔJ(t)`` (eq. 35) with its ``I_eff⁻¹``, the
+    disturbance (:func:`~attitude_envs.plants.magnetorquer_kernels.context_into`)."""
+    nd, ndd, r, field = orbit_field(params, state.mean_anomaly0_rad, t_s)
+    q_d, w_d = reference(params.reference, t_s)
+    # true inertia I + ΔJ(t) (eq. 35) and its I_eff⁻¹
+    dj = params.delta_j_amplitude_kg_m2 * jnp.sin(params.delta_j_frequency_rad_s * t_s + params.delta_j_phase_rad)
+    diagonal = jnp.diagonal(state.inertia_kg_m2) + dj
+    inertia_t = jnp.where(jnp.eye(3, dtype=bool), jnp.diag(diagonal), state.inertia_kg_m2)
+    eff = inertia_t.at[1, 1].add(-params.wheel_inertia_kg_m2)
+    tv = params.time_varying_inertia
+    inertia = jnp.where(tv, inertia_t, state.inertia_kg_m2)
+    eff_inv = jnp.where(tv, _inverse3(eff), state.inertia_eff_inv)
+    return Context(
+        rate=nd,
+        rate_dot=ndd,
+        radius=r,
+        field=field,
+        q_d=q_d,
+        w_d=w_d,
+        inertia=inertia,
+        eff_inv=eff_inv,
+        disturbance=disturbance_torque(params, state.disturbance, t_s),
+    )
+
+
+# ----------------------------------------------------------------------------- plant
+def error_state(q: jax.Array, rate: jax.Array, q_d: jax.Array, w_d: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """``x = [q_e,vec, ω_e]`` (6) and ``q_e,w``: ``q_e = q_d* ⊗ q`` (w ≥ 0), ``ω_e = ω − C(q_e)ᵀ ω_d``."""
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    dx, dy, dz, dw = q_d[0], q_d[1], q_d[2], q_d[3]
+    qe = jnp.stack(
+        [
+            dw * x - dx * w - dy * z + dz * y,
+            dw * y - dy * w - dz * x + dx * z,
+            dw * z - dz * w - dx * y + dy * x,
+            dw * w + dx * x + dy * y + dz * z,
+        ]
+    )
+    qe = jnp.where(qe[3] < 0, -qe, qe)
+    return jnp.concatenate([qe[:3], rate - orbital_to_body(qe) @ w_d]), qe[3]
+
+
+def _gravity_gradient(q, ctx: Context):
+    """``3μ/r³ ô × (I ô)``, ô the nadir (orbital z) in body axes, N·m."""
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    o = jnp.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)])
+    k = 3.0 * K.GRAVITY_MU_M3_S2 / ctx.radius**3
+    return k * jnp.cross(o, ctx.inertia @ o)
+
+
+def stage_cost(params: EnvParams, x: jax.Array, u: jax.Array) -> jax.Array:
+    """``xᵀQx + uᵀRu``: ``x`` the error state (6), ``u`` the body control torque (3, N·m)."""
+    return x @ (params.Q @ x) + u @ (params.R @ u)
+
+
+def derivative(aug: jax.Array, m: jax.Array, t_w: jax.Array, params: EnvParams, ctx: Context) -> jax.Array:
+    """``d/dt [q, ω_bo, Ω, cost]`` (module docstring; the kernel's ``augmented_derivative``)
+    with the dipoles ``m`` (A·m²) and the wheel torque on the body ``t_w`` (N·m) held."""
+    q, w_bo, om = aug[:4], aug[4:7], aug[7]
+    qn = q * (1.0 / jnp.sqrt(q @ q))
+    b = orbital_to_body(qn) @ ctx.field
+    tau = jnp.cross(m, b)  # m × b (eq. 8)
+    ext = ctx.disturbance + jnp.where(params.gravity_gradient, _gravity_gradient(qn, ctx), 0.0)
+    j_w = params.wheel_inertia_kg_m2
+    e_y = jnp.asarray([0.0, 1.0, 0.0], aug.dtype)
+    r = orbital_to_body(q)[:, 1]  # R e_y of the raw quaternion, as integrated
+    a = -ctx.rate * r  # R ω_oi
+    c = w_bo + a  # ω_bi
+    h = ctx.inertia @ c + e_y * (j_w * om)
+    d = ctx.eff_inv @ (-jnp.cross(c, h) + (tau + ext) + e_y * t_w)
+    x_err, _ = error_state(qn, w_bo, ctx.q_d, ctx.w_d)
+    u = tau + e_y * t_w
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    w0, w1, w2 = w_bo[0], w_bo[1], w_bo[2]
+    q_dot = jnp.stack(
+        [
+            0.5 * (w * w0 + y * w2 - z * w1),
+            0.5 * (w * w1 + z * w0 - x * w2),
+            0.5 * (w * w2 + x * w1 - y * w0),
+            -0.5 * (x * w0 + y * w1 + z * w2),
+        ]
+    )
+    w_dot = d + jnp.cross(w_bo, a) + ctx.rate_dot * r
+    return jnp.concatenate([q_dot, w_dot, (-t_w / j_w - d[1])[None], stage_cost(params, x_err, u)[None]])
+
+
+class MagnetorquerEnv(Environment):
+    """The JAX plant of Magnetorquer-v0/-v1 (module docstring). Static (fixed at
+    construction, part of the compiled program): ``n_substeps`` (RK4 sub-steps per control
+    step), ``observe_field`` (the observation appends the body field / 5e-5 T), ``fault_hint``
+    (it appends 8 active-fault flags: m_x, m_y, m_z, wheel, then 4 sensor channels, never
+    faulted here), ``random_walk`` (the held disturbance torque takes a random-walk
+    increment per step, drawn from the step's key), the fault configs (``fault_configs``;
+    ``redraw_faults``: draw each episode's faults from them), the observation bounds.
+
+    Action: ``Box(-1, 1, (4,))``, clipped: ``m = a[:3] · max_dipole_am2`` (A·m²),
+    ``T_w = a[3] · max_wheel_torque_nm`` (N·m, on the body about +y). Observation (compute
+    dtype): ``[q_e,vec (3), ω_e (3, rad/s), Ω/1000 (krad/s)]``, then ``b_body / 5e-5 T`` (3)
+    with ``observe_field``, then the hint flags; zeros when the state is not finite.
+    Reward ``−∫ (xᵀQx + uᵀRu) dt`` over the step, minus the termination charge."""
+
+    def __init__(
+        self,
+        default_params: EnvParams,
+        *,
+        n_substeps: int = 1,
+        observe_field: bool = False,
+        fault_hint: bool = False,
+        random_walk: bool = False,
+        fault_configs: tuple[dict, ...] = (),
+        redraw_faults: bool = False,
+        obs_low: np.ndarray | None = None,
+        obs_high: np.ndarray | None = None,
+    ) -> None:
+        self.n_substeps = int(n_substeps)
+        self.observe_field = bool(observe_field)
+        self.fault_hint = bool(fault_hint)
+        self.random_walk = bool(random_walk)
+        self.fault_configs = tuple(dict(c) for c in fault_configs)
+        self.redraw_faults = bool(redraw_faults)
+        self.n_faults = int(default_params.faults.kind.shape[-1])
+        self.obs_size = 7 + (3 if self.observe_field else 0) + (N_ACTUATORS + N_SENSOR_FLAGS if self.fault_hint else 0)
+        self.obs_low = np.full(self.obs_size, -np.inf) if obs_low is None else np.asarray(obs_low, float)
+        self.obs_high = np.full(self.obs_size, np.inf) if obs_high is None else np.asarray(obs_high, float)
+        self._default_params = default_params
+
+    @property
+    def default_params(self) -> EnvParams:
+        return self._default_params
+
+    @property
+    def name(self) -> str:
+        return "Magnetorquer"
+
+    # ------------------------------------------------------------------ observation
+    def _observe(self, state: EnvState, q_d: jax.Array, w_d: jax.Array, field, t_s: jax.Array) -> jax.Array:
+        """The observation of ``state`` at ``t_s`` with the reference ``q_d``, ``w_d`` and the
+        orbital-frame ``field`` (T; read with ``observe_field`` only) of that time."""
+        x, _ = error_state(state.attitude, state.rate_rad_s, q_d, w_d)
+        parts = [x, state.wheel_speed_rad_s / K.WHEEL_SPEED_SCALE_RAD_S]
+        if self.observe_field:
+            parts.append(orbital_to_body(state.attitude) @ field / K.FIELD_SCALE_T)
+        if self.fault_hint:
+            flags = jfaults.active_flags(state.faults, t_s, N_ACTUATORS).astype(x.dtype)
+            parts += [flags, jnp.zeros(N_SENSOR_FLAGS, x.dtype)]
+        return jnp.concatenate(parts)
+
+    def observation(self, state: EnvState, params: EnvParams) -> jax.Array:
+        """The observation of ``state`` at its time ``time · control_dt_s``."""
+        t_s = state.time.astype(state.rate_rad_s.dtype) * params.control_dt_s
+        q_d, w_d = reference(params.reference, t_s)
+        field = orbit_field(params, state.mean_anomaly0_rad, t_s)[3] if self.observe_field else None
+        return self._observe(state, q_d, w_d, field, t_s)
+
+    # ------------------------------------------------------------------ dynamics
+    def control_step(
+        self, state: EnvState, delivered: jax.Array, t0_s: jax.Array, t1_s: jax.Array, params: EnvParams
+    ) -> tuple[jax.Array, jax.Array, jax.Array, Context]:
+        """Advance the physical state from ``t0_s`` to ``t1_s`` with ``delivered`` (``[m (3),
+        T_w]``) held over ``n_substeps`` RK4 sub-steps of ``integrator_dt_s`` (the last ends at
+        ``t1_s``): ``(y = [q, ω_bo, Ω] (8), cost ∫ (xᵀQx + uᵀRu) dt, applied (4: the dipoles,
+        the mean wheel torque after the momentum limit), the time context at t1_s)``."""
+        dtype = state.rate_rad_s.dtype
+        t0_s, t1_s = jnp.asarray(t0_s, dtype), jnp.asarray(t1_s, dtype)
+        n, h = self.n_substeps, params.integrator_dt_s
+        starts = t0_s + jnp.arange(n, dtype=dtype) * h
+        times = jnp.concatenate([starts, starts + 0.5 * h, t1_s[None]])
+        ctxs = jax.vmap(lambda t: context(params, state, t))(times)
+
+        # sub-step j's stages: its start t0 + j h, the middle (twice), its end where the next
+        # starts (the last at t1_s): (n, 4, ...) per context entry, by slices (no gathers)
+        def stages(a):
+            end = jnp.concatenate([a[1:n], a[2 * n :]])
+            return jnp.stack([a[:n], a[n : 2 * n], a[n : 2 * n], end], axis=1)
+
+        stage_ctxs = jax.tree.map(stages, ctxs)
+        m = delivered[:3]
+        j_w, h_max = params.wheel_inertia_kg_m2, params.max_wheel_momentum_nms
+
+        def substep(carry, stage_ctx):
+            aug, wheel_sum = carry
+            x, z = aug[0], aug[2]
+            w_bi_y = aug[5] + (1 - 2 * (x * x + z * z)) * (-stage_ctx.rate[0])
+            h_w = j_w * (aug[7] + w_bi_y)
+            t_w = jnp.where((jnp.abs(h_w) >= h_max) & (-delivered[3] * h_w > 0), 0.0, delivered[3])
+
+            # classical RK4 as one loop over its stages (one copy of the derivative in the
+            # program): stage s at aug + c_s k_(s-1) with the context of t, t + h/2, t + h/2,
+            # t + h; the slopes summed k1 + 2 k2 + 2 k3 + k4 in that order
+            def stage(carry, sx):
+                k_prev, total = carry
+                cx, c, weight = sx
+                k = derivative(aug + c * k_prev, m, t_w, params, cx)
+                return (k, total + weight * k), None
+
+            c = jnp.stack([0.0, 0.5 * h, 0.5 * h, h]).astype(dtype)
+            weights = jnp.asarray([1.0, 2.0, 2.0, 1.0], dtype)
+            zeros = jnp.zeros_like(aug)
+            (_, total), _ = jax.lax.scan(stage, (zeros, zeros), (stage_ctx, c, weights))
+            aug = aug + (h / 6.0) * total
+            norm = jnp.sqrt(aug[0] * aug[0] + aug[1] * aug[1] + aug[2] * aug[2] + aug[3] * aug[3])
+            aug = jnp.concatenate([aug[:4] / norm, aug[4:]])
+            return (aug, wheel_sum + t_w), None
+
+        aug0 = jnp.concatenate([state.attitude, state.rate_rad_s, state.wheel_speed_rad_s, jnp.zeros(1, dtype)])
+        (aug, wheel_sum), _ = jax.lax.scan(substep, (aug0, jnp.zeros((), dtype)), stage_ctxs)
+        applied = jnp.concatenate([m, (wheel_sum / n)[None]])
+        return aug[:8], aug[8], applied, jax.tree.map(lambda a: a[2 * n], ctxs)
+
+    def advance_disturbance(self, key: jax.Array, disturbance: jax.Array, params: EnvParams) -> jax.Array:
+        """The held disturbance one control period on: with ``random_walk`` a held torque
+        adds ``σ √Δt · N(0, I)`` N·m (``disturbance_walk_std`` σ); else (and for the
+        sinusoid's phases and the other kinds) it is unchanged."""
+        if not self.random_walk:
+            return disturbance
+        noise = jax.random.normal(key, (3,), disturbance.dtype)
+        walked = disturbance + params.disturbance_walk_std * jnp.sqrt(params.control_dt_s) * noise
+        return jnp.where(params.disturbance_code == K.DIST_HELD, walked, disturbance)
+
+    def step_env(self, key: jax.Array, state: EnvState, action: jax.Array, params: EnvParams):
+        """One decision: clip the action to [-1, 1] and scale it to ``[m, T_w]``, apply the
+        actuator faults at the step's start time, move a random-walk disturbance on, advance
+        ``n_substeps`` RK4 sub-steps, charge the step's cost (plus the termination charge on a
+        finite step with ``max|ω_bo| > max_rate_rad_s``). Reward ``−cost``."""
+        dtype = state.rate_rad_s.dtype
+        key_fault, key_dist = jax.random.split(key) if self.random_walk else (key, key)
+        limits = jnp.stack(
+            [params.max_dipole_am2, params.max_dipole_am2, params.max_dipole_am2, params.max_wheel_torque_nm]
+        ).astype(dtype)
+        commanded = jnp.clip(jnp.asarray(action, dtype), -1.0, 1.0) * limits
+        t0 = state.time.astype(dtype) * params.control_dt_s
+        time = state.time + 1
+        t1 = time.astype(dtype) * params.control_dt_s
+        if state.faults.kind.shape[-1]:
+            delivered, fault_state = jfaults.apply(state.faults, state.fault_state, key_fault, commanded, t0, limits)
+        else:
+            delivered, fault_state = commanded, state.fault_state
+        state = state.replace(disturbance=self.advance_disturbance(key_dist, state.disturbance, params))
+        y, cost, applied, ctx_end = self.control_step(state, delivered, t0, t1, params)
+        new_state = state.replace(
+            time=time,
+            attitude=y[:4],
+            rate_rad_s=y[4:7],
+            wheel_speed_rad_s=y[7:],
+            fault_state=fault_state,
+        )
+        obs = self._observe(new_state, ctx_end.q_d, ctx_end.w_d, ctx_end.field, t1)
+        finite = jnp.isfinite(cost) & jnp.all(jnp.isfinite(y))
+        terminated = jnp.logical_not(finite) | (jnp.max(jnp.abs(y[4:7])) > params.max_rate_rad_s)
+        x_end, _ = error_state(new_state.attitude, new_state.rate_rad_s, ctx_end.q_d, ctx_end.w_d)
+        charge = jcost.termination_charge(params.termination_mode, x_end, params.Q, params.episode_duration_s, t1)
+        cost = cost + jnp.where(terminated & finite, charge, 0.0)
+        obs = jnp.where(finite, obs, jnp.zeros_like(obs))
+        info = {"cost": cost, "time_s": t1, "commanded": commanded, "applied": applied}
+        return obs, new_state, -cost, terminated, info
+
+    def reset_env(self, key: jax.Array, params: EnvParams):
+        """A fresh episode drawn as the numba env draws it: the true inertia (nominal, fixed,
+        or principal moments scaled by ``1 + U(−s, s)`` until they meet the triangle
+        inequality and the axes turned by a random rotation of up to ``axis_angle_deg``), the
+        orbit start (mean anomaly uniform in [0°, 360°), or fixed), the attitude (q_d(0), or
+        with ``regulation`` q_d(0) ⊗ a rotation about a uniform axis by an angle uniform in
+        [0, ``initial_angle_deg``]), ω_bo uniform in ±``initial_rate_max_rad_s``, Ω = 0, the
+        sinusoid's phases (uniform in [0, 2π) when random), the faults (``params.faults``, or
+        drawn from the configs with ``redraw_faults``) and their runtime state."""
+        dtype = params.reference.dtype
+        # two draws for everything but the faults (few random-number programs to compile)
+        k_uniform, k_normal, k_moments, k_faults, k_fault_state = jax.random.split(key, 5)
+        u = jax.random.uniform(k_uniform, (9,), dtype)
+        g = jax.random.normal(k_normal, (6,), dtype)
+        inertia, eff_inv = _draw_inertia(k_moments, u[8], g[3:], params)
+        anomaly_deg = jnp.where(params.mean_anomaly_random, 360.0 * u[0], params.mean_anomaly_deg)
+        q_d0 = params.reference[K.REF_HELD_START : K.REF_HELD_START + 4]
+        turn = _within_angle(g[:3], u[1] * params.initial_angle_deg)
+        q0 = jnp.where(params.regulation, _multiply(q_d0, turn), q_d0)
+        rate = (2.0 * u[2:5] - 1.0) * params.initial_rate_max_rad_s
+        random_phase = params.disturbance_random_phase & (params.disturbance_code == K.DIST_SINUSOIDAL)
+        disturbance = jnp.where(random_phase, (2 * math.pi) * u[5:8], params.disturbance_initial)
+        faults = params.faults
+        if self.redraw_faults:
+            faults = jfaults.realize(k_faults, list(self.fault_configs), N_ACTUATORS)
+            faults = jax.tree.map(lambda new, old: new.astype(old.dtype), faults, params.faults)
+        state = EnvState(
+            time=jnp.zeros((), jnp.int32),
+            attitude=q0,
+            rate_rad_s=rate,
+            wheel_speed_rad_s=jnp.zeros(1, dtype),
+            mean_anomaly0_rad=jnp.deg2rad(anomaly_deg),
+            inertia_kg_m2=inertia,
+            inertia_eff_inv=eff_inv,
+            disturbance=disturbance,
+            faults=faults,
+            fault_state=jfaults.initial_state(k_fault_state, faults),
+        )
+        # the observation at t = 0: the reference is held at its start
+        t0 = jnp.zeros((), dtype)
+        held = params.reference[K.REF_HELD_START : K.REF_HELD_START + 7]
+        field = orbit_field(params, state.mean_anomaly0_rad, t0)[3] if self.observe_field else None
+        return self._observe(state, held[:4], held[4:], field, t0), state
+
+    # ------------------------------------------------------------------ spaces
+    def action_space(self, params: EnvParams | None = None) -> Box:
+        """``Box(-1, 1, (4,))``: dipoles / ``max_dipole_am2``, wheel torque / ``max_wheel_torque_nm``."""
+        return Box(-1.0, 1.0, (N_ACTUATORS,), jnp.float32)
+
+    def observation_space(self, params: EnvParams | None = None) -> Box:
+        """The numba env's bounds (``q_e`` in ±1, ``ω_e`` in ±2·max_rate, Ω/1000 in ±1e3, the
+        scaled field in ±3, flags in [0, 1]), in the compute dtype."""
+        return Box(self.obs_low, self.obs_high, (self.obs_size,), jnp.result_type(float))
+
+    # ------------------------------------------------------------------ numba bridge
+    def state_from(self, numba_env: Any, key: jax.Array | None = None) -> EnvState:
+        """The JAX state of the numba env's current episode: the physical state, decisions
+        taken, the episode's draws (orbit phase, true inertia, disturbance entry) and its
+        realized actuator faults with their runtime state. An intermittent fault not yet
+        evaluated gets its first switch time drawn with ``key`` (default ``PRNGKey(0)``)
+        from the same law."""
+        realized = numba_env.fault_layer.realized
+        if len(realized) > self.n_faults:
+            raise ValueError(
+                f"the numba env realized {len(realized)} faults; this JAX env holds {self.n_faults} "
+                "(build it with from_env of an env configured with these faults)"
+            )
+        faults = jfaults.from_realized(realized, self.n_faults)
+        held = np.zeros(self.n_faults)
+        holding = np.zeros(self.n_faults, bool)
+        on = np.zeros(self.n_faults, bool)
+        next_switch = np.asarray(faults.onset, dtype=float).copy()  # read for intermittent faults only
+        if any(f.kind == "intermittent" and f.next_switch_s is None for f in realized):
+            first = jfaults.initial_state(jax.random.PRNGKey(0) if key is None else key, faults)
+            next_switch = np.asarray(first.next_switch, dtype=float).copy()
+        for j, f in enumerate(realized):
+            holding[j] = f.held is not None
+            held[j] = 0.0 if f.held is None else f.held
+            if f.next_switch_s is not None:
+                on[j] = f.on
+                next_switch[j] = f.next_switch_s
+        y = np.asarray(numba_env.state_row, dtype=float)
+        ep = np.asarray(numba_env.episode_constants, dtype=float)
+
+        def f(v: Any) -> jax.Array:
+            return jnp.asarray(np.asarray(v, dtype=float))
+
+        return EnvState(
+            time=jnp.asarray(numba_env.steps_taken, jnp.int32),
+            attitude=f(y[:4]),
+            rate_rad_s=f(y[4:7]),
+            wheel_speed_rad_s=f(y[7:8]),
+            mean_anomaly0_rad=f(ep[K.EN_ORBIT + K.ORB_M0]),
+            inertia_kg_m2=f(ep[K.EN_INERTIA : K.EN_INERTIA + 9].reshape(3, 3)),
+            inertia_eff_inv=f(ep[K.EN_EFF_INV : K.EN_EFF_INV + 9].reshape(3, 3)),
+            disturbance=f(ep[K.EN_DIST : K.EN_DIST + 3]),
+            faults=faults,
+            fault_state=jfaults.FaultState(
+                held=f(held), holding=jnp.asarray(holding), on=jnp.asarray(on), next_switch=f(next_switch)
+            ),
+        )
+
+
+# ----------------------------------------------------------------------------- draws
+def _multiply(p, q):
+    """Hamilton product ``p ⊗ q`` of scalar-last quaternions."""
+    px, py, pz, pw = p[0], p[1], p[2], p[3]
+    qx, qy, qz, qw = q[0], q[1], q[2], q[3]
+    return jnp.stack(
+        [
+            pw * qx + px * qw + py * qz - pz * qy,
+            pw * qy - px * qz + py * qw + pz * qx,
+            pw * qz + px * qy - py * qx + pz * qw,
+            pw * qw - px * qx - py * qy - pz * qz,
+        ]
+    )
+
+
+def _within_angle(axis: jax.Array, angle_deg: jax.Array) -> jax.Array:
+    """The rotation by ``angle_deg`` about ``axis`` (any length): with ``axis ~ N(0, I)`` and
+    the angle uniform in [0, max], :func:`attitude_envs.quaternion.random_within_angle`'s law."""
+    half = 0.5 * jnp.deg2rad(angle_deg)
+    return jnp.concatenate([jnp.sin(half) * axis / jnp.sqrt(axis @ axis), jnp.cos(half)[None]])
+
+
+#: candidate moment draws per reset (the numba env redraws up to 1000 times)
+MOMENT_CANDIDATES = 32
+
+
+def _draw_inertia(
+    key: jax.Array, u_angle: jax.Array, axis: jax.Array, params: EnvParams
+) -> tuple[jax.Array, jax.Array]:
+    """The episode's true inertia (kg·m²) and its ``I_eff⁻¹``
+    (:meth:`attitude_envs.uncertainty.InertiaUncertainty.draw`): nominal, fixed, or (random)
+    the principal moments scaled by ``1 + U(−s, s)``, the first of :data:`MOMENT_CANDIDATES`
+    draws that meets the triangle inequality (the law of the numba env's redraw loop; the
+    nominal moments if none does), and the principal axes turned by ``axis`` (N(0, I)) by
+    ``u_angle · axis_angle_deg`` (``u_angle`` uniform in [0, 1])."""
+    dtype = params.principal_moments.dtype
+    scale = 1.0 + (2.0 * jax.random.uniform(key, (MOMENT_CANDIDATES, 3), dtype) - 1.0) * params.moment_scale
+    drawn = params.principal_moments * scale
+    d0, d1, d2 = drawn[:, 0], drawn[:, 1], drawn[:, 2]
+    ok = jnp.where(
+        (d2 >= d0) & (d2 >= d1), d0 + d1 >= d2, jnp.where(d1 >= d0, d0 + d2 >= d1, d1 + d2 >= d0)
+    )  # the two smaller moments sum to at least the largest
+    moments = jnp.where(jnp.any(ok), drawn[jnp.argmax(ok)], params.principal_moments)
+    rot = orbital_to_body(_within_angle(axis, u_angle * params.axis_angle_deg)).T @ params.principal_axes
+    inertia = rot @ jnp.diag(moments) @ rot.T
+    inertia = 0.5 * (inertia + inertia.T)
+    inertia_inv = _inverse3(inertia.at[1, 1].add(-params.wheel_inertia_kg_m2))
+    code = params.uncertainty_code
+    inertia = jnp.where(
+        code == 2, inertia, jnp.where(code == 1, params.uncertainty_inertia_kg_m2, params.inertia_kg_m2)
+    )
+    eff_inv = jnp.where(
+        code == 2, inertia_inv, jnp.where(code == 1, params.uncertainty_eff_inv, params.inertia_eff_inv)
+    )
+    return inertia, eff_inv
+
+
+# ----------------------------------------------------------------------------- from the numba env
+def max_steps(duration_s: float, control_dt_s: float) -> int:
+    """The decisions of an episode: the least n with ``n · dt ≥ duration − 1e-9 · dt`` (the
+    numba env's truncation test, in the same float arithmetic)."""
+    threshold = duration_s - 1e-9 * control_dt_s
+    n = max(1, math.ceil(threshold / control_dt_s))
+    while n > 1 and (n - 1) * control_dt_s >= threshold:
+        n -= 1
+    while n * control_dt_s < threshold:
+        n += 1
+    return n
+
+
+def from_env(numba_env: Any) -> tuple[MagnetorquerEnv, EnvParams]:
+    """The JAX plant and its ``EnvParams`` of a numba
+    :class:`~attitude_envs.envs.magnetorquer.MagnetorquerEnv` (unwrapped, as built). A
+    one-line ``ValueError`` names what the JAX plant does not model: ``sensors`` and sensor
+    faults, ``field_model='igrf'``, an ``inertia_uncertainty`` that could make ``I + ΔJ(t)``
+    indefinite."""
+    where = "Magnetorquer JAX plant"
+    sensors = numba_env.sensor_layer
+    if sensors.config:
+        raise ValueError(f"{where}: keyword 'sensors' is not modeled (the true state is observed)")
+    if sensors.fault_configs:
+        raise ValueError(f"{where}: 'faults' with target 'sensor' are not modeled (actuator faults only)")
+    if numba_env.field.model == "igrf":
+        raise ValueError(f"{where}: field_model='igrf' is not modeled (use 'dipole' or 'dipole-printed')")
+    dist = numba_env.disturbance
+    if dist is not None and dist.kind not in ("constant", "sinusoidal", "random_walk"):  # pragma: no cover
+        raise ValueError(f"{where}: disturbance kind {dist.kind!r} is not modeled")
+    draws = numba_env.reset_distribution
+    model = numba_env.model
+    p = model.params
+    shared = np.asarray(numba_env.kernel_constants, dtype=float)
+    orbit = np.asarray(numba_env.orbit.packed, dtype=float)
+    dj = numba_env.time_varying_inertia
+    unc = draws["inertia_uncertainty"]
+    nominal = np.asarray(p.inertia_kg_m2, dtype=float)
+    moments, axes = np.linalg.eigh(nominal)
+    unc_inertia = nominal
+    if unc is not None and dj is not None:
+        if unc.kind == "fixed":
+            dj.check_against(unc.inertia_kg_m2)
+        elif float(np.min(moments)) * (1.0 - unc.moment_scale) <= float(np.max(dj.amplitude_kg_m2)):
+            raise ValueError(
+                f"{where}: inertia_uncertainty (random) with time_varying_inertia is not modeled where a draw "
+                "could make I + ΔJ(t) indefinite (the numba env raises at such a reset)"
+            )
+    if unc is not None and unc.kind == "fixed":
+        unc_inertia = np.asarray(unc.inertia_kg_m2, dtype=float)
+    eff = unc_inertia.copy()
+    eff[1, 1] -= p.wheel_inertia_kg_m2
+    anomaly = draws["mean_anomaly_deg"]
+    random_anomaly = isinstance(anomaly, str)
+    if dist is None:
+        dist_initial, walk_std, random_phase = np.zeros(3), 0.0, False
+    elif dist.kind == "constant":
+        dist_initial, walk_std, random_phase = dist.torque_nm, 0.0, False
+    elif dist.kind == "random_walk":
+        dist_initial, walk_std, random_phase = dist.initial_nm, dist.std, False
+    else:
+        dist_initial, walk_std, random_phase = dist.phase_rad, 0.0, dist.random_phase
+    configs = tuple(dict(c) for c in numba_env.fault_layer.configs)
+    # one realization (the episode's own when nothing is drawn), in numpy: no eager JAX ops
+    layer = ActuatorFaults(list(configs), N_ACTUATORS, p.limits)
+    layer.reset(np.random.default_rng(0))
+    faults = jfaults.from_realized(layer.realized)
+
+    def f(v: Any) -> jax.Array:
+        return jnp.asarray(np.asarray(v, dtype=float))
+
+    def b(v: Any) -> jax.Array:
+        return jnp.asarray(bool(v))
+
+    params = EnvParams(
+        inertia_kg_m2=f(nominal),
+        inertia_eff_inv=f(p.inertia_eff_inv),
+        wheel_inertia_kg_m2=f(shared[K.SH_JW]),
+        max_dipole_am2=f(p.max_dipole_am2),
+        max_wheel_torque_nm=f(p.max_wheel_torque_nm),
+        max_wheel_momentum_nms=f(shared[K.SH_HMAX]),
+        max_rate_rad_s=f(numba_env.max_rate_rad_s),
+        orbit_circular=b(orbit[K.ORB_MODEL] == 1.0),
+        semi_major_axis_m=f(orbit[K.ORB_A]),
+        eccentricity=f(orbit[K.ORB_E]),
+        mean_motion_rad_s=f(orbit[K.ORB_N]),
+        semi_latus_rectum_m=f(orbit[K.ORB_P]),
+        angular_momentum_m2_s=f(orbit[K.ORB_H]),
+        mu_m3_s2=f(orbit[K.ORB_MU]),
+        node=f(orbit[K.ORB_NODE : K.ORB_NODE + 3]),
+        in_plane=f(orbit[K.ORB_IN_PLANE : K.ORB_IN_PLANE + 3]),
+        normal=f(orbit[K.ORB_NORMAL : K.ORB_NORMAL + 3]),
+        arg_perigee_rad=f(orbit[K.ORB_ARGP]),
+        inclination_rad=f(shared[K.SH_INCL]),
+        field_printed=b(shared[K.SH_FIELD] == K.FIELD_CODES["dipole-printed"]),
+        dipole_strength_t_m3=f(shared[K.SH_STRENGTH]),
+        reference=f(shared[K.SH_REF :]),
+        disturbance_code=jnp.asarray(int(shared[K.SH_DIST]), jnp.int32),
+        disturbance_scale=f(shared[K.SH_DIST_SCALE]),
+        disturbance_rate_rad_s=f(shared[K.SH_DIST_RATE]),
+        disturbance_harmonic=f(shared[K.SH_DIST_K]),
+        disturbance_amplitude_nm=f(shared[K.SH_DIST_AMP : K.SH_DIST_AMP + 3]),
+        disturbance_period_s=f(shared[K.SH_DIST_PERIOD]),
+        disturbance_initial=f(dist_initial),
+        disturbance_random_phase=b(random_phase),
+        disturbance_walk_std=f(walk_std),
+        gravity_gradient=b(shared[K.SH_GG] != 0.0),
+        time_varying_inertia=b(shared[K.SH_DJ] != 0.0),
+        delta_j_amplitude_kg_m2=f(shared[K.SH_DJ_AMP : K.SH_DJ_AMP + 3]),
+        delta_j_frequency_rad_s=f(shared[K.SH_DJ_FREQ : K.SH_DJ_FREQ + 3]),
+        delta_j_phase_rad=f(shared[K.SH_DJ_PHASE : K.SH_DJ_PHASE + 3]),
+        control_dt_s=f(numba_env.control_dt_s),
+        integrator_dt_s=f(shared[K.SH_H]),
+        episode_duration_s=f(numba_env.episode_duration_s),
+        Q=f(shared[K.SH_Q : K.SH_Q + 36].reshape(6, 6)),
+        R=f(shared[K.SH_R : K.SH_R + 9].reshape(3, 3)),
+        termination_mode=jnp.asarray(jcost.mode_code(numba_env.termination_cost), jnp.int32),
+        regulation=b(draws["task"] == "regulation"),
+        initial_angle_deg=f(draws["initial_angle_deg"]),
+        initial_rate_max_rad_s=f(draws["initial_rate_max_rad_s"]),
+        mean_anomaly_random=b(random_anomaly),
+        mean_anomaly_deg=f(0.0 if random_anomaly else anomaly),
+        uncertainty_code=jnp.asarray(_UNCERTAINTY_CODES[None if unc is None else unc.kind], jnp.int32),
+        uncertainty_inertia_kg_m2=f(unc_inertia),
+        uncertainty_eff_inv=f(np.linalg.inv(eff)),
+        principal_moments=f(moments),
+        principal_axes=f(axes),
+        moment_scale=f(0.0 if unc is None else unc.moment_scale),
+        axis_angle_deg=f(0.0 if unc is None else unc.axis_angle_deg),
+        faults=faults,
+        max_steps_in_episode=jnp.asarray(
+            max_steps(float(numba_env.episode_duration_s), float(numba_env.control_dt_s)), jnp.int32
+        ),
+    )
+    space = numba_env.observation_space
+    env = MagnetorquerEnv(
+        params,
+        n_substeps=int(shared[K.SH_NSUB]),
+        observe_field=numba_env.observe_field,
+        fault_hint=numba_env.fault_hint,
+        random_walk=dist is not None and dist.kind == "random_walk",
+        fault_configs=configs,
+        redraw_faults=any(jfaults.draws_per_episode(c) for c in configs),
+        obs_low=np.asarray(space.low, dtype=float),
+        obs_high=np.asarray(space.high, dtype=float),
+    )
+    return env, params
