@@ -50,8 +50,8 @@ def test_tune_runs_trials_resumes_and_writes_a_zoo_entry(tmp_path):
 
 
 def test_tune_rejects_bad_arguments_by_name(tmp_path):
-    with pytest.raises(ValueError, match=r"no sampler for algo 'sac' \(accepted: \['ppo'\]\)"):
-        tune("sac", ENV, tmp_path / "a")
+    with pytest.raises(ValueError, match=r"no sampler for algo 'td3' \(accepted: \['ppo', 'sac'\]\)"):
+        tune("td3", ENV, tmp_path / "a")
     with pytest.raises(ValueError, match=r"n_evaluations must be in \[1, timesteps\], got 0"):
         tune("ppo", ENV, tmp_path / "b", n_evaluations=0)
 

@@ -1,0 +1,76 @@
+"""``benchmarks/jax_training.py`` (SB3 vs SBX vs the fused JAX trainer): a smoke test of its
+cheapest pieces on minimal budgets. The JSON it writes has the documented keys with finite
+values; no speed or quality is asserted (the numbers come from the benchmark run itself)."""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("jax")
+pytest.importorskip("flax")
+pytest.importorskip("optax")
+pytest.importorskip("sbx")
+pytest.importorskip("stable_baselines3")
+
+from benchmarks import jax_training as jt  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _finite(value) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def test_the_task_is_the_campaign_agents_with_j_star_for_every_cell_episode():
+    task = jt.campaign_task(jt.ENV_ID)
+    assert task.campaign == "air-bearing" and task.env_id == jt.ENV_ID
+    assert task.env_kwargs == {"preset": "air-bearing-85kg"}
+    assert task.seeds == list(range(20)) and task.cell == ("ab", "regulation", "none")
+    assert all(j["env_id"] == jt.ENV_ID and j["cell_env_id"] == "attitude_envs/AirBearing-v0" for j in task.jobs)
+    assert all(_finite(task.j_star[s]) and task.j_star[s] > 0 for s in task.seeds)
+
+
+def test_status_lines_are_timed_and_give_each_chunks_steps():
+    lines = jt._TimedLines(time.perf_counter())
+    lines.write("train jax: 320/640 steps, 900 steps/s, episode return -1, eval J 2.3\ntrain jax: 64")
+    lines.write("0/640 steps, 950 steps/s, episode return -1, eval J 2.2\n")
+    steps = [int(jt._PROGRESS.search(text).group(1)) for _, text in lines.lines]
+    assert steps == [320, 640]
+    assert all(t >= 0 for t, _ in lines.lines)
+
+
+def test_env_stepping_rows_have_units_and_finite_rates():
+    rows = jt.env_stepping((jt.ENV_ID,), sizes=(2,), seconds=0.01, rounds=1, steps_per_call=2, pinned="test")
+    assert {r["stack"].split()[0] for r in rows} == {"jax", "numba"}
+    for r in rows:
+        assert r["unit"] == "env steps/s, all envs together" and r["pinned"] == "test" and r["num_envs"] == 2
+        assert _finite(r["steps_per_s"]) and r["steps_per_s"] > 0
+    jax_row = next(r for r in rows if r["stack"].startswith("jax"))
+    assert _finite(jax_row["compile_s"]) and _finite(jax_row["ratio_to_numba"])
+
+
+def test_the_committed_results_have_the_documented_keys():
+    """The committed run (``python -m benchmarks.jax_training --out benchmarks/results``): its
+    JSON has the documented keys with finite values and each target beside what was measured
+    (no speed or quality is asserted: those are the run's own findings)."""
+    result = json.loads((ROOT / "benchmarks" / "results" / "jax_training.json").read_text(encoding="utf-8"))
+    meta = result["meta"]
+    for key in ("machine", "cores", "versions", "date", "wall_s", "pinned", "jax_device", "quick"):
+        assert key in meta
+    assert meta["quick"] is False and _finite(meta["wall_s"]) and meta["cores"] >= 1
+    for key in ("ppo_per_seed_vs_sbx", "ppo_16_seeds_vs_sbx"):
+        entry = result[key]
+        assert entry["env"] == jt.ENV_ID and entry["unit"] and entry["pinned"]
+        assert _finite(entry["median"]) and entry["median"] > 0
+        assert len(entry["range"]) == 2 and all(_finite(v) for v in entry["range"])
+    rows = result["speed"]["rows"]
+    assert [r["stack"] for r in rows] == ["sb3 native", "sbx native", "jax 1 seed", f"jax {jt.VMAPPED_SEEDS} seeds"]
+    for r in rows:
+        assert r["unit"].startswith("env steps/s") and all(_finite(r[k]) for k in ("steps_per_s", "ratio_to_sbx"))
+    assert {"ppo_per_seed_vs_sbx", "ppo_16_seeds_vs_sbx", "compile_s"} <= set(result["targets"])
+    assert all(isinstance(t["met"], bool) for t in result["targets"].values())
