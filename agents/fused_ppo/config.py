@@ -272,7 +272,10 @@ def from_zoo(entry: dict[str, Any], total_timesteps: int | None = None) -> tuple
     if frame_stack not in (None, False, 1):
         raise ValueError(f"fused PPO: frame_stack {frame_stack!r} is not supported (1 only)")
     if e.get("use_sde"):
-        raise ValueError("fused PPO: use_sde is not supported (state-independent Gaussian exploration only)")
+        raise ValueError(
+            "fused PPO: use_sde is not supported (state-independent Gaussian exploration only): "
+            "train this entry with use_sde off (--params use_sde:False) or on backend sb3/sbx"
+        )
     n_timesteps = total_timesteps if total_timesteps is not None else e.get("n_timesteps", 1_000_000)
     total = _integer("n_timesteps", int(_float("n_timesteps", n_timesteps)), 1)
 
