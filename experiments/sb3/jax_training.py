@@ -43,6 +43,8 @@ from attitude_envs.make import make_checked
 from experiments.jsonable import json_ready
 from experiments.sb3.backends import check_backend
 from experiments.sb3.callbacks import EvalLog, atomic_write_text, evaluate_cost, fsync_dir, read_json, save_snapshot
+from experiments.sb3.run_config import check_resume
+from experiments.sb3.run_config import run_config as make_run_config
 from experiments.sb3.vec_envs import batched_supported, make_eval_env
 
 STATE_FILE = "state.pkl"  # the name experiments.sb3.checkpoint.latest_checkpoint looks for
@@ -147,10 +149,6 @@ class _Model:
 
     def get_vec_normalize_env(self) -> None:
         return None
-
-
-def _config_value(value: Any) -> Any:
-    return json_ready(value, leaf=lambda v: repr(v) if callable(v) or isinstance(v, type) else v)
 
 
 def _next_multiple(steps: int, every: int) -> int:
@@ -284,35 +282,22 @@ def train_jax(
     config, hparams = from_zoo(entry, total)
     hparams = as_float32(hparams._replace(schedule_timesteps=float(horizon)))
     saved = read_json(out_dir / "config.json")
-    run_config = {
-        "algo": algo,
-        "backend": "jax",
-        "env_id": env_id,
-        "env_kwargs": _config_value(env_kwargs),
-        "seed": int(seed),
-        "hyperparams": _config_value(entry),
-        "total_timesteps": total,
-        "evaluation": {
-            "freq": int(eval_freq),
-            "episodes": int(eval_episodes),
-            "seed": int(eval_seed),
-            "env_kwargs": _config_value(eval_kwargs),
-        },
-        "checkpoint_freq": int(checkpoint_freq),
-    }
+    run_config = make_run_config(
+        algo,
+        "jax",
+        env_id,
+        env_kwargs,
+        seed,
+        entry,
+        total,
+        eval_freq,
+        eval_episodes,
+        eval_seed,
+        eval_kwargs,
+        checkpoint_freq,
+    )
     checkpoint = _latest(out_dir)
-    if checkpoint is None:
-        if resume and saved is None:
-            raise ValueError(
-                f"--resume: no complete checkpoint under {str(out_dir / 'checkpoints')!r} and no run there"
-            )
-    elif not resume:
-        raise ValueError(f"{str(out_dir)!r} already holds a run; pass --resume to continue it or choose another --out")
-    if resume and saved is not None:
-        for key in ("algo", "backend", "env_id", "env_kwargs", "seed", "hyperparams", "evaluation"):
-            if key in saved and saved[key] != run_config[key]:
-                hint = f" (pass --backend {saved['backend']})" if key == "backend" else ""
-                raise ValueError(f"--resume: {key} {run_config[key]!r} differs from the run's {saved[key]!r}{hint}")
+    check_resume(out_dir, run_config, saved, checkpoint, resume)
 
     prog = program(env_id, env_kwargs, config)
     key = jax.random.PRNGKey(int(seed))

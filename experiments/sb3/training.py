@@ -28,7 +28,6 @@ from stable_baselines3.common.utils import set_random_seed
 from stable_baselines3.common.vec_env import VecNormalize
 
 from attitude_envs.make import check_env_id, make_checked
-from experiments.jsonable import json_ready
 from experiments.sb3.backends import check_backend
 from experiments.sb3.callbacks import (
     EvalLog,
@@ -49,6 +48,7 @@ from experiments.sb3.checkpoint import (
 from experiments.sb3.hyperparams import load_hyperparams, split_hyperparams
 from experiments.sb3.progress import ProgressCallback
 from experiments.sb3.registry import algorithm_class, check_algorithm, rollout_steps
+from experiments.sb3.run_config import check_resume, run_config
 from experiments.sb3.vec_envs import PicklableVecFrameStack, batched_supported, make_eval_env, make_training_env
 
 
@@ -191,35 +191,22 @@ def train(
     if horizon < total:
         raise ValueError(f"schedule_timesteps must be >= total_timesteps ({total}), got {schedule_timesteps}")
 
-    config = {
-        "algo": algo,
-        "backend": hp["backend"],
-        "env_id": env_id,
-        "env_kwargs": _config_value(env_kwargs),
-        "seed": int(seed),
-        "hyperparams": _config_value(entry),
-        "total_timesteps": total,
-        "evaluation": {
-            "freq": int(eval_freq),
-            "episodes": int(eval_episodes),
-            "seed": int(eval_seed),
-            "env_kwargs": _config_value(eval_kwargs),
-        },
-        "checkpoint_freq": int(checkpoint_freq),
-    }
+    config = run_config(
+        algo,
+        hp["backend"],
+        env_id,
+        env_kwargs,
+        seed,
+        entry,
+        total,
+        eval_freq,
+        eval_episodes,
+        eval_seed,
+        eval_kwargs,
+        checkpoint_freq,
+    )
     checkpoint = latest_checkpoint(out_dir)
-    if checkpoint is None:
-        if resume and saved is None:
-            raise ValueError(
-                f"--resume: no complete checkpoint under {str(out_dir / 'checkpoints')!r} and no run there"
-            )
-    elif not resume:
-        raise ValueError(f"{str(out_dir)!r} already holds a run; pass --resume to continue it or choose another --out")
-    if resume and saved is not None:
-        for key in ("algo", "backend", "env_id", "env_kwargs", "seed", "hyperparams", "evaluation"):
-            if key in saved and saved[key] != config[key]:
-                hint = f" (pass --backend {saved['backend']})" if key == "backend" else ""
-                raise ValueError(f"--resume: {key} {config[key]!r} differs from the run's {saved[key]!r}{hint}")
+    check_resume(out_dir, config, saved, checkpoint, resume)
 
     torch.set_num_threads(1)  # one thread: bitwise repeatable (and small networks gain nothing from more)
     evaluations = EvalLog(out_dir)
@@ -329,11 +316,6 @@ def train(
         last_eval=run["last_eval"],
         already_complete=already_complete,
     )
-
-
-def _config_value(value: Any) -> Any:
-    """JSON-ready, callables and classes (schedules, activation classes) as their repr."""
-    return json_ready(value, leaf=lambda v: repr(v) if callable(v) or isinstance(v, type) else v)
 
 
 def _next_multiple(steps: int, every: int) -> int:
