@@ -306,3 +306,49 @@ def _advance_intermittent(faults: FaultParams, state: FaultState, key: jax.Array
         return state.on, state.next_switch
     on, nxt, _, _ = jax.lax.while_loop(cond, body, (state.on, state.next_switch, key, 0))
     return on, nxt
+
+
+def from_numba_layer(
+    realized: list[RealizedFault], n_faults: int, key: jax.Array | None = None, dtype=None
+) -> tuple[FaultParams, FaultState]:
+    """The arrays and the runtime state of a numba fault layer's ``realized`` faults, at any
+    step of its episode (latched stuck values, intermittent phases), padded to ``n_faults``
+    entries. An intermittent fault that has not acted yet (the numba layer draws its first
+    switch at its first step) gets its first switch drawn with ``key`` (default
+    ``PRNGKey(0)``) from the same law. ``dtype``: of the float arrays (default JAX's float)."""
+    faults = from_realized(realized, max(int(n_faults), len(realized)))
+    fresh = _initial_state_jit(jax.random.PRNGKey(0) if key is None else key, faults)
+    held = np.zeros(faults.n_faults)
+    holding = np.zeros(faults.n_faults, bool)
+    on = np.zeros(faults.n_faults, bool)
+    next_switch = np.array(fresh.next_switch, dtype=float)
+    for j, f in enumerate(realized):
+        if f.held is not None:
+            held[j], holding[j] = f.held, True
+        if f.next_switch_s is not None:
+            on[j], next_switch[j] = f.on, f.next_switch_s
+    state = FaultState(
+        held=jnp.asarray(held, dtype=dtype),
+        holding=jnp.asarray(holding),
+        on=jnp.asarray(on),
+        next_switch=jnp.asarray(next_switch, dtype=dtype),
+    )
+    return faults, state
+
+
+_initial_state_jit = jax.jit(initial_state)
+
+
+def for_episode(key: jax.Array, configs: list[dict], n_actuators: int, like: FaultParams) -> FaultParams:
+    """One episode's faults drawn from ``configs`` with ``key`` (:func:`realize`), padded
+    (kind 0) to the entries of ``like`` (the params' faults) and in its dtypes, so that drawn
+    and given faults stack (``step``'s autoreset selects between them)."""
+    drawn = realize(key, list(configs), n_actuators)
+    extra = like.n_faults - drawn.n_faults
+    if extra < 0:
+        raise ValueError(
+            f"params.faults has {like.n_faults} entries, fewer than the {drawn.n_faults} the fault configs draw"
+        )
+    if extra:
+        drawn = jax.tree.map(lambda a, b: jnp.concatenate([a, b.astype(a.dtype)]), drawn, no_faults(extra))
+    return jax.tree.map(lambda new, old: new.astype(old.dtype), drawn, like)

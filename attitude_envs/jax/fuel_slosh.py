@@ -385,8 +385,7 @@ class FuelSloshEnv(Environment):
         y = jnp.stack(entries)
         faults = params.faults
         if self.redraw_faults:
-            faults = jfaults.realize(key_faults, list(self.fault_configs), N_ACTUATORS)
-            faults = jax.tree.map(lambda new, old: new.astype(old.dtype), faults, params.faults)
+            faults = jfaults.for_episode(key_faults, self.fault_configs, N_ACTUATORS, params.faults)
         state = EnvState(
             time=jnp.zeros((), jnp.int32),
             y=y,
@@ -426,29 +425,12 @@ class FuelSloshEnv(Environment):
         its reset: the numba env keeps its counter private). An intermittent fault not yet
         evaluated (no first switch drawn) gets its first switch time drawn with ``key``
         (default ``PRNGKey(0)``) from the same law."""
-        realized = numba_env.fault_layer.realized
-        faults = jfaults.from_realized(realized, self.n_faults)
-        first = jax.jit(jfaults.initial_state)(jax.random.PRNGKey(0) if key is None else key, faults)
-        held = np.zeros(self.n_faults)
-        holding = np.zeros(self.n_faults, bool)
-        on = np.zeros(self.n_faults, bool)
-        next_switch = np.asarray(first.next_switch, dtype=float).copy()
-        for j, f in enumerate(realized):
-            holding[j] = f.held is not None
-            held[j] = 0.0 if f.held is None else f.held
-            if f.next_switch_s is not None:
-                on[j] = f.on
-                next_switch[j] = f.next_switch_s
+        faults, fault_state = jfaults.from_numba_layer(numba_env.fault_layer.realized, self.n_faults, key)
         return EnvState(
             time=jnp.asarray(int(time), jnp.int32),
             y=jnp.asarray(np.asarray(numba_env.state, dtype=float)),
             faults=faults,
-            fault_state=jfaults.FaultState(
-                held=jnp.asarray(held),
-                holding=jnp.asarray(holding),
-                on=jnp.asarray(on),
-                next_switch=jnp.asarray(next_switch),
-            ),
+            fault_state=fault_state,
         )
 
 

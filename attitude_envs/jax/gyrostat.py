@@ -537,19 +537,8 @@ class GyrostatEnv(Environment):
         return self.get_obs(state, p), state
 
     def _draw_faults(self, key: jax.Array, like: jfaults.FaultParams) -> jfaults.FaultParams:
-        """One episode's faults drawn from ``fault_configs`` with ``key``, padded (kind 0) to
-        the entries of ``like`` (the params' faults) and in its dtypes, so that drawn and
-        given faults stack (``step``'s autoreset selects between them)."""
-        drawn = jfaults.realize(key, list(self.fault_configs), self.n_wheels)
-        extra = like.n_faults - drawn.n_faults
-        if extra < 0:
-            raise ValueError(
-                f"params.faults has {like.n_faults} entries, fewer than the {drawn.n_faults} the fault configs draw"
-            )
-        if extra:
-            pad = jfaults.no_faults(extra)
-            drawn = jax.tree.map(lambda a, b: jnp.concatenate([a, b.astype(a.dtype)]), drawn, pad)
-        return jax.tree.map(lambda new, old: new.astype(old.dtype), drawn, like)
+        """One episode's faults (:func:`attitude_envs.jax.faults.for_episode`)."""
+        return jfaults.for_episode(key, self.fault_configs, self.n_wheels, like)
 
     def get_obs(self, state: EnvState, params: EnvParams) -> jax.Array:
         """The observation of ``state`` (the error state, wheel speeds, fault flags)."""
@@ -574,17 +563,7 @@ class GyrostatEnv(Environment):
         realized = env.fault_layer.realized
         if n_faults is None:
             n_faults = 0 if self._params is None else self._params.faults.n_faults
-        fp = jfaults.from_realized(realized, max(n_faults, len(realized)))
-        fresh = jfaults.initial_state(jax.random.PRNGKey(0) if key is None else key, fp)
-        held = np.array(fresh.held)
-        holding = np.array(fresh.holding)
-        on = np.array(fresh.on)
-        next_switch = np.array(fresh.next_switch)
-        for j, f in enumerate(realized):
-            if f.held is not None:
-                held[j], holding[j] = f.held, True
-            if f.next_switch_s is not None:
-                on[j], next_switch[j] = f.on, f.next_switch_s
+        fp, fault_state = jfaults.from_numba_layer(realized, n_faults, key, dtype=dtype)
         return EnvState(
             time=jnp.asarray(time, dtype=jnp.int32),
             attitude=jnp.asarray(row[:4], dtype=dtype),
@@ -592,12 +571,7 @@ class GyrostatEnv(Environment):
             wheel_speed_rad_s=jnp.asarray(row[7:], dtype=dtype),
             target_attitude=jnp.asarray(np.array(env.target_attitude), dtype=dtype),
             faults=_as_dtype(fp, dtype),
-            fault_state=jfaults.FaultState(
-                held=jnp.asarray(held, dtype=dtype),
-                holding=jnp.asarray(holding),
-                on=jnp.asarray(on),
-                next_switch=jnp.asarray(next_switch, dtype=dtype),
-            ),
+            fault_state=fault_state,
         )
 
 

@@ -203,8 +203,7 @@ class LinearSystemEnv(Environment):
         x0 = params.x0_mean + params.x0_std * jax.random.normal(key_x, (self.n,), dtype)
         faults = params.faults
         if self.redraw_faults:
-            faults = jfaults.realize(key_faults, list(self.fault_configs), self.m)
-            faults = jax.tree.map(lambda new, old: new.astype(old.dtype), faults, params.faults)
+            faults = jfaults.for_episode(key_faults, self.fault_configs, self.m, params.faults)
         state = EnvState(
             time=jnp.zeros((), jnp.int32),
             x=x0,
@@ -232,32 +231,13 @@ class LinearSystemEnv(Environment):
         taken, realized actuator faults and their runtime state. An intermittent fault not
         yet evaluated (no first switch drawn) gets its first switch time drawn with ``key``
         (default ``PRNGKey(0)``) from the same law."""
-        realized = numba_env.fault_layer.realized
-        faults = jfaults.from_realized(realized, self.n_faults)
-        held = np.zeros(self.n_faults)
-        holding = np.zeros(self.n_faults, bool)
-        on = np.zeros(self.n_faults, bool)
-        next_switch = np.asarray(faults.onset, dtype=float).copy()  # read only by intermittent faults
-        if any(f.kind == "intermittent" and f.next_switch_s is None for f in realized):
-            first = jfaults.initial_state(jax.random.PRNGKey(0) if key is None else key, faults)
-            next_switch = np.asarray(first.next_switch, dtype=float).copy()
-        for j, f in enumerate(realized):
-            holding[j] = f.held is not None
-            held[j] = 0.0 if f.held is None else f.held
-            if f.next_switch_s is not None:
-                on[j] = f.on
-                next_switch[j] = f.next_switch_s
+        faults, fault_state = jfaults.from_numba_layer(numba_env.fault_layer.realized, self.n_faults, key)
         steps = int(numba_env.steps_taken)  # plant steps elapsed
         return EnvState(
             time=jnp.asarray(steps // self.decision_steps, jnp.int32),
             x=jnp.asarray(numba_env.state, dtype=float),
             faults=faults,
-            fault_state=jfaults.FaultState(
-                held=jnp.asarray(held),
-                holding=jnp.asarray(holding),
-                on=jnp.asarray(on),
-                next_switch=jnp.asarray(next_switch),
-            ),
+            fault_state=fault_state,
         )
 
 

@@ -652,8 +652,7 @@ class MagnetorquerEnv(Environment):
         disturbance = jnp.where(random_phase, (2 * math.pi) * u[5:8], params.disturbance_initial)
         faults = params.faults
         if self.redraw_faults:
-            faults = jfaults.realize(k_faults, list(self.fault_configs), N_ACTUATORS)
-            faults = jax.tree.map(lambda new, old: new.astype(old.dtype), faults, params.faults)
+            faults = jfaults.for_episode(k_faults, self.fault_configs, N_ACTUATORS, params.faults)
         state = EnvState(
             time=jnp.zeros((), jnp.int32),
             attitude=q0,
@@ -695,20 +694,7 @@ class MagnetorquerEnv(Environment):
                 f"the numba env realized {len(realized)} faults; this JAX env holds {self.n_faults} "
                 "(build it with from_env of an env configured with these faults)"
             )
-        faults = jfaults.from_realized(realized, self.n_faults)
-        held = np.zeros(self.n_faults)
-        holding = np.zeros(self.n_faults, bool)
-        on = np.zeros(self.n_faults, bool)
-        next_switch = np.asarray(faults.onset, dtype=float).copy()  # read for intermittent faults only
-        if any(f.kind == "intermittent" and f.next_switch_s is None for f in realized):
-            first = jfaults.initial_state(jax.random.PRNGKey(0) if key is None else key, faults)
-            next_switch = np.asarray(first.next_switch, dtype=float).copy()
-        for j, f in enumerate(realized):
-            holding[j] = f.held is not None
-            held[j] = 0.0 if f.held is None else f.held
-            if f.next_switch_s is not None:
-                on[j] = f.on
-                next_switch[j] = f.next_switch_s
+        faults, fault_state = jfaults.from_numba_layer(realized, self.n_faults, key, dtype=float)
         y = np.asarray(numba_env.state_row, dtype=float)
         ep = np.asarray(numba_env.episode_constants, dtype=float)
 
@@ -725,9 +711,7 @@ class MagnetorquerEnv(Environment):
             inertia_eff_inv=f(ep[K.EN_EFF_INV : K.EN_EFF_INV + 9].reshape(3, 3)),
             disturbance=f(ep[K.EN_DIST : K.EN_DIST + 3]),
             faults=faults,
-            fault_state=jfaults.FaultState(
-                held=f(held), holding=jnp.asarray(holding), on=jnp.asarray(on), next_switch=f(next_switch)
-            ),
+            fault_state=fault_state,
         )
 
 
