@@ -38,6 +38,31 @@ def atomic_write_text(path: Path, text: str) -> None:
     fsync_dir(path.parent)
 
 
+def new_checkpoint_dir(root: Path, steps: int) -> tuple[Path, Path]:
+    """``(root/step_<steps>, its fresh .tmp twin)`` for a checkpoint being written; removes the
+    ``.tmp`` folders a run killed while writing one left behind."""
+    directory = root / f"step_{int(steps):012d}"
+    for stale in root.glob("step_*.tmp"):
+        shutil.rmtree(stale)
+    tmp = directory.with_name(directory.name + ".tmp")
+    tmp.mkdir(parents=True)
+    return directory, tmp
+
+
+def publish_checkpoint(root: Path, tmp: Path, directory: Path, steps: int, keep: int) -> Path:
+    """Move the fully written ``tmp`` to ``directory``, point ``root/latest.json`` at it (atomic,
+    fsynced) and keep the ``keep`` newest ``step_*`` checkpoints."""
+    if directory.exists():  # a checkpoint of the same step from a run killed before its pointer moved
+        shutil.rmtree(directory)
+    os.replace(tmp, directory)
+    fsync_dir(root)
+    atomic_write_text(root / "latest.json", json.dumps({"timesteps": int(steps), "dir": directory.name}) + "\n")
+    done = sorted(p for p in root.glob("step_*") if p.is_dir() and not p.name.endswith(".tmp"))
+    for old in done[: -max(1, int(keep))]:
+        shutil.rmtree(old, ignore_errors=True)
+    return directory
+
+
 class NormalizedPredictor:
     """A model whose ``predict`` first applies frozen VecNormalize observation statistics and,
     with ``frame_stack`` > 1, stacks the latest normalized observations as SB3's

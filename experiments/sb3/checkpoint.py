@@ -23,7 +23,6 @@ import json
 import os
 import pickle
 import random
-import shutil
 from pathlib import Path
 from typing import Any
 
@@ -34,7 +33,7 @@ from numba.core.dispatcher import Dispatcher
 from stable_baselines3.common.logger import Logger
 from stable_baselines3.common.vec_env import VecNormalize
 
-from experiments.sb3.callbacks import atomic_write_text, fsync_dir, write_model_files
+from experiments.sb3.callbacks import new_checkpoint_dir, publish_checkpoint, write_model_files
 
 STATE_FILE = "state.pkl"
 
@@ -158,26 +157,14 @@ def write_checkpoint(root: Path, model, clock: RunClock, run: dict[str, Any], ke
     """Checkpoint ``model`` (with its env, the global generators and ``run`` bookkeeping) to
     ``root/step_<n>/``, then point ``root/latest.json`` at it; keeps the ``keep`` newest."""
     steps = int(model.num_timesteps)
-    directory = root / f"step_{steps:012d}"
-    for stale in root.glob("step_*.tmp"):  # left by a run killed while writing a checkpoint
-        shutil.rmtree(stale)
-    tmp = directory.with_name(directory.name + ".tmp")
-    tmp.mkdir(parents=True)
+    directory, tmp = new_checkpoint_dir(root, steps)
     write_model_files(model, tmp)  # portable model.zip (+ vecnormalize.pkl)
     state = {"env": _env_state(model.get_env()), "model": model, "clock": clock, "rng": capture_rng(), "run": run}
     with (tmp / STATE_FILE).open("wb") as fh:
         _RunPickler(fh, protocol=pickle.HIGHEST_PROTOCOL).dump(state)
     for path in tmp.iterdir():
         _fsync_file(path)
-    if directory.exists():  # a checkpoint of the same step from a run killed before its pointer moved
-        shutil.rmtree(directory)
-    os.replace(tmp, directory)
-    fsync_dir(root)
-    atomic_write_text(root / "latest.json", json.dumps({"timesteps": steps, "dir": directory.name}) + "\n")
-    done = sorted(p for p in root.glob("step_*") if p.is_dir() and not p.name.endswith(".tmp"))
-    for old in done[: -max(1, int(keep))]:
-        shutil.rmtree(old, ignore_errors=True)
-    return directory
+    return publish_checkpoint(root, tmp, directory, steps, keep)
 
 
 def read_checkpoint(directory: Path) -> tuple[Any, RunClock, dict[str, Any], dict[str, Any]]:

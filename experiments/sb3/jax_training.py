@@ -42,7 +42,15 @@ import numpy as np
 from attitude_envs.make import make_checked
 from experiments.jsonable import json_ready
 from experiments.sb3.backends import check_backend
-from experiments.sb3.callbacks import EvalLog, atomic_write_text, evaluate_cost, fsync_dir, read_json, save_snapshot
+from experiments.sb3.callbacks import (
+    EvalLog,
+    atomic_write_text,
+    evaluate_cost,
+    new_checkpoint_dir,
+    publish_checkpoint,
+    read_json,
+    save_snapshot,
+)
 from experiments.sb3.run_config import check_resume
 from experiments.sb3.run_config import run_config as make_run_config
 from experiments.sb3.vec_envs import batched_supported, make_eval_env
@@ -172,11 +180,7 @@ def write_checkpoint(root: Path, state, policy, run: dict[str, Any], keep: int =
     import jax
 
     steps = int(state.timesteps)
-    directory = root / f"step_{steps:012d}"
-    for stale in root.glob("step_*.tmp"):
-        shutil.rmtree(stale)
-    tmp = directory.with_name(directory.name + ".tmp")
-    tmp.mkdir(parents=True)
+    directory, tmp = new_checkpoint_dir(root, steps)
     policy.save(tmp / "model.zip")
     leaves = [np.asarray(x) for x in jax.tree.leaves(state)]
     payload = {"format": CHECKPOINT_FORMAT, "timesteps": steps, "leaves": leaves, "run": run}
@@ -184,15 +188,7 @@ def write_checkpoint(root: Path, state, policy, run: dict[str, Any], keep: int =
         pickle.dump(payload, fh, protocol=pickle.HIGHEST_PROTOCOL)
         fh.flush()
         os.fsync(fh.fileno())
-    if directory.exists():
-        shutil.rmtree(directory)
-    os.replace(tmp, directory)
-    fsync_dir(root)
-    atomic_write_text(root / "latest.json", json.dumps({"timesteps": steps, "dir": directory.name}) + "\n")
-    done = sorted(p for p in root.glob("step_*") if p.is_dir() and not p.name.endswith(".tmp"))
-    for old in done[: -max(1, int(keep))]:
-        shutil.rmtree(old, ignore_errors=True)
-    return directory
+    return publish_checkpoint(root, tmp, directory, steps, keep)
 
 
 def read_checkpoint(directory: Path, prog: Program, key, hparams) -> tuple[Any, dict[str, Any]]:
