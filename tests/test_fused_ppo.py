@@ -8,6 +8,7 @@ for the process: the resume tests reuse it)."""
 
 from __future__ import annotations
 
+import csv
 import dataclasses
 import json
 import shutil
@@ -378,7 +379,7 @@ def test_tune_backend_jax_trains_a_population_and_ranks_it(tmp_path, capsys):
     out = tmp_path / "study"
     argv = ["tune", "--algo", "ppo", "--env", LS, "--backend", "jax", "--out", str(out), "--trials", "3"]
     argv += ["--timesteps", "320", "--evaluations", "2", "--eval-episodes", "1", "--params", "n_envs:2", "n_steps:80"]
-    argv += ["batch_size:80", "n_epochs:2"]
+    argv += ["batch_size:80", "n_epochs:2", "gae_lambda:0.97"]  # a fixed override is not drawn
     assert main(argv) == 0
     assert "3 of 3 settings in 1 compiled program(s)" in capsys.readouterr().out
     report = json.loads((out / "population.json").read_text())
@@ -387,6 +388,10 @@ def test_tune_backend_jax_trains_a_population_and_ranks_it(tmp_path, capsys):
     assert report["ranking"][0] == int(np.argmin(values)) and report["trials"][0]["evaluations"][0]["timesteps"] == 160
     rows = (out / "trials.csv").read_text().splitlines()
     assert rows[0].startswith("number,state,value,last_step,group,param_gamma")
+    with open(out / "trials.csv", encoding="utf-8") as fh:  # what each setting trained with
+        trained = list(csv.DictReader(fh))
+    assert [float(r["param_gae_lambda"]) for r in trained] == pytest.approx([0.97] * 3)
+    assert len({r["param_learning_rate"] for r in trained}) == 3
     best = yaml.safe_load((out / "best.yml").read_text())[LS]
     assert best["n_envs"] == 2 and best["backend"] == "jax" and best["learning_rate"].startswith("lin_")
     config, _ = from_zoo(best)  # a Zoo entry the trainer takes as is

@@ -105,6 +105,22 @@ def draw_population(
     return out
 
 
+def trained_params(drawn: dict[str, Any], config, hp) -> dict[str, Any]:
+    """``drawn`` with each value replaced by the one the setting trains with: a fixed override
+    (``--params``) wins over the draw, and ``trials.csv`` must say what was trained."""
+    out = dict(drawn)
+    for k in ("learning_rate", "gamma", "gae_lambda", "clip_range", "log_std_init"):
+        if k in out:
+            out[k] = float(getattr(hp, k))
+    for k in ("n_steps", "batch_size", "n_epochs"):
+        if k in out:
+            out[k] = int(getattr(config, k))
+    if "width" in out or "depth" in out:
+        arch = config.pi_arch
+        out["width"], out["depth"] = (arch[0] if arch else 0), len(arch)
+    return out
+
+
 def tune_population(
     algo: str,
     env_id: str,
@@ -152,6 +168,7 @@ def tune_population(
         t["overrides"] = {**t["overrides"], **dict(overrides or {})}  # the fixed ones win
         config, hp = from_zoo({**entry, **t["overrides"]}, budget)
         t["config"], t["hparams"] = config, hp._replace(schedule_timesteps=float(budget))
+        t["params"] = trained_params(t["params"], config, hp)
         groups.setdefault(config, []).append(i)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
