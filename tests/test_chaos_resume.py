@@ -1,9 +1,11 @@
 """Chaos test: SIGKILL a training run and a campaign at several points, rerun the same command,
 and compare the bytes with an uninterrupted run (exact resume of training runs and campaigns).
 
-Every run is a subprocess (``python train.py ...``) in its own process group; the kill points
-are found by polling the run directory. The chains of killed runs and their uninterrupted
-references all run at once (a module fixture), the two tests check the bytes."""
+Every run is a process of its own, in its own process group, started as ``python train.py ...``
+starts (``experiments.cli.main`` on the same arguments, output to a log): a zygote process imports
+the trainer's modules once (torch, SB3, SBX, the envs: 7–10 s a process) and forks each run from
+there. The kill points are found by polling the run directory. The chains of killed runs and
+their uninterrupted references all run at once (a module fixture), the two tests check the bytes."""
 
 import importlib.util
 import json
@@ -11,6 +13,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 import zipfile
 from concurrent.futures import ThreadPoolExecutor
@@ -54,19 +57,140 @@ agents:
 """
 
 
-def _run(args: list[str], log: Path) -> subprocess.Popen:
-    with log.open("ab") as fh:
-        return subprocess.Popen(
-            [sys.executable, "train.py", *args],
-            cwd=ROOT,
-            env=ENV,
-            stdout=fh,
-            stderr=subprocess.STDOUT,
-            start_new_session=True,  # its own process group: the kill takes any child with it
+# Reads requests ``[args, log]`` (one JSON line each) on stdin, forks a run per request and writes
+# ``start PID`` (in the order of the requests) and ``exit PID STATUS`` lines on stdout. It forks
+# while it is a single thread (importing starts none; checked): no lock is held in the child.
+ZYGOTE = r"""
+import json, os, select, sys, traceback
+import experiments.cli, experiments.sb3.training, stable_baselines3, torch._dynamo  # noqa: F401
+try:
+    import sbx  # noqa: F401  (imports jax without starting a backend: no thread yet)
+except ImportError:
+    pass
+if os.path.isdir("/proc/self/task"):
+    assert len(os.listdir("/proc/self/task")) == 1, "the zygote must fork as a single thread"
+
+
+def send(line):
+    os.write(1, (line + "\n").encode())
+
+
+def child(args, log):
+    os.setsid()  # its own process group: the kill takes any child with it
+    null, out = os.open(os.devnull, os.O_RDONLY), os.open(log, os.O_WRONLY | os.O_APPEND | os.O_CREAT)
+    os.dup2(null, 0), os.dup2(out, 1), os.dup2(out, 2)
+    sys.argv = ["train.py", *args]
+    try:
+        code = experiments.cli.main(args)
+    except SystemExit as exc:
+        code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    except BaseException:
+        traceback.print_exc()
+        code = 1
+    sys.stdout.flush(), sys.stderr.flush()
+    os._exit(code or 0)
+
+
+buffer, running, open_ = b"", 0, True
+while open_ or running:
+    if open_ and select.select([0], [], [], 0.005)[0]:
+        chunk = os.read(0, 1 << 16)
+        open_, buffer = bool(chunk), buffer + chunk
+        while b"\n" in buffer:
+            line, buffer = buffer.split(b"\n", 1)
+            args, log = json.loads(line)
+            pid = os.fork()
+            if pid == 0:
+                child(args, log)
+            running += 1
+            send(f"start {pid}")
+    elif not open_:
+        select.select([], [], [], 0.005)
+    while running:
+        pid, status = os.waitpid(-1, os.WNOHANG)
+        if pid == 0:
+            break
+        running -= 1
+        send(f"exit {pid} {os.waitstatus_to_exitcode(status)}")
+"""
+
+
+class _Zygote:
+    """The pytest side of :data:`ZYGOTE`: :meth:`run` starts a run, the returned :class:`_Forked`
+    polls and waits for it like a :class:`subprocess.Popen`."""
+
+    def __init__(self) -> None:
+        self.proc = subprocess.Popen(
+            [sys.executable, "-c", ZYGOTE], cwd=ROOT, env=ENV, stdin=subprocess.PIPE, stdout=subprocess.PIPE
         )
+        self.exits: dict[int, int] = {}
+        self.started: list[int] = []
+        self.changed = threading.Condition()
+        self.request = threading.Lock()
+        self.reader = threading.Thread(target=self._read, daemon=True)
+        self.reader.start()
+
+    def _read(self) -> None:
+        for raw in self.proc.stdout:
+            kind, pid, *status = raw.decode().split()
+            with self.changed:
+                if kind == "start":
+                    self.started.append(int(pid))
+                else:
+                    self.exits[int(pid)] = int(status[0])
+                self.changed.notify_all()
+        with self.changed:  # the zygote ended: no run reports any more
+            self.changed.notify_all()
+
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def run(self, args: list[str], log: Path) -> "_Forked":
+        with self.request:
+            with self.changed:
+                count = len(self.started)
+            self.proc.stdin.write((json.dumps([args, str(log)]) + "\n").encode())
+            self.proc.stdin.flush()
+            with self.changed:
+                assert self.changed.wait_for(lambda: len(self.started) > count or not self.alive(), 60), "no start"
+                assert len(self.started) > count, "the zygote ended"
+                return _Forked(self, self.started[count])
+
+    def close(self) -> None:
+        """End the zygote once its runs have ended (kill it if one hangs: a failed chain's)."""
+        self.proc.stdin.close()
+        try:
+            self.proc.wait(timeout=60)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait()
 
 
-def _kill_when(proc: subprocess.Popen, ready, delay_s: float = 0.0, timeout_s: float = 120.0) -> bool:
+class _Forked:
+    def __init__(self, zygote: _Zygote, pid: int) -> None:
+        self.zygote, self.pid = zygote, pid
+
+    def poll(self) -> int | None:
+        with self.zygote.changed:
+            return self.zygote.exits.get(self.pid)
+
+    def wait(self, timeout: float | None = None) -> int:
+        with self.zygote.changed:
+            done = lambda: self.pid in self.zygote.exits or not self.zygote.alive()  # noqa: E731
+            if not self.zygote.changed.wait_for(done, timeout):
+                raise subprocess.TimeoutExpired("train.py", timeout)
+            assert self.pid in self.zygote.exits, "the zygote ended before the run"
+            return self.zygote.exits[self.pid]
+
+
+_ZYGOTE: list[_Zygote] = []  # the chaos fixture's
+
+
+def _run(args: list[str], log: Path) -> _Forked:
+    return _ZYGOTE[0].run(args, log)
+
+
+def _kill_when(proc: _Forked, ready, delay_s: float = 0.0, timeout_s: float = 120.0) -> bool:
     """SIGKILL ``proc``'s process group once ``ready()`` holds (after ``delay_s``); False if it ended first."""
     deadline = time.monotonic() + timeout_s
     while proc.poll() is None:
@@ -188,14 +312,18 @@ def chaos(tmp_path_factory) -> dict[str, tuple[Path, list]]:
     setups = {"training": _training_chain(tmp["training"]), "campaign": _campaign_chain(tmp["campaign"])}
     if SBX:
         setups["training-sbx"] = _training_chain(tmp["training-sbx"], "sbx")
-    with ThreadPoolExecutor(2 * len(setups)) as pool:
-        futures = {
-            name: (pool.submit(_finish, *ref), pool.submit(_chain, *chain)) for name, (ref, chain) in setups.items()
-        }
-        results = {}
-        for name, (reference, chain) in futures.items():
-            reference.result()
-            results[name] = (tmp[name], chain.result())
+    _ZYGOTE.append(_Zygote())
+    try:
+        with ThreadPoolExecutor(2 * len(setups)) as pool:
+            futures = {
+                name: (pool.submit(_finish, *ref), pool.submit(_chain, *chain)) for name, (ref, chain) in setups.items()
+            }
+            results = {}
+            for name, (reference, chain) in futures.items():
+                reference.result()
+                results[name] = (tmp[name], chain.result())
+    finally:
+        _ZYGOTE.pop().close()
     return results
 
 
