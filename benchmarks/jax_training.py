@@ -31,7 +31,9 @@ regulation episodes, seeds 0–19) against J* from ``experiments/optimum_table.j
   ``time_to_target``: a twin of each fused run (same seed and program: the same policies)
   evaluates on the cell's 20 episodes instead; the wall time (s since the ``train`` call,
   compilation included) of its first evaluation with J/J* ≤ 1.05 (the evaluations are every
-  10 k steps: a ceiling on the time).
+  10 k steps: a ceiling on the time); pinned to one CPU, then again on every CPU this process
+  may use (``time_to_target_all_cores``: the issue's target is on 2 cores, and XLA compiles on
+  all of them — 10–12 s on 2 cores against 17–20 s on one).
 * ``search``: ``attitude-envs tune --backend jax`` with 64 settings at the recipe's budget
   (120 k steps each; ``tune``'s default is 300 k) in a pinned child process: wall s and the best
   setting's eval J (validation seeds 10000+).
@@ -507,12 +509,19 @@ def _score(task: Task, runs: list[dict[str, Any]]) -> dict[tuple[str, int], dict
 
 
 def quality(
-    task: Task, seeds: list[int], timesteps: int, eval_freq: int, workdir: Path, fast_compile: bool
+    task: Task,
+    seeds: list[int],
+    timesteps: int,
+    eval_freq: int,
+    workdir: Path,
+    fast_compile: bool,
+    all_cores: set[int] | None = None,
 ) -> dict[str, Any]:
     """The quality section (module docstring): each backend × training seed in a fresh pinned
-    process, alternating by seed; scored on the task's cell episodes."""
+    process, alternating by seed; scored on the task's cell episodes. The twin runs go once
+    pinned and, with ``all_cores``, once more on those CPUs (the issue's "on 2 cores")."""
     backends = ("sb3", "sbx", "jax")
-    runs, twins = [], []
+    runs, twins, twins_all = [], [], []
     n_cell = len(task.seeds)
     if task.seeds != list(range(task.seeds[0], task.seeds[0] + n_cell)):
         raise ValueError(f"the cell's seeds must be consecutive for the twin runs' evaluation, got {task.seeds}")
@@ -537,6 +546,10 @@ def quality(
         spec |= {"eval_episodes": n_cell, "eval_seed": task.seeds[0]}
         _say(f"quality: the fused run's twin, seed {seed}, evaluated on the cell's {n_cell} episodes")
         twins.append({**_run_child(spec), "seed": seed})
+        if all_cores:
+            spec["out_dir"] = str(workdir / f"jax-seed{seed}-cell-eval-all-cores")
+            _say(f"quality: the twin again on CPUs {sorted(all_cores)}")
+            twins_all.append({**_run_child(spec, cpus=all_cores), "seed": seed})
     scores = _score(task, runs)
     per_backend: dict[str, Any] = {}
     for backend in backends:
@@ -571,22 +584,26 @@ def quality(
         }
     jax_mean = per_backend["jax"]["J_over_J_star_mean"]
     j_star_mean = float(np.mean([task.j_star[s] for s in task.seeds]))
-    time_to_target = []
-    for twin in twins:
-        evals = [{**ev, "J_over_J_star": ev["J_mean"] / j_star_mean} for ev in twin["evaluations"]]
-        hit = next((ev for ev in evals if ev["J_over_J_star"] <= J_STAR_TARGET), None)
-        time_to_target.append(
-            {
-                "seed": twin["seed"],
-                "reached": hit is not None,
-                "first_wall_s": None if hit is None else hit["wall_s"],
-                "first_timesteps": None if hit is None else hit["timesteps"],
-                "best_J_over_J_star": min(ev["J_over_J_star"] for ev in evals),
-                "train_wall_s": twin["train_wall_s"],
-                "compile_s": twin["compile_s"],
-                "evaluations": evals,
-            }
-        )
+
+    def time_to_target(twin_runs: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        out = []
+        for twin in twin_runs:
+            evals = [{**ev, "J_over_J_star": ev["J_mean"] / j_star_mean} for ev in twin["evaluations"]]
+            hit = next((ev for ev in evals if ev["J_over_J_star"] <= J_STAR_TARGET), None)
+            out.append(
+                {
+                    "seed": twin["seed"],
+                    "reached": hit is not None,
+                    "first_wall_s": None if hit is None else hit["wall_s"],
+                    "first_timesteps": None if hit is None else hit["timesteps"],
+                    "best_J_over_J_star": min(ev["J_over_J_star"] for ev in evals),
+                    "train_wall_s": twin["train_wall_s"],
+                    "compile_s": twin["compile_s"],
+                    "evaluations": evals,
+                }
+            )
+        return out
+
     return {
         "env": task.env_id,
         "env_kwargs": task.env_kwargs,
@@ -611,7 +628,10 @@ def quality(
         "backends": per_backend,
         "parity_jax_within_sbx_spread_or_better": bool(jax_mean <= per_backend["sbx"]["J_over_J_star_range"][1]),
         "parity_jax_within_sb3_spread_or_better": bool(jax_mean <= per_backend["sb3"]["J_over_J_star_range"][1]),
-        "time_to_target": time_to_target,
+        "time_to_target": time_to_target(twins),
+        **(
+            {"time_to_target_all_cores": time_to_target(twins_all), "all_cores": sorted(all_cores)} if all_cores else {}
+        ),
     }
 
 
@@ -768,14 +788,19 @@ def targets(result: dict[str, Any]) -> dict[str, Any]:
         out["compile_s"]["what"] = "the one-seed program train() compiles, in the speed section (pinned)"
     q = result.get("quality")
     if q:
-        hits = [t["first_wall_s"] if t["reached"] else None for t in q["time_to_target"]]
-        worst = None if any(not t["reached"] for t in q["time_to_target"]) else max(h or 0.0 for h in hits)
+        # the issue's condition is "on 2 cores": the all-cores twins where they ran
+        all_cores = "time_to_target_all_cores" in q
+        twins = q["time_to_target_all_cores"] if all_cores else q["time_to_target"]
+        hits = [t["first_wall_s"] if t["reached"] else None for t in twins]
+        worst = None if any(not t["reached"] for t in twins) else max(h or 0.0 for h in hits)
         out["time_to_1.05_J_star_s"] = {
             "target": TARGETS["time_to_1.05_J_star_s"],
             "measured_per_seed": hits,
+            "measured_per_seed_one_cpu": [t["first_wall_s"] if t["reached"] else None for t in q["time_to_target"]],
             "met": worst is not None and worst <= 20.0,
             "what": "twin fused runs: wall s (compile included) to the first evaluation with J/J* <= 1.05 on the "
-            "cell's episodes; every seed must meet it",
+            "cell's episodes; every seed must meet it; "
+            + (f"on CPUs {q['all_cores']} (one_cpu: the pinned twins)" if all_cores else "pinned to one CPU"),
         }
         jax_q = q["backends"]["jax"]["seeds"]
         out["fused_run_within_1.05_in_20_s"] = {
@@ -834,15 +859,23 @@ def markdown(result: dict[str, Any]) -> str:
             lines.append(
                 f"| {b} | {per} | {_fmt_spread(e['J_over_J_star_mean'], e['J_over_J_star_range'])} | {walls} |"
             )
-        hits = ", ".join(
-            f"{t['first_wall_s']:.1f} s"
-            if t["first_wall_s"] is not None
-            else ("at 0 steps" if t["reached"] else "never")
-            for t in q["time_to_target"]
+
+        def hits(twins: list[dict[str, Any]]) -> str:
+            return ", ".join(
+                f"{t['first_wall_s']:.1f} s"
+                if t["first_wall_s"] is not None
+                else ("at 0 steps" if t["reached"] else "never")
+                for t in twins
+            )
+
+        on_all = (
+            f"; on CPUs {q['all_cores']}: {hits(q['time_to_target_all_cores'])}"
+            if "time_to_target_all_cores" in q
+            else ""
         )
         lines.append(
             f"({q['timesteps']} steps, parity fused ≤ worst SBX seed: {q['parity_jax_within_sbx_spread_or_better']}; "
-            f"fused to J/J* ≤ {J_STAR_TARGET} on the cell: {hits})"
+            f"fused to J/J* ≤ {J_STAR_TARGET} on the cell, one CPU: {hits(q['time_to_target'])}{on_all})"
         )
         lines.append("")
     s = result.get("search")
@@ -1011,7 +1044,8 @@ def _sections(args: argparse.Namespace, task: Task, workdir: Path, pinned: str, 
         recipe_steps = int(float(_recipe(ENV_ID)["n_timesteps"]))
         steps, eval_freq = (640, 320) if args.quick else (recipe_steps, 10_000)
         seeds = list(range(args.seeds))
-        result["quality"] = quality(task, seeds, steps, eval_freq, workdir / "quality", args.quick)
+        twin_cpus = cpus if len(cpus) > 1 and not args.no_all_cores else None
+        result["quality"] = quality(task, seeds, steps, eval_freq, workdir / "quality", args.quick, twin_cpus)
     if not args.skip_search:
         n, steps, evaluations, episodes = (
             (8, 640, 1, 2) if args.quick else (64, int(float(_recipe(ENV_ID)["n_timesteps"])), 3, 10)

@@ -9,9 +9,10 @@ places: the open-loop pitch integrates Ω̇'s rounding twice (θ drifts ~1e-13�
 100 s episode of the random actions below), the body-frame velocities ``[v_x, v_z]`` rotate a
 ~3000 m/s vector with θ (a component passing near zero keeps the vector's absolute rounding),
 and the new input ``a_z = v̇_z − Ω v_x`` cancels two terms ~1e4 times its size, so the stage
-cost's rounding floor is ~1e-12 relative. The state is compared relative to max(1, |y_i|, the
-norm of the 2-vector (X, Z) or (v_x, v_z) it belongs to) at ``STATE_TOL``; cost and reward
-relative at ``COST_TOL``.
+cost's rounding is amplified ~1e2 over an ulp. Measured on the episodes below (x64, an FMA CPU):
+state 1.1e-13, cost/reward 3.8e-13 at worst. The state is compared relative to max(1, |y_i|,
+the norm of the 2-vector (X, Z) or (v_x, v_z) it belongs to) and cost and reward relative,
+both at 1e-12.
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ from attitude_envs.jax.make import numba_env
 from attitude_envs.plants import slosh
 
 STATE_TOL = 1e-12
-COST_TOL = 1e-11
+COST_TOL = 1e-12  # the same bound as the state: cost error measured 3.8e-13
 V1_STEPS = 400  # FuelSlosh-v1: 100 s of 0.25 s decisions
 V0_STEPS = 200  # FuelSlosh-v0: 20 s of 0.1 s decisions (the preset's episode is 1500 s)
 _CAMPAIGN = Path(__file__).resolve().parents[1] / "experiments" / "campaigns" / "slosh.yml"
