@@ -41,6 +41,11 @@ regulation episodes, seeds 0–19) against J* from ``experiments/optimum_table.j
   ReactionWheel-v1 plants, ``jax.vmap`` over N envs in a jitted ``lax.scan``, against the numba
   batched env at the same N, alternating rounds, pinned; on a GPU also N = 65,536 (ReactionWheel).
 
+Each section is kept in ``OUT/jax_training.partial.json`` as it finishes: a run killed or
+failed in a later section, rerun with the same command on the same commit, takes the finished
+ones from there (``meta.sections_from_an_earlier_run`` names them) and deletes the file when the
+whole run is written.
+
 Compilation never comes from JAX's persistent cache here (it is switched off in this process
 and every child). ``--quick`` (tiny budgets, XLA's fast-compile option, 1 seed, 2 rounds: a
 smoke run of every code path, not a measurement) takes about 3 min on a quiet 2-core machine;
@@ -65,6 +70,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -991,12 +997,15 @@ def _run(args: argparse.Namespace, out: Path, argv: list[str]) -> int:
     import jax
 
     jax.config.update("jax_enable_compilation_cache", False)
+    from experiments.report import git_revision
+
     result: dict[str, Any] = {}
     task = campaign_task(ENV_ID)
+    key = {"command": argv, "git_revision": git_revision(ROOT)}
+    done = _Checkpoint(out.with_name("jax_training.partial.json"), key)
     with tempfile.TemporaryDirectory(prefix="jax-training-benchmark-") as tmp:
-        result |= _sections(args, task, Path(tmp), pinned, cpus)
+        result |= _sections(args, task, Path(tmp), pinned, cpus, done)
     result["targets"] = targets(result)
-    from experiments.report import git_revision
 
     meta = {
         "machine": platform.platform(),
@@ -1014,26 +1023,69 @@ def _run(args: argparse.Namespace, out: Path, argv: list[str]) -> int:
         "persistent_compilation_cache": False,
         "rounds": args.rounds,
         "command": " ".join(["python -m benchmarks.jax_training", *argv]),
-        "wall_s": time.perf_counter() - start,
+        "wall_s": time.perf_counter() - start + sum(done.section_wall_s.get(name, 0.0) for name in done.reused),
+        "sections_from_an_earlier_run": done.reused,
     }
     result = {"meta": meta, **result}
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(_finite_or_none(result), indent=2, allow_nan=False) + "\n", encoding="utf-8")
+    done.path.unlink(missing_ok=True)
     print(markdown(result))
     print(f"\nwrote {out}")
     return 0
 
 
-def _sections(args: argparse.Namespace, task: Task, workdir: Path, pinned: str, cpus: set[int]) -> dict[str, Any]:
-    """The sections the arguments ask for (run directories under ``workdir``)."""
+class _Checkpoint:
+    """The finished sections of a run, kept in ``OUT/jax_training.partial.json`` as each one ends
+    (a killed or failed run loses only the section it was in). A rerun of the same command on
+    the same commit takes the finished sections from there; a finished run deletes the file."""
+
+    def __init__(self, path: Path, key: dict[str, Any]) -> None:
+        self.path, self.key = path, key
+        self.sections: dict[str, Any] = {}
+        self.section_wall_s: dict[str, float] = {}  # s per kept section
+        self.reused: list[str] = []
+        if path.is_file():
+            saved = json.loads(path.read_text(encoding="utf-8"))
+            if saved.get("key") == key:
+                self.sections, self.section_wall_s = saved["sections"], saved["section_wall_s"]
+                _say(f"{path}: sections {sorted(self.sections)} finished before (same command and commit)")
+            else:
+                _say(f"{path} is from another command or commit: starting over")
+
+    def run(self, name: str, fn: Callable[[], dict[str, Any]]) -> dict[str, Any]:
+        """The section ``name``: from the file when it finished before, else ``fn()`` (saved)."""
+        if name in self.sections:
+            _say(f"{name}: finished before, not run again")
+            self.reused.append(name)
+            return self.sections[name]
+        start = time.perf_counter()
+        self.sections[name] = _finite_or_none(fn())
+        self.section_wall_s[name] = time.perf_counter() - start
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        payload = {"key": self.key, "section_wall_s": self.section_wall_s, "sections": self.sections}
+        tmp = self.path.with_name(self.path.name + ".tmp")
+        tmp.write_text(json.dumps(payload, allow_nan=False) + "\n", encoding="utf-8")
+        os.replace(tmp, self.path)
+        return self.sections[name]
+
+
+def _sections(
+    args: argparse.Namespace, task: Task, workdir: Path, pinned: str, cpus: set[int], done: _Checkpoint
+) -> dict[str, Any]:
+    """The sections the arguments ask for (run directories under ``workdir``), each through ``done``."""
     result: dict[str, Any] = {}
 
     rollouts = 2 if args.quick else 32
     for i, env_id in enumerate(args.speed_env or [ENV_ID]):
         speed_task = task if env_id == ENV_ID else campaign_task(env_id)
-        _say(f"speed: {env_id}, {args.rounds} rounds of {rollouts} rollouts per seed")
         all_cores = cpus if len(cpus) > 1 and i == 0 and not args.no_all_cores else None  # the first env's
-        sp = speed(speed_task.env_id, speed_task.env_kwargs, rollouts, args.rounds, pinned, all_cores)
+
+        def run_speed(speed_task=speed_task, all_cores=all_cores) -> dict[str, Any]:
+            _say(f"speed: {speed_task.env_id}, {args.rounds} rounds of {rollouts} rollouts per seed")
+            return speed(speed_task.env_id, speed_task.env_kwargs, rollouts, args.rounds, pinned, all_cores)
+
+        sp = done.run(f"speed {env_id}", run_speed)
         if i == 0:
             result["ppo_per_seed_vs_sbx"] = sp["ppo_per_seed_vs_sbx"]
             result["ppo_16_seeds_vs_sbx"] = sp["ppo_16_seeds_vs_sbx"]
@@ -1045,18 +1097,24 @@ def _sections(args: argparse.Namespace, task: Task, workdir: Path, pinned: str, 
         steps, eval_freq = (640, 320) if args.quick else (recipe_steps, 10_000)
         seeds = list(range(args.seeds))
         twin_cpus = cpus if len(cpus) > 1 and not args.no_all_cores else None
-        result["quality"] = quality(task, seeds, steps, eval_freq, workdir / "quality", args.quick, twin_cpus)
+        result["quality"] = done.run(
+            "quality",
+            lambda: quality(task, seeds, steps, eval_freq, workdir / "quality", args.quick, twin_cpus),
+        )
     if not args.skip_search:
         n, steps, evaluations, episodes = (
             (8, 640, 1, 2) if args.quick else (64, int(float(_recipe(ENV_ID)["n_timesteps"])), 3, 10)
         )
-        result["search"] = search(task, n, steps, evaluations, episodes, workdir)
+        result["search"] = done.run("search", lambda: search(task, n, steps, evaluations, episodes, workdir))
     if not args.skip_stepping:
-        _say("env stepping")
         sizes = (1, 64) if args.quick else (1, 64, 4096)
-        result["env_stepping"] = env_stepping(
-            STEPPING_ENV_IDS, sizes, 0.2 if args.quick else 1.0, args.rounds, 50, pinned
-        )
+
+        def run_stepping() -> dict[str, Any]:
+            _say("env stepping")
+            rows = env_stepping(STEPPING_ENV_IDS, sizes, 0.2 if args.quick else 1.0, args.rounds, 50, pinned)
+            return {"rows": rows}
+
+        result["env_stepping"] = done.run("env_stepping", run_stepping)["rows"]
     return result
 
 

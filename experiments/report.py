@@ -609,8 +609,8 @@ def _training_summary(result, agent) -> str:
     """A trained agent's budget (``config.json`` of each run) and the snapshot its episodes
     ran: ``best snapshot at N steps`` (per run, from ``best/best.json``; ``0 (the untrained
     policy)`` when training never beat it) or ``final snapshot``, with the validation J
-    (the run's own eval seeds, 10000+) of the best and of the final policy."""
-    budgets, best_steps, backends, validation = set(), [], set(), []
+    (the run's own eval episodes, their count and first seed) of the best and of the final policy."""
+    budgets, best_steps, backends, validation, episodes = set(), [], set(), [], set()
     select = agent.train.get("select", "best")
     for run in _training_runs(result, agent):
         config = run / "config.json"
@@ -618,6 +618,8 @@ def _training_summary(result, agent) -> str:
             saved = json.loads(config.read_text())
             budgets.add(saved["total_timesteps"])
             backends.add(saved.get("backend", "sb3"))
+            evaluation = saved.get("evaluation", {})
+            episodes.add((evaluation.get("episodes"), evaluation.get("seed")))
         best = run / "best" / "best.json"
         if select == "best" and best.is_file():
             steps = json.loads(best.read_text())["timesteps"]
@@ -630,7 +632,11 @@ def _training_summary(result, agent) -> str:
     steps = ", ".join(map(str, sorted(budgets))) or t.get("timesteps", "file default")
     snapshot = f"best snapshot at {', '.join(best_steps)} steps" if best_steps else "final snapshot"
     if validation:
-        snapshot += f"; validation J best/final per seed: {', '.join(validation)}"
+        n = ""
+        if len(episodes) == 1 and None not in next(iter(episodes)):
+            count, first = next(iter(episodes))
+            n = f" ({count} episodes, seeds {first}+)"
+        snapshot += f"; validation J{n} best/final per seed: {', '.join(validation)}"
     backend = "/".join(sorted(backends)) or t.get("backend", "sb3")
     return f"{t['algo']} ({backend}), {steps} steps × seeds {t.get('seeds', [0])}, evaluated: {snapshot}"
 

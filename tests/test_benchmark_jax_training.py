@@ -74,3 +74,29 @@ def test_the_committed_results_have_the_documented_keys():
         assert r["unit"].startswith("env steps/s") and all(_finite(r[k]) for k in ("steps_per_s", "ratio_to_sbx"))
     assert {"ppo_per_seed_vs_sbx", "ppo_16_seeds_vs_sbx", "compile_s"} <= set(result["targets"])
     assert all(isinstance(t["met"], bool) for t in result["targets"].values())
+
+
+def test_finished_sections_are_kept_and_taken_by_a_rerun_of_the_same_command(tmp_path):
+    """A run that fails in a later section loses only that section: the same command on the
+    same commit takes the finished ones from ``jax_training.partial.json``; another does not."""
+    path = tmp_path / "jax_training.partial.json"
+    key = {"command": ["--quick"], "git_revision": "abc"}
+    calls = []
+
+    def section(value):
+        def fn():
+            calls.append(value)
+            return {"value": value}
+
+        return fn
+
+    first = jt._Checkpoint(path, key)
+    assert first.run("speed", section(1)) == {"value": 1}
+    with pytest.raises(RuntimeError):
+        first.run("quality", lambda: (_ for _ in ()).throw(RuntimeError("killed")))
+    again = jt._Checkpoint(path, key)
+    assert again.run("speed", section(2)) == {"value": 1} and again.reused == ["speed"]
+    assert again.run("quality", section(3)) == {"value": 3}
+    assert calls == [1, 3] and set(json.loads(path.read_text())["sections"]) == {"speed", "quality"}
+    other = jt._Checkpoint(path, {**key, "git_revision": "def"})
+    assert other.run("speed", section(4)) == {"value": 4} and other.reused == []

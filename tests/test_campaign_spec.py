@@ -72,6 +72,7 @@ def test_a_note_must_be_one_line_of_text():
         ("agents.1.train.seeds", [0, 0], "agents[1].train.seeds must be a count N"),
         ("agents.1.train.eval_freq", 0, "agents[1].train.eval_freq must be an integer in [1, inf)"),
         ("agents.1.train.checkpoint_freq", 2.5, "agents[1].train.checkpoint_freq must be an integer in [1, inf)"),
+        ("agents.1.train.eval_episodes", 0, "agents[1].train.eval_episodes must be an integer in [1, inf)"),
         ("agents.1.train.timesteps", "1e5", "agents[1].train.timesteps must be an integer in [1, inf)"),
         ("agents.1.train.timestep", 5, "agents[1].train has unknown keys ['timestep']"),
         ("agents.1.train.overrides", [1], "agents[1].train.overrides must be a mapping"),
@@ -103,6 +104,13 @@ def test_seeds_take_the_one_syntax_for_episodes_and_training(tmp_path):
     assert campaign.seeds == [0, 5] and campaign.agents[1].train["seeds"] == [1, 2, 3]
     assert [j["seed"] for j in training_jobs(campaign, tmp_path)] == [1, 2, 3]
     assert load_campaign(_with("seeds", 3)).seeds == [0, 1, 2]
+
+
+def test_validation_episodes_reach_the_training_job(tmp_path):
+    """``train.eval_episodes``: the validation episodes (seeds 10000+) that choose the best snapshot."""
+    assert {j["eval_episodes"] for j in training_jobs(load_campaign(BASE), tmp_path)} == {5}
+    campaign = load_campaign(_with("agents.1.train.eval_episodes", 20))
+    assert {j["eval_episodes"] for j in training_jobs(campaign, tmp_path)} == {20}
 
 
 def test_a_note_is_not_part_of_the_campaign_definition():

@@ -65,7 +65,7 @@ def test_benchmark_trains_evaluates_and_reports(benchmark_run, capsys):
         f"training budget: ppo | ppo (sb3), 128 steps × seeds [0], evaluated: best snapshot at {steps} steps" in report
     )
     # the run's validation J (eval seeds 10000+) of its best and final policy, and its task
-    assert "validation J best/final per seed: " in report
+    assert "validation J (5 episodes, seeds 10000+) best/final per seed: " in report
     assert "training task: ppo | ReactionWheel-v0: decisions every 0.1 s, γ 0.998" in report
     # Rerun: nothing to train or evaluate again, same leaderboard printed.
     assert cli.main(["benchmark", "--config", str(root / "tiny.yml"), "--out", str(out), "--workers", "1"]) == 0

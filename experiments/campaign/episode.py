@@ -66,6 +66,7 @@ def _run_training(job: dict[str, Any]) -> dict[str, Any]:
         total_timesteps=job["timesteps"],
         checkpoint_freq=job["checkpoint_freq"],
         eval_freq=job["eval_freq"],
+        eval_episodes=job.get("eval_episodes", 5),  # absent from jobs listed before the key existed
         resume=latest_checkpoint(out_dir) is not None,
         progress=job.get("progress", False),
     )

@@ -53,6 +53,7 @@ def training_jobs(campaign: Campaign, out_dir: Path, skip_agents: Iterable[str] 
                         "hyperparams_file": t.get("hyperparams_file"),
                         "checkpoint_freq": int(t.get("checkpoint_freq", 10_000)),
                         "eval_freq": int(t.get("eval_freq", 10_000)),
+                        "eval_episodes": int(t.get("eval_episodes", 5)),
                         "out_dir": str(train_dir(out_dir, env.name, agent.name, seed)),
                     }
                 )

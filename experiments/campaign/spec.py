@@ -39,7 +39,7 @@ TOP_KEYS += ("success_state_fraction", "video", "optimum")
 ENV_KEYS = ("name", "id", "kwargs", "scenarios", "faults")
 AGENT_KEYS = ("name", "policy", "params", "model", "learn", "envs", "optional", "train", "note", "env_id", "env_kwargs")
 TRAIN_KEYS = ("algo", "backend", "timesteps", "seeds", "select", "env_kwargs", "overrides", "hyperparams_file")
-TRAIN_KEYS += ("checkpoint_freq", "eval_freq")
+TRAIN_KEYS += ("checkpoint_freq", "eval_freq", "eval_episodes")
 
 #: the campaign key that sets each success metric's threshold (:mod:`attitude_envs.evaluation.success`)
 SUCCESS_KEYS = {"final_error_deg": "success_error_deg", "final_state_fraction": "success_state_fraction"}
@@ -234,6 +234,8 @@ def _train(where: str, train: Any, envs: list[EnvSpec], env_id: str | None = Non
     for key in ("checkpoint_freq", "eval_freq"):
         if key in train:
             _number(f"{where}.{key}", train[key], 1, integer=True, absent=" (env steps; absent: 10000)")
+    if "eval_episodes" in train:  # validation episodes (seeds 10000+) that choose the best snapshot
+        _number(f"{where}.eval_episodes", train["eval_episodes"], 1, integer=True, absent=" (absent: 5)")
     select = train.get("select", "best")
     _require(select in SELECT, f"{where}.select must be one of {list(SELECT)}, got {select!r}")
     _mapping(f"{where}.env_kwargs", train.get("env_kwargs"))
