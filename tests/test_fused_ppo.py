@@ -148,6 +148,8 @@ def test_a_zoo_entry_means_what_it_means_to_sb3():
     assert config.total_timesteps == 120_000 and config.num_updates == 375
     assert hp.learning_rate == pytest.approx(3e-4) and hp.gamma == 0.96 and hp.gae_lambda == 0.95
     assert (hp.clip_range, hp.ent_coef, hp.vf_coef, hp.max_grad_norm, hp.log_std_init) == (0.2, 0.0, 0.5, 0.5, -1.0)
+    wheel, hp = from_zoo(load_hyperparams("ppo", "attitude_envs/ReactionWheel-v1"))  # gSDE, redrawn every 4 steps
+    assert wheel.use_sde and wheel.sde_sample_freq == 4 and hp.log_std_init == -2.0 and not config.use_sde
     defaults, _ = from_zoo({"policy_kwargs": "dict(net_arch=[32], activation_fn=nn.ReLU)", "normalize": False})
     assert defaults.pi_arch == defaults.vf_arch == (32,) and defaults.activation == "relu"
     assert not defaults.norm_obs and (defaults.n_steps, defaults.batch_size) == (2048, 64)
@@ -156,7 +158,8 @@ def test_a_zoo_entry_means_what_it_means_to_sb3():
 @pytest.mark.parametrize(
     ("entry", "message"),
     [
-        ({"use_sde": True}, "use_sde is not supported"),
+        ({"use_sde": "yes"}, "use_sde must be true or false"),
+        ({"use_sde": True, "sde_sample_freq": -2}, "sde_sample_freq must be an integer >= -1"),
         ({"train_freq": 4}, r"hyperparameters \['train_freq'\] not supported"),
         ({"gamma": 1.5}, r"gamma must be in \(0.0, 1.0\], got 1.5"),
         ({"gae_lambda": -0.1}, r"gae_lambda must be in \[0.0, 1.0\]"),
@@ -265,6 +268,91 @@ def test_vmap_over_settings_trains_each_its_own_way(tiny):
     assert not np.allclose(log_std[0], log_std[1]) and not np.allclose(log_std[0], log_std[2])
     means = per_update_episode_means(metrics)
     assert np.isfinite(np.asarray(means["episode_cost"])).all()  # an episode ends in every update
+
+
+# ---- gSDE (use_sde) ---------------------------------------------------------------------------
+def test_gsde_log_prob_and_entropy_are_sb3s():
+    """The trainer's gSDE density is SB3's ``StateDependentNoiseDistribution`` (full std, exp,
+    features detached) at the same latent, log-std matrix and actions."""
+    th = pytest.importorskip("torch")
+    from stable_baselines3.common.distributions import StateDependentNoiseDistribution
+
+    from agents.fused_ppo.networks import normal_log_prob, sde_std
+
+    rng = np.random.default_rng(3)
+    latent = rng.normal(size=(16, 5)).astype(np.float32)
+    log_std = rng.normal(-1.0, 0.5, size=(5, 3)).astype(np.float32)
+    mean = rng.normal(size=(16, 3)).astype(np.float32)
+    action = (mean + rng.normal(size=(16, 3))).astype(np.float32)
+    dist = StateDependentNoiseDistribution(3)
+    dist.latent_sde_dim = 5
+    dist.proba_distribution(th.as_tensor(mean), th.as_tensor(log_std), th.as_tensor(latent))
+    std = sde_std(jnp.asarray(latent), jnp.asarray(log_std))
+    np.testing.assert_allclose(np.asarray(std), dist.distribution.stddev.numpy(), rtol=1e-6)
+    expected = dist.log_prob(th.as_tensor(action)).numpy()
+    np.testing.assert_allclose(
+        np.asarray(normal_log_prob(jnp.asarray(action), jnp.asarray(mean), std)), expected, rtol=1e-5
+    )
+
+
+def _sde_program(freq: int):
+    from agents.fused_ppo.trainer import _Program
+
+    env = TwoIntegrators()
+    entry = {**TINY_ENTRY, "use_sde": True, "sde_sample_freq": freq, "n_steps": 8}
+    config, hp = from_zoo(entry, total_timesteps=64)
+    return _Program(env, env.default_params, config), hp
+
+
+@pytest.mark.parametrize(("freq", "fresh_at"), [(4, [0, 4]), (-1, [0])])
+def test_gsde_noise_weights_are_redrawn_as_sb3_redraws_them(freq, fresh_at):
+    """Within a rollout the weights change at step 0 and every ``sde_sample_freq`` steps (SB3's
+    ``collect_rollouts``), only at step 0 with -1; each env has its own; the action's noise is
+    ``latent @ W`` (a linear actor: the normalized observation)."""
+    prog, hp = _sde_program(freq)
+    state = prog.init(jax.random.PRNGKey(0), hp)
+    assert state.params["log_std"].shape == (2, 2) and state.sde_weights.shape == (8, 2, 2)
+    ep0 = dict.fromkeys(("episodes", "episode_return", "episode_cost", "episode_length"), jnp.float32(0))
+    weights, carry = [], (state, ep0)
+    for step in range(8):
+        before = carry[0]
+        carry, tr = prog._env_step(hp, carry, jnp.int32(step))
+        weights.append(np.asarray(carry[0].sde_weights))
+        mean = prog.actor.apply(before.params["actor"], before.obs)
+        noise = np.einsum("ei,eia->ea", np.asarray(before.obs), weights[-1])
+        np.testing.assert_allclose(np.asarray(tr.action), np.asarray(mean) + noise, rtol=1e-5, atol=1e-6)
+    changed = [s for s in range(8) if s == 0 or not np.array_equal(weights[s], weights[s - 1])]
+    assert changed == fresh_at
+    assert not np.allclose(weights[0][0], weights[0][1])  # per-env matrices
+
+
+def test_gsde_trains_and_its_policy_plays_in_numpy(tmp_path):
+    """A gSDE run of the tiny task learns (its episode return rises), and the numpy predictor
+    plays its mean; its stochastic draws have gSDE's spread ``sqrt(z² @ exp(log_std)²)``."""
+    from agents.fused_ppo.networks import sde_std
+
+    env = TwoIntegrators()
+    config, hp = from_zoo({**TINY_ENTRY, "use_sde": True, "sde_sample_freq": 4}, total_timesteps=4800)
+    chunked = make_chunked(env, env.default_params, config)
+    chunk = jax.jit(chunked.update_chunk, compiler_options=FAST)
+    state = chunked.init(jax.random.PRNGKey(0), hp)
+    returns = []
+    for _ in range(6):
+        state, metrics = chunk(state, hp, 5)
+        returns.append(float(metrics["episode_return"]))
+    assert np.isfinite(returns).all() and returns[-1] > returns[0] + 0.5 * abs(returns[0]), returns
+    policy = NumpyPPOPolicy(policy_arrays(state, config, env, env.default_params), seed=0)
+    obs = np.full((20000, 2), 0.3, np.float32)
+    o = policy.normalize(obs[:1])
+    std = np.asarray(sde_std(jnp.asarray(o), state.params["log_std"]))[0]
+    mean = policy.mean(obs[:1])[0]
+    np.testing.assert_array_equal(policy.predict(obs[:1])[0][0], np.clip(mean, -1.0, 1.0))
+    policy.arrays.action_low[:], policy.arrays.action_high[:] = -1e9, 1e9  # no clipping: the raw draws
+    draws = policy.predict(obs, deterministic=False)[0]
+    np.testing.assert_allclose(draws.mean(axis=0), mean, atol=4 * std.max() / np.sqrt(len(obs)))
+    np.testing.assert_allclose(draws.std(axis=0), std, rtol=0.03)
+    loaded = NumpyPPOPolicy.load(policy.save(tmp_path / "model.zip"))
+    assert loaded.arrays.log_std.shape == (2, 2)
 
 
 # ---- export -----------------------------------------------------------------------------------

@@ -11,9 +11,10 @@ A Zoo entry (``experiments/sb3/hyperparams/ppo.yml``) splits in two here:
   settings in one compiled program (:func:`stack_hparams`).
 
 The keys mean what they mean to Stable-Baselines3's ``PPO`` (2.x) with the Zoo's
-``normalize`` (``VecNormalize``) and ``policy_kwargs`` (``MlpPolicy``); a key the trainer does
-not implement (``use_sde``, ``frame_stack`` > 1, an optimizer class …) or a value out of range
-raises a ``ValueError`` naming it.
+``normalize`` (``VecNormalize``) and ``policy_kwargs`` (``MlpPolicy``; ``use_sde`` is SB3's
+gSDE with its defaults: full std, ``exp``, features not learned); a key the trainer does not
+implement (``frame_stack`` > 1, ``squash_output``, an optimizer class …) or a value out of
+range raises a ``ValueError`` naming it.
 """
 
 from __future__ import annotations
@@ -95,7 +96,9 @@ class PPOConfig:
     ``batch_size`` transitions (a last, smaller one when it does not divide the rollout, as
     SB3 does), ``n_epochs`` passes; ``pi_arch`` / ``vf_arch`` the hidden widths of the actor and
     the critic (``()``: linear); ``total_timesteps`` the budget of the one-call ``train``
-    (rounded up to whole rollouts)."""
+    (rounded up to whole rollouts). ``use_sde``: gSDE exploration (Raffin, Kober & Stulp 2022),
+    its noise weights drawn at each rollout's start and, when ``sde_sample_freq`` > 0, every
+    ``sde_sample_freq`` steps of it (SB3's ``collect_rollouts``)."""
 
     n_envs: int = 1
     n_steps: int = 2048
@@ -115,6 +118,8 @@ class PPOConfig:
     clip_obs: float = 10.0
     clip_reward: float = 10.0
     norm_epsilon: float = 1e-8
+    use_sde: bool = False
+    sde_sample_freq: int = -1
     total_timesteps: int = 1_000_000
 
     @property
@@ -148,6 +153,9 @@ class PPOConfig:
             raise ValueError(f"clip_vf_schedule must be None, 'constant' or 'linear', got {self.clip_vf_schedule!r}")
         for name in ("clip_obs", "clip_reward", "norm_epsilon"):
             _positive(name, getattr(self, name))
+        if not isinstance(self.use_sde, bool):
+            raise ValueError(f"use_sde must be true or false, got {self.use_sde!r}")
+        _integer("sde_sample_freq", self.sde_sample_freq, -1)
 
 
 def _integer(name: str, value: Any, low: int) -> int:
@@ -271,11 +279,9 @@ def from_zoo(entry: dict[str, Any], total_timesteps: int | None = None) -> tuple
     frame_stack = e.get("frame_stack")
     if frame_stack not in (None, False, 1):
         raise ValueError(f"fused PPO: frame_stack {frame_stack!r} is not supported (1 only)")
-    if e.get("use_sde"):
-        raise ValueError(
-            "fused PPO: use_sde is not supported (state-independent Gaussian exploration only): "
-            "train this entry with use_sde off (--params use_sde:False) or on backend sb3/sbx"
-        )
+    use_sde = e.get("use_sde", False)
+    if not isinstance(use_sde, bool):
+        raise ValueError(f"use_sde must be true or false, got {use_sde!r}")
     n_timesteps = total_timesteps if total_timesteps is not None else e.get("n_timesteps", 1_000_000)
     total = _integer("n_timesteps", int(_float("n_timesteps", n_timesteps)), 1)
 
@@ -327,6 +333,8 @@ def from_zoo(entry: dict[str, Any], total_timesteps: int | None = None) -> tuple
         clip_obs=_positive("normalize.clip_obs", normalize.get("clip_obs", 10.0)),
         clip_reward=_positive("normalize.clip_reward", normalize.get("clip_reward", 10.0)),
         norm_epsilon=_positive("normalize.epsilon", normalize.get("epsilon", 1e-8)),
+        use_sde=use_sde,
+        sde_sample_freq=_integer("sde_sample_freq", e.get("sde_sample_freq", -1), -1),
         total_timesteps=total,
     )
     hparams = Hparams(

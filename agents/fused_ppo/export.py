@@ -50,7 +50,8 @@ class PolicyArrays:
     """A deterministic actor: ``mean = L_k(act(… act(L_1(o))))`` with ``L_i(x) = x @ kernels[i] +
     biases[i]`` on the normalized observation ``o = clip((obs - obs_mean) / sqrt(obs_var +
     epsilon), ±clip_obs)`` (no normalization when ``obs_mean`` is None); ``log_std`` the
-    Gaussian's log standard deviation; actions clipped to ``[action_low, action_high]``."""
+    Gaussian's log standard deviation (actions,), or gSDE's (latent, actions) matrix, the
+    latent the input of the last layer; actions clipped to ``[action_low, action_high]``."""
 
     kernels: list[np.ndarray]
     biases: list[np.ndarray]
@@ -78,6 +79,9 @@ class PolicyArrays:
             raise ValueError(
                 f"the actor gives {self.kernels[-1].shape[1]} actions, the action box has {self.action_low.shape[0]}"
             )
+        shapes = ((self.n_actions,), (self.kernels[-1].shape[0], self.n_actions))
+        if tuple(self.log_std.shape) not in shapes:
+            raise ValueError(f"log_std must have shape {shapes[0]} or, for gSDE, {shapes[1]}; got {self.log_std.shape}")
 
     @property
     def obs_dim(self) -> int:
@@ -197,13 +201,17 @@ class NumpyPPOPolicy:
 
     def mean(self, obs: np.ndarray) -> np.ndarray:
         """The Gaussian's mean (unclipped) for observations ``obs`` (..., obs_dim)."""
+        return self._forward(obs)[0]
+
+    def _forward(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(mean, latent)``: the mean and the input of the last layer."""
         x = self.normalize(obs)
         last = len(self.arrays.kernels) - 1
         for i, (k, b) in enumerate(zip(self.arrays.kernels, self.arrays.biases, strict=True)):
-            x = (x @ k + b).astype(np.float32)
-            if i < last:
-                x = self._act(x).astype(np.float32)
-        return x
+            if i == last:
+                return (x @ k + b).astype(np.float32), x
+            x = self._act((x @ k + b).astype(np.float32)).astype(np.float32)
+        raise AssertionError("unreachable: PolicyArrays has at least one layer")
 
     def predict(self, obs, state=None, episode_start=None, deterministic: bool = True):
         """``(action, None)``: the clipped mean (``deterministic``) or a clipped Gaussian draw, for
@@ -213,8 +221,12 @@ class NumpyPPOPolicy:
             raise ValueError(
                 f"obs must have shape ({self.arrays.obs_dim},) or (n, {self.arrays.obs_dim}), got {obs.shape}"
             )
-        action = self.mean(obs)
-        if not deterministic:
+        action, latent = self._forward(obs)
+        std = np.exp(self.arrays.log_std)
+        if not deterministic and std.ndim == 1:
             noise = self._rng.standard_normal(action.shape).astype(np.float32)
-            action = action + np.exp(self.arrays.log_std) * noise
+            action = action + std * noise
+        elif not deterministic:  # gSDE: fresh noise weights at every call (sde_sample_freq 1)
+            weights = std * self._rng.standard_normal((*latent.shape[:-1], *std.shape)).astype(np.float32)
+            action = action + np.einsum("...i,...ia->...a", latent, weights).astype(np.float32)
         return np.clip(action, self.arrays.action_low, self.arrays.action_high).astype(np.float32), None

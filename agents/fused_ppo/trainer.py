@@ -9,7 +9,10 @@ and many settings (over :class:`~agents.fused_ppo.config.Hparams`) in one compil
 What an update does is Stable-Baselines3's PPO (2.x) under ``VecNormalize``, step for step:
 
 * rollout: the policy sees the normalized observation; the action ``a ~ N(μ(o), σ)`` is
-  stored unclipped and applied clipped to the action box; the observation statistics are
+  stored unclipped and applied clipped to the action box (with ``use_sde``, gSDE:
+  ``a = μ(o) + z(o) W`` with ``z`` the actor's last hidden layer (the observation for a linear
+  actor) and ``W ~ N(0, exp(log_std)²)`` per env, drawn at the rollout's start and every
+  ``sde_sample_freq`` steps; its log-density is the Gaussian's with ``σ² = z² exp(log_std)²``); the observation statistics are
   updated with each new observation before it is normalized, rewards are scaled by the
   running std of the discounted return; at a time-limit truncation the reward gets
   ``γ V(normalized final observation)`` (SB3's bootstrap of ``TimeLimit.truncated``);
@@ -33,6 +36,7 @@ functions are pure and not jitted: ``jax.jit(jax.vmap(train, in_axes=(0, None)))
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
@@ -44,7 +48,7 @@ from flax import struct
 
 from agents.fused_ppo.config import Hparams, PPOConfig
 from agents.fused_ppo.export import PolicyArrays
-from agents.fused_ppo.networks import gaussian_entropy, gaussian_log_prob, make_networks
+from agents.fused_ppo.networks import gaussian_entropy, gaussian_log_prob, make_networks, normal_log_prob, sde_std
 from agents.fused_ppo.normalization import RunningMeanStd, normalize_obs, normalize_reward, update_return
 
 #: Adam's ε in Stable-Baselines3's policies (``optimizer_kwargs=dict(eps=1e-5)``)
@@ -58,7 +62,8 @@ class RunnerState:
     ``obs`` is the normalized last observation (what the policy sees), ``returns`` the
     discounted return of reward normalization, ``episode_*`` the raw return, the cost J and
     the length (decisions) of each env's running episode, ``key`` a raw uint32 PRNG key,
-    ``timesteps`` env steps so far (all envs), ``updates`` PPO updates so far."""
+    ``timesteps`` env steps so far (all envs), ``updates`` PPO updates so far; ``sde_weights``
+    the gSDE noise weights of each env (n_envs, latent, actions), None without gSDE."""
 
     params: Any
     opt_state: Any
@@ -73,6 +78,7 @@ class RunnerState:
     key: jax.Array
     timesteps: jax.Array
     updates: jax.Array
+    sde_weights: Any = None
 
 
 class Transition(NamedTuple):
@@ -132,6 +138,7 @@ class _Program:
                 f"fused PPO needs flat observation and action boxes, got {obs_space.shape} and {act_space.shape}"
             )
         self.obs_dim, self.act_dim = int(obs_space.shape[0]), int(act_space.shape[0])
+        self.latent_dim = config.pi_arch[-1] if config.pi_arch else self.obs_dim  # gSDE's features
         self.low = np.asarray(act_space.low, np.float32)
         self.high = np.asarray(act_space.high, np.float32)
         self.actor, self.critic = make_networks(
@@ -146,6 +153,15 @@ class _Program:
     def _value(self, params, obs: jax.Array) -> jax.Array:
         return self.critic.apply(params["critic"], obs)[..., 0]
 
+    def _sde_policy(self, params, obs: jax.Array) -> tuple[jax.Array, jax.Array]:
+        """gSDE: ``(mean, latent)`` at ``obs``, the latent the actor's last hidden layer."""
+        return self.actor.apply(params["actor"], obs, with_latent=True)
+
+    def _sde_weights(self, key: jax.Array, log_std: jax.Array) -> jax.Array:
+        """Fresh gSDE noise weights ``W ~ N(0, exp(log_std)²)``, one matrix per env."""
+        shape = (self.config.n_envs, self.latent_dim, self.act_dim)
+        return jnp.exp(log_std) * jax.random.normal(key, shape)
+
     def _norm_obs(self, rms: RunningMeanStd, obs: jax.Array) -> jax.Array:
         if not self.config.norm_obs:
             return obs.astype(jnp.float32)
@@ -158,7 +174,11 @@ class _Program:
         params = {
             "actor": self.actor.init(k_actor, dummy),
             "critic": self.critic.init(k_critic, dummy),
-            "log_std": jnp.full((self.act_dim,), hp.log_std_init, jnp.float32),
+            "log_std": jnp.full(
+                (self.latent_dim, self.act_dim) if self.config.use_sde else (self.act_dim,),
+                hp.log_std_init,
+                jnp.float32,
+            ),
         }
         n = self.config.n_envs
         obs, env_state = jax.vmap(self.env.reset, in_axes=(0, None))(jax.random.split(k_reset, n), self.env_params)
@@ -181,17 +201,28 @@ class _Program:
             key=key,
             timesteps=jnp.asarray(0, jnp.int32),
             updates=jnp.asarray(0, jnp.int32),
+            sde_weights=jnp.zeros((n, self.latent_dim, self.act_dim), jnp.float32) if self.config.use_sde else None,
         )
 
-    def _env_step(self, hp: Hparams, carry, _):
+    def _env_step(self, hp: Hparams, carry, step):
         rs, ep = carry
         obs_before = rs.obs
         key, k_act, k_env = jax.random.split(rs.key, 3)
         params = rs.params
-        mean = self.actor.apply(params["actor"], rs.obs)
-        log_std = params["log_std"]
-        action = mean + jnp.exp(log_std) * jax.random.normal(k_act, mean.shape)
-        log_prob = gaussian_log_prob(action, mean, log_std)
+        if self.config.use_sde:
+            # SB3 draws at the rollout's start and, with sde_sample_freq > 0, when step % freq == 0
+            freq = self.config.sde_sample_freq
+            fresh = step == 0 if freq <= 0 else step % freq == 0
+            weights = jnp.where(fresh, self._sde_weights(k_act, params["log_std"]), rs.sde_weights)
+            mean, latent = self._sde_policy(params, rs.obs)
+            action = mean + jnp.einsum("ei,eia->ea", latent, weights)
+            log_prob = normal_log_prob(action, mean, sde_std(latent, params["log_std"]))
+            rs = rs.replace(sde_weights=weights)
+        else:
+            mean = self.actor.apply(params["actor"], rs.obs)
+            log_std = params["log_std"]
+            action = mean + jnp.exp(log_std) * jax.random.normal(k_act, mean.shape)
+            log_prob = gaussian_log_prob(action, mean, log_std)
         value = self._value(params, rs.obs)
         applied = jnp.clip(action, self.low, self.high)
         keys = jax.random.split(k_env, self.config.n_envs)
@@ -241,9 +272,16 @@ class _Program:
         def mean(x):
             return jnp.sum(w * x) / n
 
-        mu = self.actor.apply(params["actor"], b.obs)
-        log_std = params["log_std"]
-        log_prob = gaussian_log_prob(b.action, mu, log_std)
+        if cfg.use_sde:
+            mu, latent = self._sde_policy(params, b.obs)
+            std = sde_std(latent, params["log_std"])
+            log_prob = normal_log_prob(b.action, mu, std)
+            entropy_loss = -mean(jnp.sum(jnp.log(std) + 0.5 * math.log(2.0 * math.pi * math.e), axis=-1))
+        else:
+            mu = self.actor.apply(params["actor"], b.obs)
+            log_std = params["log_std"]
+            log_prob = gaussian_log_prob(b.action, mu, log_std)
+            entropy_loss = -gaussian_entropy(log_std)  # the same in every state: its batch mean
         value = self._value(params, b.obs)
         adv = b.advantage
         if cfg.normalize_advantage:
@@ -258,7 +296,6 @@ class _Program:
         else:
             value_pred = b.value + jnp.clip(value - b.value, -clip_vf, clip_vf)
         value_loss = mean(jnp.square(b.returns - value_pred))
-        entropy_loss = -gaussian_entropy(log_std)  # the same in every state: its batch mean
         loss = pg_loss + hp.ent_coef * entropy_loss + hp.vf_coef * value_loss
         aux = {
             "pg_loss": pg_loss,
@@ -274,7 +311,8 @@ class _Program:
         cfg, hp = self.config, _hp32(hp)
         zero = jnp.asarray(0.0, jnp.float32)
         ep0 = {"episodes": zero, "episode_return": zero, "episode_cost": zero, "episode_length": zero}
-        (rs, ep), traj = jax.lax.scan(lambda c, x: self._env_step(hp, c, x), (rs, ep0), None, length=cfg.n_steps)
+        steps = jnp.arange(cfg.n_steps, dtype=jnp.int32)  # the step within the rollout (gSDE's draws)
+        (rs, ep), traj = jax.lax.scan(lambda c, x: self._env_step(hp, c, x), (rs, ep0), steps)
         timesteps = rs.timesteps + cfg.rollout_size
         last_value = self._value(rs.params, rs.obs)
 
