@@ -74,6 +74,16 @@ def test_the_committed_results_have_the_documented_keys():
         assert r["unit"].startswith("env steps/s") and all(_finite(r[k]) for k in ("steps_per_s", "ratio_to_sbx"))
     assert {"ppo_per_seed_vs_sbx", "ppo_16_seeds_vs_sbx", "compile_s"} <= set(result["targets"])
     assert all(isinstance(t["met"], bool) for t in result["targets"].values())
+    # time to J/J* <= 1.05: twins pinned to one CPU and on every CPU (the target's "2 cores")
+    q = result["quality"]
+    assert len(q["all_cores"]) >= 2 and "sections_from_an_earlier_run" in meta
+    for key in ("time_to_target", "time_to_target_all_cores"):
+        assert [t["seed"] for t in q[key]] == q["training_seeds"]
+        for t in q[key]:
+            assert _finite(t["compile_s"]) and _finite(t["best_J_over_J_star"])
+            assert (t["first_wall_s"] is None) == (not t["reached"])
+    hit = result["targets"]["time_to_1.05_J_star_s"]
+    assert hit["measured_per_seed"] == [t["first_wall_s"] for t in q["time_to_target_all_cores"]]
 
 
 def test_finished_sections_are_kept_and_taken_by_a_rerun_of_the_same_command(tmp_path):
