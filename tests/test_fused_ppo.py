@@ -40,7 +40,7 @@ from agents.fused_ppo import (  # noqa: E402
     select,
     stack_hparams,
 )
-from agents.fused_ppo.networks import make_networks  # noqa: E402
+from agents.fused_ppo.networks import gaussian_entropy, make_networks  # noqa: E402
 from agents.fused_ppo.normalization import RunningMeanStd, normalize_obs  # noqa: E402
 from attitude_envs.jax.environment import Environment  # noqa: E402
 from attitude_envs.jax.spaces import Box  # noqa: E402
@@ -277,7 +277,7 @@ def test_gsde_log_prob_and_entropy_are_sb3s():
     th = pytest.importorskip("torch")
     from stable_baselines3.common.distributions import StateDependentNoiseDistribution
 
-    from agents.fused_ppo.networks import normal_log_prob, sde_std
+    from agents.fused_ppo.networks import gaussian_log_prob, sde_std
 
     rng = np.random.default_rng(3)
     latent = rng.normal(size=(16, 5)).astype(np.float32)
@@ -290,9 +290,10 @@ def test_gsde_log_prob_and_entropy_are_sb3s():
     std = sde_std(jnp.asarray(latent), jnp.asarray(log_std))
     np.testing.assert_allclose(np.asarray(std), dist.distribution.stddev.numpy(), rtol=1e-6)
     expected = dist.log_prob(th.as_tensor(action)).numpy()
-    np.testing.assert_allclose(
-        np.asarray(normal_log_prob(jnp.asarray(action), jnp.asarray(mean), std)), expected, rtol=1e-5
-    )
+    log_prob = gaussian_log_prob(jnp.asarray(action), jnp.asarray(mean), jnp.log(std))
+    np.testing.assert_allclose(np.asarray(log_prob), expected, rtol=1e-5)
+    entropy = gaussian_entropy(jnp.log(std))  # the entropy bonus's per-sample term
+    np.testing.assert_allclose(np.asarray(entropy), dist.entropy().numpy(), rtol=1e-5)
 
 
 def _sde_program(freq: int):

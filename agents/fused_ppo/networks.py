@@ -75,12 +75,6 @@ def sde_std(latent: jax.Array, log_std: jax.Array) -> jax.Array:
     return jnp.sqrt(jnp.square(latent) @ jnp.square(jnp.exp(log_std)) + 1e-6)
 
 
-def normal_log_prob(action: jax.Array, mean: jax.Array, std: jax.Array) -> jax.Array:
-    """Log-density of independent Gaussians of standard deviations ``std``, summed over the last axis."""
-    z = (action - mean) / std
-    return jnp.sum(-0.5 * jnp.square(z) - jnp.log(std) - 0.5 * math.log(2.0 * math.pi), axis=-1)
-
-
 def gaussian_entropy(log_std: jax.Array) -> jax.Array:
     """Entropy of the diagonal Gaussian (nats), summed over the action dimensions."""
     return jnp.sum(log_std + 0.5 * math.log(2.0 * math.pi * math.e), axis=-1)

@@ -36,7 +36,6 @@ functions are pure and not jitted: ``jax.jit(jax.vmap(train, in_axes=(0, None)))
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
@@ -48,7 +47,7 @@ from flax import struct
 
 from agents.fused_ppo.config import Hparams, PPOConfig
 from agents.fused_ppo.export import PolicyArrays
-from agents.fused_ppo.networks import gaussian_entropy, gaussian_log_prob, make_networks, normal_log_prob, sde_std
+from agents.fused_ppo.networks import gaussian_entropy, gaussian_log_prob, make_networks, sde_std
 from agents.fused_ppo.normalization import RunningMeanStd, normalize_obs, normalize_reward, update_return
 
 #: Adam's ε in Stable-Baselines3's policies (``optimizer_kwargs=dict(eps=1e-5)``)
@@ -216,7 +215,7 @@ class _Program:
             weights = jnp.where(fresh, self._sde_weights(k_act, params["log_std"]), rs.sde_weights)
             mean, latent = self._sde_policy(params, rs.obs)
             action = mean + jnp.einsum("ei,eia->ea", latent, weights)
-            log_prob = normal_log_prob(action, mean, sde_std(latent, params["log_std"]))
+            log_prob = gaussian_log_prob(action, mean, jnp.log(sde_std(latent, params["log_std"])))
             rs = rs.replace(sde_weights=weights)
         else:
             mean = self.actor.apply(params["actor"], rs.obs)
@@ -274,9 +273,9 @@ class _Program:
 
         if cfg.use_sde:
             mu, latent = self._sde_policy(params, b.obs)
-            std = sde_std(latent, params["log_std"])
-            log_prob = normal_log_prob(b.action, mu, std)
-            entropy_loss = -mean(jnp.sum(jnp.log(std) + 0.5 * math.log(2.0 * math.pi * math.e), axis=-1))
+            log_std = jnp.log(sde_std(latent, params["log_std"]))  # per sample
+            log_prob = gaussian_log_prob(b.action, mu, log_std)
+            entropy_loss = -mean(gaussian_entropy(log_std))
         else:
             mu = self.actor.apply(params["actor"], b.obs)
             log_std = params["log_std"]
