@@ -797,12 +797,12 @@ def targets(result: dict[str, Any]) -> dict[str, Any]:
         # the condition is "on 2 cores": the all-cores twins where they ran
         all_cores = "time_to_target_all_cores" in q
         twins = q["time_to_target_all_cores"] if all_cores else q["time_to_target"]
-        hits = [t["first_wall_s"] if t["reached"] else None for t in twins]
+        hits = [t["first_wall_s"] for t in twins]  # None where not reached (or reached at 0 steps)
         worst = None if any(not t["reached"] for t in twins) else max(h or 0.0 for h in hits)
         out["time_to_1.05_J_star_s"] = {
             "target": TARGETS["time_to_1.05_J_star_s"],
             "measured_per_seed": hits,
-            "measured_per_seed_one_cpu": [t["first_wall_s"] if t["reached"] else None for t in q["time_to_target"]],
+            "measured_per_seed_one_cpu": [t["first_wall_s"] for t in q["time_to_target"]],
             "met": worst is not None and worst <= 20.0,
             "what": "twin fused runs: wall s (compile included) to the first evaluation with J/J* <= 1.05 on the "
             "cell's episodes; every seed must meet it; "

@@ -86,11 +86,15 @@ class Program:
         self._init = self._chunk = None
         self.compile_s = 0.0
 
-    def _compile(self, fn, *args):
+    def _build(self, fn, *args):
+        """``fn`` compiled ahead of time for ``args`` (arrays or their shapes)."""
         import jax
 
+        return jax.jit(fn, compiler_options=self.compiler_options).lower(*args).compile()
+
+    def _compile(self, fn, *args):
         start = time.perf_counter()
-        compiled = jax.jit(fn, compiler_options=self.compiler_options).lower(*args).compile()
+        compiled = self._build(fn, *args)
         self.compile_s += time.perf_counter() - start
         return compiled
 
@@ -110,7 +114,8 @@ class Program:
 
         def compile_init() -> None:
             try:
-                self._init = jax.jit(self.init_fn, compiler_options=self.compiler_options).lower(key, hparams).compile()
+                if self._init is None:
+                    self._init = self._build(self.init_fn, key, hparams)
             except BaseException as exc:  # re-raised on the caller's thread
                 errors.append(exc)
 
@@ -119,10 +124,7 @@ class Program:
         try:
             if self._chunk is None:
                 state = jax.eval_shape(self.init_fn, key, hparams)
-                n = jax.ShapeDtypeStruct((), jnp.int32)
-                self._chunk = (
-                    jax.jit(self.chunk_fn, compiler_options=self.compiler_options).lower(state, hparams, n).compile()
-                )
+                self._chunk = self._build(self.chunk_fn, state, hparams, jax.ShapeDtypeStruct((), jnp.int32))
         finally:
             worker.join()
         self.compile_s += time.perf_counter() - start
