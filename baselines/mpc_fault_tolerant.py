@@ -114,7 +114,7 @@ def degraded_terminal_weight(
 class FaultTolerantMPCPolicy(MPCPolicy):
     """Nonlinear MPC + IMM FDI + reconfiguration of its actuator model (module docstring).
 
-    Parameters: ``horizon_steps``, ``max_iter``, ``tol``, ``solver_options`` (as
+    Parameters: ``horizon_steps``, ``max_iter``, ``tol``, ``solver_options``, ``model_substeps`` (as
     :class:`~baselines.mpc.MPCPolicy`), ``degraded_effectiveness`` (the FDI's fault levels,
     default ``(0.0, 0.5)``: outage and half effectiveness), ``fdi`` (further
     :class:`~attitude_envs.estimation.fdi.ActuatorFDI` keywords), ``uncontrollable_weight``
@@ -144,6 +144,7 @@ class FaultTolerantMPCPolicy(MPCPolicy):
         coarse_dt_s: float = 1.0,
         coarse_substeps: int = 2,
         name: str | None = None,
+        model_substeps: int | None = None,
     ) -> None:
         if int(coarse_steps) < 0:
             raise ValueError(f"coarse_steps must be an integer >= 0, got {coarse_steps!r}")
@@ -161,7 +162,9 @@ class FaultTolerantMPCPolicy(MPCPolicy):
             raise ValueError(
                 f"uncontrollable_weight must be one of {list(UNCONTROLLABLE_WEIGHTS)}, got {uncontrollable_weight!r}"
             )
-        super().__init__(env, horizon_steps, max_iter, tol, solver_options, name=name or "mpc-ft")
+        super().__init__(
+            env, horizon_steps, max_iter, tol, solver_options, name=name or "mpc-ft", model_substeps=model_substeps
+        )
         self.uncontrollable_weight = uncontrollable_weight
         #: the FDI and the fault-tolerant LQR (fallback action of a failed solve)
         self.monitor = FaultTolerantLQRPolicy(env, "zoh", degraded_effectiveness, fdi)

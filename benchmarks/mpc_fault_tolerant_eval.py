@@ -26,6 +26,7 @@ import numpy as np
 import attitude_envs  # noqa: F401  (registers the envs)
 from attitude_envs.info import policy_view
 from experiments.optimum_table import table_value
+from experiments.seeds import seeds_arg
 
 RW_KW = {"preset": "pyramid-4wheel", "action_frame": "body"}
 AB_KW = {"preset": "air-bearing-85kg"}
@@ -110,17 +111,10 @@ def run_cell(
     }
 
 
-def _seeds(text: str) -> list[int]:
-    if "-" in text:
-        lo, hi = text.split("-")
-        return list(range(int(lo), int(hi) + 1))
-    return [int(s) for s in text.split(",")]
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cell", choices=sorted(CELLS), required=True)
-    parser.add_argument("--seeds", default="0-4")
+    parser.add_argument("--seeds", type=seeds_arg, default="0-4")
     parser.add_argument("--policy", default="mpc-ft", choices=["mpc", "mpc-ft"])
     parser.add_argument("--control-dt", type=float, default=None)
     parser.add_argument("--horizon", type=int, default=20)
@@ -134,7 +128,7 @@ def main() -> None:
         kw["coarse_steps"] = args.coarse_steps
     if args.coarse_dt is not None:
         kw["coarse_dt_s"] = args.coarse_dt
-    res = run_cell(args.cell, _seeds(args.seeds), args.policy, args.control_dt, args.horizon, **kw)
+    res = run_cell(args.cell, args.seeds, args.policy, args.control_dt, args.horizon, **kw)
     summary = {k: v for k, v in res.items() if k != "rows"}
     print(json.dumps(summary, default=float))
     if args.out:

@@ -23,6 +23,7 @@ import attitude_envs  # noqa: F401  (registers the envs)
 from attitude_envs.evaluation.rollout import rollout
 from baselines.mpc_magnetorquer import MagnetorquerMPCPolicy
 from experiments.optimum_table import table_value
+from experiments.seeds import seeds_arg
 
 ENV_ID = "attitude_envs/Magnetorquer-v0"
 CELL_KWARGS: dict[str, Any] = {
@@ -95,16 +96,9 @@ def evaluate(fault: str, seeds: list[int], dt_s: float, policy_kwargs: dict[str,
     }
 
 
-def _seeds(text: str) -> list[int]:
-    if "-" in text:
-        lo, hi = text.split("-")
-        return list(range(int(lo), int(hi) + 1))
-    return [int(s) for s in text.split(",")]
-
-
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", default="0-4", help="e.g. 0-4 or 0,3,7")
+    parser.add_argument("--seeds", type=seeds_arg, default="0-4", help="e.g. 0-4 or 0,3,7")
     parser.add_argument("--faults", default="none,sadigh-eq40")
     parser.add_argument("--dt", type=float, default=3.0, help="the MPC's control period (s)")
     parser.add_argument("--horizon", type=float, default=45.0, help="horizon (s)")
@@ -127,7 +121,7 @@ def main(argv: list[str] | None = None) -> None:
     }
     summaries = []
     for fault in args.faults.split(","):
-        summary = evaluate(fault, _seeds(args.seeds), args.dt, policy_kwargs)
+        summary = evaluate(fault, args.seeds, args.dt, policy_kwargs)
         summaries.append(summary)
         print("SUMMARY", json.dumps(summary), flush=True)
     if args.out:

@@ -4,7 +4,7 @@ control period).
 
     python -m benchmarks.mpc_plants_eval slosh --dt 0.1 --horizon 5 --seeds 0-4 --fault none
     python -m benchmarks.mpc_plants_eval slosh --fault actuator-faults-50s
-    python -m benchmarks.mpc_plants_eval linear --seeds 0
+    python -m benchmarks.mpc_plants_eval linear --seeds 0-0
 
 Prints one line per episode (J in the env's cost units, J*, ratio, wall s) and a summary
 (Σ J / Σ J*, median and max solve time in ms, failed solves).
@@ -21,6 +21,7 @@ import numpy as np
 
 import attitude_envs  # noqa: F401  (registers the envs)
 from experiments.optimum_table import table_value
+from experiments.seeds import seeds_arg
 
 SLOSH_ID = "attitude_envs/FuelSlosh-v0"
 SLOSH_CELL = {"preset": "navabi-fill-i", "episode_duration_s": 100.0, "randomize_initial_state": True}
@@ -33,14 +34,6 @@ SLOSH_FAULTS = {
 }
 LINEAR_ID = "attitude_envs/LinearSystem-v0"
 LINEAR_CELL = {"preset": "heravi-2017", "episode_steps": 40000}
-
-
-def _seeds(text: str) -> list[int]:
-    """``"0-4"`` or ``"0,3,7"`` → seed list."""
-    if "-" in text:
-        lo, hi = text.split("-")
-        return list(range(int(lo), int(hi) + 1))
-    return [int(s) for s in text.split(",")]
 
 
 def run_episode(env, policy, seed: int) -> float:
@@ -58,7 +51,7 @@ def run_episode(env, policy, seed: int) -> float:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("plant", choices=("slosh", "linear"))
-    parser.add_argument("--seeds", default="0-4")
+    parser.add_argument("--seeds", type=seeds_arg, default="0-4")
     parser.add_argument("--dt", type=float, default=None, help="the MPC's control period, s (slosh)")
     parser.add_argument("--horizon", type=int, default=None)
     parser.add_argument("--fault", default="none", choices=sorted(SLOSH_FAULTS))
@@ -80,7 +73,7 @@ def main(argv: list[str] | None = None) -> None:
         env = gym.make(env_id, **cell)
         policy = LinearMPCPolicy(env, **({} if args.horizon is None else {"horizon_steps": args.horizon}))
     sum_j = sum_j_star = 0.0
-    for seed in _seeds(args.seeds):
+    for seed in args.seeds:
         t0 = time.perf_counter()
         j = run_episode(env, policy, seed)
         j_star = table_value(env_id, cell, seed, None)

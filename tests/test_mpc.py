@@ -114,3 +114,32 @@ def test_bad_parameters_raise():
         MPCPolicy(gym.make(RW), horizon_steps=0)
     with pytest.raises(ValueError, match="ReactionWheel-v0 or AirBearing-v0"):
         MPCPolicy(gym.make("attitude_envs/LinearSystem-v0"))
+
+
+def test_a_coarser_prediction_model_keeps_the_period_and_converges_at_rk4s_order():
+    # model_substeps trades the prediction model's accuracy for a smaller NLP (AirBearing-v0
+    # decides every 0.5 s over 50 sub-steps of 0.01 s); the period is kept, and one step's error
+    # against the env's own 50 sub-steps falls as h⁴ (RK4) from 5 to 10 sub-steps
+    env = gym.make(AB, control_dt_s=0.5, episode_duration_s=2.0)
+    env.reset(seed=1)
+    base = env.unwrapped
+    exact = MPCPolicy(env, horizon_steps=1)
+    assert exact.model_parameters.n_substeps == 50
+    y = np.array(base.state_row)
+    y[4:7] = [0.05, -0.04, 0.03]  # rad/s: a spinning, tilted platform
+    target = np.array(base.target_attitude)
+    a = np.array([0.3, -0.2, 0.1])
+    y_ref, c_ref = (np.asarray(v).ravel() for v in exact.model_step(y, a, 0.0, target))
+    errors = []
+    for k in (5, 10):
+        coarse = MPCPolicy(env, horizon_steps=1, model_substeps=k)
+        p = coarse.model_parameters
+        assert p.n_substeps == k and p.n_substeps * p.integrator_dt_s == pytest.approx(0.5, rel=1e-15)
+        y_k, c_k = (np.asarray(v).ravel() for v in coarse.model_step(y, a, 0.0, target))
+        errors.append(np.max(np.abs(y_k - y_ref)))
+        assert abs(c_k[0] - c_ref[0]) <= 1e-6 * abs(c_ref[0])
+    assert 0.0 < errors[1] < errors[0]
+    assert 2.0**3.5 < errors[0] / errors[1] < 2.0**4.5  # order 4
+    for bad in (0, 2.5, "5"):
+        with pytest.raises(ValueError, match="model_substeps"):
+            MPCPolicy(env, model_substeps=bad)
