@@ -90,7 +90,9 @@ class SloshMPCPolicy:
 
     Parameters: ``horizon_steps`` (control steps N in the horizon, integer ≥ 1; default 5:
     0.5 s at the campaign's 0.1 s period, IPOPT's solve time grows about linearly with N),
-    ``offset_free`` (estimate the input disturbance; default True), ``disturbance_gain``
+    ``offset_free`` (estimate the input disturbance; default True; on the slosh campaign's
+    thruster faults the loop closed through the estimates scored 3.69 × J* against 1.30
+    without them, so the campaign sets it False), ``disturbance_gain``
     (filter gain of the estimate, in (0, 1]; default 1), ``estimate_effectiveness`` (also
     estimate each actuator's effectiveness θ; default True), ``window_steps`` (steps in its
     regression window, integer ≥ 2; default 10), ``ridge`` (weight of the prior θ = 1, β = 0,
