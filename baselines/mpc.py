@@ -13,7 +13,8 @@ of :meth:`GyrostatParameters.nominal <attitude_envs.symbolic.gyrostat.GyrostatPa
 (``env.unwrapped.model``: nominal inertia, wheels, torque limit and offset torque, the env's
 integrator and action frame; no faults, no disturbance) with ``smooth=True``, kept as
 :attr:`MPCPolicy.model_step`. So ``f`` is integrated like the env (``n_substeps`` classical
-RK4 sub-steps with the motor torque held, the quaternion renormalized after each) and ``ℓ``
+RK4 sub-steps with the motor torque held, the quaternion renormalized after each; with
+``model_substeps``, that many sub-steps over the same period instead) and ``ℓ``
 is the env's own step cost, ``∫ (xᵀQx + u_cᵀRu_c) dt`` by the same RK4 quadrature (``x`` the
 error state of :class:`~attitude_envs.plants.gyrostat_model.ReactionWheelModel`,
 :func:`attitude_envs.symbolic.gyrostat.error_state`); ``P`` is the discrete
@@ -83,7 +84,8 @@ class MPCPolicy:
     ``max_iter`` (IPOPT iterations per solve), ``tol`` (IPOPT tolerance), ``solver_options``
     (further CasADi/IPOPT options), ``model_substeps`` (RK4 sub-steps of the prediction model
     per control period, ≥ 1; None: the env's own, so the model is the env's step; fewer make a
-    smaller NLP: AirBearing-v0 decides every 0.5 s over 50 sub-steps of 0.01 s), ``name``.
+    smaller NLP: AirBearing-v0 at the air-bearing campaign's 0.5 s period integrates 50 sub-steps
+    of 0.01 s), ``name``.
     """
 
     def __init__(

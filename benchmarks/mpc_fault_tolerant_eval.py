@@ -26,7 +26,7 @@ import numpy as np
 import attitude_envs  # noqa: F401  (registers the envs)
 from attitude_envs.info import policy_view
 from experiments.optimum_table import table_value
-from experiments.seeds import seeds_arg
+from experiments.seeds import SYNTAX, seeds_arg
 
 RW_KW = {"preset": "pyramid-4wheel", "action_frame": "body"}
 AB_KW = {"preset": "air-bearing-85kg"}
@@ -114,7 +114,7 @@ def run_cell(
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cell", choices=sorted(CELLS), required=True)
-    parser.add_argument("--seeds", type=seeds_arg, default="0-4")
+    parser.add_argument("--seeds", type=seeds_arg, default="0-4", help=SYNTAX)
     parser.add_argument("--policy", default="mpc-ft", choices=["mpc", "mpc-ft"])
     parser.add_argument("--control-dt", type=float, default=None)
     parser.add_argument("--horizon", type=int, default=20)

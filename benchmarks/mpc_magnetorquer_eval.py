@@ -23,7 +23,7 @@ import attitude_envs  # noqa: F401  (registers the envs)
 from attitude_envs.evaluation.rollout import rollout
 from baselines.mpc_magnetorquer import MagnetorquerMPCPolicy
 from experiments.optimum_table import table_value
-from experiments.seeds import seeds_arg
+from experiments.seeds import SYNTAX, seeds_arg
 
 ENV_ID = "attitude_envs/Magnetorquer-v0"
 CELL_KWARGS: dict[str, Any] = {
@@ -98,7 +98,7 @@ def evaluate(fault: str, seeds: list[int], dt_s: float, policy_kwargs: dict[str,
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", type=seeds_arg, default="0-4", help="e.g. 0-4 or 0,3,7")
+    parser.add_argument("--seeds", type=seeds_arg, default="0-4", help=SYNTAX)
     parser.add_argument("--faults", default="none,sadigh-eq40")
     parser.add_argument("--dt", type=float, default=3.0, help="the MPC's control period (s)")
     parser.add_argument("--horizon", type=float, default=45.0, help="horizon (s)")

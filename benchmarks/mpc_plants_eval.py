@@ -21,7 +21,7 @@ import numpy as np
 
 import attitude_envs  # noqa: F401  (registers the envs)
 from experiments.optimum_table import table_value
-from experiments.seeds import seeds_arg
+from experiments.seeds import SYNTAX, seeds_arg
 
 SLOSH_ID = "attitude_envs/FuelSlosh-v0"
 SLOSH_CELL = {"preset": "navabi-fill-i", "episode_duration_s": 100.0, "randomize_initial_state": True}
@@ -51,7 +51,7 @@ def run_episode(env, policy, seed: int) -> float:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("plant", choices=("slosh", "linear"))
-    parser.add_argument("--seeds", type=seeds_arg, default="0-4")
+    parser.add_argument("--seeds", type=seeds_arg, default="0-4", help=SYNTAX)
     parser.add_argument("--dt", type=float, default=None, help="the MPC's control period, s (slosh)")
     parser.add_argument("--horizon", type=int, default=None)
     parser.add_argument("--fault", default="none", choices=sorted(SLOSH_FAULTS))

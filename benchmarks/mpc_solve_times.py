@@ -7,8 +7,10 @@ maximum wall time per decision (ms and % of the MPC's control period), one proce
 Each MPC agent (``policy: mpc`` or ``mpc-ft``) is built from its campaign YAML
 (``experiments/campaigns/<name>.yml``: its parameters and decision period) and plays the
 campaign's episodes of the first env's first scenario without faults, through the same job
-list the campaign runs. The times are the policies' own ``solve_times_s`` (the IPOPT call and
-its set-up, not the env step). Needs the ``optimal`` extra (CasADi). Nothing else should run on
+list the campaign runs, reading ``policy_view(info)`` as the campaign's episodes do. Two times per
+decision: the policies' own ``solve_times_s`` (the solver call alone) and the whole ``act`` (with
+the initial guess, the estimators and, for ``mpc-ft``, the fault detector and any rebuild after
+a fault). Needs the ``optimal`` extra (CasADi). Nothing else should run on
 the machine while it measures: a second process on a sibling core slows the solves.
 """
 
@@ -18,6 +20,7 @@ import argparse
 import copy
 import json
 import platform
+import sys
 import tempfile
 import time
 import warnings
@@ -28,10 +31,12 @@ import gymnasium as gym
 import numpy as np
 
 import attitude_envs  # noqa: F401  (registers the envs)
+from attitude_envs.info import policy_view
 from experiments.campaign.jobs import episode_jobs
 from experiments.campaign.spec import load_campaign
 from experiments.policies import build_policy
-from experiments.seeds import seeds_arg
+from experiments.report import git_revision
+from experiments.seeds import SYNTAX, seeds_arg
 
 CAMPAIGNS = ("wheel", "air-bearing", "magnetorquer", "slosh", "linear")
 MPC_POLICIES = ("mpc", "mpc-ft")
@@ -41,6 +46,11 @@ def mpc_jobs(name: str, seeds: list[int]) -> list[dict[str, Any]]:
     """The campaign ``name``'s episode jobs of its MPC agents on its first env's first scenario
     without faults, for ``seeds``."""
     campaign = load_campaign(name)
+    outside = sorted(set(seeds) - set(campaign.seeds))
+    if outside:
+        raise ValueError(
+            f"seeds {outside} are not seeds of campaign {name!r} ({campaign.seeds[0]}-{campaign.seeds[-1]})"
+        )
     others = [a.name for a in campaign.agents if a.spec.get("policy") not in MPC_POLICIES]
     env, scenario = campaign.envs[0], campaign.envs[0].scenarios[0]["name"]
     with tempfile.TemporaryDirectory() as tmp:
@@ -63,14 +73,20 @@ def measure(job: dict[str, Any]) -> dict[str, Any]:
         seed = job["key"]["seed"]
         obs, info = env.reset(seed=seed, options=copy.deepcopy(job["options"]) or None)
         policy.reset(seed)
-        total, start = 0.0, time.perf_counter()
+        total, act_s, start = 0.0, [], time.perf_counter()
         while True:
-            obs, reward, terminated, truncated, info = env.step(policy.act(obs, info))
-            total -= float(reward)
+            t0 = time.perf_counter()
+            action = policy.act(obs, policy_view(info))
+            act_s.append(time.perf_counter() - t0)
+            obs, _, terminated, truncated, info = env.step(action)
+            total += float(info["cost"])
             if terminated or truncated:
                 break
         wall = time.perf_counter() - start
         times_ms = np.asarray(policy.solve_times_s, dtype=float) * 1e3
+        if times_ms.size == 0:
+            raise RuntimeError(f"{job['key']['agent']} solved nothing in {job['key']} (every step fell back)")
+        act_ms = np.asarray(act_s) * 1e3
         period_ms = float(env.unwrapped.control_dt_s) * 1e3
     finally:
         env.close()
@@ -79,7 +95,8 @@ def measure(job: dict[str, Any]) -> dict[str, Any]:
         "env_id": job["env_id"],
         "control_dt_s": period_ms / 1e3,
         "J": total,
-        "decisions": int(times_ms.size),
+        "decisions": len(act_s),
+        "solves": int(times_ms.size),
         "failures": int(getattr(policy, "failures", 0)),
         "episode_wall_s": wall,
         "solve_ms": {
@@ -87,6 +104,7 @@ def measure(job: dict[str, Any]) -> dict[str, Any]:
             "p90": float(np.percentile(times_ms, 90)),
             "max": float(times_ms.max()),
         },
+        "act_ms": {"median": float(np.median(act_ms)), "max": float(act_ms.max())},
         "solve_percent_of_period": {
             "median": float(100 * np.median(times_ms) / period_ms),
             "max": float(100 * times_ms.max() / period_ms),
@@ -97,7 +115,7 @@ def measure(job: dict[str, Any]) -> dict[str, Any]:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--campaigns", default=",".join(CAMPAIGNS), help="comma-separated campaign names")
-    parser.add_argument("--seeds", type=seeds_arg, default="0-0", help='"0-4" or "0,3,7"')
+    parser.add_argument("--seeds", type=seeds_arg, default="0-0", help=SYNTAX)
     parser.add_argument("--out", default=None, help="write the rows as JSON here")
     args = parser.parse_args(argv)
     warnings.filterwarnings("ignore", category=DeprecationWarning)
@@ -108,13 +126,19 @@ def main(argv: list[str] | None = None) -> None:
             rows.append(row)
             s, p = row["solve_ms"], row["solve_percent_of_period"]
             print(
-                f"{name} {row['agent']} seed {row['seed']}: dt {row['control_dt_s']} s, {row['decisions']} solves, "
-                f"median {s['median']:.1f} ms ({p['median']:.1f} %), p90 {s['p90']:.1f} ms, "
-                f"max {s['max']:.1f} ms ({p['max']:.1f} %), failures {row['failures']}, J {row['J']:.6g}",
+                f"{name} {row['agent']} seed {row['seed']}: dt {row['control_dt_s']} s, {row['solves']} solves in "
+                f"{row['decisions']} decisions, median {s['median']:.1f} ms ({p['median']:.1f} %), p90 {s['p90']:.1f} ms, "
+                f"max {s['max']:.1f} ms ({p['max']:.1f} %), act median {row['act_ms']['median']:.1f} ms, "
+                f"failures {row['failures']}, J {row['J']:.6g}",
                 flush=True,
             )
     if args.out:
-        meta = {"machine": platform.platform(), "processor": platform.processor(), "date": time.strftime("%Y-%m-%d")}
+        meta = {
+            "machine": platform.platform(),
+            "date": time.strftime("%Y-%m-%d"),
+            "git_revision": git_revision(),
+            "argv": list(argv) if argv is not None else sys.argv[1:],
+        }
         Path(args.out).write_text(json.dumps({"meta": meta, "rows": rows}, indent=1) + "\n", encoding="utf-8")
 
 

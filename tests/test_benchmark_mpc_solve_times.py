@@ -40,3 +40,16 @@ def test_a_measured_episode_reports_its_solves_against_its_period():
     assert 0 < s["median"] <= s["p90"] <= s["max"]
     assert p["median"] == pytest.approx(s["median"] / 10.0) and p["max"] == pytest.approx(s["max"] / 10.0)
     assert math.isfinite(row["J"]) and row["failures"] == 0
+
+
+def test_the_built_policies_apply_the_campaigns_parameters_and_seeds_outside_are_refused():
+    pytest.importorskip("casadi")
+    import gymnasium as gym
+
+    from experiments.policies import build_policy
+
+    job = next(j for j in mst.mpc_jobs("air-bearing", [0]) if j["key"]["agent"] == "mpc-ft")
+    policy = build_policy(job["policy"], gym.make(job["env_id"], **job["env_kwargs"]), name="mpc-ft")
+    assert policy.model_parameters.n_substeps == 2 and policy.horizon_steps == 10
+    with pytest.raises(ValueError, match=r"seeds \[20\] are not seeds of campaign 'slosh'"):
+        mst.mpc_jobs("slosh", [0, 20])

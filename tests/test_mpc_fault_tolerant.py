@@ -149,3 +149,20 @@ def test_bad_parameters_raise():
         FaultTolerantMPCPolicy(env, coarse_steps=-1)
     with pytest.raises(ValueError, match="effectiveness must be 4 values in"):
         with_effectiveness(GyrostatParameters.nominal(env.unwrapped.model, 1, 0.1), [1.0, 1.0, 1.0])
+
+
+def test_the_coarser_prediction_model_survives_a_reconfiguration():
+    # model_substeps reaches the fault-tolerant MPC's nominal model and every degraded one it
+    # builds after an isolation (the air-bearing campaign runs it at 2 sub-steps per 0.5 s)
+    env = gym.make(AB, control_dt_s=0.5, episode_duration_s=2.0)
+    policy = FaultTolerantMPCPolicy(env, horizon_steps=2, model_substeps=2, coarse_steps=1)
+    env.reset(seed=0)
+    policy.reset(0)
+    for params in (policy.model_parameters,):
+        assert params.n_substeps == 2 and params.integrator_dt_s == pytest.approx(0.25, rel=1e-15)
+    policy._reconfigure((1.0, 1.0, 0.0))
+    degraded = policy.model_parameters
+    assert degraded.n_substeps == 2 and degraded.integrator_dt_s == pytest.approx(0.25, rel=1e-15)
+    assert policy.horizon_steps == 3  # the coarse stage appended
+    policy.reset(0)  # back to the nominal configuration, still coarse
+    assert policy.model_parameters.n_substeps == 2
