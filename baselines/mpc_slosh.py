@@ -29,8 +29,10 @@ this is the disturbance half of the augmented estimator. With ``estimate_effecti
 (the default) the fit's applied input ``p = a + d_fit/limits`` (normalized) of the last
 ``window_steps`` steps is regressed per actuator on the command as ``p = θ a + β`` (ridge
 least squares pulled toward θ = 1, β = 0 with weight ``ridge``; θ clipped to [0.05, 1.5]);
-the window restarts when the last step's applied input misses the estimated model by more
-than ``change_tol`` (a fault's onset: no fit across it). The NLP then optimizes the effective
+the window restarts from the last step alone when the window's fit, the last step included,
+misses one of its points by more than ``change_tol`` (a fault's onset: no fit across it; the
+window's own fit, not the filtered estimate, is the test, so a loss of effectiveness whose
+estimate still lags cannot restart the window at every step). The NLP then optimizes the effective
 action ``a' = θ a`` with ``d̂ = β · limits`` and applies ``a'/θ``, so a loss of effectiveness
 is compensated as a gain, not as a lagged offset. Left out: the env's termination limits (no
 state constraints, every problem is feasible).
@@ -90,14 +92,12 @@ class SloshMPCPolicy:
 
     Parameters: ``horizon_steps`` (control steps N in the horizon, integer ≥ 1; default 5:
     0.5 s at the campaign's 0.1 s period, IPOPT's solve time grows about linearly with N),
-    ``offset_free`` (estimate the input disturbance; default True; on the slosh campaign's
-    thruster faults the loop closed through the estimates scored 3.69 × J* against 1.30
-    without them, so the campaign sets it False), ``disturbance_gain``
+    ``offset_free`` (estimate the input disturbance; default True), ``disturbance_gain``
     (filter gain of the estimate, in (0, 1]; default 1), ``estimate_effectiveness`` (also
     estimate each actuator's effectiveness θ; default True), ``window_steps`` (steps in its
     regression window, integer ≥ 2; default 10), ``ridge`` (weight of the prior θ = 1, β = 0,
-    ≥ 0; default 1e-4), ``change_tol`` (normalized mismatch of the last applied input to
-    the estimated actuator model above which the window restarts, > 0; default 1e-4), ``cost_scale`` (factor on the NLP's
+    ≥ 0; default 1e-4), ``change_tol`` (largest normalized misfit of the regression window's points to its fit above
+    which the window restarts, > 0; default 1e-4), ``cost_scale`` (factor on the NLP's
     objective, > 0, for IPOPT's tolerances; the optimum is unchanged; default 1e3),
     ``max_iter`` (IPOPT iterations per solve), ``tol`` (IPOPT tolerance),
     ``solver_options`` (further CasADi/IPOPT options), ``name``.
@@ -221,24 +221,35 @@ class SloshMPCPolicy:
             return
         # the applied input of the last step (normalized), from the fit: p = a_prev + d_fit/limits
         applied = a_prev + (d + step) / self._limits
-        predicted = self.effectiveness_estimate * a_prev + d / self._limits
-        if np.max(np.abs(applied - predicted)) > self.change_tol:  # the actuators changed:
-            self._history = []  # forget the data of the old actuator model
-        self._history = [*self._history[-(self.window_steps - 1) :], (a_prev, applied)]
-        cmds = np.array([h[0] for h in self._history])
-        outs = np.array([h[1] for h in self._history])
+        history = [*self._history[-(self.window_steps - 1) :], (a_prev, applied)]
+        fit = self._actuator_fit(history)
+        if len(history) > 2 and max(r for _, _, r in fit) > self.change_tol:  # the actuators changed:
+            history = history[-1:]  # forget the data of the old actuator model
+            fit = self._actuator_fit(history)
+        self._history = history
         theta, beta = self.effectiveness_estimate.copy(), self.disturbance_estimate / self._limits
-        for i in range(2):  # ridge LS of p = θ c + β toward θ = 1, β = 0
+        for i, (th_i, b_i, _) in enumerate(fit):
+            theta[i] += self.disturbance_gain * (th_i - theta[i])
+            beta[i] += self.disturbance_gain * (b_i - beta[i])
+        self.effectiveness_estimate = theta
+        self.disturbance_estimate = beta * self._limits
+
+    def _actuator_fit(self, history: list[tuple[np.ndarray, np.ndarray]]) -> list[tuple[float, float, float]]:
+        """Per actuator ``(θ, β, residual)``: the ridge least squares of ``p = θ c + β`` over
+        ``history`` (command ``c``, applied input ``p``, normalized) toward θ = 1, β = 0, θ clipped
+        to [0.05, 1.5], and the largest misfit of the window's points to it."""
+        cmds = np.array([h[0] for h in history])
+        outs = np.array([h[1] for h in history])
+        out = []
+        for i in range(2):
             X = np.column_stack([cmds[:, i], np.ones(len(cmds))])
             lhs = X.T @ X + self.ridge * np.eye(2)
             rhs = X.T @ outs[:, i] + self.ridge * np.array([1.0, 0.0])
             th_i, b_i = np.linalg.solve(lhs, rhs)
             th_i = float(np.clip(th_i, 0.05, 1.5))
             b_i = float(np.mean(outs[:, i] - th_i * cmds[:, i])) if self.ridge == 0.0 else float(b_i)
-            theta[i] += self.disturbance_gain * (th_i - theta[i])
-            beta[i] += self.disturbance_gain * (b_i - beta[i])
-        self.effectiveness_estimate = theta
-        self.disturbance_estimate = beta * self._limits
+            out.append((th_i, b_i, float(np.max(np.abs(outs[:, i] - th_i * cmds[:, i] - b_i)))))
+        return out
 
     def act(self, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
         """Normalized action for one step from ``info["measured"]`` (not a batch)."""
