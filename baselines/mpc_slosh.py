@@ -30,9 +30,10 @@ this is the disturbance half of the augmented estimator. With ``estimate_effecti
 ``window_steps`` steps is regressed per actuator on the command as ``p = θ a + β`` (ridge
 least squares pulled toward θ = 1, β = 0 with weight ``ridge``; θ clipped to [0.05, 1.5]);
 the window restarts from the last step alone when the window's fit, the last step included,
-misses one of its points by more than ``change_tol`` (a fault's onset: no fit across it; the
-window's own fit, not the filtered estimate, is the test, so a loss of effectiveness whose
-estimate still lags cannot restart the window at every step). The NLP then optimizes the effective
+misses one of its points by more than ``change_tol`` (a fault's onset: no fit across it). The
+window's own fit is the test, not the filtered estimate: with the latter, an estimate still
+lagging a loss of effectiveness restarted the window at every step (on the slosh campaign's
+thruster faults 3.69 × J*, against 1.10 with this test). The NLP then optimizes the effective
 action ``a' = θ a`` with ``d̂ = β · limits`` and applies ``a'/θ``, so a loss of effectiveness
 is compensated as a gain, not as a lagged offset. Left out: the env's termination limits (no
 state constraints, every problem is feasible).
