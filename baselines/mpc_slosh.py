@@ -101,7 +101,9 @@ class SloshMPCPolicy:
     which the window restarts, > 0; default 1e-4), ``cost_scale`` (factor on the NLP's
     objective, > 0, for IPOPT's tolerances; the optimum is unchanged; default 1e3),
     ``max_iter`` (IPOPT iterations per solve), ``tol`` (IPOPT tolerance),
-    ``solver_options`` (further CasADi/IPOPT options), ``name``.
+    ``solver_options`` (further CasADi/IPOPT options; ``{"ipopt.mu_init": 1e-4}`` halves the
+    iterations per solve, median 9 → 4, but on the slosh campaign's 40 episodes it moved J by
+    −21 % to +30 % per episode, +0.7 % over the nominal cell: the default is kept), ``name``.
     """
 
     def __init__(
@@ -221,8 +223,14 @@ class SloshMPCPolicy:
             self.disturbance_estimate = d + self.disturbance_gain * step
             return
         # the applied input of the last step (normalized), from the fit: p = a_prev + d_fit/limits
-        applied = a_prev + (d + step) / self._limits
-        history = [*self._history[-(self.window_steps - 1) :], (a_prev, applied)]
+        self._update_actuators(a_prev, a_prev + (d + step) / self._limits)
+
+    def _update_actuators(self, command: np.ndarray, applied: np.ndarray) -> None:
+        """One step of the actuator model's estimator: the pair (``command``, ``applied``, both
+        normalized per actuator) joins the regression window (restarted from this pair alone when
+        the window's fit misses one of its points by more than ``change_tol``), and the filtered
+        estimates move toward the window's fit ``applied = θ·command + β``."""
+        history = [*self._history[-(self.window_steps - 1) :], (np.asarray(command), np.asarray(applied))]
         fit = self._actuator_fit(history)
         if len(history) > 2 and max(r for _, _, r in fit) > self.change_tol:  # the actuators changed:
             history = history[-1:]  # forget the data of the old actuator model

@@ -18,9 +18,6 @@ from __future__ import annotations
 
 import argparse
 import copy
-import json
-import platform
-import sys
 import tempfile
 import time
 import warnings
@@ -32,10 +29,10 @@ import numpy as np
 
 import attitude_envs  # noqa: F401  (registers the envs)
 from attitude_envs.info import policy_view
+from benchmarks.results_file import write_results
 from experiments.campaign.jobs import episode_jobs
 from experiments.campaign.spec import load_campaign
 from experiments.policies import build_policy
-from experiments.report import git_revision
 from experiments.seeds import SYNTAX, seeds_arg
 
 CAMPAIGNS = ("wheel", "air-bearing", "magnetorquer", "slosh", "linear")
@@ -133,13 +130,7 @@ def main(argv: list[str] | None = None) -> None:
                 flush=True,
             )
     if args.out:
-        meta = {
-            "machine": platform.platform(),
-            "date": time.strftime("%Y-%m-%d"),
-            "git_revision": git_revision(),
-            "argv": list(argv) if argv is not None else sys.argv[1:],
-        }
-        Path(args.out).write_text(json.dumps({"meta": meta, "rows": rows}, indent=1) + "\n", encoding="utf-8")
+        write_results(args.out, argv, rows=rows)
 
 
 if __name__ == "__main__":

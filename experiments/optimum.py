@@ -252,13 +252,20 @@ def solve_problem(
     ipopt_options: dict | None = None,
     jit: bool = False,
     scale_states: bool = True,
+    fixed_steps: int = 0,
 ) -> tuple[np.ndarray, float, str, int, float]:
     """Multiple shooting + IPOPT from the warm start ``actions0`` (states from its rollout
     through ``problem.step``). ``jit``: compile the step and its derivatives with the system's
     C compiler (CasADi's ``"shell"`` compiler; a few seconds up front, faster iterations on
     long horizons). ``scale_states``: scale each state by its largest warm-start magnitude (at
-    least 1) for IPOPT. Returns ``(actions, objective, status, iterations, solve_s)``."""
+    least 1) for IPOPT. ``fixed_steps``: the first ``fixed_steps`` actions are held at
+    ``actions0``'s (clipped to the bounds) and only the rest is optimized — the optimum *after*
+    a given prefix, e.g. a causal controller's actions until a fault's onset.
+    Returns ``(actions, objective, status, iterations, solve_s)``."""
     n, nx, nu = problem.n_steps, problem.n_x, problem.n_u
+    if not 0 <= int(fixed_steps) <= n:
+        raise ValueError(f"fixed_steps must be in [0, {n}] (the episode's steps), got {fixed_steps!r}")
+    fixed_steps = int(fixed_steps)
     states0, _ = problem.rollout(actions0)
     step = problem.step
     if jit:
@@ -299,9 +306,13 @@ def solve_problem(
         **(ipopt_options or {}),
     }
     solver = casadi.nlpsol("optimum", "ipopt", nlp, opts)
-    lbx = np.concatenate([np.full(nx * n, -np.inf), np.tile(problem.a_lb, n)])
-    ubx = np.concatenate([np.full(nx * n, np.inf), np.tile(problem.a_ub, n)])
-    w0 = np.concatenate([(states0[1:] / scale).ravel(), np.clip(actions0, problem.a_lb, problem.a_ub).ravel()])
+    clipped = np.clip(actions0, problem.a_lb, problem.a_ub)
+    a_lb = np.tile(problem.a_lb, (n, 1))
+    a_ub = np.tile(problem.a_ub, (n, 1))
+    a_lb[:fixed_steps] = a_ub[:fixed_steps] = clipped[:fixed_steps]
+    lbx = np.concatenate([np.full(nx * n, -np.inf), a_lb.ravel()])
+    ubx = np.concatenate([np.full(nx * n, np.inf), a_ub.ravel()])
+    w0 = np.concatenate([(states0[1:] / scale).ravel(), clipped.ravel()])
     start = time.perf_counter()
     sol = solver(x0=w0, lbx=lbx, ubx=ubx, lbg=np.concatenate(lbg), ubg=np.concatenate(ubg))
     solve_s = time.perf_counter() - start

@@ -90,6 +90,29 @@ def test_slosh_mpc_short_episode(faults, effectiveness):
         np.testing.assert_allclose(policy.disturbance_estimate, [0.0, 200.0 if faults else 0.0], atol=1e-3)
 
 
+def test_slosh_actuator_window_keeps_its_data_after_a_loss_of_effectiveness():
+    """The estimator's regression window (``applied = θ·command + β`` per actuator) restarts at a
+    fault's onset and then fills again, so θ and β converge to the faulty actuator's. Before the
+    fix the restart test was the *filtered* estimate's miss, which after a loss of effectiveness
+    restarted the window at every step: θ stayed at the one-point ridge fit."""
+    env = _make("attitude_envs/FuelSlosh-v0", **SLOSH_KW)
+    policy = SloshMPCPolicy(env, horizon_steps=2, window_steps=10)
+    policy.reset(0)
+    rng = np.random.default_rng(0)
+    theta, bias = np.array([1.0, 0.5]), np.array([0.0, 0.1])  # thruster 1: 50 % loss and a bias
+    lengths = []
+    for k in range(30):
+        command = rng.uniform(-0.8, 0.8, size=2)  # varied commands: the fit is identifiable
+        applied = command if k < 10 else theta * command + bias  # the fault acts from step 10
+        policy._update_actuators(command, applied)
+        lengths.append(len(policy._history))
+    assert lengths[9] == 10  # a full window before the onset
+    assert lengths[10] == 1  # the onset's point misses the old fit: the window restarts
+    assert lengths[11:19] == list(range(2, 10)) and lengths[19:] == [10] * 11  # and fills again
+    np.testing.assert_allclose(policy.effectiveness_estimate, theta, atol=1e-3)
+    np.testing.assert_allclose(policy.disturbance_estimate / env.unwrapped.actuator_limits, bias, atol=1e-3)
+
+
 def test_linear_mpc_short_episode_and_equals_lqr_off_bounds():
     env = _make("attitude_envs/LinearSystem-v0", **dict(LINEAR_KW, episode_steps=30))
     mpc = LinearMPCPolicy(env, horizon_steps=10, unconstrained_shortcut=False)

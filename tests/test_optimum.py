@@ -109,6 +109,29 @@ def test_lti_optimum_is_the_riccati_value():
     assert abs(result.j_star - result.j_nlp) <= 1e-6 * result.j_nlp
 
 
+def test_fixed_prefix_optimum_is_the_riccati_value_of_the_rest():
+    """``solve_problem(fixed_steps=m)`` holds the first m actions and optimizes the rest: on an
+    LTI plant its objective is the prefix's cost plus the Riccati value of the remaining N − m
+    steps from the state the prefix reaches."""
+    A = np.array([[1.0, 0.1], [-0.05, 0.98]])
+    B = np.array([[0.005], [0.1]])
+    Q, R = np.diag([2.0, 0.5]), np.array([[0.3]])
+    kwargs = {"A": A, "B": B, "Q": Q, "R": R, "episode_steps": 20, "action_scale": 1e3}
+    env = gym.make(optimum.full_id("LinearSystem-v0"), **kwargs)
+    problem = problem_for(env, seed=0, options={"state": np.array([1.0, -0.5])})
+    prefix = np.full((problem.n_steps, problem.n_u), 0.2e-3)  # 0.2 N·m, far from the optimum's
+    actions, objective, status, _, _ = optimum.solve_problem(problem, prefix, fixed_steps=5)
+    assert status == "Solve_Succeeded"
+    np.testing.assert_array_equal(actions[:5], prefix[:5])  # held exactly (IPOPT's fixed variables)
+    states, costs = problem.rollout(actions)
+    expected = costs[:5].sum() + _riccati_cost(A, B, Q, R, states[5], 15)
+    assert abs(objective - expected) <= 1e-6 * expected
+    free = optimum.solve_problem(problem, prefix)[1]
+    assert free < objective  # the prefix is not the optimum's, so holding it costs J
+    with pytest.raises(ValueError, match="fixed_steps"):
+        optimum.solve_problem(problem, prefix, fixed_steps=21)
+
+
 @pytest.mark.parametrize(
     ("env_id", "kwargs"),
     [
