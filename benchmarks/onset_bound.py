@@ -69,10 +69,18 @@ def cell_episodes(cell: str, seeds: list[int]) -> list[dict[str, Any]]:
     outside = sorted(set(seeds) - set(campaign.seeds))
     if outside:
         raise ValueError(f"seeds {outside} are not seeds of campaign {name!r}")
-    onsets = [float(f["onset_s"]) for f in env.faults[fault]]
+    if "none" not in env.faults:
+        raise ValueError(f"cell {cell!r}: campaign {name!r} has no fault-free cell 'none' to pair it with")
+    onsets = [float(f["onset_s"]) for f in env.faults[fault] if "onset_s" in f]
+    if not onsets:
+        raise ValueError(f"cell {cell!r}: its faults name no onset_s")
     scenario = env.scenarios[0]["name"]
     with tempfile.TemporaryDirectory() as tmp:
-        jobs = episode_jobs(campaign, Path(tmp), skip_agents=[a.name for a in campaign.agents[1:]])
+        # the episodes of one agent that needs no training (its jobs carry the cells' kwargs)
+        keep = next((a.name for a in campaign.agents if a.train is None), None)
+        if keep is None:
+            raise ValueError(f"campaign {name!r} has no agent without training to take its episodes from")
+        jobs = episode_jobs(campaign, Path(tmp), skip_agents=[a.name for a in campaign.agents if a.name != keep])
     by_key = {}
     for j in jobs:
         k = j["key"]
@@ -159,13 +167,20 @@ def main(argv: list[str] | None = None) -> None:
     )
     parser.add_argument("--out", default=None, help="write the rows and the per-cell ratios as JSON here")
     args = parser.parse_args(argv)
-    blends = tuple(float(w) for w in args.blends.split(","))
+    try:
+        blends = tuple(float(w) for w in args.blends.split(","))
+    except ValueError:
+        parser.error(f"--blends must be comma-separated numbers in [0, 1], got {args.blends!r}")
     if not blends or blends[0] != 0.0 or any(not 0.0 <= w <= 1.0 for w in blends):
         parser.error(f"--blends must start at 0 and lie in [0, 1], got {args.blends!r}")
+    try:
+        episodes = {cell: cell_episodes(cell, args.seeds) for cell in args.cells.split(",")}
+    except ValueError as exc:
+        parser.error(str(exc))
     cells = {}
-    for cell in args.cells.split(","):
+    for cell, cell_rows in episodes.items():
         rows = []
-        for episode in cell_episodes(cell, args.seeds):
+        for episode in cell_rows:
             row = onset_bound(episode, blends)
             rows.append(row)
             points = ", ".join(

@@ -263,8 +263,8 @@ def solve_problem(
     a given prefix, e.g. a causal controller's actions until a fault's onset.
     Returns ``(actions, objective, status, iterations, solve_s)``."""
     n, nx, nu = problem.n_steps, problem.n_x, problem.n_u
-    if not 0 <= int(fixed_steps) <= n:
-        raise ValueError(f"fixed_steps must be in [0, {n}] (the episode's steps), got {fixed_steps!r}")
+    if isinstance(fixed_steps, bool) or not isinstance(fixed_steps, (int, np.integer)) or not 0 <= fixed_steps <= n:
+        raise ValueError(f"fixed_steps must be an integer in [0, {n}] (the episode's steps), got {fixed_steps!r}")
     fixed_steps = int(fixed_steps)
     states0, _ = problem.rollout(actions0)
     step = problem.step

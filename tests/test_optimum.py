@@ -128,8 +128,9 @@ def test_fixed_prefix_optimum_is_the_riccati_value_of_the_rest():
     assert abs(objective - expected) <= 1e-6 * expected
     free = optimum.solve_problem(problem, prefix)[1]
     assert free < objective  # the prefix is not the optimum's, so holding it costs J
-    with pytest.raises(ValueError, match="fixed_steps"):
-        optimum.solve_problem(problem, prefix, fixed_steps=21)
+    for bad in (21, -1, 2.5, None, True):
+        with pytest.raises(ValueError, match="fixed_steps"):
+            optimum.solve_problem(problem, prefix, fixed_steps=bad)
 
 
 @pytest.mark.parametrize(
