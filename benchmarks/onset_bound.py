@@ -50,7 +50,7 @@ from benchmarks.results_file import write_results
 from experiments import optimum
 from experiments.campaign.jobs import episode_jobs
 from experiments.campaign.spec import load_campaign
-from experiments.optimum_table import SOLVER
+from experiments.optimum_table import SOLVER, episode_specs
 from experiments.seeds import SYNTAX, seeds_arg
 
 CELLS = ("wheel/two-wheel-failure", "air-bearing/yaw-wheel-outage-2s")
@@ -81,15 +81,12 @@ def cell_episodes(cell: str, seeds: list[int]) -> list[dict[str, Any]]:
         if keep is None:
             raise ValueError(f"campaign {name!r} has no agent without training to take its episodes from")
         jobs = episode_jobs(campaign, Path(tmp), skip_agents=[a.name for a in campaign.agents if a.name != keep])
+    # the cells' own episode keys (whatever env an agent plays them on), as the J* table keys them
     by_key = {}
-    for j in jobs:
-        k = j["key"]
-        if k["env"] == env.name and k["scenario"] == scenario and k["seed"] in seeds:
-            by_key[(k["fault"], k["seed"])] = (
-                j.get("cell_env_id", j["env_id"]),
-                j.get("cell_env_kwargs", j["env_kwargs"]),
-                j.get("options"),
-            )
+    for spec in episode_specs(jobs):
+        for env_name, cell_scenario, cell_fault, seed in spec["cells"]:
+            if env_name == env.name and cell_scenario == scenario:
+                by_key[(cell_fault, seed)] = (spec["env_id"], spec["env_kwargs"], spec["options"])
     return [
         {
             "seed": s,
