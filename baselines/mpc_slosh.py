@@ -15,9 +15,21 @@ stage-cost quadrature ``∫ (xᵀQx + u_cᵀRu_c) dt``; no faults), whose applie
 the discrete Riccati matrix (:func:`attitude_envs.lqr.dlqr`) of the zero-order-hold
 linearization the paper's LQR baseline designs on (:class:`baselines.slosh.SloshLQRPolicy`
 with the env's weights), the unconstrained infinite-horizon cost-to-go as terminal cost
-(Mayne et al. 2000). Direct multiple shooting (Bock & Plitt 1984) solved by IPOPT (Wächter &
-Biegler 2006) through CasADi (Andersson et al. 2019), warm-started from the previous solution
-shifted by one step (the first step from the LQR's rollout on the model).
+(Mayne et al. 2000). Direct multiple shooting (Bock & Plitt 1984) through CasADi (Andersson et
+al. 2019), solved by sequential quadratic programming with the exact Hessian (CasADi's
+``sqpmethod``, its active-set QP solver ``qrqp`` and a line search; the default) or by IPOPT's
+interior point (Wächter & Biegler 2006; ``solver="ipopt"``). An SQP solve that fails (its line
+search stalls, or 20 iterations pass) is solved again by IPOPT from the same guess. Every solve
+starts from the LQR's rollout on the model (``initial_guess="lqr"``, the default) or from the
+previous solution shifted by one step (``"shifted"``). The NLP is nonconvex in the random
+starts' transient, and where a solve starts decides which local minimum it finds. On the slosh
+campaign's 40 episodes (2026-11-28), ΣJ/ΣJ* nominal and under the thruster faults:
+
+* IPOPT, shifted guess: 1.0207 and 1.1034.
+* SQP, LQR guess: 1.0211 and 1.1054, in about a quarter of IPOPT's solve time
+  (benchmarks/results/mpc_solve_times.json).
+* SQP, shifted guess: 1.0479 and 1.1293. It stays in the local minimum its first solve found,
+  2-4 % worse than IPOPT's on most transients.
 
 Offset-free MPC (Pannocchia & Rawlings 2003; Maeder, Borrelli & Morari 2009): the plant is
 modelled with a constant additive input disturbance ``d`` (rad, N·m), estimated after every
@@ -39,7 +51,7 @@ is compensated as a gain, not as a lagged offset. Left out: the env's terminatio
 state constraints, every problem is feasible).
 
 :attr:`SloshMPCPolicy.solve_times_s` holds the wall time of each solve (s),
-:attr:`SloshMPCPolicy.failures` the solves IPOPT did not finish (their iterate is used if
+:attr:`SloshMPCPolicy.failures` the solves the solver did not finish (their iterate is used if
 finite, else the LQR's action), :attr:`SloshMPCPolicy.disturbance_estimate` the current ``d̂``.
 Reads only ``info["measured"]`` (full state: needs ``observe_slosh=True``). Requires CasADi.
 """
@@ -64,9 +76,22 @@ except ImportError as exc:  # casadi is an optional extra
 
 from attitude_envs.symbolic.slosh import nominal_step_function
 
-#: IPOPT's return statuses that mean a (locally) optimal point was found
-SOLVED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 _QUIET = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": 0}
+_QUIET_SQP = {
+    "print_header": False,
+    "print_iteration": False,
+    "print_status": False,
+    "print_time": False,
+    "qpsol": "qrqp",
+    "qpsol_options": {"print_iter": False, "print_header": False, "error_on_fail": False},
+}
+#: the NLP solvers the policy can use
+SOLVERS = ("sqp", "ipopt")
+#: where each solve starts: the LQR's rollout on the model, or the previous solution shifted
+INITIAL_GUESSES = ("lqr", "shifted")
+_IPOPT_MAX_ITER = 100
+#: warm-started SQP converges in 2-3 iterations; one that has not in 20 goes to IPOPT instead
+_SQP_MAX_ITER = 20
 #: the full-state rows the disturbance fit uses (the position is not always measured)
 _FIT_ROWS = np.arange(slosh.ITH, slosh.N_STATE)
 
@@ -100,10 +125,11 @@ class SloshMPCPolicy:
     ≥ 0; default 1e-4), ``change_tol`` (largest normalized misfit of the regression window's points to its fit above
     which the window restarts, > 0; default 1e-4), ``cost_scale`` (factor on the NLP's
     objective, > 0, for IPOPT's tolerances; the optimum is unchanged; default 1e3),
-    ``max_iter`` (IPOPT iterations per solve), ``tol`` (IPOPT tolerance),
-    ``solver_options`` (further CasADi/IPOPT options; ``{"ipopt.mu_init": 1e-4}`` halves the
-    iterations per solve, median 9 → 4, but on the slosh campaign's 40 episodes it moved J by
-    −21 % to +30 % per episode, +0.7 % over the nominal cell: the default is kept), ``name``.
+    ``solver`` (``"sqp"``, the default, or ``"ipopt"``: see the module docstring), ``max_iter``
+    (iterations per solve; default 20 for SQP, 100 for IPOPT), ``tol`` (the solver's tolerance: IPOPT's ``tol``, SQP's primal and
+    dual infeasibility), ``solver_options`` (further CasADi options of that solver; with IPOPT,
+    ``{"ipopt.mu_init": 1e-4}`` halves the iterations per solve, median 9 → 4, but on the slosh
+    campaign's 40 episodes it moved J by −21 % to +30 % per episode), ``name``.
     """
 
     def __init__(
@@ -117,7 +143,9 @@ class SloshMPCPolicy:
         ridge: float = 1e-4,
         change_tol: float = 1e-4,
         cost_scale: float = 1e3,
-        max_iter: int = 100,
+        solver: str = "sqp",
+        initial_guess: str = "lqr",
+        max_iter: int | None = None,
         tol: float = 1e-8,
         solver_options: dict[str, Any] | None = None,
         name: str | None = None,
@@ -138,7 +166,10 @@ class SloshMPCPolicy:
         self.window_steps = int(window_steps)
         self.ridge = validation.nonnegative("ridge", ridge)
         self.change_tol = validation.positive("change_tol", change_tol)
-        self._max_iter = int(validation.positive("max_iter", max_iter))
+        self.solver = validation.choice("solver", solver, SOLVERS)
+        self.initial_guess = validation.choice("initial_guess", initial_guess, INITIAL_GUESSES)
+        default_iter = _IPOPT_MAX_ITER if self.solver == "ipopt" else _SQP_MAX_ITER
+        self._max_iter = default_iter if max_iter is None else validation.integer("max_iter", max_iter, 1)
         self._tol = validation.positive("tol", tol)
         self._solver_options = dict(solver_options or {})
         self.control_dt_s = float(base.control_dt_s)
@@ -161,6 +192,8 @@ class SloshMPCPolicy:
         )
         self.solve_times_s: list[float] = []
         self.failures = 0
+        #: the SQP solves that failed and were solved again by IPOPT
+        self.fallbacks = 0
         self.disturbance_estimate = np.zeros(2)
         #: the estimated effectiveness θ of each actuator (1: nominal)
         self.effectiveness_estimate = np.ones(2)
@@ -183,19 +216,35 @@ class SloshMPCPolicy:
             "f": self.cost_scale * objective,
             "g": casadi.vertcat(y[:, 0] - y0, casadi.vec(y[:, 1:] - y_next)),
         }
-        opts = {
-            **_QUIET,
-            "expand": True,
-            "ipopt.max_iter": self._max_iter,
-            "ipopt.tol": self._tol,
-        }
-        opts.update(self._solver_options)
-        self._solver = casadi.nlpsol("mpc_slosh", "ipopt", nlp, opts)
+        self._nlp = nlp
+        self._solver = self._nlpsol(self.solver, self._max_iter, self._solver_options)
+        #: IPOPT from the same initial guess where an SQP solve fails (built here: building takes
+        #: about a second, which would count in the first failing decision)
+        self._fallback = self._nlpsol("ipopt", _IPOPT_MAX_ITER, {}) if self.solver == "sqp" else None
         self._n_a = 2 * n_h
         n_w = n_y * (n_h + 1)
         self._lbg = np.zeros(n_w)
         self._ubg = np.zeros(n_w)
         self._free = np.full(n_w, np.inf)
+
+    def _nlpsol(self, solver: str, max_iter: int, options: dict[str, Any]) -> Any:
+        """CasADi's solver ``solver`` (``"sqp"`` or ``"ipopt"``) of the MPC's NLP."""
+        if solver == "ipopt":
+            opts = {**_QUIET, "ipopt.max_iter": max_iter, "ipopt.tol": self._tol}
+        else:
+            opts = {**_QUIET_SQP, "max_iter": max_iter, "tol_pr": self._tol, "tol_du": self._tol}
+        opts = {**opts, "expand": True, "error_on_fail": False, **options}
+        return casadi.nlpsol(f"mpc_slosh_{solver}", "sqpmethod" if solver == "sqp" else "ipopt", self._nlp, opts)
+
+    def _solve(self, **args: Any) -> tuple[Any, bool]:
+        """The NLP's solution from ``args`` (CasADi's solver arguments) and whether it solved:
+        SQP first, IPOPT from the same guess where SQP fails (counted in :attr:`fallbacks`)."""
+        sol = self._solver(**args)
+        if self._solver.stats()["success"] or self.solver != "sqp":
+            return sol, bool(self._solver.stats()["success"])
+        self.fallbacks += 1
+        sol = self._fallback(**args)
+        return sol, bool(self._fallback.stats()["success"])
 
     def reset(self, seed: int | None = None) -> None:
         self._guess = None
@@ -278,7 +327,7 @@ class SloshMPCPolicy:
         a_guess, y_guess = self._initial_guess(y0, d)
         a_guess = np.clip(a_guess, lo[:, None], hi[:, None])
         t0 = time.perf_counter()
-        sol = self._solver(
+        sol, solved = self._solve(
             x0=np.r_[a_guess.ravel(order="F"), y_guess.ravel(order="F")],
             p=np.r_[y0, d],
             lbx=np.r_[np.tile(lo, n_h), -self._free],
@@ -288,7 +337,7 @@ class SloshMPCPolicy:
         )
         self.solve_times_s.append(time.perf_counter() - t0)
         w = np.asarray(sol["x"]).ravel()
-        if self._solver.stats()["return_status"] not in SOLVED:
+        if not solved:
             self.failures += 1
         if not np.all(np.isfinite(w)):
             self._guess = None
@@ -306,8 +355,10 @@ class SloshMPCPolicy:
         return action
 
     def _initial_guess(self, y0: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The shifted previous solution, or (first step) the LQR's rollout on the model."""
-        if self._guess is not None:
+        """``(actions (2, N), states (10, N + 1))`` where the solve starts: the LQR's rollout on
+        the model (``initial_guess="lqr"``, and every first step), or the previous solution
+        shifted by one step (``"shifted"``)."""
+        if self.initial_guess == "shifted" and self._guess is not None:
             a_guess, y_guess = self._guess
             y_guess = y_guess.copy()
             y_guess[:, 0] = y0

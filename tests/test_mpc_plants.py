@@ -166,6 +166,62 @@ def test_slosh_mpc_bad_input():
         SloshMPCPolicy(env, horizon_steps=0)
     with pytest.raises(ValueError, match="disturbance_gain"):
         SloshMPCPolicy(env, disturbance_gain=1.5)
+    with pytest.raises(ValueError, match="solver"):
+        SloshMPCPolicy(env, solver="qpoases")
+    with pytest.raises(ValueError, match="initial_guess"):
+        SloshMPCPolicy(env, initial_guess="zero")
+    with pytest.raises(ValueError, match="max_iter"):
+        SloshMPCPolicy(env, max_iter=0)
+
+
+def _slosh_problem(policy, seed: int):
+    """The NLP arguments of ``policy``'s first decision from FuelSlosh-v0's start on ``seed``,
+    started from the LQR's rollout."""
+    env = _make("attitude_envs/FuelSlosh-v0", **SLOSH_KW)
+    env.reset(seed=seed)
+    y0 = env.unwrapped.state.copy()
+    a_guess, y_guess = policy._initial_guess(y0, np.zeros(2))
+    n = policy.horizon_steps
+    return {
+        "x0": np.r_[a_guess.ravel(order="F"), y_guess.ravel(order="F")],
+        "p": np.r_[y0, np.zeros(2)],
+        "lbx": np.r_[-np.ones(2 * n), -policy._free],
+        "ubx": np.r_[np.ones(2 * n), policy._free],
+        "lbg": policy._lbg,
+        "ubg": policy._ubg,
+    }
+
+
+def test_slosh_sqp_and_interior_point_reach_the_same_optimum():
+    """From the LQR's rollout, SQP (the default) and IPOPT solve the first decision's NLP of seed
+    0's start to the same objective and action. The NLP is nonconvex: from larger starts the two
+    can end in different local minima (seed 3's first decision: SQP's objective 1.8 % above
+    IPOPT's), which is why the campaign's J is compared per solver on its 40 episodes."""
+    seed = 0
+    env = _make("attitude_envs/FuelSlosh-v0", **SLOSH_KW)
+    sqp = SloshMPCPolicy(env, horizon_steps=5)
+    ipopt = SloshMPCPolicy(env, horizon_steps=5, solver="ipopt")
+    args = _slosh_problem(sqp, seed)
+    sol_sqp, ok_sqp = sqp._solve(**args)
+    sol_ipopt, ok_ipopt = ipopt._solve(**args)
+    assert ok_sqp and ok_ipopt and sqp.fallbacks == 0
+    f_sqp, f_ipopt = float(sol_sqp["f"]), float(sol_ipopt["f"])
+    assert abs(f_sqp - f_ipopt) <= 1e-6 * abs(f_ipopt), (f_sqp, f_ipopt)
+    np.testing.assert_allclose(np.asarray(sol_sqp["x"])[:2], np.asarray(sol_ipopt["x"])[:2], atol=1e-5)
+
+
+def test_slosh_sqp_failure_falls_back_to_ipopt():
+    """An SQP solve that fails (here: capped at one iteration from a guess far from the optimum)
+    is solved again by IPOPT from the same guess, and counted."""
+    env = _make("attitude_envs/FuelSlosh-v0", **SLOSH_KW)
+    capped = SloshMPCPolicy(env, horizon_steps=5, max_iter=1)
+    ipopt = SloshMPCPolicy(env, horizon_steps=5, solver="ipopt")
+    args = _slosh_problem(capped, 3)
+    args["x0"] = np.zeros_like(args["x0"])
+    sol, ok = capped._solve(**args)
+    assert ok and capped.fallbacks == 1
+    reference, _ = ipopt._solve(**args)
+    assert abs(float(sol["f"]) - float(reference["f"])) <= 1e-9 * abs(float(reference["f"]))
 
 
 def test_linear_mpc_at_a_longer_decision_period():
