@@ -19,15 +19,17 @@ with the env's weights), the unconstrained infinite-horizon cost-to-go as termin
 al. 2019), solved by sequential quadratic programming with the exact Hessian (CasADi's
 ``sqpmethod``, its active-set QP solver ``qrqp`` and a line search; the default) or by IPOPT's
 interior point (Wächter & Biegler 2006; ``solver="ipopt"``). An SQP solve that fails (its line
-search stalls, or 20 iterations pass) is solved again by IPOPT from the same guess. Every solve
+search stalls, or ``max_iter`` iterations pass) is solved again by IPOPT from the same guess (100
+iterations, the same ``tol``, none of ``solver_options``). Every solve
 starts from the LQR's rollout on the model (``initial_guess="lqr"``, the default) or from the
 previous solution shifted by one step (``"shifted"``). The NLP is nonconvex in the random
 starts' transient, and where a solve starts decides which local minimum it finds. On the slosh
 campaign's 40 episodes (2026-11-28), ΣJ/ΣJ* nominal and under the thruster faults:
 
 * IPOPT, shifted guess: 1.0207 and 1.1034.
-* SQP, LQR guess: 1.0211 and 1.1054, in about a quarter of IPOPT's solve time
-  (benchmarks/results/mpc_solve_times.json).
+* SQP, LQR guess: 1.0211 and 1.1054. Median solve on seeds 0 and 1 of the nominal cell: 16.1
+  and 5.5 ms, against IPOPT's 38.7 and 28.4 ms (benchmarks/results/mpc_solve_times.json, and
+  its previous version for IPOPT).
 * SQP, shifted guess: 1.0479 and 1.1293. It stays in the local minimum its first solve found,
   2-4 % worse than IPOPT's on most transients.
 
@@ -51,8 +53,9 @@ is compensated as a gain, not as a lagged offset. Left out: the env's terminatio
 state constraints, every problem is feasible).
 
 :attr:`SloshMPCPolicy.solve_times_s` holds the wall time of each solve (s),
-:attr:`SloshMPCPolicy.failures` the solves the solver did not finish (their iterate is used if
-finite, else the LQR's action), :attr:`SloshMPCPolicy.disturbance_estimate` the current ``d̂``.
+:attr:`SloshMPCPolicy.failures` the decisions whose solve did not finish, the IPOPT fallback
+included (their iterate is used if finite, else the LQR's action),
+:attr:`SloshMPCPolicy.fallbacks` the SQP solves that failed and went to IPOPT, :attr:`SloshMPCPolicy.disturbance_estimate` the current ``d̂``.
 Reads only ``info["measured"]`` (full state: needs ``observe_slosh=True``). Requires CasADi.
 """
 
@@ -90,7 +93,8 @@ SOLVERS = ("sqp", "ipopt")
 #: where each solve starts: the LQR's rollout on the model, or the previous solution shifted
 INITIAL_GUESSES = ("lqr", "shifted")
 _IPOPT_MAX_ITER = 100
-#: warm-started SQP converges in 2-3 iterations; one that has not in 20 goes to IPOPT instead
+#: SQP from the LQR's rollout takes 1-4 iterations on the slosh campaign's episodes; one that has
+#: not converged in 20 goes to IPOPT instead
 _SQP_MAX_ITER = 20
 #: the full-state rows the disturbance fit uses (the position is not always measured)
 _FIT_ROWS = np.arange(slosh.ITH, slosh.N_STATE)
@@ -117,7 +121,7 @@ class SloshMPCPolicy:
     ``control_dt_s``.
 
     Parameters: ``horizon_steps`` (control steps N in the horizon, integer ≥ 1; default 5:
-    0.5 s at the campaign's 0.1 s period, IPOPT's solve time grows about linearly with N),
+    0.5 s at the campaign's 0.1 s period; the solve time grows about linearly with N),
     ``offset_free`` (estimate the input disturbance; default True), ``disturbance_gain``
     (filter gain of the estimate, in (0, 1]; default 1), ``estimate_effectiveness`` (also
     estimate each actuator's effectiveness θ; default True), ``window_steps`` (steps in its
@@ -127,8 +131,8 @@ class SloshMPCPolicy:
     objective, > 0, for IPOPT's tolerances; the optimum is unchanged; default 1e3),
     ``solver`` (``"sqp"``, the default, or ``"ipopt"``: see the module docstring), ``max_iter``
     (iterations per solve; default 20 for SQP, 100 for IPOPT), ``tol`` (the solver's tolerance: IPOPT's ``tol``, SQP's primal and
-    dual infeasibility), ``solver_options`` (further CasADi options of that solver; with IPOPT,
-    ``{"ipopt.mu_init": 1e-4}`` halves the iterations per solve, median 9 → 4, but on the slosh
+    dual infeasibility), ``solver_options`` (further CasADi options of that solver: IPOPT's
+    ``ipopt.*`` keys need ``solver="ipopt"``; there ``{"ipopt.mu_init": 1e-4}`` halves the iterations per solve, median 9 → 4, but on the slosh
     campaign's 40 episodes it moved J by −21 % to +30 % per episode), ``name``.
     """
 
@@ -172,6 +176,9 @@ class SloshMPCPolicy:
         self._max_iter = default_iter if max_iter is None else validation.integer("max_iter", max_iter, 1)
         self._tol = validation.positive("tol", tol)
         self._solver_options = dict(solver_options or {})
+        ipopt_keys = sorted(k for k in self._solver_options if str(k).startswith("ipopt."))
+        if ipopt_keys and self.solver != "ipopt":
+            raise ValueError(f"solver_options {ipopt_keys} are IPOPT's: pass solver='ipopt' with them")
         self.control_dt_s = float(base.control_dt_s)
         self._limits = np.asarray(base.actuator_limits, dtype=float).copy()
         #: the prediction model: ``(y (10), a (2), d (2)) -> (y_next, cost)``
@@ -344,12 +351,12 @@ class SloshMPCPolicy:
             action = self._lqr.act(obs, info)
         else:
             a_opt = w[: self._n_a].reshape(2, -1, order="F")
-            y_opt = w[self._n_a :].reshape(slosh.N_STATE, -1, order="F")
-            # warm start of the next step: the solution shifted by one step, its last entry repeated
-            self._guess = (
-                np.column_stack([a_opt[:, 1:], a_opt[:, -1:]]),
-                np.column_stack([y_opt[:, 1:], y_opt[:, -1:]]),
-            )
+            if self.initial_guess == "shifted":  # the next step's start: shifted by one step, last entry repeated
+                y_opt = w[self._n_a :].reshape(slosh.N_STATE, -1, order="F")
+                self._guess = (
+                    np.column_stack([a_opt[:, 1:], a_opt[:, -1:]]),
+                    np.column_stack([y_opt[:, 1:], y_opt[:, -1:]]),
+                )
             action = np.clip(a_opt[:, 0] / theta, -1.0, 1.0).astype(np.float32)
         self._last = (y0, np.clip(np.asarray(action, dtype=float), -1.0, 1.0))
         return action

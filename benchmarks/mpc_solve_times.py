@@ -95,6 +95,7 @@ def measure(job: dict[str, Any]) -> dict[str, Any]:
         "decisions": len(act_s),
         "solves": int(times_ms.size),
         "failures": int(getattr(policy, "failures", 0)),
+        "fallbacks": getattr(policy, "fallbacks", None),  # the slosh MPC's SQP solves redone by IPOPT
         "episode_wall_s": wall,
         "solve_ms": {
             "median": float(np.median(times_ms)),

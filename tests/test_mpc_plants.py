@@ -3,6 +3,7 @@ prediction model = env step, short episodes with successful solves, linear MPC =
 
 from __future__ import annotations
 
+import time
 import warnings
 
 import numpy as np
@@ -210,6 +211,74 @@ def test_slosh_sqp_and_interior_point_reach_the_same_optimum():
     np.testing.assert_allclose(np.asarray(sol_sqp["x"])[:2], np.asarray(sol_ipopt["x"])[:2], atol=1e-5)
 
 
+def test_slosh_mpc_bad_solver_options():
+    env = _make("attitude_envs/FuelSlosh-v0", **SLOSH_KW)
+    with pytest.raises(ValueError, match="solver_options"):
+        SloshMPCPolicy(env, solver_options={"ipopt.mu_init": 1e-4})
+
+
+@pytest.mark.parametrize("initial_guess", ["lqr", "shifted"])
+def test_slosh_mpc_decisions_start_where_asked(initial_guess):
+    """Through ``act``: the second decision's solve starts from the LQR's rollout from its state
+    (``"lqr"``) or from the first solution shifted by one step (``"shifted"``)."""
+    env = _make("attitude_envs/FuelSlosh-v0", **dict(SLOSH_KW, episode_duration_s=1.0))
+    policy = SloshMPCPolicy(env, horizon_steps=3, initial_guess=initial_guess)
+    calls = []
+    solve = policy._solve
+
+    def recording_solve(**args):
+        sol, solved = solve(**args)
+        calls.append((args, np.asarray(sol["x"]).ravel()))
+        return sol, solved
+
+    policy._solve = recording_solve
+    obs, info = env.reset(seed=3)
+    policy.reset(3)
+    for _ in range(2):
+        obs, _, _, _, info = env.step(policy.act(obs, info))
+    (_, w_first), (args, _) = calls
+    n_a, n_y = 2 * policy.horizon_steps, 10
+    y0, d = args["p"][:n_y], args["p"][n_y:]
+    if initial_guess == "lqr":
+        policy.initial_guess = "lqr"
+        a_start, y_start = policy._initial_guess(y0, d)
+    else:
+        a_first = w_first[:n_a].reshape(2, -1, order="F")
+        y_start = w_first[n_a:].reshape(n_y, -1, order="F")
+        a_start = np.column_stack([a_first[:, 1:], a_first[:, -1:]])
+        y_start = np.column_stack([y_start[:, 1:], y_start[:, -1:]])
+        y_start[:, 0] = y0
+    a_start = np.clip(a_start.ravel(order="F"), args["lbx"][:n_a], args["ubx"][:n_a])
+    np.testing.assert_allclose(args["x0"], np.r_[a_start, y_start.ravel(order="F")], rtol=0, atol=1e-12)
+
+
+def test_slosh_mpc_decisions_go_through_the_fallback():
+    """``act`` solves through the fallback: with SQP capped at one iteration every decision that
+    SQP cannot finish is redone by IPOPT (counted in ``fallbacks``), none fails, and each
+    decision's time includes both solves."""
+    env = _make("attitude_envs/FuelSlosh-v0", **dict(SLOSH_KW, episode_duration_s=0.5))
+    policy = SloshMPCPolicy(env, horizon_steps=3, max_iter=1)
+    fallback, fallback_s = policy._fallback, []
+
+    def timed_fallback(**args):
+        t0 = time.perf_counter()
+        sol = fallback(**args)
+        fallback_s.append(time.perf_counter() - t0)
+        return sol
+
+    timed_fallback.stats = fallback.stats
+    policy._fallback = timed_fallback
+    obs, info = env.reset(seed=3)
+    policy.reset(3)
+    times = []
+    for _ in range(5):
+        before = len(fallback_s)
+        obs, _, _, _, info = env.step(policy.act(obs, info))
+        times.append((policy.solve_times_s[-1], sum(fallback_s[before:])))
+    assert policy.fallbacks == len(fallback_s) >= 1 and policy.failures == 0
+    assert all(decision >= redo for decision, redo in times)
+
+
 def test_slosh_sqp_failure_falls_back_to_ipopt():
     """An SQP solve that fails (here: capped at one iteration from a guess far from the optimum)
     is solved again by IPOPT from the same guess, and counted."""
@@ -218,8 +287,13 @@ def test_slosh_sqp_failure_falls_back_to_ipopt():
     ipopt = SloshMPCPolicy(env, horizon_steps=5, solver="ipopt")
     args = _slosh_problem(capped, 3)
     args["x0"] = np.zeros_like(args["x0"])
+    starts = []
+    fallback = capped._fallback
+    capped._fallback = lambda **a: (starts.append(a["x0"].copy()), fallback(**a))[1]
+    capped._fallback.stats = fallback.stats
     sol, ok = capped._solve(**args)
     assert ok and capped.fallbacks == 1
+    np.testing.assert_array_equal(starts[0], args["x0"])  # IPOPT starts from SQP's guess
     reference, _ = ipopt._solve(**args)
     assert abs(float(sol["f"]) - float(reference["f"])) <= 1e-9 * abs(float(reference["f"]))
 
