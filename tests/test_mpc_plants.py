@@ -161,18 +161,21 @@ def test_linear_mpc_bad_input(kwargs, match):
         LinearMPCPolicy(env, **kwargs)
 
 
-def test_slosh_mpc_bad_input():
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"horizon_steps": 0}, "horizon_steps"),
+        ({"disturbance_gain": 1.5}, "disturbance_gain"),
+        ({"solver": "qpoases"}, "solver"),
+        ({"initial_guess": "zero"}, "initial_guess"),
+        ({"max_iter": 0}, "max_iter"),
+        ({"solver_options": {"ipopt.mu_init": 1e-4}}, "solver_options"),
+    ],
+)
+def test_slosh_mpc_bad_input(kwargs, match):
     env = _make("attitude_envs/FuelSlosh-v0", **SLOSH_KW)
-    with pytest.raises(ValueError, match="horizon_steps"):
-        SloshMPCPolicy(env, horizon_steps=0)
-    with pytest.raises(ValueError, match="disturbance_gain"):
-        SloshMPCPolicy(env, disturbance_gain=1.5)
-    with pytest.raises(ValueError, match="solver"):
-        SloshMPCPolicy(env, solver="qpoases")
-    with pytest.raises(ValueError, match="initial_guess"):
-        SloshMPCPolicy(env, initial_guess="zero")
-    with pytest.raises(ValueError, match="max_iter"):
-        SloshMPCPolicy(env, max_iter=0)
+    with pytest.raises(ValueError, match=match):
+        SloshMPCPolicy(env, **kwargs)
 
 
 def _slosh_problem(policy, seed: int):
@@ -209,12 +212,6 @@ def test_slosh_sqp_and_interior_point_reach_the_same_optimum():
     f_sqp, f_ipopt = float(sol_sqp["f"]), float(sol_ipopt["f"])
     assert abs(f_sqp - f_ipopt) <= 1e-6 * abs(f_ipopt), (f_sqp, f_ipopt)
     np.testing.assert_allclose(np.asarray(sol_sqp["x"])[:2], np.asarray(sol_ipopt["x"])[:2], atol=1e-5)
-
-
-def test_slosh_mpc_bad_solver_options():
-    env = _make("attitude_envs/FuelSlosh-v0", **SLOSH_KW)
-    with pytest.raises(ValueError, match="solver_options"):
-        SloshMPCPolicy(env, solver_options={"ipopt.mu_init": 1e-4})
 
 
 @pytest.mark.parametrize("initial_guess", ["lqr", "shifted"])
