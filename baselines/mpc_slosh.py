@@ -19,10 +19,10 @@ with the env's weights), the unconstrained infinite-horizon cost-to-go as termin
 al. 2019), solved by sequential quadratic programming with the exact Hessian (CasADi's
 ``sqpmethod``, its active-set QP solver ``qrqp`` and a line search; the default) or by IPOPT's
 interior point (Wächter & Biegler 2006; ``solver="ipopt"``). An SQP solve that fails (its line
-search stalls, or ``max_iter`` iterations pass) is solved again by IPOPT from the same guess (100
-iterations, the same ``tol``, none of ``solver_options``). Every solve
-starts from the LQR's rollout on the model (``initial_guess="lqr"``, the default) or from the
-previous solution shifted by one step (``"shifted"``). The NLP is nonconvex in the random
+search stalls, or ``max_iter`` iterations pass) is solved again by IPOPT from the same guess
+(100 iterations, the same ``tol``, none of ``solver_options``). Every solve starts from the
+LQR's rollout on the model (``initial_guess="lqr"``, the default) or from the previous solution
+shifted by one step (``"shifted"``). The NLP is nonconvex in the random
 starts' transient, and where a solve starts decides which local minimum it finds. On the slosh
 campaign's 40 episodes (2026-11-28), ΣJ/ΣJ* nominal and under the thruster faults:
 
@@ -55,7 +55,8 @@ state constraints, every problem is feasible).
 :attr:`SloshMPCPolicy.solve_times_s` holds the wall time of each solve (s),
 :attr:`SloshMPCPolicy.failures` the decisions whose solve did not finish, the IPOPT fallback
 included (their iterate is used if finite, else the LQR's action),
-:attr:`SloshMPCPolicy.fallbacks` the SQP solves that failed and went to IPOPT, :attr:`SloshMPCPolicy.disturbance_estimate` the current ``d̂``.
+:attr:`SloshMPCPolicy.fallbacks` the SQP solves that failed and went to IPOPT,
+:attr:`SloshMPCPolicy.disturbance_estimate` the current ``d̂``.
 Reads only ``info["measured"]`` (full state: needs ``observe_slosh=True``). Requires CasADi.
 """
 
@@ -129,11 +130,14 @@ class SloshMPCPolicy:
     ≥ 0; default 1e-4), ``change_tol`` (largest normalized misfit of the regression window's points to its fit above
     which the window restarts, > 0; default 1e-4), ``cost_scale`` (factor on the NLP's
     objective, > 0, for IPOPT's tolerances; the optimum is unchanged; default 1e3),
-    ``solver`` (``"sqp"``, the default, or ``"ipopt"``: see the module docstring), ``max_iter``
-    (iterations per solve; default 20 for SQP, 100 for IPOPT), ``tol`` (the solver's tolerance: IPOPT's ``tol``, SQP's primal and
-    dual infeasibility), ``solver_options`` (further CasADi options of that solver: IPOPT's
-    ``ipopt.*`` keys need ``solver="ipopt"``; there ``{"ipopt.mu_init": 1e-4}`` halves the iterations per solve, median 9 → 4, but on the slosh
-    campaign's 40 episodes it moved J by −21 % to +30 % per episode), ``name``.
+    ``solver`` (``"sqp"``, the default, or ``"ipopt"``: see the module docstring),
+    ``initial_guess`` (``"lqr"``, the default, or ``"shifted"``: where each solve starts),
+    ``max_iter`` (iterations per solve; default 20 for SQP, 100 for IPOPT), ``tol`` (the
+    solver's tolerance: IPOPT's ``tol``, SQP's primal and dual infeasibility),
+    ``solver_options`` (further CasADi options of that solver: IPOPT's ``ipopt.*`` keys need
+    ``solver="ipopt"``; there ``{"ipopt.mu_init": 1e-4}`` halves the iterations per solve,
+    median 9 → 4, but on the slosh campaign's 40 episodes it moved J by −21 % to +30 % per
+    episode), ``name``.
     """
 
     def __init__(
