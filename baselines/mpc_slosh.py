@@ -251,8 +251,9 @@ class SloshMPCPolicy:
         """The NLP's solution from ``args`` (CasADi's solver arguments) and whether it solved:
         SQP first, IPOPT from the same guess where SQP fails (counted in :attr:`fallbacks`)."""
         sol = self._solver(**args)
-        if self._solver.stats()["success"] or self.solver != "sqp":
-            return sol, bool(self._solver.stats()["success"])
+        solved = bool(self._solver.stats()["success"])
+        if solved or self.solver != "sqp":
+            return sol, solved
         self.fallbacks += 1
         sol = self._fallback(**args)
         return sol, bool(self._fallback.stats()["success"])

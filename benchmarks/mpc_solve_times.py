@@ -127,7 +127,7 @@ def main(argv: list[str] | None = None) -> None:
                 f"{name} {row['agent']} seed {row['seed']}: dt {row['control_dt_s']} s, {row['solves']} solves in "
                 f"{row['decisions']} decisions, median {s['median']:.1f} ms ({p['median']:.1f} %), p90 {s['p90']:.1f} ms, "
                 f"max {s['max']:.1f} ms ({p['max']:.1f} %), act median {row['act_ms']['median']:.1f} ms, "
-                f"failures {row['failures']}, J {row['J']:.6g}",
+                f"failures {row['failures']}, fallbacks {row['fallbacks']}, J {row['J']:.6g}",
                 flush=True,
             )
     if args.out:
