@@ -28,7 +28,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import os
 import tempfile
 import time
 from collections.abc import Callable, Sequence
@@ -40,6 +39,7 @@ import gymnasium as gym
 import numpy as np
 
 import attitude_envs
+from attitude_envs.cache import cache_dir as suite_cache_dir
 from attitude_envs.info import policy_view
 from attitude_envs.symbolic import BUILDERS, DiscreteProblem, problem_for
 from experiments.jsonable import json_ready
@@ -135,11 +135,7 @@ def check_env(env_id: str) -> str:
 def cache_dir() -> Path:
     """``$ATTITUDE_ENVS_CACHE/optimum`` when that variable is set, else
     ``~/.cache/attitude-envs/optimum`` (``$XDG_CACHE_HOME`` replaces ``~/.cache``)."""
-    root = os.environ.get("ATTITUDE_ENVS_CACHE")
-    if root:
-        return Path(root) / "optimum"
-    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(base) / "attitude-envs" / "optimum"
+    return suite_cache_dir("optimum")
 
 
 def _cache_key(env_id, env_kwargs, seed, options, settings) -> str:

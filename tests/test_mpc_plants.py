@@ -14,6 +14,7 @@ pytest.importorskip("casadi")
 import gymnasium as gym  # noqa: E402
 
 import attitude_envs  # noqa: E402, F401  (registers the envs)
+from baselines import compiled_nlp  # noqa: E402
 from baselines.linear_lqr import LinearLQRPolicy  # noqa: E402
 from baselines.mpc_linear import LinearMPCPolicy, decision_matrices  # noqa: E402
 from baselines.mpc_slosh import SloshMPCPolicy, measured_full_state  # noqa: E402
@@ -170,6 +171,7 @@ def test_linear_mpc_bad_input(kwargs, match):
         ({"initial_guess": "zero"}, "initial_guess"),
         ({"max_iter": 0}, "max_iter"),
         ({"solver_options": {"ipopt.mu_init": 1e-4}}, "solver_options"),
+        ({"compiled": "yes"}, "compiled"),
     ],
 )
 def test_slosh_mpc_bad_input(kwargs, match):
@@ -317,3 +319,24 @@ def test_linear_mpc_at_a_longer_decision_period():
         obs, reward, _, _, info = env.step(a)
         np.testing.assert_allclose(np.asarray(x_pred).ravel(), env.unwrapped.state, rtol=0, atol=1e-9)
         assert abs(float(cost_pred) + reward) <= 1e-9 * max(1.0, abs(reward))
+
+
+@pytest.mark.skipif(compiled_nlp.c_compiler() is None, reason="no C compiler on PATH")
+def test_slosh_mpc_compiled_decides_as_interpreted(tmp_path, monkeypatch):
+    """``compiled=True`` (the slosh campaign's setting: the NLP's functions compiled to C) makes
+    the same decisions as the interpreted solver over a short episode with a disturbance (compiled
+    with -O0 on a 1-step horizon here to keep the test short; the campaign's -O1 builds once per
+    machine)."""
+    monkeypatch.setenv("ATTITUDE_ENVS_CACHE", str(tmp_path))
+    monkeypatch.setattr(compiled_nlp, "DEFAULT_FLAGS", ("-O0",))
+    env = _make("attitude_envs/FuelSlosh-v0", **dict(SLOSH_KW, episode_duration_s=1.0))
+    policies = [SloshMPCPolicy(env, horizon_steps=1, compiled=c) for c in (False, True)]
+    obs, info = env.reset(seed=3)
+    for policy in policies:
+        policy.reset(3)
+    for _ in range(10):
+        actions = [policy.act(obs, info) for policy in policies]
+        np.testing.assert_allclose(actions[1], actions[0], rtol=0, atol=1e-10)
+        obs, _, _, _, info = env.step(actions[0])
+    assert [p.failures for p in policies] == [0, 0]
+    assert len(list(tmp_path.glob("casadi/mpc_slosh_sqp-*.casadi"))) == 1

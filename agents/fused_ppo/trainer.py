@@ -388,8 +388,10 @@ class _Program:
         return jax.lax.scan(lambda r, _: self.update(r, hp), rs, None, length=self.config.num_updates)
 
     def update_chunk(self, rs: RunnerState, hp: Hparams, n_updates) -> tuple[RunnerState, dict[str, jax.Array]]:
-        shapes = jax.eval_shape(self.update, rs, hp)[1]
-        acc0 = jax.tree.map(lambda s: jnp.zeros(s.shape, jnp.float32), shapes)
+        # the sums start from METRIC_KEYS, not from jax.eval_shape(self.update): that traced the
+        # whole rollout and epochs a second time (about a fifth of the compile time); a key
+        # missing on either side fails the tree.map below at trace time
+        acc0 = {k: jnp.zeros((), jnp.float32) for k in METRIC_KEYS}
 
         def body(_, carry):
             rs, acc = carry
@@ -402,6 +404,12 @@ class _Program:
 
 
 _EPISODE_KEYS = ("episode_return", "episode_cost", "episode_length")
+#: the keys of :meth:`_Program.update`'s metrics (all scalars)
+METRIC_KEYS = (
+    *("pg_loss", "value_loss", "entropy_loss", "approx_kl", "clip_fraction"),
+    *("explained_variance", "learning_rate", "clip_range", "std", "timesteps", "episodes"),
+    *_EPISODE_KEYS,
+)
 
 
 def summarize(sums: dict[str, jax.Array], n_updates, timesteps) -> dict[str, jax.Array]:
