@@ -264,3 +264,16 @@ def test_rl_zoo3_trains_on_the_envs_with_the_shipped_file(tmp_path):
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert list(tmp_path.rglob("*.zip"))
+
+
+def test_training_without_tensorboard_leaves_no_folders_in_the_temp_dir(tmp_path, monkeypatch):
+    """SB3's ``learn()`` makes an empty ``$TMPDIR/SB3-<time>`` folder per call unless the model
+    has a logger; training calls it once per evaluation segment, so it gets one without a folder."""
+    import tempfile
+
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))
+    options = dict(env_kwargs=SHORT, seed=3, overrides=SAC_TINY, total_timesteps=200, eval_episodes=1)
+    train("sac", RW, tmp_path / "run", checkpoint_freq=100, eval_freq=100, tensorboard=False, **options)
+    assert list(scratch.iterdir()) == []
