@@ -487,6 +487,50 @@ def test_tune_backend_jax_trains_a_population_and_ranks_it(tmp_path, capsys):
     assert config.n_steps == 80 and config.vf_arch == (64, 64)
 
 
+def test_a_killed_population_search_resumes_to_the_uninterrupted_one(tmp_path, monkeypatch):
+    """The search saves its state after every evaluation; run again with the same arguments, a
+    search killed in its second evaluation resumes there and ends with the uninterrupted search's
+    evaluations, bit for bit. Another search's state in the folder is an error."""
+    import experiments.sb3.jax_tuning as jt
+
+    options = dict(n_trials=2, timesteps=480, n_evaluations=3, eval_episodes=1, overrides=LS_TINY, progress=False)
+    reference = jt.tune_population("ppo", LS, tmp_path / "whole", **options)
+    calls = {"n": 0}
+    evaluate = jt.evaluate_cost
+
+    def killed_in_the_second_evaluation(*args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] == 4:  # 2 settings per evaluation: the second setting of evaluation 2
+            raise KeyboardInterrupt
+        return evaluate(*args, **kwargs)
+
+    monkeypatch.setattr(jt, "evaluate_cost", killed_in_the_second_evaluation)
+    with pytest.raises(KeyboardInterrupt):
+        jt.tune_population("ppo", LS, tmp_path / "killed", **options)
+    assert not (tmp_path / "killed" / "population.json").exists()
+    counted = {"n": 0}
+
+    def counting(*args, **kwargs):
+        counted["n"] += 1
+        return evaluate(*args, **kwargs)
+
+    monkeypatch.setattr(jt, "evaluate_cost", counting)
+    resumed = jt.tune_population("ppo", LS, tmp_path / "killed", **options)
+    assert counted["n"] == 4  # evaluations 2 and 3 of both settings: the first was kept
+    whole = json.loads((tmp_path / "whole" / "population.json").read_text())["trials"]
+    again = json.loads((tmp_path / "killed" / "population.json").read_text())["trials"]
+    assert [t["evaluations"] for t in again] == [t["evaluations"] for t in whole]
+    assert [len(t["evaluations"]) for t in again] == [3, 3] and resumed["best_value"] == reference["best_value"]
+    finished = jt.tune_population("ppo", LS, tmp_path / "killed", **options)  # nothing left to train
+    assert (
+        counted["n"] == 4
+        and finished["best_value"] == reference["best_value"]
+        and finished["groups"] == resumed["groups"]
+    )
+    with pytest.raises(ValueError, match="holds another search's state"):
+        jt.tune_population("ppo", LS, tmp_path / "killed", **{**options, "n_evaluations": 2})
+
+
 def test_population_draws_keep_the_entry_shapes_in_group_zero():
     from experiments.sb3.hyperparams import load_hyperparams
     from experiments.sb3.jax_tuning import draw_population

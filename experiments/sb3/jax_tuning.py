@@ -17,14 +17,23 @@ trains from the same seed (``seed``), as optuna trials do.
 
 Writes ``OUT/trials.csv`` (number, state, value, last_step, group, param_* as optuna's),
 ``OUT/best.yml`` (the best setting's entry in the Zoo format) and ``OUT/population.json``
-(groups with compile and training times, every setting's evaluations). A rerun starts over.
+(groups with compile and training times, every setting's evaluations).
+
+After each evaluation the search writes ``OUT/population-state.pkl`` (atomic): the group's
+runner states and every evaluation so far. Run again with the same arguments, a killed search
+resumes from its last evaluation and loses nothing already evaluated (on one machine the
+result is the uninterrupted search's, bit for bit); another search's state in ``OUT`` is an
+error that says so. A finished search run again writes its results without training.
 """
 
 from __future__ import annotations
 
 import csv
+import hashlib
 import json
 import math
+import os
+import pickle
 import sys
 import time
 from pathlib import Path
@@ -35,11 +44,15 @@ import yaml
 
 from attitude_envs.make import make_checked
 from experiments.sb3.backends import check_backend
-from experiments.sb3.callbacks import evaluate_cost
+from experiments.sb3.callbacks import evaluate_cost, fsync_dir
 from experiments.sb3.hyperparams import load_hyperparams
 from experiments.sb3.jax_training import compiler_options
 from experiments.sb3.tuning import PPO_SPACE, ppo_space, task_decisions
 from experiments.sb3.vec_envs import batched_supported, make_eval_env
+
+#: the search's state after its last evaluation, in its ``out_dir``
+STATE_FILE = "population-state.pkl"
+STATE_FORMAT = "population-search-state"
 
 #: the search-space keys that fix the compiled program's shapes (drawn per group)
 STATIC_KEYS = ("n_steps", "batch_size", "n_epochs", "width", "depth")
@@ -179,9 +192,39 @@ def tune_population(
     seeds = [int(eval_seed) + i for i in range(int(eval_episodes))]
     every = max(1, budget // int(n_evaluations))
     key = jax.random.PRNGKey(int(seed))
-    group_rows = []
+    identity = _search_identity(algo, env_id, env_kwargs, entry, trials, budget, n_evaluations, seeds, seed)
+    saved = _read_state(out, identity)
+    group_rows: list[dict[str, Any]] = list(saved["group_rows"]) if saved else []
+    if saved:
+        for t, kept in zip(trials, saved["trials"], strict=True):
+            t["evaluations"], t["group"] = kept["evaluations"], kept["group"]
+        if progress:
+            print(
+                f"tune (jax): resuming from {out / STATE_FILE} (group {saved['group'] + 1}, "
+                f"{saved['segment']} of {n_evaluations} evaluations done)",
+                file=sys.stderr,
+                flush=True,
+            )
+
+    def save(g: int, segment: int, state, train_s: float, eval_s: float) -> None:
+        leaves = None if state is None else [np.asarray(x) for x in jax.tree.leaves(state)]
+        payload = {
+            "format": STATE_FORMAT,
+            "identity": identity,
+            "group": g,
+            "segment": segment,
+            "leaves": leaves,
+            "train_s": train_s,
+            "eval_s": eval_s,
+            "group_rows": group_rows,
+            "trials": [{"evaluations": t["evaluations"], "group": t["group"]} for t in trials],
+        }
+        _write_state(out, payload)
+
     try:
         for g, (config, members) in enumerate(groups.items()):
+            if g < len(group_rows):
+                continue  # trained and evaluated before the search was resumed
             chunked = make_chunked(env, env_params, config)
             hps = stack_hparams([trials[i]["hparams"] for i in members])
             start = time.perf_counter()
@@ -195,9 +238,14 @@ def tune_population(
             chunk = jax.jit(vchunk, compiler_options=options).lower(state, hps, n0).compile()
             compile_s = time.perf_counter() - start
             train_s = eval_s = 0.0
-            for i in members:
-                trials[i]["evaluations"], trials[i]["group"] = [], g
-            for k in range(1, int(n_evaluations) + 1):
+            first = 1
+            if saved and saved["group"] == g and saved["leaves"] is not None:
+                state = _restore(state, saved["leaves"], out)
+                first, train_s, eval_s = int(saved["segment"]) + 1, float(saved["train_s"]), float(saved["eval_s"])
+            else:
+                for i in members:
+                    trials[i]["evaluations"], trials[i]["group"] = [], g
+            for k in range(first, int(n_evaluations) + 1):
                 target = every * k if k < int(n_evaluations) else budget
                 done = int(np.asarray(state.timesteps)[0])
                 n_updates = -(-(target - done) // config.rollout_size)
@@ -213,6 +261,7 @@ def tune_population(
                     row = evaluate_cost(policy, eval_env, seeds, name="ppo-jax")
                     trials[i]["evaluations"].append({"timesteps": steps, **row})
                 eval_s += time.perf_counter() - t0
+                save(g, k, state, train_s, eval_s)
                 if progress:
                     best = min((_value(trials[i]) for i in members), default=math.inf)
                     print(
@@ -238,9 +287,73 @@ def tune_population(
                     "env_steps_per_s": steps * len(members) / train_s if train_s > 0 else None,
                 }
             )
+            save(g + 1, 0, None, 0.0, 0.0)  # the group is done: a resumed search skips it
     finally:
         eval_env.close()
     return _write_results(trials, group_rows, out, algo, env_id, budget, seed, seeds)
+
+
+def _search_identity(algo, env_id, env_kwargs, entry, trials, budget, n_evaluations, seeds, seed) -> str:
+    """A digest of everything that decides the search's results (its state belongs to it only)."""
+    what = {
+        "algo": algo,
+        "env_id": env_id,
+        "env_kwargs": env_kwargs,
+        "entry": entry,
+        "settings": [t["overrides"] for t in trials],
+        "timesteps": budget,
+        "n_evaluations": int(n_evaluations),
+        "eval_seeds": seeds,
+        "seed": int(seed),
+    }
+    return hashlib.sha256(json.dumps(what, sort_keys=True, default=repr).encode()).hexdigest()
+
+
+def _read_state(out: Path, identity: str) -> dict[str, Any] | None:
+    """The saved state of this search in ``out``, None when there is none (``ValueError`` when
+    ``out`` holds another search's, or a file that is not one)."""
+    path = out / STATE_FILE
+    if not path.is_file():
+        return None
+    try:
+        with path.open("rb") as fh:
+            payload = pickle.load(fh)
+    except (pickle.UnpicklingError, EOFError, AttributeError, ImportError) as exc:
+        raise ValueError(
+            f"{str(path)!r} cannot be read ({type(exc).__name__}: {exc}); remove it to start over"
+        ) from exc
+    if not isinstance(payload, dict) or payload.get("format") != STATE_FORMAT:
+        raise ValueError(f"{str(path)!r} is not a population search's state; remove it to start over")
+    if payload["identity"] != identity:
+        raise ValueError(
+            f"--out {str(out)!r} holds another search's state (other env, settings, budget, evaluations or "
+            f"seeds): use another --out, or remove {STATE_FILE} to start over"
+        )
+    return payload
+
+
+def _write_state(out: Path, payload: dict[str, Any]) -> None:
+    path = out / STATE_FILE
+    tmp = path.with_name(path.name + ".tmp")
+    with tmp.open("wb") as fh:
+        pickle.dump(payload, fh, protocol=pickle.HIGHEST_PROTOCOL)
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+    fsync_dir(out)
+
+
+def _restore(state, leaves: list[np.ndarray], out: Path):
+    """``leaves`` put back into ``state``'s structure (``ValueError`` when they do not fit it)."""
+    import jax
+    import jax.numpy as jnp
+
+    reference = jax.tree.leaves(state)
+    if len(leaves) != len(reference) or any(
+        tuple(a.shape) != tuple(r.shape) or a.dtype != r.dtype for a, r in zip(leaves, reference, strict=True)
+    ):
+        raise ValueError(f"{str(out / STATE_FILE)!r} does not fit this search's programs; remove it to start over")
+    return jax.tree.unflatten(jax.tree.structure(state), [jnp.asarray(x) for x in leaves])
 
 
 def _value(trial: dict[str, Any]) -> float:
