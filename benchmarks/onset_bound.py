@@ -32,12 +32,18 @@ prefix's actions held fixed (``solve_problem(fixed_steps=)``), IPOPT from the ro
 prefix followed by the optimum's actions, scored by replaying the actions through the env (J*
 and the nominal optimum from the solver's cache, solved where missing). IPOPT finds local
 optima; the front's points are what it found. Needs the ``optimal`` extra (CasADi).
+
+With ``--out``, each finished episode is appended to a journal next to it (``.journal.jsonl``);
+``--resume`` reuses the episodes it holds for the same cell, seed, episode and blends after an
+interrupted run (a line cut short by a kill is ignored).
 """
 
 from __future__ import annotations
 
 import argparse
 import copy
+import hashlib
+import json
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -46,7 +52,7 @@ import gymnasium as gym
 import numpy as np
 
 import attitude_envs  # noqa: F401  (registers the envs)
-from benchmarks.results_file import write_results
+from benchmarks.results_file import append_journal, write_results
 from experiments import optimum
 from experiments.campaign.jobs import episode_jobs
 from experiments.campaign.spec import load_campaign
@@ -155,6 +161,26 @@ def onset_bound(episode: dict[str, Any], blends: tuple[float, ...] = BLENDS) -> 
     }
 
 
+def episode_key(cell: str, episode: dict[str, Any], blends: tuple[float, ...]) -> str:
+    """What decides an episode's row: its cell, its episode (env, faults, seed) and the blends."""
+    what = {"cell": cell, "episode": episode, "blends": list(blends)}
+    return hashlib.sha256(json.dumps(what, sort_keys=True, default=repr).encode()).hexdigest()
+
+
+def read_journal(path: Path) -> dict[str, dict[str, Any]]:
+    """Rows of an earlier run's journal by :func:`episode_key` (empty when there is none)."""
+    rows: dict[str, dict[str, Any]] = {}
+    if not path.is_file():
+        return rows
+    for line in path.read_text(encoding="utf-8").splitlines():
+        try:
+            entry = json.loads(line)
+        except ValueError:
+            continue  # a line cut short by a killed run
+        rows[entry["key"]] = entry["row"]
+    return rows
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cells", default=",".join(CELLS), help="comma-separated <campaign>/<fault cell>")
@@ -163,7 +189,12 @@ def main(argv: list[str] | None = None) -> None:
         "--blends", default=",".join(f"{w:g}" for w in BLENDS), help="comma-separated prefix blends w in [0, 1], from 0"
     )
     parser.add_argument("--out", default=None, help="write the rows and the per-cell ratios as JSON here")
+    parser.add_argument(
+        "--resume", action="store_true", help="reuse the finished episodes of OUT's journal (.journal.jsonl)"
+    )
     args = parser.parse_args(argv)
+    if args.resume and not args.out:
+        parser.error("--resume needs --out (the journal lies next to it)")
     try:
         blends = tuple(float(w) for w in args.blends.split(","))
     except ValueError:
@@ -174,11 +205,23 @@ def main(argv: list[str] | None = None) -> None:
         episodes = {cell: cell_episodes(cell, args.seeds) for cell in args.cells.split(",")}
     except ValueError as exc:
         parser.error(str(exc))
+    journal = Path(args.out).with_suffix(".journal.jsonl") if args.out else None
+    done = read_journal(journal) if args.resume else {}
+    if journal is not None and not args.resume:
+        journal.parent.mkdir(parents=True, exist_ok=True)
+        journal.write_text("", encoding="utf-8")
     cells = {}
     for cell, cell_rows in episodes.items():
         rows = []
         for episode in cell_rows:
-            row = onset_bound(episode, blends)
+            key = episode_key(cell, episode, blends)
+            row = done.get(key)
+            if row is None:
+                row = onset_bound(episode, blends)
+                if journal is not None:
+                    append_journal(journal, {"key": key, "row": row})
+            else:
+                print(f"[resume] {cell} seed {row['seed']} read from {journal}", flush=True)
             rows.append(row)
             points = ", ".join(
                 f"w {p['blend']:g}: fault {p['fault']['J'] / row['j_star']:.4f} nominal "

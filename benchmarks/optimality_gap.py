@@ -60,6 +60,7 @@ import attitude_envs
 from attitude_envs.evaluation import rollout
 from attitude_envs.info import policy_view
 from attitude_envs.scenarios import load_scenario
+from benchmarks.results_file import append_journal
 from experiments.optimum import full_id, solve_episode
 from experiments.policies import build_policy
 
@@ -499,8 +500,7 @@ def main(argv: list[str] | None = None) -> int:
         journal.write_text("")
 
     def record(entry: dict) -> None:
-        with journal.open("a") as fh:
-            fh.write(json.dumps(entry, default=_json_default) + "\n")
+        append_journal(journal, entry, default=_json_default)
 
     plans = {}
     for task in chosen:

@@ -40,3 +40,32 @@ def test_one_episode_front_runs_from_the_nominal_prefix_to_the_oracles(tmp_path,
     assert row["j_star_onset"] > 1.5 * row["j_star"]
     assert last["nominal"]["J"] >= row["j_star_nominal"] * (1 - 1e-9)
     assert first["fault"]["status"] == "Solve_Succeeded" and not first["fault"]["terminated"]
+
+
+def test_an_interrupted_run_resumes_from_its_journal(tmp_path, monkeypatch):
+    """Each finished episode is journaled next to --out; --resume solves only the others, and a
+    journal line cut short by a kill is ignored."""
+    solved = []
+
+    def fake_bound(episode, blends):
+        solved.append(episode["seed"])
+        if episode["seed"] == 2 and len(solved) == 3:
+            raise KeyboardInterrupt  # killed while solving the third episode
+        j = 1.0 + episode["seed"]
+        front = [{"blend": w, "fault": {"J": 2 * j}, "nominal": {"J": j}} for w in blends]
+        return {"seed": episode["seed"], "j_star": j, "j_star_nominal": j, "front": front}
+
+    monkeypatch.setattr(ob, "onset_bound", fake_bound)
+    out = tmp_path / "bound.json"
+    argv = ["--cells", "wheel/two-wheel-failure", "--seeds", "0-2", "--blends", "0,1", "--out", str(out)]
+    with pytest.raises(KeyboardInterrupt):
+        ob.main(argv)
+    journal = out.with_suffix(".journal.jsonl")
+    with journal.open("a") as fh:
+        fh.write('{"key": "cut sho')  # a kill in the middle of a line
+    assert solved == [0, 1, 2] and not out.exists()
+    ob.main([*argv, "--resume"])
+    assert solved == [0, 1, 2, 2]  # only the unfinished episode is solved again
+    assert sorted(ob.read_journal(journal)) and len(ob.read_journal(journal)) == 3
+    with pytest.raises(SystemExit):  # --resume without --out
+        ob.main(["--resume"])
