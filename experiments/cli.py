@@ -777,9 +777,29 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def use_jax_compilation_cache() -> None:
+    """Keep JAX's compiled programs across processes (JAX's persistent compilation cache) in
+    ``cache_dir("jax")``, unless ``JAX_COMPILATION_CACHE_DIR`` names another folder or
+    ``JAX_ENABLE_COMPILATION_CACHE`` is false: the fused trainer's and SBX's programs, compiled
+    once per machine, load in the campaign's and tuning's later processes instead of compiling
+    again (the same programs: the same numbers). Set as environment variables, which every
+    subprocess inherits, and in ``jax.config`` when jax is imported already."""
+    if os.environ.get("JAX_ENABLE_COMPILATION_CACHE", "").strip().lower() in ("0", "false", "no", "off"):
+        return
+    if os.environ.get("JAX_COMPILATION_CACHE_DIR"):
+        return
+    from attitude_envs.cache import cache_dir
+
+    folder = str(cache_dir("jax"))
+    os.environ["JAX_COMPILATION_CACHE_DIR"] = folder
+    if "jax" in sys.modules:
+        sys.modules["jax"].config.update("jax_compilation_cache_dir", folder)
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     quiet_version_warnings()  # the -v0 ids are the papers' problems, not out of date
+    use_jax_compilation_cache()
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:  # no subcommand: what there is to run

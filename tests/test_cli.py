@@ -1,3 +1,4 @@
+import os
 import subprocess
 import sys
 
@@ -65,3 +66,25 @@ def test_install_puts_no_bare_train_module_on_the_path(tmp_path):
     code = "import importlib.util as u; print(u.find_spec('train') is None, u.find_spec('experiments.cli') is not None)"
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path)
     assert proc.stdout.split() == ["True", "True"], proc.stderr
+
+
+def test_the_command_line_keeps_jax_programs_in_the_suites_cache(tmp_path, monkeypatch):
+    """`attitude-envs` turns on JAX's persistent compilation cache in cache_dir("jax") (for its
+    subprocesses too, through the environment), unless the user named a folder or turned it off."""
+    jax = pytest.importorskip("jax")
+    before = jax.config.jax_compilation_cache_dir
+    monkeypatch.setenv("ATTITUDE_ENVS_CACHE", str(tmp_path))
+    try:
+        monkeypatch.setenv("JAX_ENABLE_COMPILATION_CACHE", "false")
+        monkeypatch.delenv("JAX_COMPILATION_CACHE_DIR", raising=False)
+        cli.use_jax_compilation_cache()
+        assert "JAX_COMPILATION_CACHE_DIR" not in os.environ
+        monkeypatch.delenv("JAX_ENABLE_COMPILATION_CACHE")
+        cli.use_jax_compilation_cache()
+        assert os.environ["JAX_COMPILATION_CACHE_DIR"] == str(tmp_path / "jax")
+        assert jax.config.jax_compilation_cache_dir == str(tmp_path / "jax")
+        monkeypatch.setenv("JAX_COMPILATION_CACHE_DIR", str(tmp_path / "mine"))
+        cli.use_jax_compilation_cache()  # the user's folder wins
+        assert os.environ["JAX_COMPILATION_CACHE_DIR"] == str(tmp_path / "mine")
+    finally:
+        jax.config.update("jax_compilation_cache_dir", before)
