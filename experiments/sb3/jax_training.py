@@ -232,7 +232,6 @@ def read_checkpoint(directory: Path, prog: Program, key, hparams) -> tuple[Any, 
     """``(runner state, run)`` of a checkpoint, its leaves put back into the program's state
     structure (``ValueError`` when they do not fit it: another configuration)."""
     import jax
-    import jax.numpy as jnp
 
     path = Path(directory) / STATE_FILE
     try:
@@ -243,14 +242,25 @@ def read_checkpoint(directory: Path, prog: Program, key, hparams) -> tuple[Any, 
     if not isinstance(payload, dict) or payload.get("format") != CHECKPOINT_FORMAT:
         raise ValueError(f"checkpoint {str(path)!r} is not a fused-PPO checkpoint (a run of another backend?)")
     reference = jax.eval_shape(prog.init_fn, key, hparams)
-    shapes = jax.tree.leaves(reference)
-    leaves = payload["leaves"]
-    if len(leaves) != len(shapes) or any(
-        tuple(a.shape) != tuple(s.shape) or a.dtype != s.dtype for a, s in zip(leaves, shapes, strict=True)
-    ):
+    state = leaves_into(reference, payload["leaves"])
+    if state is None:
         raise ValueError(f"checkpoint {str(path)!r} does not fit this run's configuration (env or network changed)")
-    state = jax.tree.unflatten(jax.tree.structure(reference), [jnp.asarray(x) for x in leaves])
     return state, payload["run"]
+
+
+def leaves_into(reference, leaves: list[np.ndarray]):
+    """``leaves`` (saved numpy arrays) put back into ``reference``'s pytree structure as jax
+    arrays; None when their number, shapes or dtypes do not fit it (``reference``: a state or
+    its ``jax.eval_shape``)."""
+    import jax
+    import jax.numpy as jnp
+
+    shapes = jax.tree.leaves(reference)
+    if len(leaves) != len(shapes) or any(
+        tuple(a.shape) != tuple(r.shape) or a.dtype != r.dtype for a, r in zip(leaves, shapes, strict=True)
+    ):
+        return None
+    return jax.tree.unflatten(jax.tree.structure(reference), [jnp.asarray(x) for x in leaves])
 
 
 def _discard_partial_run(out_dir: Path) -> None:

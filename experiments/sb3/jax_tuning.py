@@ -46,7 +46,7 @@ from attitude_envs.make import make_checked
 from experiments.sb3.backends import check_backend
 from experiments.sb3.callbacks import evaluate_cost, fsync_dir
 from experiments.sb3.hyperparams import load_hyperparams
-from experiments.sb3.jax_training import compiler_options
+from experiments.sb3.jax_training import compiler_options, leaves_into
 from experiments.sb3.tuning import PPO_SPACE, ppo_space, task_decisions
 from experiments.sb3.vec_envs import batched_supported, make_eval_env
 
@@ -345,15 +345,10 @@ def _write_state(out: Path, payload: dict[str, Any]) -> None:
 
 def _restore(state, leaves: list[np.ndarray], out: Path):
     """``leaves`` put back into ``state``'s structure (``ValueError`` when they do not fit it)."""
-    import jax
-    import jax.numpy as jnp
-
-    reference = jax.tree.leaves(state)
-    if len(leaves) != len(reference) or any(
-        tuple(a.shape) != tuple(r.shape) or a.dtype != r.dtype for a, r in zip(leaves, reference, strict=True)
-    ):
+    restored = leaves_into(state, leaves)
+    if restored is None:
         raise ValueError(f"{str(out / STATE_FILE)!r} does not fit this search's programs; remove it to start over")
-    return jax.tree.unflatten(jax.tree.structure(state), [jnp.asarray(x) for x in leaves])
+    return restored
 
 
 def _value(trial: dict[str, Any]) -> float:
