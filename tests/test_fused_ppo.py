@@ -551,3 +551,15 @@ def test_hparams_are_a_pytree_and_config_is_static():
     leaves = jax.tree.leaves(Hparams())
     assert len(leaves) == len(Hparams._fields)
     assert hash(PPOConfig()) == hash(dataclasses.replace(PPOConfig()))
+
+
+def test_saved_leaves_go_back_only_into_a_state_they_fit():
+    from experiments.sb3.jax_training import leaves_into
+
+    state = {"a": jnp.zeros((2, 3), jnp.float32), "b": (jnp.arange(4, dtype=jnp.int32),)}
+    leaves = [np.full((2, 3), 1.5, np.float32), np.arange(4, dtype=np.int32) * 2]
+    back = leaves_into(state, leaves)
+    assert np.array_equal(back["a"], leaves[0]) and np.array_equal(back["b"][0], leaves[1])
+    assert leaves_into(state, leaves[:1]) is None  # fewer leaves
+    assert leaves_into(state, [leaves[0].astype(np.float64), leaves[1]]) is None  # another dtype
+    assert leaves_into(state, [leaves[0][:1], leaves[1]]) is None  # another shape
