@@ -4,6 +4,7 @@ a committed result says where and from what it was measured."""
 from __future__ import annotations
 
 import json
+import os
 import platform
 import sys
 import time
@@ -32,8 +33,6 @@ def append_journal(path: str | Path, entry: dict[str, Any], default: Any = float
     """Append ``entry`` as one JSON line to the journal ``path``, on a line of its own: after a
     kill cut the last line short, that fragment stays alone on its line (readers skip it) instead
     of swallowing the entry written next. Flushed to disk before returning."""
-    import os
-
     path = Path(path)
     with path.open("a+b") as fh:
         fh.seek(0, os.SEEK_END)
