@@ -237,6 +237,13 @@ def tune_population(
             vchunk = jax.vmap(chunked.update_chunk, in_axes=(0, 0, None))
             chunk = jax.jit(vchunk, compiler_options=options).lower(state, hps, n0).compile()
             compile_s = time.perf_counter() - start
+            if progress:
+                print(
+                    f"tune (jax) group {g + 1}/{len(groups)}: {len(members)} settings compiled in {compile_s:.1f} s, "
+                    f"training {budget} steps each",
+                    file=sys.stderr,
+                    flush=True,
+                )
             train_s = eval_s = 0.0
             first = 1
             if saved and saved["group"] == g and saved["leaves"] is not None:
