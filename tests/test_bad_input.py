@@ -97,7 +97,7 @@ def test_linear_system_rejects_bad_parameters(kwargs, match):
         gym.make("attitude_envs/LinearSystem-v0", **kwargs)
 
 
-# ---------------------------------------------------------------- constructor arguments (issue #33)
+# ---------------------------------------------------------------- constructor arguments
 # Every numeric keyword of every env with a value outside its accepted range. Strings are
 # refused too, numeric ones included: as Gymnasium's envs, no coercion (YAML's 1e-3 is a string).
 _WHEEL_ENV = {

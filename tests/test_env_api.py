@@ -268,7 +268,7 @@ def test_linear_system_terminates_on_divergence():
     assert steps == 7 and not truncated  # 2**7 = 128 > 100
 
 
-# ---------------------------------------------------------------- episode order (issue #33)
+# ---------------------------------------------------------------- episode order
 ENV_IDS = sorted(attitude_envs.ENV_IDS)
 # episodes truncated (by the env itself: no TimeLimit wrapper) on the third step
 TRUNCATE_AT_3 = {
