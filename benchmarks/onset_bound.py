@@ -52,7 +52,7 @@ import gymnasium as gym
 import numpy as np
 
 import attitude_envs  # noqa: F401  (registers the envs)
-from benchmarks.results_file import append_journal, write_results
+from benchmarks.results_file import append_journal, journal_entries, write_results
 from experiments import optimum
 from experiments.campaign.jobs import episode_jobs
 from experiments.campaign.spec import load_campaign
@@ -169,16 +169,7 @@ def episode_key(cell: str, episode: dict[str, Any], blends: tuple[float, ...]) -
 
 def read_journal(path: Path) -> dict[str, dict[str, Any]]:
     """Rows of an earlier run's journal by :func:`episode_key` (empty when there is none)."""
-    rows: dict[str, dict[str, Any]] = {}
-    if not path.is_file():
-        return rows
-    for line in path.read_text(encoding="utf-8").splitlines():
-        try:
-            entry = json.loads(line)
-        except ValueError:
-            continue  # a line cut short by a killed run
-        rows[entry["key"]] = entry["row"]
-    return rows
+    return {entry["key"]: entry["row"] for entry in journal_entries(path)}
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -60,7 +60,7 @@ import attitude_envs
 from attitude_envs.evaluation import rollout
 from attitude_envs.info import policy_view
 from attitude_envs.scenarios import load_scenario
-from benchmarks.results_file import append_journal
+from benchmarks.results_file import append_journal, journal_entries
 from experiments.optimum import full_id, solve_episode
 from experiments.policies import build_policy
 
@@ -452,13 +452,7 @@ def read_journal(path: Path, seeds: list[int]) -> dict:
     """Finished work of an earlier run: ``{("plan", task): plan, (kind, task, seed, label): row}``;
     plans made for other seeds are dropped."""
     rows: dict = {}
-    if not path.is_file():
-        return rows
-    for line in path.read_text().splitlines():
-        try:
-            entry = json.loads(line)
-        except ValueError:
-            continue  # a line cut short by a killed run
+    for entry in journal_entries(path):
         if entry["type"] == "plan":
             if entry["seeds"] == seeds:
                 rows[("plan", entry["task"])] = entry["row"]

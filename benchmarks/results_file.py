@@ -43,3 +43,18 @@ def append_journal(path: str | Path, entry: dict[str, Any], default: Any = float
         fh.write((json.dumps(entry, default=default) + "\n").encode("utf-8"))
         fh.flush()
         os.fsync(fh.fileno())
+
+
+def journal_entries(path: str | Path) -> list[dict[str, Any]]:
+    """The entries of the journal ``path`` in order (empty when there is none), without the line
+    a kill cut short."""
+    path = Path(path)
+    if not path.is_file():
+        return []
+    entries = []
+    for line in path.read_text(encoding="utf-8").splitlines():
+        try:
+            entries.append(json.loads(line))
+        except ValueError:
+            continue  # a line cut short by a killed run
+    return entries
