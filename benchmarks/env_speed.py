@@ -132,6 +132,7 @@ def sb3_ppo(steps: int = 4096, rounds: int = 3) -> list[dict]:
     except ImportError:  # the sb3 extra is not installed
         return []
     from experiments.sb3.sb3_vec_env import SB3VecEnv
+    from experiments.sb3.training import log_without_folder
 
     env_id = "attitude_envs/ReactionWheel-v0"
     variants = {
@@ -144,6 +145,7 @@ def sb3_ppo(steps: int = 4096, rounds: int = 3) -> list[dict]:
     }
     per_round = max(16 * 128, steps // rounds)
     for model in models.values():
+        log_without_folder(model)
         model.learn(16 * 128)  # warm-up: first rollout, compiled kernels, torch's first calls
     rates: dict[str, list[float]] = {name: [] for name in models}
     for _ in range(rounds):

@@ -34,6 +34,7 @@ from experiments.processes import pin_to_one_core
 from experiments.sb3.callbacks import NormalizedPredictor, episode_costs
 from experiments.sb3.hyperparams import load_hyperparams, split_hyperparams
 from experiments.sb3.registry import algorithm_class
+from experiments.sb3.training import log_without_folder
 from experiments.sb3.vec_envs import make_eval_env, make_training_env
 
 REFERENCE = "sb3 DummyVecEnv"  # today's stack: what train() ran before the native env and SBX
@@ -58,7 +59,9 @@ def _model(algo: str, env_id: str, env_kwargs: dict, backend: str, native: bool,
         venv = make_vec_env(env_id, n_envs=hp["n_envs"], seed=seed, env_kwargs={"render_mode": None, **env_kwargs})
     if hp["normalize"] is not None:
         venv = VecNormalize(venv, gamma=float(entry.get("gamma", 0.99)), **hp["normalize"])
-    return algorithm_class(algo, backend)(hp["policy"], venv, seed=seed, verbose=0, **hp["kwargs"])
+    model = algorithm_class(algo, backend)(hp["policy"], venv, seed=seed, verbose=0, **hp["kwargs"])
+    log_without_folder(model)
+    return model
 
 
 def rollout_steps(model) -> int:

@@ -701,7 +701,7 @@ def build_parser() -> argparse.ArgumentParser:
     tu = sub.add_parser(
         "tune", help="search an agent's hyperparameters with Optuna (TPE, median pruning; the tune extra)"
     )
-    tu.add_argument("--algo", required=True, help="algorithm with a sampler: ppo")
+    tu.add_argument("--algo", required=True, help="algorithm with a sampler: ppo, sac (--backend jax: ppo only)")
     _add_env_options(tu)
     tu.add_argument("--out", required=True, help="study directory (study.log, trials.csv, best.yml, trial runs)")
     tu.add_argument(

@@ -43,3 +43,19 @@ def test_throughput_benchmark_smoke(tmp_path):
     rows = training_throughput.evaluation("attitude_envs/LinearSystem-v0", {"episode_steps": 50}, 3, 1)
     assert [r["stack"] for r in rows] == ["sb3 one by one", "sb3 batched"] and rows[0]["ratio_to_today"] == 1.0
     assert all(r["episodes_per_s"] > 0 for r in rows)
+
+
+def test_benchmark_models_leave_no_folders_in_the_temp_dir(tmp_path, monkeypatch):
+    """The throughput benchmarks call SB3's ``learn()`` directly: their models get a logger
+    without a folder, or each call would leave an empty ``$TMPDIR/SB3-<time>`` behind."""
+    pytest.importorskip("stable_baselines3")
+    import tempfile
+
+    from benchmarks import training_throughput
+
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))
+    model = training_throughput._model("ppo", "attitude_envs/LinearSystem-v0", {"episode_steps": 50}, "sb3", True)
+    model.learn(training_throughput.rollout_steps(model))
+    assert model.num_timesteps > 0 and list(scratch.glob("SB3-*")) == []

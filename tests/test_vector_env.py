@@ -220,10 +220,10 @@ def test_sb3_trains_directly_on_the_batched_env():
         assert np.allclose(obs, ref_obs) and np.allclose(rewards, ref_rewards) and np.array_equal(dones, ref_dones)
     assert dones.all() and infos[0]["TimeLimit.truncated"]
     assert np.allclose(infos[0]["terminal_observation"], ref_infos[0]["terminal_observation"])
-    from stable_baselines3.common.logger import Logger
+    from experiments.sb3.training import log_without_folder
 
     model = PPO("MlpPolicy", venv, n_steps=32, batch_size=64, n_epochs=1, seed=0, device="cpu")
-    model.set_logger(Logger(folder=None, output_formats=[]))  # else learn() makes a $TMPDIR/SB3-* folder
+    log_without_folder(model)  # else learn() makes a $TMPDIR/SB3-* folder
     model.learn(256)
     assert model.num_timesteps >= 256
 

@@ -261,7 +261,7 @@ def train(
         run["best"], run["last_eval"] = row, row
         save_snapshot(model, out_dir / "best", meta={"best.json": json.dumps(row) + "\n"})
     if model.tensorboard_log is None:
-        _log_without_folder(model)
+        log_without_folder(model)
     if rng is not None:
         restore_rng(rng)  # last: nothing may draw from the global generators between here and learn()
     try:
@@ -328,7 +328,7 @@ def _predictor(model, frame_stack: int = 1) -> NormalizedPredictor:
     return NormalizedPredictor(model, model.get_vec_normalize_env(), frame_stack)
 
 
-def _log_without_folder(model) -> None:
+def log_without_folder(model) -> None:
     """Give ``model`` a logger with no folder: without TensorBoard, SB3's ``learn()`` otherwise
     makes an empty ``$TMPDIR/SB3-<time>`` folder on every call (one per evaluation segment)."""
     from stable_baselines3.common.logger import HumanOutputFormat, Logger
