@@ -84,6 +84,11 @@ def test_the_committed_results_have_the_documented_keys():
             assert (t["first_wall_s"] is None) == (not t["reached"])
     hit = result["targets"]["time_to_1.05_J_star_s"]
     assert hit["measured_per_seed"] == [t["first_wall_s"] for t in q["time_to_target_all_cores"]]
+    # and again with the compilation cache filled, as the command line runs every later training
+    warm = q["time_to_target_warm_cache"]
+    assert [t["seed"] for t in warm] == q["training_seeds"] and all(_finite(t["compile_s"]) for t in warm)
+    assert hit["measured_per_seed_warm_cache"] == [t["first_wall_s"] for t in warm]
+    assert isinstance(hit["met_warm_cache"], bool)
 
 
 def test_finished_sections_are_kept_and_taken_by_a_rerun_of_the_same_command(tmp_path):
