@@ -33,7 +33,7 @@ regulation episodes, seeds 0–19) against J* from ``experiments/optimum_table.j
   compilation included) of its first evaluation with J/J* ≤ 1.05 (the evaluations are every
   10 k steps: a ceiling on the time); pinned to one CPU, then again on every CPU this process
   may use (``time_to_target_all_cores``: the issue's target is on 2 cores, and XLA compiles on
-  all of them — 10–12 s on 2 cores against 17–20 s on one); ``time_to_target_warm_cache``: the
+  all of them — 7–12 s on 2 cores against 13–20 s on one); ``time_to_target_warm_cache``: the
   twins once more (on every CPU where the all-cores twins ran) with JAX's persistent compilation
   cache, as the command line uses it, filled by one short run of the same program first: what
   every run after a machine's first one takes.
@@ -52,8 +52,8 @@ whole run is written.
 Compilation comes from JAX's persistent cache only in ``time_to_target_warm_cache`` (a folder of
 the run's own, emptied first); it is switched off in this process and every other child.
 ``--quick`` (tiny budgets, XLA's fast-compile option, 1 seed, 2 rounds: a smoke run of every
-code path, not a measurement) takes about 3 min on a quiet 2-core machine; the full run about
-25 min there (about 10 of them the quality section, 6 the search). Nothing
+code path, not a measurement) takes about 3 min on a quiet 2-core machine; the full run 16–25
+min there (about 10 of them the quality section, 6 the search). Nothing
 here is asserted: the issue's targets are reported beside what was measured (``targets``).
 """
 
