@@ -52,10 +52,11 @@ import gymnasium as gym
 import numpy as np
 
 import attitude_envs  # noqa: F401  (registers the envs)
-from benchmarks.results_file import append_journal, journal_entries, write_results
+from benchmarks.results_file import write_results
 from experiments import optimum
 from experiments.campaign.jobs import episode_jobs
 from experiments.campaign.spec import load_campaign
+from experiments.campaign.store import append_line, read_lines
 from experiments.optimum_table import SOLVER, episode_specs
 from experiments.seeds import SYNTAX, seeds_arg
 
@@ -169,7 +170,7 @@ def episode_key(cell: str, episode: dict[str, Any], blends: tuple[float, ...]) -
 
 def read_journal(path: Path) -> dict[str, dict[str, Any]]:
     """Rows of an earlier run's journal by :func:`episode_key` (empty when there is none)."""
-    return {entry["key"]: entry["row"] for entry in journal_entries(path)}
+    return {entry["key"]: entry["row"] for entry in read_lines(path)}
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -210,7 +211,7 @@ def main(argv: list[str] | None = None) -> None:
             if row is None:
                 row = onset_bound(episode, blends)
                 if journal is not None:
-                    append_journal(journal, {"key": key, "row": row})
+                    append_line(journal, {"key": key, "row": row}, default=float)
             else:
                 print(f"[resume] {cell} seed {row['seed']} read from {journal}", flush=True)
             rows.append(row)

@@ -60,7 +60,7 @@ import attitude_envs
 from attitude_envs.evaluation import rollout
 from attitude_envs.info import policy_view
 from attitude_envs.scenarios import load_scenario
-from benchmarks.results_file import append_journal, journal_entries
+from experiments.campaign.store import append_line, read_lines
 from experiments.optimum import full_id, solve_episode
 from experiments.policies import build_policy
 
@@ -452,7 +452,7 @@ def read_journal(path: Path, seeds: list[int]) -> dict:
     """Finished work of an earlier run: ``{("plan", task): plan, (kind, task, seed, label): row}``;
     plans made for other seeds are dropped."""
     rows: dict = {}
-    for entry in journal_entries(path):
+    for entry in read_lines(path):
         if entry["type"] == "plan":
             if entry["seeds"] == seeds:
                 rows[("plan", entry["task"])] = entry["row"]
@@ -494,7 +494,7 @@ def main(argv: list[str] | None = None) -> int:
         journal.write_text("")
 
     def record(entry: dict) -> None:
-        append_journal(journal, entry, default=_json_default)
+        append_line(journal, entry, default=_json_default)
 
     plans = {}
     for task in chosen:

@@ -22,22 +22,26 @@ from experiments.machine_reference import reference_steps_per_s
 from experiments.progress import status_interval_s
 
 
-def append_line(path: Path, record: dict[str, Any]) -> None:
+def append_line(path: str | Path, record: dict[str, Any], default: Any = None) -> None:
     """Append one JSON line and fsync it (a crash can cut at most this line; a line a crash
-    cut before is ended first, so this one stays readable)."""
+    cut before is ended first, so this one stays readable); ``default``: ``json.dumps``'s, for
+    values JSON has no type for."""
+    path = Path(path)
     with path.open("a+b") as fh:
         size = fh.seek(0, os.SEEK_END)
         cut = False
         if size:
             fh.seek(size - 1)
             cut = fh.read(1) != b"\n"
-        fh.write((("\n" if cut else "") + json.dumps(record, allow_nan=True) + "\n").encode("utf-8"))
+        fh.write((("\n" if cut else "") + json.dumps(record, allow_nan=True, default=default) + "\n").encode("utf-8"))
         fh.flush()
         os.fsync(fh.fileno())
 
 
-def read_lines(path: Path) -> list[dict[str, Any]]:
-    """The JSON lines of an append log, skipping a line cut by a crash."""
+def read_lines(path: str | Path) -> list[dict[str, Any]]:
+    """The JSON lines of an append log in order (empty when there is none), skipping a line cut
+    by a crash."""
+    path = Path(path)
     if not path.is_file():
         return []
     records = []
