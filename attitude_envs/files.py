@@ -1,0 +1,56 @@
+"""Durable file writes: the one atomic write of the suite (a result, a table, a checkpoint
+pointer or a compiled solver is either the old file or the whole new one, never half-written,
+also when the process is killed mid-write)."""
+
+from __future__ import annotations
+
+import os
+import threading
+from collections.abc import Callable
+from pathlib import Path
+
+
+def fsync_dir(path: str | os.PathLike) -> None:
+    """Make a rename or a new file in directory ``path`` durable."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def atomic_write(
+    path: str | os.PathLike,
+    content: str | bytes | Callable[[Path], object],
+    *,
+    durable: bool = False,
+) -> Path:
+    """Write ``content`` to ``path`` through a temporary file in the same folder and
+    ``os.replace``; the folder is created. ``content`` is text (UTF-8, newlines as given),
+    bytes, or a writer called with the temporary file's path (a library's own ``save``).
+    ``durable`` also fsyncs the file and the folder (a checkpoint survives a power loss, not
+    only a kill). Returns ``path``."""
+    path = Path(path)
+    if not path.name:
+        raise ValueError(f"path must name a file, got {str(path)!r}")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    # A name of this process and thread (not mkstemp: its 0600 mode would outlive the rename).
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
+    try:
+        if callable(content):
+            content(tmp)
+        else:
+            with tmp.open("wb") as fh:
+                fh.write(content.encode("utf-8") if isinstance(content, str) else bytes(content))
+                if durable:
+                    fh.flush()
+                    os.fsync(fh.fileno())
+        if durable and callable(content):
+            with tmp.open("rb+") as fh:
+                os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    if durable:
+        fsync_dir(path.parent)
+    return path
