@@ -49,8 +49,10 @@ from attitude_envs.integrators import substeps
 from attitude_envs.jax import cost as jcost
 from attitude_envs.jax import faults as jfaults
 from attitude_envs.jax.environment import Environment
+from attitude_envs.jax.ops import JAX
 from attitude_envs.jax.spaces import Box
 from attitude_envs.plants import slosh
+from attitude_envs.plants.slosh_definition import define
 from attitude_envs.plants.slosh_model import REDUCED_INDEX
 from attitude_envs.presets.navabi_slosh import PAPER_INITIAL_STATE
 
@@ -60,6 +62,7 @@ INITIAL_ORDER = (slosh.IVX, slosh.IVZ, slosh.ITH, slosh.IOM, slosh.IPSI1, slosh.
 RANDOM_START = (1, 2, 4, 6)
 _REDUCED = tuple(int(i) for i in REDUCED_INDEX)
 N_ACTUATORS = 2  # gimbal angle δ (rad), pitch moment M_c (N·m)
+_PLANT = define(JAX)
 
 
 @struct.dataclass
@@ -138,103 +141,50 @@ def _take(v: jax.Array, index: tuple[int, ...]) -> jax.Array:
 
 
 def plant_constants(params: EnvParams) -> jax.Array:
-    """The numba kernels' packed constants (:func:`attitude_envs.plants.slosh_kernels.pack`):
-    ``[m_t, S_z, I_rigid, m1 l1, m2 l2, J1, J2, a1, a2, ε1, ε2, F, b + d]`` in kg, kg·m,
-    kg·m², kg·m, kg·m, kg·m², kg·m², m, m, kg·m²/s, kg·m²/s, N, m, derived from the physical
-    parameters as :class:`~attitude_envs.plants.slosh.SloshParams` derives them."""
-    m_i, l_i, a_i = params.slosh_mass_kg, params.length_m, params.hinge_m
-    total = params.mass_kg + params.fuel_mass_kg + (m_i[0] + m_i[1])
-    ml = m_i * l_i
-    J = params.slosh_inertia_kg_m2 + m_i * l_i**2
-    s_z = params.mass_kg * params.b_m - params.fuel_mass_kg * params.fuel_offset_m - (m_i[0] * a_i[0] + m_i[1] * a_i[1])
-    sq = a_i**2 + l_i**2
-    i_rigid = (
-        params.inertia_kg_m2
-        + params.fuel_inertia_kg_m2
-        + (params.slosh_inertia_kg_m2[0] + params.slosh_inertia_kg_m2[1])
-        + params.mass_kg * params.b_m**2
-        + params.fuel_mass_kg * params.fuel_offset_m**2
-        + (m_i[0] * sq[0] + m_i[1] * sq[1])
+    """The packed constants (:mod:`attitude_envs.plants.slosh_definition`, ``P_*``) of the
+    physical parameters, as :class:`~attitude_envs.plants.slosh.SloshParams` derives them."""
+    m, i, a, l, eps = (
+        params.slosh_mass_kg,
+        params.slosh_inertia_kg_m2,
+        params.hinge_m,
+        params.length_m,
+        params.damping_kg_m2_s,
     )
-    eps = params.damping_kg_m2_s
     return jnp.stack(
-        [total, s_z, i_rigid, ml[0], ml[1], J[0], J[1], a_i[0], a_i[1], eps[0], eps[1], params.thrust_n]
-        + [params.b_m + params.d_m]
+        _PLANT.packed_constants(
+            params.mass_kg,
+            params.inertia_kg_m2,
+            params.fuel_mass_kg,
+            params.fuel_inertia_kg_m2,
+            m[0],
+            m[1],
+            i[0],
+            i[1],
+            a[0],
+            a[1],
+            l[0],
+            l[1],
+            params.fuel_offset_m,
+            params.b_m,
+            params.d_m,
+            params.thrust_n,
+            eps[0],
+            eps[1],
+        )
     )
 
 
 def derivative(pk: jax.Array, y: jax.Array, sin_d: jax.Array, cos_d: jax.Array, moment: jax.Array) -> jax.Array:
     """``ẏ`` (10) of the full state ``y`` under gimbal sin/cos and pitch moment (N·m), with
-    the packed constants ``pk`` (:func:`plant_constants`): kinematics, then ``M ṡ = f + G``
-    (the paper's eqs. 11–14) solved as
-    :func:`attitude_envs.plants.slosh_kernels.derivative_into` solves it."""
-    mt, sz, irigid, ml1, ml2, j1, j2, a1, a2, eps1, eps2, thrust, lever = (pk[i] for i in range(13))
-    th, p1, p2, vx, vz, om, dp1, dp2 = (y[i] for i in range(2, 10))
-    c, s = jnp.cos(th), jnp.sin(th)
-    s1, c1 = jnp.sin(p1), jnp.cos(p1)
-    s2, c2 = jnp.sin(p2), jnp.cos(p2)
-    # mass matrix entries (slosh_kernels.mass_entries)
-    mls1, mls2 = ml1 * s1, ml2 * s2
-    mlc1, mlc2 = ml1 * c1, ml2 * c2
-    m02 = mls1 + mls2
-    m12 = sz + (mlc1 + mlc2)
-    m22 = irigid - 2.0 * (mlc1 * a1 + mlc2 * a2)
-    m03, m04, m13, m14 = mls1, mls2, mlc1, mlc2
-    m23 = j1 - mlc1 * a1
-    m24 = j2 - mlc2 * a2
-    # generalized forces f(s, ψ) + G(δ, M_c) (slosh_kernels.force_entries)
-    w1 = (om + dp1) * (om + dp1)
-    w2 = (om + dp2) * (om + dp2)
-    fs, fc = thrust * sin_d, thrust * cos_d
-    f0 = fc - mt * om * vz - sz * om * om - (mlc1 * w1 + mlc2 * w2)
-    f1 = fs + mt * om * vx + (mls1 * w1 + mls2 * w2)
-    f2 = (
-        moment
-        + lever * fs
-        + om * vx * (sz + (mlc1 + mlc2))
-        - om * vz * (mls1 + mls2)
-        - (mls1 * a1 * (2.0 * om * dp1 + dp1 * dp1) + mls2 * a2 * (2.0 * om * dp2 + dp2 * dp2))
-    )
-    f3 = mls1 * a1 * om * om + ml1 * om * (vx * c1 - vz * s1) - eps1 * dp1
-    f4 = mls2 * a2 * om * om + ml2 * om * (vx * c2 - vz * s2) - eps2 * dp2
-    # Schur complement S = D − CᵀC/m_t on [Ω̇, ψ̈1, ψ̈2], rhs r = f_rot − Cᵀ f_trans/m_t
-    inv_mt = 1.0 / mt
-    s00 = m22 - (m02 * m02 + m12 * m12) * inv_mt
-    s10 = m23 - (m03 * m02 + m13 * m12) * inv_mt
-    s20 = m24 - (m04 * m02 + m14 * m12) * inv_mt
-    s11 = j1 - (m03 * m03 + m13 * m13) * inv_mt
-    s21 = -(m04 * m03 + m14 * m13) * inv_mt
-    s22 = j2 - (m04 * m04 + m14 * m14) * inv_mt
-    r0 = f2 - (m02 * f0 + m12 * f1) * inv_mt
-    r1 = f3 - (m03 * f0 + m13 * f1) * inv_mt
-    r2 = f4 - (m04 * f0 + m14 * f1) * inv_mt
-    # LDLᵀ (S is symmetric positive definite: no pivoting)
-    d0 = s00
-    l10 = s10 / d0
-    l20 = s20 / d0
-    d1 = s11 - l10 * s10
-    l21 = (s21 - l20 * s10) / d1
-    d2 = s22 - l20 * s20 - l21 * l21 * d1
-    z1 = r1 - l10 * r0
-    z2 = r2 - l20 * r0 - l21 * z1
-    ddp2 = z2 / d2
-    ddp1 = z1 / d1 - l21 * ddp2
-    dom = r0 / d0 - l10 * ddp1 - l20 * ddp2
-    dvx = (f0 - m02 * dom - m03 * ddp1 - m04 * ddp2) * inv_mt
-    dvz = (f1 - m12 * dom - m13 * ddp1 - m14 * ddp2) * inv_mt
-    return jnp.stack([vx * c + vz * s, -vx * s + vz * c, om, dp1, dp2, dvx, dvz, dom, ddp1, ddp2])
+    the packed constants ``pk`` (:func:`plant_constants`): the definition's derivative."""
+    return jnp.stack(_PLANT.derivative(pk, y, sin_d, cos_d, moment))
 
 
 def _augmented(pk, aug, sin_d, cos_d, moment, Q, R) -> jax.Array:
     """ẏ (10), the stage cost ``xᵀQx + u_cᵀRu_c`` and the new inputs ``u_c = [a_z, Ω̇]``
     (``a_z = v̇_z − Ω v_x`` of the tank centre, m/s²; Ω̇ rad/s²)."""
-    dy = derivative(pk, aug, sin_d, cos_d, moment)
-    a_z = dy[slosh.IVZ] - aug[slosh.IOM] * aug[slosh.IVX]
-    dom = dy[slosh.IOM]
-    x = _take(aug, _REDUCED)
-    u = jnp.stack([a_z, dom])
-    stage = x @ (Q @ x) + u @ (R @ u)
-    return jnp.concatenate([dy, jnp.stack([stage, a_z, dom])])
+    dy, stage, a_z, dom = _PLANT.augmented(pk, aug, sin_d, cos_d, moment, Q, R)
+    return jnp.stack([*dy, stage, a_z, dom])
 
 
 def control_step(
@@ -348,11 +298,8 @@ class FuelSloshEnv(Environment):
         time = state.time + 1
         t_next = time * params.control_dt_s
         finite = jnp.isfinite(cost) & jnp.all(jnp.isfinite(y)) & jnp.all(jnp.isfinite(new_inputs))
-        crossed = (
-            (jnp.maximum(jnp.abs(y[slosh.IPSI1]), jnp.abs(y[slosh.IPSI2])) > params.max_slosh_angle_rad)
-            | (jnp.abs(y[slosh.IOM]) > params.max_pitch_rate_rad_s)
-            | (jnp.abs(y[slosh.ITH]) > params.max_pitch_angle_rad)
-        )
+        rows = _PLANT.limit_rows(y, params.max_slosh_angle_rad, params.max_pitch_rate_rad_s, params.max_pitch_angle_rad)
+        crossed = jnp.any(jnp.stack(rows) > 0.0)
         terminated = ~finite | crossed
         x = _take(y, _REDUCED)
         charge = jcost.termination_charge(params.termination_mode, x, params.Q, params.horizon_s, t_next)

@@ -175,7 +175,7 @@ def _error_state(y, target, j_s, n: int, include_h: bool):
 
 def _quad_form(M: jax.Array, v, k: int):
     """``vᵀMv`` of the scalars ``v`` summed row by row
-    (:func:`attitude_envs.plants.kernel_math.quad_form`): each row's ``Σ_j M_ij v_j`` in ``j``
+    (:func:`attitude_envs.plants.ops.define_quad_form`): each row's ``Σ_j M_ij v_j`` in ``j``
     order, then ``Σ_i v_i (Mv)_i``."""
     total = None
     for i in range(k):

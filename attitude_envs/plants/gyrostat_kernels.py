@@ -186,7 +186,7 @@ def _error_state_lane(W, C, e, B, n, include_h, y, target, x, sc):
 @njit(inline="always", error_model="numpy")
 def _quad_form_lane(W, C, e, B, mat, v, k, diagonal):
     """``vᵀ M v`` of the ``k`` rows ``v``, ``M`` row-major at offset ``mat`` (row-by-row
-    summation, the order of :func:`attitude_envs.plants.kernel_math.quad_form`). With
+    summation, the order of :func:`attitude_envs.plants.ops.define_quad_form`). With
     ``diagonal`` (``M`` is) the zero terms are left out: for finite ``v`` the same value,
     bit for bit (each row's sum is ``0 + M_ii v_i`` either way)."""
     total = 0.0

@@ -5,7 +5,9 @@ from __future__ import annotations
 
 from numba import njit
 
-from attitude_envs.plants.kernel_math import quad_form
+from attitude_envs.plants.ops import NUMBA, define_quad_form
+
+quad_form = define_quad_form(NUMBA)
 
 
 @njit(cache=True, error_model="numpy")

@@ -33,8 +33,9 @@ import numpy as np
 
 from attitude_envs import validation
 from attitude_envs.plants import slosh_kernels as kernels
+from attitude_envs.plants.ops import NUMPY
+from attitude_envs.plants.slosh_definition import N_STATE, P_IRIGID, P_J1, P_J2, P_ML1, P_ML2, P_MT, P_SZ, define
 
-N_STATE = 10
 IX, IZ, ITH, IPSI1, IPSI2, IVX, IVZ, IOM, IDPSI1, IDPSI2 = range(N_STATE)
 
 # Navabi & Davoodi, Table 3 prints the lengths 0.05, 0.6, 0.9, 0.2, 0.1 m, but our copy lost
@@ -96,37 +97,40 @@ class SloshParams:
         for name in ("fuel_offset_m", "b_m", "d_m"):
             validation.finite_array(name, getattr(self, name), ())
         validation.nonnegative("thrust_n", self.thrust_n)
-        m_i = np.asarray(self.slosh_mass_kg, float)
-        l_i = np.asarray(self.length_m, float)
-        a_i = np.asarray(self.hinge_m, float)
-        set_ = object.__setattr__
-        set_(self, "total_mass_kg", self.mass_kg + self.fuel_mass_kg + float(m_i.sum()))
-        set_(self, "ml", m_i * l_i)
-        set_(self, "J", np.asarray(self.slosh_inertia_kg_m2, float) + m_i * l_i**2)
-        set_(self, "S_z", self.mass_kg * self.b_m - self.fuel_mass_kg * self.fuel_offset_m - float(m_i @ a_i))
-        # pitch inertia about O of everything, without the ψ-dependent pendulum terms
-        set_(
-            self,
-            "I_rigid",
-            self.inertia_kg_m2
-            + self.fuel_inertia_kg_m2
-            + float(np.sum(self.slosh_inertia_kg_m2))
-            + self.mass_kg * self.b_m**2
-            + self.fuel_mass_kg * self.fuel_offset_m**2
-            + float(m_i @ (a_i**2 + l_i**2)),
+        m, i, a, l, eps = (
+            [float(v) for v in getattr(self, name)]
+            for name in ("slosh_mass_kg", "slosh_inertia_kg_m2", "hinge_m", "length_m", "damping_kg_m2_s")
         )
-        packed = kernels.pack(
-            self.total_mass_kg,
-            self.S_z,
-            self.I_rigid,
-            self.ml,
-            self.J,
-            a_i,
-            self.damping_kg_m2_s,
-            self.thrust_n,
-            self.lever_arm_m,
+        packed = np.array(
+            define(NUMPY).packed_constants(
+                float(self.mass_kg),
+                float(self.inertia_kg_m2),
+                float(self.fuel_mass_kg),
+                float(self.fuel_inertia_kg_m2),
+                m[0],
+                m[1],
+                i[0],
+                i[1],
+                a[0],
+                a[1],
+                l[0],
+                l[1],
+                float(self.fuel_offset_m),
+                float(self.b_m),
+                float(self.d_m),
+                float(self.thrust_n),
+                eps[0],
+                eps[1],
+            ),
+            dtype=float,
         )
         packed.setflags(write=False)
+        set_ = object.__setattr__
+        set_(self, "total_mass_kg", float(packed[P_MT]))
+        set_(self, "ml", packed[[P_ML1, P_ML2]].copy())
+        set_(self, "J", packed[[P_J1, P_J2]].copy())
+        set_(self, "S_z", float(packed[P_SZ]))
+        set_(self, "I_rigid", float(packed[P_IRIGID]))
         set_(self, "packed", packed)
 
     @classmethod

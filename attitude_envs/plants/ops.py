@@ -1,0 +1,86 @@
+"""The operation set a plant definition is written against, and the executors that provide it.
+
+A plant's equations of motion, error state, stage cost and limit checks are written once, as
+plain Python on scalars and indexable sequences, inside a ``define(ops)`` factory that takes
+its few non-arithmetic operations from an :class:`Ops`. The same source then runs as
+
+* compiled numba code (:data:`NUMBA`: ``math`` functions, every helper ``njit``-ed, cached),
+  the CPU hot path the envs' kernels call;
+* plain numpy (:data:`NUMPY`): vectorized over a batch when each entry is an array;
+* traced ``jax.numpy`` (``attitude_envs.jax.ops.JAX``) for the JAX twins;
+* CasADi expressions (``attitude_envs.symbolic.ops.CASADI``) for J*, the MPC and Jacobians.
+
+Arithmetic (``+ − × /``, unary minus, comparisons for ``where``) and integer indexing are
+what every executor shares; a definition uses nothing else except the members below. The
+order of operations is the definition's, so every executor rounds as the others do (XLA may
+still fuse ``a·b + c`` into an FMA: JAX agrees to ulps, the others bit for bit).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+
+def _identity(fn: Callable) -> Callable:
+    return fn
+
+
+@dataclass(frozen=True)
+class Ops:
+    """The non-arithmetic operations of a plant definition.
+
+    ``sin``, ``cos``, ``sqrt``, ``fabs`` act on one scalar (or elementwise);
+    ``where(c, a, b)`` selects elementwise; ``compile`` wraps each helper a definition
+    defines, so helpers can call each other (``numba.njit`` for numba, the identity for the
+    tracing executors)."""
+
+    name: str
+    sin: Callable
+    cos: Callable
+    sqrt: Callable
+    fabs: Callable
+    where: Callable
+    compile: Callable[[Callable], Callable] = _identity
+
+
+@njit(cache=True, error_model="numpy")
+def _select(condition, a, b):
+    return a if condition else b
+
+
+#: compiled numba: ``math`` on float64 scalars, helpers ``njit(cache=True, error_model="numpy")``
+NUMBA = Ops(
+    "numba",
+    sin=math.sin,
+    cos=math.cos,
+    sqrt=math.sqrt,
+    fabs=math.fabs,
+    where=_select,
+    compile=njit(cache=True, error_model="numpy"),
+)
+
+#: plain numpy, uncompiled: vectorized when the entries are arrays (a batch along the last axis)
+NUMPY = Ops("numpy", sin=np.sin, cos=np.cos, sqrt=np.sqrt, fabs=np.abs, where=np.where)
+
+
+def define_quad_form(ops: Ops) -> Callable:
+    """``quad_form(M, v, n)``: ``vᵀ M v`` over the first ``n`` entries of ``v``, summed row by
+    row (``Σ_i v_i (Σ_j M_ij v_j)``, each sum from 0.0), the one summation order of every
+    stage cost. ``M`` is indexed ``M[i, j]``; ``v`` is any indexable of scalars."""
+
+    @ops.compile
+    def quad_form(M, v, n):
+        total = 0.0
+        for i in range(n):
+            acc = 0.0
+            for j in range(n):
+                acc += M[i, j] * v[j]
+            total += v[i] * acc
+        return total
+
+    return quad_form
