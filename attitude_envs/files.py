@@ -11,7 +11,10 @@ from pathlib import Path
 
 
 def fsync_dir(path: str | os.PathLike) -> None:
-    """Make a rename or a new file in directory ``path`` durable."""
+    """Make a rename or a new file in directory ``path`` durable (a no-op on Windows, which
+    cannot open a directory to flush it)."""
+    if os.name == "nt":
+        return
     fd = os.open(path, os.O_RDONLY)
     try:
         os.fsync(fd)
@@ -27,27 +30,31 @@ def atomic_write(
 ) -> Path:
     """Write ``content`` to ``path`` through a temporary file in the same folder and
     ``os.replace``; the folder is created. ``content`` is text (UTF-8, newlines as given),
-    bytes, or a writer called with the temporary file's path (a library's own ``save``).
+    bytes, or a writer called with the temporary file's path (a library's own ``save``; it
+    must write that exact path, so a saver that appends its own suffix needs a file object).
     ``durable`` also fsyncs the file and the folder (a checkpoint survives a power loss, not
-    only a kill). Returns ``path``."""
+    only a kill). The new file's mode follows the umask. Returns ``path``."""
     path = Path(path)
-    if not path.name:
+    if path.name in ("", ".", ".."):
         raise ValueError(f"path must name a file, got {str(path)!r}")
     path.parent.mkdir(parents=True, exist_ok=True)
-    # A name of this process and thread (not mkstemp: its 0600 mode would outlive the rename).
+    # A name of this process and thread (not mkstemp: its 0600 mode would outlive the rename);
+    # ".tmp" last, so no glob for the real files' suffix picks it up mid-write.
     tmp = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
     try:
         if callable(content):
             content(tmp)
+            if not tmp.is_file():
+                raise FileNotFoundError(f"the writer of {str(path)!r} did not write the file it was given, {str(tmp)!r}")
         else:
             with tmp.open("wb") as fh:
                 fh.write(content.encode("utf-8") if isinstance(content, str) else bytes(content))
-                if durable:
-                    fh.flush()
-                    os.fsync(fh.fileno())
-        if durable and callable(content):
-            with tmp.open("rb+") as fh:
-                os.fsync(fh.fileno())
+        if durable:
+            fd = os.open(tmp, os.O_RDONLY)  # read-only: a writer may have left the file without write permission
+            try:
+                os.fsync(fd)
+            finally:
+                os.close(fd)
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)

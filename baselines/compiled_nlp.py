@@ -17,9 +17,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
-import os
 import shutil
-import tempfile
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
@@ -27,6 +25,7 @@ from typing import Any
 import casadi
 
 from attitude_envs.cache import cache_dir
+from attitude_envs.files import atomic_write
 
 #: gcc's -O1. On the fuel-slosh MPC (5-step horizon), one core: median solve 4.3 ms against
 #: 10.9 ms interpreted, built in about 2 min; -O0 builds in about 20 s and solves in 7.8 ms
@@ -138,13 +137,7 @@ def compiled_nlpsol(
         _remove_reserved(build_dir)
         for leftover in build_dir.glob("*.o"):
             leftover.unlink()
-        fd, tmp = tempfile.mkstemp(dir=folder, prefix=path.name, suffix=".tmp")
-        os.close(fd)
-        try:
-            built.save(tmp)
-            os.replace(tmp, path)
-        finally:
-            Path(tmp).unlink(missing_ok=True)
+        atomic_write(path, lambda tmp, solver=built: solver.save(str(tmp)))  # CasADi's save takes a str
         del built
         solver = _load(path)  # the same object a later process loads
         if solver is None:

@@ -40,6 +40,7 @@ import numpy as np
 
 import attitude_envs
 from attitude_envs.cache import cache_dir as suite_cache_dir
+from attitude_envs.files import atomic_write
 from attitude_envs.info import policy_view
 from attitude_envs.symbolic import BUILDERS, DiscreteProblem, problem_for
 from experiments.jsonable import json_ready
@@ -384,12 +385,9 @@ def solve_episode(
 
 def _write_cache(path: Path, result: OptimumResult) -> None:
     """``result`` (actions included) to the cache file ``path``, atomically."""
-    path.parent.mkdir(parents=True, exist_ok=True)
     data = {**result.row(), "actions": np.asarray(result.actions).tolist()}
     data.pop("cached")
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(data))
-    tmp.replace(path)
+    atomic_write(path, json.dumps(data))
 
 
 def _read_cache(path: Path) -> OptimumResult | None:

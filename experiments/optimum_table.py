@@ -39,6 +39,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from attitude_envs.files import atomic_write
 from experiments.jsonable import json_ready
 from experiments.progress import Progress
 
@@ -391,12 +392,7 @@ def write_table(
         "solve_s_total": round(sum(e["solve_s"] for e in entries), 1),
         "entries": entries,
     }
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
-    os.replace(tmp, path)
-    return path, failed
+    return _write_table(path, data), failed
 
 
 #: the order :func:`add_measurements` fills envs in: the env where J*'s own success matters most
@@ -470,7 +466,7 @@ def add_measurements(
         entry["measurements"] = {k: float(v) for k, v in r.measurements.items()}
         entry["terminated"] = bool(r.terminated)
         counts[env]["filled"] += 1
-        _write_json_atomic(path, data)
+        _write_table(path, data)
         say(
             f"[{i}/{len(todo)}] {entry['cells'][0]}: {entry['measurements']}, terminated {r.terminated} "
             f"(J* {'cached' if r.cached else 'solved'}, rel. diff {abs(r.j_star - j_table) / abs(j_table):.1e}, "
@@ -479,8 +475,6 @@ def add_measurements(
     return counts
 
 
-def _write_json_atomic(path: Path, data: Mapping[str, Any]) -> None:
-    """``data`` to ``path`` in the table's layout (``indent=1``), through a temporary file."""
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
-    os.replace(tmp, path)
+def _write_table(path: str | Path, data: Mapping[str, Any]) -> Path:
+    """``data`` to ``path`` in the table's layout (``indent=1``), atomically."""
+    return atomic_write(path, json.dumps(data, indent=1) + "\n")

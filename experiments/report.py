@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import copy
 import json
-import os
 import subprocess
 import zipfile
 from collections.abc import Mapping, Sequence
@@ -30,6 +29,7 @@ from scipy import stats
 
 from attitude_envs.evaluation.success import METRICS
 from attitude_envs.evaluation.trace import record_episode, record_state_trace
+from attitude_envs.files import atomic_write
 from attitude_envs.info import policy_view
 from experiments.campaign.episode import success_criterion
 from experiments.campaign.jobs import episode_jobs
@@ -455,14 +455,6 @@ def package_version() -> str:
         return importlib_metadata.version("attitude-envs")
     except importlib_metadata.PackageNotFoundError:
         return "unknown"
-
-
-def atomic_write(path: Path, text: str) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
-    return path
 
 
 def write_report(

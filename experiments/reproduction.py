@@ -17,10 +17,10 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from dataclasses import asdict, dataclass
 from pathlib import Path
+
+from attitude_envs.files import atomic_write
 
 
 @dataclass(frozen=True)
@@ -68,13 +68,6 @@ def markdown_table(rows: list[Row]) -> str:
     return "\n".join(lines)
 
 
-def _atomic_write(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    with os.fdopen(fd, "w", encoding="utf-8") as fh:
-        fh.write(text)
-    os.replace(tmp, path)
-
-
 def write_reproduction(out_dir: str | Path, paper: str, source: str, rows: list[Row], notes: str) -> dict:
     """Write ``<out>/<paper>.json`` and ``<out>/<paper>.md`` (atomically); return the JSON dict.
 
@@ -83,8 +76,8 @@ def write_reproduction(out_dir: str | Path, paper: str, source: str, rows: list[
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     doc = {"paper": paper, "source": source, "rows": [asdict(r) for r in rows], "notes": notes}
-    _atomic_write(out / f"{paper}.json", json.dumps(doc, indent=2, allow_nan=True) + "\n")
-    _atomic_write(
+    atomic_write(out / f"{paper}.json", json.dumps(doc, indent=2, allow_nan=True) + "\n")
+    atomic_write(
         out / f"{paper}.md",
         f"# Reproduction: {paper}\n\nSource: {source}\n\n{markdown_table(rows)}\n\n## Notes\n\n{notes}\n",
     )

@@ -6,7 +6,6 @@ from __future__ import annotations
 import contextlib
 import copy
 import json
-import os
 import signal
 from collections.abc import Callable
 from pathlib import Path
@@ -16,6 +15,7 @@ import gymnasium as gym
 import numpy as np
 
 from attitude_envs.evaluation.runner import write_json
+from attitude_envs.files import atomic_write
 from attitude_envs.info import TRUTH
 from attitude_envs.make import make_checked
 from experiments.campaign.episode import run_job
@@ -162,13 +162,10 @@ def run_campaign(
     out_dir = Path(out_dir)
     say = progress or (lambda _msg: None)
     campaign, skipped = prepare_campaign(config, out_dir, backend, say)
-    marker = out_dir / "campaign.json"
-    out_dir.mkdir(parents=True, exist_ok=True)
-    tmp = marker.with_name(marker.name + ".tmp")
-    tmp.write_text(
-        json.dumps({"name": campaign.name, "fingerprint": campaign.fingerprint, "source": campaign.source}) + "\n"
+    atomic_write(
+        out_dir / "campaign.json",
+        json.dumps({"name": campaign.name, "fingerprint": campaign.fingerprint, "source": campaign.source}) + "\n",
     )
-    os.replace(tmp, marker)
     log = RunLog(out_dir / "runs.jsonl", executor_name(ray_address, workers))  # first: a killed run leaves it
     trained: list[dict[str, Any]] = []
     todo: list[dict[str, Any]] = []

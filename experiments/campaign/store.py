@@ -16,6 +16,7 @@ import numpy as np
 
 from attitude_envs.evaluation.runner import write_csv
 from attitude_envs.evaluation.success import metric_of
+from attitude_envs.files import atomic_write
 from experiments.campaign.jobs import key_of, sort_key
 from experiments.campaign.spec import Campaign
 from experiments.machine_reference import reference_steps_per_s
@@ -131,9 +132,7 @@ class ResultStore:
             good = read_lines(self.log)  # an episode whose line a crash cut is simply run again
             self.rows = {key_of(row): row for row in good}
             # Drop the cut line so the next append starts on a fresh line.
-            tmp = self.log.with_name(self.log.name + ".tmp")
-            tmp.write_text("".join(json.dumps(row, allow_nan=True) + "\n" for row in good), encoding="utf-8")
-            os.replace(tmp, self.log)
+            atomic_write(self.log, "".join(json.dumps(row, allow_nan=True) + "\n" for row in good))
             self.logged_before = len(good)
         # J* per episode key (experiments.optimum_table): its own append log, joined into the rows
         self.optimum_log = self.out_dir / "optimum.jsonl"
@@ -184,10 +183,8 @@ class ResultStore:
         return [self.with_optimum(self.rows[k]) for k in sorted(self.rows, key=sort_key)]
 
     def write_csv(self) -> Path:
-        tmp = self.csv.with_name(self.csv.name + ".tmp")
-        write_csv([for_table(r) for r in self.sorted_rows()], tmp)
-        os.replace(tmp, self.csv)
-        return self.csv
+        rows = [for_table(r) for r in self.sorted_rows()]
+        return atomic_write(self.csv, lambda tmp: write_csv(rows, tmp))
 
 
 #: the prefix of J*'s own columns in an episode row (:func:`optimum_outcome`)
