@@ -503,7 +503,7 @@ def _score(task: Task, runs: list[dict[str, Any]]) -> dict[tuple[str, int], dict
     episodes (J mean, ``J_over_J_star`` = ΣJ/ΣJ*); also the pooled entry per backend (seed -1)."""
     from experiments.campaign.episode import run_job
     from experiments.campaign.jobs import trained_model
-    from experiments.report import leaderboards
+    from experiments.report.leaderboards import leaderboards
 
     rows = []
     for run in runs:
@@ -1040,7 +1040,7 @@ def _run(args: argparse.Namespace, out: Path, argv: list[str]) -> int:
     import jax
 
     jax.config.update("jax_enable_compilation_cache", False)
-    from experiments.report import git_revision
+    from experiments.report.provenance import git_revision
 
     result: dict[str, Any] = {}
     task = campaign_task(ENV_ID)

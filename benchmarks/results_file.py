@@ -10,7 +10,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from experiments.report import git_revision
+from experiments.report.provenance import git_revision
 
 
 def write_results(out: str | Path, argv: list[str] | None, **payload: Any) -> Path:

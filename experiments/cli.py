@@ -290,7 +290,8 @@ def _algo_label(model: Path) -> str:
 
 def _print_campaign(result, report) -> None:
     # scipy.stats: not at start-up (see _evaluate)
-    from experiments.report import campaign_thresholds, leaderboard_markdown, leaderboards
+    from experiments.report.leaderboards import campaign_thresholds, leaderboards
+    from experiments.report.markdown import leaderboard_markdown
 
     boards = leaderboards(result.rows, campaign_thresholds(result.campaign))
     print(leaderboard_markdown(boards, result.campaign.agent_notes))
@@ -303,7 +304,7 @@ def _print_campaign(result, report) -> None:
 def _evaluate(args: argparse.Namespace) -> int:
     # imported by the commands that write a report: it imports scipy.stats (~1 s of CPU at start-up,
     # spent by every `train` run before, each rerun of a killed run included)
-    from experiments.report import write_campaign_report
+    from experiments.report.writing import write_campaign_report
 
     check_out_dir(args.out)
     faults = _yaml_arg("--fault-grid", args.fault_grid) or {"none": []}
@@ -331,7 +332,7 @@ def _evaluate(args: argparse.Namespace) -> int:
 
 
 def _benchmark(args: argparse.Namespace) -> int:
-    from experiments.report import write_campaign_index, write_campaign_report  # see _evaluate
+    from experiments.report.writing import write_campaign_index, write_campaign_report  # see _evaluate
 
     check_out_dir(args.out)
     names = PLANT_CAMPAIGNS if args.config == "all" else (args.config,)

@@ -13,7 +13,9 @@ import pytest
 
 from experiments.campaign import load_campaign, read_runs, run_campaign
 from experiments.machine_reference import reference_steps_per_s
-from experiments.report import bootstrap_ci, iqm, leaderboards, write_campaign_report
+from experiments.report.leaderboards import leaderboards
+from experiments.report.statistics import bootstrap_ci, iqm
+from experiments.report.writing import write_campaign_report
 
 SMALL = {
     "name": "small",

@@ -11,7 +11,9 @@ import pytest
 from attitude_envs.evaluation.metrics import episode_metrics
 from experiments.campaign import load_campaign, run_campaign, training_jobs
 from experiments.campaign.spec import METRIC_RANGES
-from experiments.report import leaderboard_markdown, leaderboards, write_campaign_report
+from experiments.report.leaderboards import leaderboards
+from experiments.report.markdown import leaderboard_markdown
+from experiments.report.writing import write_campaign_report
 
 RW = "attitude_envs/ReactionWheel-v0"
 BASE = {

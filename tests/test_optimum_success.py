@@ -15,14 +15,8 @@ from attitude_envs.evaluation.success import FINAL_ERROR_DEG, FINAL_STATE_FRACTI
 from attitude_envs.evaluation.trace import play
 from baselines.base import ZeroPolicy
 from experiments.campaign.store import ResultStore, optimum_outcome
-from experiments.report import (
-    ORACLE_AGENT,
-    _best,
-    history_agents,
-    leaderboard_markdown,
-    leaderboards,
-    oracle_success,
-)
+from experiments.report.leaderboards import ORACLE_AGENT, best_entry, history_agents, leaderboards, oracle_success
+from experiments.report.markdown import leaderboard_markdown
 
 SHORT = {
     "attitude_envs/ReactionWheel-v0": {"episode_duration_s": 3.0},
@@ -107,8 +101,8 @@ def test_the_oracle_line_ends_every_board_unranked():
         "| —",
     ]
     # J* is no agent: never the best analytic or learned one, never a time history
-    assert _best(board, False, {"ppo"})["agent"] == "lqr" and _best(board, True, {"ppo"})["agent"] == "ppo"
-    assert _best(board, True, set()) is None
+    assert best_entry(board, False, {"ppo"})["agent"] == "lqr" and best_entry(board, True, {"ppo"})["agent"] == "ppo"
+    assert best_entry(board, True, set()) is None
     assert history_agents(board, set()) == ["lqr", "ppo"]
 
 

@@ -16,7 +16,8 @@ import attitude_envs
 from experiments import optimum_table
 from experiments.campaign import episode_jobs, load_campaign, run_campaign
 from experiments.optimum_table import INSTALL_HINT, episode_key, key_hash, load_table
-from experiments.report import leaderboards, write_campaign_report
+from experiments.report.leaderboards import leaderboards
+from experiments.report.writing import write_campaign_report
 
 TINY_ENV = {"preset": "pyramid-4wheel", "action_frame": "body", "episode_duration_s": 3.0}
 OUTAGE = [{"kind": "outage", "target": "actuator", "index": 0, "onset_s": 1.0}]
@@ -160,17 +161,17 @@ def test_optimum_config_is_validated():
 
 
 def test_j_over_j_star_is_a_ratio_of_means_with_a_paired_ci():
-    from experiments.report import _ratio_stats
+    from experiments.report.statistics import ratio_stats
 
     rows = [{"J": 2.0, "j_star": 1.0}, {"J": 6.0, "j_star": 4.0}, {"J": 0.5, "j_star": 1e-4}, {"J": 3.0}]
-    s = _ratio_stats(rows)
+    s = ratio_stats(rows)
     assert s["J_over_J_star"] == pytest.approx(8.5 / 5.0001)  # not the mean ratio (~1667)
     assert s["J_over_J_star_episodes"] == 3  # the episode without a J* is left out
     assert s["J_over_J_star_median"] == pytest.approx(2.0)
     assert s["J_over_J_star_ci_low"] <= s["J_over_J_star"] <= s["J_over_J_star_ci_high"]
-    same = _ratio_stats([{"J": 2.0, "j_star": 1.0}, {"J": 4.0, "j_star": 2.0}])
+    same = ratio_stats([{"J": 2.0, "j_star": 1.0}, {"J": 4.0, "j_star": 2.0}])
     assert same["J_over_J_star_deterministic"] and same["J_over_J_star"] == pytest.approx(2.0)
-    assert _ratio_stats([{"J": 1.0}])["J_over_J_star_episodes"] == 0
+    assert ratio_stats([{"J": 1.0}])["J_over_J_star_episodes"] == 0
 
 
 def test_write_table_keeps_what_the_table_holds_and_solves_the_rest(tmp_path):

@@ -138,7 +138,7 @@ def test_state_trace_of_every_env_sums_to_the_rollouts_J_and_plots(env_id, tmp_p
 
 
 def test_histories_show_the_best_analytic_and_the_best_learned_agent():
-    from experiments.report import history_agents
+    from experiments.report.leaderboards import history_agents
 
     board = [{"agent": a} for a in ("lqr", "zero", "ppo", "pid", "sac")]
     assert history_agents(board, {"ppo", "sac"}) == ["lqr", "ppo"]

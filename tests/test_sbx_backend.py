@@ -118,7 +118,7 @@ def test_sbx_sac_resumes_a_killed_run_bitwise(tmp_path, monkeypatch):
 @needs_sbx
 def test_a_campaign_trains_with_sbx_and_its_report_names_the_backend(tmp_path):
     from experiments.campaign import run_campaign
-    from experiments.report import write_campaign_report
+    from experiments.report.writing import write_campaign_report
 
     campaign = {
         "name": "sbx-tiny",

@@ -1,0 +1,212 @@
+"""Markdown of a report: numbers as the tables print them, the leaderboard tables and the text
+of ``report.md``."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from experiments.optimum_table import COMMAND, DESCRIPTION, SOURCES, TABLE_FILE
+from experiments.report.leaderboards import ORACLE_AGENT, PAPER_METRICS, is_oracle
+
+#: a cell with fewer episodes is flagged in its leaderboard
+MIN_EPISODES = 5
+
+
+def fmt(v: Any) -> str:
+    """A number as the tables print it (4 significant digits, scientific from 1e5, — when not
+    finite); anything else as ``str``."""
+    if isinstance(v, float):
+        if not np.isfinite(v):
+            return "—"
+        return f"{v:.4g}" if abs(v) < 1e5 else f"{v:.3e}"
+    return str(v)
+
+
+def ratio_text(v: float) -> str:
+    """A J / J* ratio: 4 decimals below 10, else as :func:`fmt`."""
+    return f"{v:.4f}" if np.isfinite(v) and abs(v) < 10 else fmt(v)
+
+
+def ratio_cell(e: Mapping[str, Any]) -> str:
+    """``1.0123 [1.0050, 1.0200]``, ``1.0123 (deterministic)`` or ``—`` (no J*)."""
+    mean = e.get("J_over_J_star", float("nan"))
+    if not np.isfinite(mean):
+        return "—"
+    if e.get("J_over_J_star_deterministic"):
+        cell = f"{ratio_text(mean)} (deterministic)"
+    elif np.isfinite(e["J_over_J_star_ci_low"]):
+        cell = f"{ratio_text(mean)} [{ratio_text(e['J_over_J_star_ci_low'])}, {ratio_text(e['J_over_J_star_ci_high'])}]"
+    else:
+        cell = ratio_text(mean)
+    n = e.get("J_over_J_star_episodes", e["episodes"])
+    return cell if n == e["episodes"] else f"{cell} ({n} of {e['episodes']} episodes)"
+
+
+def leaderboard_markdown(
+    boards: Mapping[tuple[str, str, str], list[dict[str, Any]]], notes: Mapping[str, str] | None = None
+) -> str:
+    """One markdown table per env × scenario × fault; ``notes`` (agent → one line) are shown
+    beside their agents."""
+    notes = notes or {}
+    parts = []
+    for (env, scenario, fault), board in boards.items():
+        extra = [m for m in PAPER_METRICS if m in board[0]]
+        head = [
+            "rank",
+            "agent",
+            "episodes",
+            "J mean",
+            "95 % CI",
+            "IQM",
+            "J / J*",
+            "success",
+            "ended early",
+            "recovery [s]",
+            *extra,
+        ]
+        lines = [f"### {env} · {scenario} · fault: {fault}", "", "| " + " | ".join(head) + " |"]
+        lines.append("|" + "---|" * len(head))
+        rank = 0
+        for e in board:
+            flag = "" if e["episodes"] >= MIN_EPISODES else " (< 5 episodes)"
+            oracle = is_oracle(e)
+            rank += not oracle
+            cells = [
+                "—" if oracle else str(rank),
+                _agent_cell(e["agent"], None if oracle else notes.get(e["agent"])),
+                f"{e['episodes']}{flag}",
+                fmt(e["J_mean"]),
+                _ci_cell(e),
+                fmt(e["J_iqm"]),
+                ratio_cell(e),
+                _rate_cell(e, "success_rate", "success_known", "J* success"),
+                _rate_cell(e, "terminated_rate", "terminated_known", "J* ended early"),
+                fmt(e["recovery_time_s"]),
+                *[fmt(e.get(m, float("nan"))) for m in extra],
+            ]
+            lines.append("| " + " | ".join(cells) + " |")
+        parts.append("\n".join(lines))
+    return "\n\n".join(parts) + "\n"
+
+
+def _rate_cell(e: Mapping[str, Any], rate: str, known: str, what: str) -> str:
+    """``20 %``, or for J*'s line with some episodes unknown ``— (J* success: 12 of 20 episodes known)``."""
+    value = float(e.get(rate, 0.0))
+    if np.isfinite(value):
+        return f"{100 * value:.0f} %"
+    return f"— ({what}: {e.get(known, 0)} of {e['episodes']} episodes known)"
+
+
+def _agent_cell(agent: str, note: str | None) -> str:
+    """``agent``, or ``agent (note)`` (a ``|`` in the note escaped for the table)."""
+    if note is None:
+        return agent
+    escaped = note.replace("|", "\\|")
+    return f"{agent} ({escaped})"
+
+
+def _ci_cell(e: Mapping[str, Any]) -> str:
+    if e.get("deterministic"):
+        return "deterministic"
+    if not (np.isfinite(e["J_ci_low"]) and np.isfinite(e["J_ci_high"])):
+        return "—"
+    return f"[{fmt(e['J_ci_low'])}, {fmt(e['J_ci_high'])}]"
+
+
+def best_cell(e: Mapping[str, Any] | None) -> str:
+    """``agent: J …, J/J* …`` of a leaderboard entry, with its share of episodes ended early; — for none."""
+    if e is None:
+        return "—"
+    early = e.get("terminated_rate", 0.0)
+    flag = f", ended early {100 * early:.0f} %" if early > 0 else ""
+    return f"{e['agent']}: J {fmt(e['J_mean'])}, J/J* {ratio_cell(e)}{flag}"
+
+
+def env_label(env) -> str:
+    """A campaign env as its registered id and constructor kwargs, both as code spans."""
+    return f"`{env.id}` `{json.dumps(env.kwargs)}`"
+
+
+def _optimum_legend(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    """What J* is and where this report's values came from (counts of distinct episodes)."""
+    if not any("j_star" in r for r in rows):
+        return []
+    episodes = {(r["env"], r["scenario"], r["fault"], r["seed"]): r.get("j_star_source", "missing") for r in rows}
+    counts = {s: n for s in SOURCES if (n := sum(v == s for v in episodes.values()))}
+    where = {
+        "table": f"the J* table (shipped: experiments/{TABLE_FILE}, regenerated by `{COMMAND}`)",
+        "cache": "the solver's on-disk cache",
+        "solved": "solved for this campaign",
+        "unsupported": "not available (no symbolic model)",
+        "missing": "not available",
+    }
+    got = "; ".join(f"{n} from {where[s]}" if s in ("table", "cache") else f"{n} {where[s]}" for s, n in counts.items())
+    oracle = (
+        f"The line {ORACLE_AGENT} of each leaderboard is J* itself, unranked (no agent): J mean is the mean J*, "
+        "J / J* is 1 by construction, success is whether the optimum's own episode (its actions replayed) meets "
+        "the same criterion as the agents', and ended early is whether that replay terminated; — where J*'s "
+        "measurements are unknown for some episode (a J* solved before they were kept)."
+    )
+    return [DESCRIPTION, f"J* of this report's {len(episodes)} distinct episodes: {got}.", "", oracle, ""]
+
+
+def report_markdown(
+    rows: Sequence[Mapping[str, Any]],
+    boards: Mapping[tuple[str, str, str], list[dict[str, Any]]],
+    metadata: Mapping[str, Any],
+    figures: Mapping[str, str] | None = None,
+    notes: Sequence[str] = (),
+) -> str:
+    """The text of ``report.md``: ``metadata`` as a table, what the columns mean, where J* came
+    from, the leaderboards, ``notes`` (each once) and ``figures`` (caption → relative path)."""
+    notes = list(dict.fromkeys(notes))
+    lines = [f"# Benchmark report: {metadata.get('campaign', '')}", ""]
+    lines += ["| | |", "|---|---|"]
+    for key in (
+        "campaign",
+        "source",
+        "command",
+        "package_version",
+        "git_revision",
+        "seeds",
+        "executor",
+        "episodes",
+        "wall_time_s",
+        "wall_time_all_runs_s",
+    ):
+        if key in metadata and metadata[key] not in (None, "", "<dict>"):
+            lines.append(f"| {key} | {metadata[key]} |")
+    for agent, budget in (metadata.get("training_budget") or {}).items():
+        lines.append(f"| training budget: {agent} | {budget} |")
+    for agent, task in (metadata.get("training_task") or {}).items():
+        if task:
+            lines.append(f"| training task: {agent} | {task} |")
+    for agent, model in (metadata.get("models") or {}).items():
+        lines.append(f"| model: {agent} | {model} |")
+    for env, criterion in (metadata.get("success_criteria") or {}).items():
+        lines.append(f"| success: {env} | {criterion} |")
+    for what, definition in (metadata.get("definitions") or {}).items():
+        lines.append(f"| {what} | {definition} |")
+    lines += ["", "J = ∫(xᵀQx + uᵀRu) dt per episode (lower is better); CI: 95 % percentile bootstrap of the mean"]
+    lines += ['("deterministic": every episode of the cell gave the same J, so there is no interval);']
+    lines += ["IQM: interquartile mean; success: the env's criterion above;"]
+    lines += ["ended early: episodes that terminated before the time limit (a limit crossed); the env charges their"]
+    lines += ["last step the terminal state's running cost over the rest of the horizon (termination_cost), and"]
+    lines += ["agents with such episodes rank after those without (by that fraction, then J);"]
+    lines += ["recovery: time from the fault onset until the error stays within the settling band;"]
+    lines += ["J / J*: mean J over mean J* of the same episodes (the cost above the optimum, as a factor), 95 % paired"]
+    lines += ["bootstrap CI; the per-episode ratios (and their median, in leaderboard.json) are in episodes.csv.", ""]
+    lines += _optimum_legend(rows)
+    lines += ["## Leaderboards", "", leaderboard_markdown(boards, metadata.get("agent_notes"))]
+    if notes:
+        lines += ["## Notes", "", *[f"* {n}" for n in notes], ""]
+    if figures:
+        lines += ["## Figures", ""]
+        for caption, rel in figures.items():
+            lines.append(f"* [{caption}]({rel})" if rel.endswith(".mp4") else f"![{caption}]({rel})")
+        lines.append("")
+    return "\n".join(lines)
