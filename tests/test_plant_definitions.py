@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from attitude_envs.plants import slosh_definition
+from attitude_envs.plants import magnetorquer_definition, slosh_definition
 from attitude_envs.plants.ops import NUMBA, NUMPY
 from attitude_envs.plants.slosh import SloshParams
 
@@ -116,3 +116,98 @@ def test_slosh_jax_traces_the_definition_to_rounding():
         ]
     )
     np.testing.assert_allclose(got, want, rtol=1e-13, atol=1e-12)
+
+
+def _magnetorquer_cases(n: int, seed: int = 0):
+    """Random augmented states, commands and time contexts (compact layout)."""
+    rng = np.random.default_rng(seed)
+    z = rng.normal(size=(n, 9)) * np.array([1, 1, 1, 1, 1e-2, 1e-2, 1e-2, 100, 0])
+    m = rng.uniform(-0.2, 0.2, (n, 3))
+    t_w = rng.uniform(-1e-3, 1e-3, n)
+    ctx = np.empty((n, magnetorquer_definition.COMPACT_SIZE))
+    ctx[:, 0] = rng.uniform(1e-3, 1.2e-3, n)  # ν̇
+    ctx[:, 1] = rng.normal(0, 1e-8, n)  # ν̈
+    ctx[:, 2] = rng.uniform(6.7e6, 7.2e6, n)  # r
+    ctx[:, 3:6] = rng.normal(0, 3e-5, (n, 3))  # b_orb
+    q_d = rng.normal(size=(n, 4))
+    ctx[:, 6:10] = q_d / np.linalg.norm(q_d, axis=1, keepdims=True)
+    ctx[:, 10:13] = rng.normal(0, 1e-3, (n, 3))
+    inertia = np.diag([0.03, 0.04, 0.05]) + 1e-3 * rng.normal(size=(3, 3))
+    inertia = 0.5 * (inertia + inertia.T)
+    ctx[:, 13:22] = inertia.ravel()
+    ctx[:, 22:31] = np.linalg.inv(inertia - 1e-5 * np.outer([0, 1, 0], [0, 1, 0])).ravel()
+    ctx[:, 31:34] = rng.normal(0, 1e-6, (n, 3))
+    Q = np.diag([1.0, 2.0, 3.0, 1e3, 2e3, 3e3]) + 0.1 * np.ones((6, 6))
+    R = np.diag([10.0, 20.0, 30.0])
+    return z, m, t_w, ctx, Q, R
+
+
+def _magnetorquer_args(z, m, t_w, ctx, Q, R, *, gravity=True, diagonal=False, flip=True):
+    layout = magnetorquer_definition.COMPACT_LAYOUT
+    return (z, 0, m, t_w, ctx, 0, layout, 1e-5, gravity, Q, R, diagonal, flip)
+
+
+@pytest.mark.parametrize("gravity", [True, False])
+def test_magnetorquer_numba_equals_plain_python_bit_for_bit(gravity):
+    compiled, plain = magnetorquer_definition.define(NUMBA), magnetorquer_definition.define(NUMPY)
+    for row in zip(*_magnetorquer_cases(100)[:4], strict=True):
+        z, m, t_w, ctx = row
+        _, _, _, _, Q, R = _magnetorquer_cases(1)
+        want = compiled.augmented(*_magnetorquer_args(z, m, t_w, ctx, Q, R, gravity=gravity))
+        got = plain.augmented(*_magnetorquer_args(z, m, t_w, ctx, Q, R, gravity=gravity))
+        assert np.array_equal(np.array(want), np.array([float(v) for v in got]))
+
+
+def test_magnetorquer_diagonal_path_sums_as_the_full_forms():
+    """The stage cost's diagonal path skips only zero products: for diagonal weights it equals
+    the full quadratic forms bit for bit (the JAX twin always takes the full forms)."""
+    compiled = magnetorquer_definition.define(NUMBA)
+    rng = np.random.default_rng(4)
+    Q, R = np.diag(rng.uniform(1, 5, 6)), np.diag(rng.uniform(1, 5, 3))
+    for _ in range(200):
+        x, u = tuple(rng.normal(size=6)), tuple(rng.normal(size=3))
+        assert compiled.stage_cost(Q, R, x, u, True) == compiled.stage_cost(Q, R, x, u, False)
+
+
+def test_magnetorquer_error_state_sign_and_wheel_momentum_limit():
+    plain = magnetorquer_definition.define(NUMPY)
+    ref = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+    flipped = plain.error_state(0.1, 0.2, 0.3, -0.9, 0.0, 0.0, 0.0, ref, 0, True)
+    kept = plain.error_state(0.1, 0.2, 0.3, -0.9, 0.0, 0.0, 0.0, ref, 0, False)
+    assert flipped[6] > 0 and kept[6] < 0
+    assert np.allclose(flipped[:3], [-0.1, -0.2, -0.3]) and np.allclose(kept[:3], [0.1, 0.2, 0.3])
+    # h_w = J_w (Ω + ω_bo,y − ν̇) at q = identity: J_w = 1, Ω = 2, ω_bo,y = 0, ν̇ = 0 -> h_w = 2
+    # T_w acts on the body, −T_w on the wheel: a negative T_w grows a positive h_w
+    assert plain.wheel_torque(-0.5, 0.0, 0.0, 0.0, 2.0, 0.0, 1.0, 2.0) == 0.0  # at the limit: blocked
+    assert plain.wheel_torque(0.5, 0.0, 0.0, 0.0, 2.0, 0.0, 1.0, 2.0) == 0.5  # unloads it
+    assert plain.wheel_torque(-0.5, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 2.0) == -0.5  # below the limit
+
+
+def test_magnetorquer_casadi_and_jax_evaluate_the_definition_to_rounding():
+    casadi = pytest.importorskip("casadi")
+    jax = pytest.importorskip("jax")
+    jax.config.update("jax_enable_x64", True)
+    import jax.numpy as jnp
+
+    from attitude_envs.jax.ops import JAX
+    from attitude_envs.symbolic.ops import CASADI
+
+    zs, ms, tws, ctxs, Q, R = _magnetorquer_cases(40, seed=5)
+    compiled = magnetorquer_definition.define(NUMBA)
+    want = np.array(
+        [compiled.augmented(*_magnetorquer_args(*row, Q, R)) for row in zip(zs, ms, tws, ctxs, strict=True)]
+    )
+    z, m = casadi.SX.sym("z", 9), casadi.SX.sym("m", 3)
+    t_w, ctx = casadi.SX.sym("t"), casadi.SX.sym("c", magnetorquer_definition.COMPACT_SIZE)
+    expr = magnetorquer_definition.define(CASADI).augmented(
+        *_magnetorquer_args(z, m, t_w, ctx, casadi.DM(Q), casadi.DM(R))
+    )
+    fn = casadi.Function("f", [z, m, t_w, ctx], [casadi.vertcat(*expr)])
+    got = np.array([np.asarray(fn(*row)).ravel() for row in zip(zs, ms, tws, ctxs, strict=True)])
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-18)
+    traced = magnetorquer_definition.define(JAX)
+    f = jax.jit(
+        jax.vmap(lambda *row: jnp.stack(traced.augmented(*_magnetorquer_args(*row, jnp.asarray(Q), jnp.asarray(R)))))
+    )
+    got = np.asarray(f(*(jnp.asarray(a) for a in (zs, ms, tws, ctxs))))
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-18)

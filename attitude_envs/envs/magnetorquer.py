@@ -18,6 +18,8 @@ from attitude_envs.integrators import substeps
 from attitude_envs.plants import magnetorquer as mt
 from attitude_envs.plants import magnetorquer_kernels as kernels
 from attitude_envs.plants.magnetic_field import FieldModel
+from attitude_envs.plants.magnetorquer_definition import define
+from attitude_envs.plants.ops import NUMPY
 from attitude_envs.plants.orbit import KeplerOrbit
 from attitude_envs.presets.sadigh_2022 import TIME_VARYING_INERTIA
 from attitude_envs.sensors import Channel
@@ -50,6 +52,9 @@ _REQUIRED = (
     "Q",
     "R",
 )
+
+
+_PLANT = define(NUMPY)
 
 
 def _slice(offset: int, start: int, size: int) -> slice:
@@ -117,7 +122,11 @@ class MagnetorquerEnv(AttitudeEnv):
     (1, krad/s)]``, ``q_e = q_d* ⊗ q`` (w ≥ 0), ``ω_e = ω_bo − C(q_e)ᵀ ω_d``; plus the body
     field ``b / 5e-5 T`` (3) with ``observe_field``; plus 8 fault flags with ``fault_hint``
     (4 actuators: m_x, m_y, m_z, wheel; 4 sensor channels: gyro, star tracker, tachometer,
-    magnetometer). With sensors the observation is built from the measurements.
+    magnetometer). With sensors the observation is built from the measurements. Bounds: rates
+    within 2 × ``max_rate_rad_s``, ``Ω/1000`` within ±1000, field entries within ±3 (1.5e-4 T).
+    The step that crosses a limit observes its measurement clipped to the bounds
+    (:meth:`~attitude_envs.envs.base.AttitudeEnv.clip_observation`; ``info["truth"]`` holds
+    the true state).
 
     **Reward.** ``−∫ (xᵀQx + uᵀRu) dt`` over the step, ``x = [q_e,vec, ω_e]``,
     ``u = m_applied × b + e_y T_w,applied`` (body torque, N·m).
@@ -475,6 +484,12 @@ class MagnetorquerEnv(AttitudeEnv):
         view.setflags(write=False)
         return view
 
+    def batch_termination(self, states: np.ndarray) -> np.ndarray:
+        """The tumbling limit :meth:`step` terminates on (the plant definition's limit rows) for
+        rows of states ``[q, ω_bo, Ω]`` (E × 8); the batched env's hook (it checks finiteness)."""
+        s = np.asarray(states)
+        return np.stack(_PLANT.limit_rows(s[:, 4], s[:, 5], s[:, 6], self.max_rate_rad_s)).max(axis=0) > 0.0
+
     @property
     def state_row(self) -> np.ndarray:
         """The true physical state ``[q (4, body rel. orbital frame, scalar last), ω_bo (3,
@@ -603,7 +618,7 @@ class MagnetorquerEnv(AttitudeEnv):
             self._work,
         )
         finite = self._step_out[kernels.ST_FINITE] == 1.0
-        terminated = not finite or bool(self._step_out[kernels.ST_MAX_RATE] > self.max_rate_rad_s)
+        terminated = not finite or max(_PLANT.limit_rows(*self._y[4:7].tolist(), self.max_rate_rad_s)) > 0.0
         if terminated and finite:  # tumbling: the rest of the horizon is charged
             cost += self._termination_charge(self._snap[kernels.SN_X : kernels.SN_X + 6], self._t)
         truncated = bool(self._t >= self.episode_duration_s - 1e-9 * self.control_dt_s) and not terminated
@@ -624,7 +639,7 @@ class MagnetorquerEnv(AttitudeEnv):
         """``[q_e,vec, ω_e]`` of ``q``, ``rate`` against the reference of the last snapshot."""
         x, y, z, w = (float(v) for v in q)
         r0, r1, r2 = (float(v) for v in rate)
-        return np.array(kernels.error_state(x, y, z, w, r0, r1, r2, self._snap, kernels.SN_QD)[:6])
+        return np.array(kernels.error_state(x, y, z, w, r0, r1, r2, self._snap, kernels.SN_QD, True)[:6])
 
     def _measure(self) -> None:
         """Read the sensors at the current state (when they are modelled): the raw readings

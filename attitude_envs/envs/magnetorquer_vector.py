@@ -49,7 +49,6 @@ class MagnetorquerVectorEnv(BatchedEnv):
         self._n_obs = first.observation_size
         self._dt = first.control_dt_s
         self._duration = first.episode_duration_s
-        self._max_rate = first.max_rate_rad_s
         dist = first.disturbance
         self._walks = getattr(dist, "kind", None) == "random_walk"  # drawn per step from each sub-env's RNG
         e = self.num_envs
@@ -119,7 +118,7 @@ class MagnetorquerVectorEnv(BatchedEnv):
             self._work,
         )
         self._finite = self._step_out[:, kernels.ST_FINITE] == 1.0
-        terminated = ~self._finite | (self._step_out[:, kernels.ST_MAX_RATE] > self._max_rate)
+        terminated = ~self._finite | self.envs[0].batch_termination(self._states)
         charged = np.flatnonzero(terminated & self._finite)
         if charged.size:  # tumbling: the single env's termination cost
             x = self._snaps[charged, kernels.SN_X : kernels.SN_X + 6]

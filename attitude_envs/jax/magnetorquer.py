@@ -56,10 +56,13 @@ from attitude_envs.faults import ActuatorFaults
 from attitude_envs.jax import cost as jcost
 from attitude_envs.jax import faults as jfaults
 from attitude_envs.jax.environment import Environment
+from attitude_envs.jax.ops import JAX
 from attitude_envs.jax.spaces import Box
 from attitude_envs.plants import magnetorquer_kernels as K
+from attitude_envs.plants.magnetorquer_definition import COMPACT_LAYOUT, define
 
 N_ACTUATORS = 4  # m_x, m_y, m_z (A·m²), wheel torque (N·m)
+_PLANT = define(JAX)
 N_SENSOR_FLAGS = 4  # gyro, star tracker, tachometer, magnetometer: never faulted here
 _DEG, _RAD = 180.0 / math.pi, math.pi / 180.0  # the kernel's round trip through degrees
 _UNCERTAINTY_CODES = {None: 0, "fixed": 1, "random": 2}
@@ -399,63 +402,48 @@ def context(params: EnvParams, state: EnvState, t_s: jax.Array) -> Context:
 
 # ----------------------------------------------------------------------------- plant
 def error_state(q: jax.Array, rate: jax.Array, q_d: jax.Array, w_d: jax.Array) -> tuple[jax.Array, jax.Array]:
-    """``x = [q_e,vec, ω_e]`` (6) and ``q_e,w``: ``q_e = q_d* ⊗ q`` (w ≥ 0), ``ω_e = ω − C(q_e)ᵀ ω_d``."""
-    x, y, z, w = q[0], q[1], q[2], q[3]
-    dx, dy, dz, dw = q_d[0], q_d[1], q_d[2], q_d[3]
-    qe = jnp.stack(
+    """``x = [q_e,vec, ω_e]`` (6) and ``q_e,w``: ``q_e = q_d* ⊗ q`` (w ≥ 0), ``ω_e = ω − C(q_e)ᵀ ω_d``
+    (the plant definition's error state)."""
+    e = _PLANT.error_state(q[0], q[1], q[2], q[3], rate[0], rate[1], rate[2], jnp.concatenate([q_d, w_d]), 0, True)
+    return jnp.stack(e[:6]), e[6]
+
+
+def _flat(ctx: Context) -> jax.Array:
+    """The context in the definition's compact layout
+    (:data:`~attitude_envs.plants.magnetorquer_definition.COMPACT_LAYOUT`)."""
+    return jnp.concatenate(
         [
-            dw * x - dx * w - dy * z + dz * y,
-            dw * y - dy * w - dz * x + dx * z,
-            dw * z - dz * w - dx * y + dy * x,
-            dw * w + dx * x + dy * y + dz * z,
+            jnp.stack([ctx.rate, ctx.rate_dot, ctx.radius]),
+            ctx.field,
+            ctx.q_d,
+            ctx.w_d,
+            ctx.inertia.reshape(9),
+            ctx.eff_inv.reshape(9),
+            ctx.disturbance,
         ]
     )
-    qe = jnp.where(qe[3] < 0, -qe, qe)
-    return jnp.concatenate([qe[:3], rate - orbital_to_body(qe) @ w_d]), qe[3]
-
-
-def _gravity_gradient(q, ctx: Context):
-    """``3μ/r³ ô × (I ô)``, ô the nadir (orbital z) in body axes, N·m."""
-    x, y, z, w = q[0], q[1], q[2], q[3]
-    o = jnp.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)])
-    k = 3.0 * K.GRAVITY_MU_M3_S2 / ctx.radius**3
-    return k * jnp.cross(o, ctx.inertia @ o)
-
-
-def stage_cost(params: EnvParams, x: jax.Array, u: jax.Array) -> jax.Array:
-    """``xᵀQx + uᵀRu``: ``x`` the error state (6), ``u`` the body control torque (3, N·m)."""
-    return x @ (params.Q @ x) + u @ (params.R @ u)
 
 
 def derivative(aug: jax.Array, m: jax.Array, t_w: jax.Array, params: EnvParams, ctx: Context) -> jax.Array:
-    """``d/dt [q, ω_bo, Ω, cost]`` (module docstring; the kernel's ``augmented_derivative``)
-    with the dipoles ``m`` (A·m²) and the wheel torque on the body ``t_w`` (N·m) held."""
-    q, w_bo, om = aug[:4], aug[4:7], aug[7]
-    qn = q * (1.0 / jnp.sqrt(q @ q))
-    b = orbital_to_body(qn) @ ctx.field
-    tau = jnp.cross(m, b)  # m × b (eq. 8)
-    ext = ctx.disturbance + jnp.where(params.gravity_gradient, _gravity_gradient(qn, ctx), 0.0)
-    j_w = params.wheel_inertia_kg_m2
-    e_y = jnp.asarray([0.0, 1.0, 0.0], aug.dtype)
-    r = orbital_to_body(q)[:, 1]  # R e_y of the raw quaternion, as integrated
-    a = -ctx.rate * r  # R ω_oi
-    c = w_bo + a  # ω_bi
-    h = ctx.inertia @ c + e_y * (j_w * om)
-    d = ctx.eff_inv @ (-jnp.cross(c, h) + (tau + ext) + e_y * t_w)
-    x_err, _ = error_state(qn, w_bo, ctx.q_d, ctx.w_d)
-    u = tau + e_y * t_w
-    x, y, z, w = q[0], q[1], q[2], q[3]
-    w0, w1, w2 = w_bo[0], w_bo[1], w_bo[2]
-    q_dot = jnp.stack(
-        [
-            0.5 * (w * w0 + y * w2 - z * w1),
-            0.5 * (w * w1 + z * w0 - x * w2),
-            0.5 * (w * w2 + x * w1 - y * w0),
-            -0.5 * (x * w0 + y * w1 + z * w2),
-        ]
+    """``d/dt [q, ω_bo, Ω, cost]`` (the plant definition's augmented derivative) with the
+    dipoles ``m`` (A·m²) and the wheel torque on the body ``t_w`` (N·m) held; the stage cost's
+    full quadratic forms (equal to the kernel's diagonal path for a diagonal Q, R)."""
+    dz = _PLANT.augmented(
+        aug,
+        0,
+        m,
+        t_w,
+        _flat(ctx),
+        0,
+        COMPACT_LAYOUT,
+        params.wheel_inertia_kg_m2,
+        params.gravity_gradient,
+        params.Q,
+        params.R,
+        False,
+        True,
     )
-    w_dot = d + jnp.cross(w_bo, a) + ctx.rate_dot * r
-    return jnp.concatenate([q_dot, w_dot, (-t_w / j_w - d[1])[None], stage_cost(params, x_err, u)[None]])
+    return jnp.stack(dz)
 
 
 class MagnetorquerEnv(Environment):
@@ -513,7 +501,9 @@ class MagnetorquerEnv(Environment):
         x, _ = error_state(state.attitude, state.rate_rad_s, q_d, w_d)
         parts = [x, state.wheel_speed_rad_s / K.WHEEL_SPEED_SCALE_RAD_S]
         if self.observe_field:
-            parts.append(orbital_to_body(state.attitude) @ field / K.FIELD_SCALE_T)
+            q = state.attitude
+            b = _PLANT.body_vector(q[0], q[1], q[2], q[3], field[0], field[1], field[2])
+            parts.append(jnp.stack(b) / K.FIELD_SCALE_T)
         if self.fault_hint:
             flags = jfaults.active_flags(state.faults, t_s, N_ACTUATORS).astype(x.dtype)
             parts += [flags, jnp.zeros(N_SENSOR_FLAGS, x.dtype)]
@@ -553,10 +543,7 @@ class MagnetorquerEnv(Environment):
 
         def substep(carry, stage_ctx):
             aug, wheel_sum = carry
-            x, z = aug[0], aug[2]
-            w_bi_y = aug[5] + (1 - 2 * (x * x + z * z)) * (-stage_ctx.rate[0])
-            h_w = j_w * (aug[7] + w_bi_y)
-            t_w = jnp.where((jnp.abs(h_w) >= h_max) & (-delivered[3] * h_w > 0), 0.0, delivered[3])
+            t_w = _PLANT.wheel_torque(delivered[3], aug[0], aug[2], aug[5], aug[7], stage_ctx.rate[0], j_w, h_max)
 
             # classical RK4 as one loop over its stages (one copy of the derivative in the
             # program): stage s at aug + c_s k_(s-1) with the context of t, t + h/2, t + h/2,
@@ -620,7 +607,8 @@ class MagnetorquerEnv(Environment):
         )
         obs = self._observe(new_state, ctx_end.q_d, ctx_end.w_d, ctx_end.field, t1)
         finite = jnp.isfinite(cost) & jnp.all(jnp.isfinite(y))
-        terminated = jnp.logical_not(finite) | (jnp.max(jnp.abs(y[4:7])) > params.max_rate_rad_s)
+        crossed = jnp.any(jnp.stack(_PLANT.limit_rows(y[4], y[5], y[6], params.max_rate_rad_s)) > 0.0)
+        terminated = jnp.logical_not(finite) | crossed
         x_end, _ = error_state(new_state.attitude, new_state.rate_rad_s, ctx_end.q_d, ctx_end.w_d)
         charge = jcost.termination_charge(params.termination_mode, x_end, params.Q, params.episode_duration_s, t1)
         cost = cost + jnp.where(terminated & finite, charge, 0.0)

@@ -30,7 +30,8 @@ import math
 import numpy as np
 from numba import njit
 
-GRAVITY_MU_M3_S2 = 3.986004418e14
+from attitude_envs.plants.magnetorquer_definition import define
+from attitude_envs.plants.ops import NUMBA
 
 # ---- orbit elements (pack_orbit)
 ORB_MODEL, ORB_A, ORB_E, ORB_M0, ORB_N, ORB_P, ORB_H, ORB_MU = 0, 1, 2, 3, 4, 5, 6, 7
@@ -73,9 +74,9 @@ SN_BBODY, SN_WBI, SN_HW, SN_QD, SN_WD, SN_QDOT = 10, 13, 16, 17, 21, 24
 SN_BORB, SN_R, SN_U, SN_RATE, SN_EXT, SN_I, SN_ANGLE = 28, 31, 32, 33, 34, 37, 46
 SNAPSHOT_SIZE = 47
 # ---- step outputs (control_step): applied (4), magnetic torque mean (3), control torque
-# mean m × b + e_y T_w (3); then (advance) 1.0 if the state and cost are finite, max |ω_bo|
-ST_APPLIED, ST_TAU, ST_CONTROL, ST_FINITE, ST_MAX_RATE = 0, 4, 7, 10, 11
-STEP_OUT_SIZE = 12
+# mean m × b + e_y T_w (3); then (advance) 1.0 if the state and cost are finite
+ST_APPLIED, ST_TAU, ST_CONTROL, ST_FINITE = 0, 4, 7, 10
+STEP_OUT_SIZE = 11
 WHEEL_SPEED_SCALE_RAD_S = 1e3  # observation scale of the wheel speed
 FIELD_SCALE_T = 5e-5  # observation scale of the body-frame field
 AUG = 9  # [q (4), ω_bo (3), Ω, cost]
@@ -356,113 +357,42 @@ def disturbance_into(t_s, shared, env, ctx, cb):
             ctx[d + j] = 0.0
 
 
-@njit(cache=True, error_model="numpy")
-def _body_vector(x, y, z, w, v0, v1, v2):
-    """``R v`` with ``R`` (orbital → body) of Sadigh et al. 2022 eq. (4), scalar-last q."""
-    return (
-        (1 - 2 * (y * y + z * z)) * v0 + 2 * (x * y + z * w) * v1 + 2 * (x * z - y * w) * v2,
-        2 * (x * y - z * w) * v0 + (1 - 2 * (x * x + z * z)) * v1 + 2 * (y * z + x * w) * v2,
-        2 * (x * z + y * w) * v0 + 2 * (y * z - x * w) * v1 + (1 - 2 * (x * x + y * y)) * v2,
-    )
+_PLANT = define(NUMBA)
+_body_vector = _PLANT.body_vector
+error_state = _PLANT.error_state
+_gravity_gradient = _PLANT.gravity_gradient
+_augmented = _PLANT.augmented
+_wheel_torque = _PLANT.wheel_torque
+#: where the definition's context entries sit in this module's time context (``CX_*``)
+CONTEXT_LAYOUT = (CX_ORB + OS_RATE, CX_ORB + OS_RATE_DOT, CX_ORB + OS_R, CX_B, CX_QD, CX_WD, CX_I, CX_EINV, CX_DIST)
 
 
 @njit(cache=True, error_model="numpy")
 def gravity_gradient(x, y, z, w, ctx, cb):
     """``3μ/r³ ô × (I ô)``, ô the nadir (orbital z) in body axes, I the true inertia of the
     context ``ctx[cb:]``, N·m."""
-    o0, o1, o2 = 2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)
-    i = cb + CX_I
-    p0 = ctx[i] * o0 + ctx[i + 1] * o1 + ctx[i + 2] * o2
-    p1 = ctx[i + 3] * o0 + ctx[i + 4] * o1 + ctx[i + 5] * o2
-    p2 = ctx[i + 6] * o0 + ctx[i + 7] * o1 + ctx[i + 8] * o2
-    k = 3.0 * GRAVITY_MU_M3_S2 / ctx[cb + CX_ORB + OS_R] ** 3
-    return k * (o1 * p2 - o2 * p1), k * (o2 * p0 - o0 * p2), k * (o0 * p1 - o1 * p0)
+    return _gravity_gradient(x, y, z, w, ctx, cb + CX_I, ctx[cb + CX_ORB + OS_R])
 
 
 @njit(cache=True, error_model="numpy")
-def error_state(x, y, z, w, w0, w1, w2, ref, base):
-    """``q_e = q_d* ⊗ q`` (w ≥ 0) and ``ω_e = ω − C(q_e)ᵀ ω_d`` with ``[q_d, ω_d] =
-    ref[base : base + 7]``: returns the 7 numbers ``(q_e,x, q_e,y, q_e,z, ω_e (3), q_e,w)``."""
-    dx, dy, dz, dw = ref[base], ref[base + 1], ref[base + 2], ref[base + 3]
-    ex = dw * x - dx * w - dy * z + dz * y
-    ey = dw * y - dy * w - dz * x + dx * z
-    ez = dw * z - dz * w - dx * y + dy * x
-    ew = dw * w + dx * x + dy * y + dz * z
-    if ew < 0:
-        ex, ey, ez, ew = -ex, -ey, -ez, -ew
-    r0, r1, r2 = _body_vector(ex, ey, ez, ew, ref[base + 4], ref[base + 5], ref[base + 6])
-    return ex, ey, ez, w0 - r0, w1 - r1, w2 - r2, ew
+def cost_weights(shared):
+    """``(Q (6×6), R (3×3), diagonal)``: the stage cost's weights of ``shared`` (views) and
+    whether both are diagonal."""
+    return (
+        shared[SH_Q : SH_Q + 36].reshape((6, 6)),
+        shared[SH_R : SH_R + 9].reshape((3, 3)),
+        shared[SH_DIAG] != 0.0,
+    )
 
 
 @njit(cache=True, error_model="numpy")
-def stage_cost(shared, x, u):
-    """``xᵀQx + uᵀRu`` for the tuples ``x`` (6) and ``u`` (3), weights from ``shared``."""
-    total = 0.0
-    if shared[SH_DIAG] != 0.0:  # the common case, without the zero products
-        for i in range(6):
-            total += shared[SH_Q + 7 * i] * x[i] * x[i]
-        for i in range(3):
-            total += shared[SH_R + 4 * i] * u[i] * u[i]
-        return total
-    for i in range(6):
-        acc = 0.0
-        for j in range(6):
-            acc += shared[SH_Q + 6 * i + j] * x[j]
-        total += x[i] * acc
-    for i in range(3):
-        acc = 0.0
-        for j in range(3):
-            acc += shared[SH_R + 3 * i + j] * u[j]
-        total += u[i] * acc
-    return total
-
-
-@njit(cache=True, error_model="numpy")
-def augmented_derivative(buf, ib, m, t_w, shared, cb, ob):
+def augmented_derivative(buf, ib, m, t_w, shared, Q, R, diagonal, cb, ob):
     """``buf[ob:ob + 9] = d/dt [q, ω_bo, Ω, cost]`` at ``buf[ib:ib + 9]`` with the time context
-    ``buf[cb:]`` (Sadigh et al. 2022 eqs. 1–8 with the consistent wheel bookkeeping, see
-    :mod:`attitude_envs.plants.magnetorquer`): dipole moments ``m`` (A·m²) against the field,
-    wheel torque ``t_w`` on the body about +y (N·m), the disturbance and optional gravity
-    gradient; cost ``xᵀQx + uᵀRu`` with ``x = [q_e,vec, ω_e]`` and the body control torque
-    ``u = m × b + e_y T_w``."""
-    x, y, z, w = buf[ib], buf[ib + 1], buf[ib + 2], buf[ib + 3]
-    w0, w1, w2, om = buf[ib + 4], buf[ib + 5], buf[ib + 6], buf[ib + 7]
-    n = 1.0 / math.sqrt(x * x + y * y + z * z + w * w)
-    qx, qy, qz, qw = x * n, y * n, z * n, w * n
-    b0, b1, b2 = _body_vector(qx, qy, qz, qw, buf[cb + CX_B], buf[cb + CX_B + 1], buf[cb + CX_B + 2])
-    tau0, tau1, tau2 = m[1] * b2 - m[2] * b1, m[2] * b0 - m[0] * b2, m[0] * b1 - m[1] * b0  # m × b (eq. 8)
-    e0, e1, e2 = buf[cb + CX_DIST], buf[cb + CX_DIST + 1], buf[cb + CX_DIST + 2]
-    if shared[SH_GG] != 0.0:
-        g0, g1, g2 = gravity_gradient(qx, qy, qz, qw, buf, cb)
-        e0, e1, e2 = e0 + g0, e1 + g1, e2 + g2
-    j_w = shared[SH_JW]
-    # gyrostat equations (the raw quaternion, as integrated); R e_y is row 1 of to_matrix(q)
-    r0, r1, r2 = 2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)
-    nd = buf[cb + CX_ORB + OS_RATE]
-    a0, a1, a2 = -nd * r0, -nd * r1, -nd * r2  # R ω_oi
-    c0, c1, c2 = w0 + a0, w1 + a1, w2 + a2  # ω_bi
-    i = cb + CX_I
-    h0 = buf[i] * c0 + buf[i + 1] * c1 + buf[i + 2] * c2
-    h1 = buf[i + 3] * c0 + buf[i + 4] * c1 + buf[i + 5] * c2 + j_w * om
-    h2 = buf[i + 6] * c0 + buf[i + 7] * c1 + buf[i + 8] * c2
-    s0 = -(c1 * h2 - c2 * h1) + (tau0 + e0)
-    s1 = -(c2 * h0 - c0 * h2) + (tau1 + e1) + t_w
-    s2 = -(c0 * h1 - c1 * h0) + (tau2 + e2)
-    i = cb + CX_EINV
-    d0 = buf[i] * s0 + buf[i + 1] * s1 + buf[i + 2] * s2
-    d1 = buf[i + 3] * s0 + buf[i + 4] * s1 + buf[i + 5] * s2
-    d2 = buf[i + 6] * s0 + buf[i + 7] * s1 + buf[i + 8] * s2
-    ndd = buf[cb + CX_ORB + OS_RATE_DOT]
-    buf[ob] = 0.5 * (w * w0 + y * w2 - z * w1)
-    buf[ob + 1] = 0.5 * (w * w1 + z * w0 - x * w2)
-    buf[ob + 2] = 0.5 * (w * w2 + x * w1 - y * w0)
-    buf[ob + 3] = -0.5 * (x * w0 + y * w1 + z * w2)
-    buf[ob + 4] = d0 + (w1 * a2 - w2 * a1) + ndd * r0
-    buf[ob + 5] = d1 + (w2 * a0 - w0 * a2) + ndd * r1
-    buf[ob + 6] = d2 + (w0 * a1 - w1 * a0) + ndd * r2
-    buf[ob + 7] = -t_w / j_w - d1
-    ex, ey, ez, we0, we1, we2, _ = error_state(qx, qy, qz, qw, w0, w1, w2, buf, cb + CX_QD)
-    buf[ob + 8] = stage_cost(shared, (ex, ey, ez, we0, we1, we2), (tau0, tau1 + t_w, tau2))
+    ``buf[cb:]``: the definition's augmented derivative (dipoles ``m`` A·m², wheel torque
+    ``t_w`` N·m on the body about +y; the cost weights of :func:`cost_weights`)."""
+    dz = _augmented(buf, ib, m, t_w, buf, cb, CONTEXT_LAYOUT, shared[SH_JW], shared[SH_GG] != 0.0, Q, R, diagonal, True)
+    for i in range(AUG):
+        buf[ob + i] = dz[i]
 
 
 @njit(cache=True, error_model="numpy")
@@ -481,6 +411,7 @@ def control_step(state, cmd, t0_s, t1_s, shared, env, table, step_out, work):
         work[WK_AUG + i] = state[i]
     work[WK_AUG + AUG - 1] = 0.0
     j_w, h_max = shared[SH_JW], shared[SH_HMAX]
+    Q, R, diagonal = cost_weights(shared)
     wheel_sum, tau0, tau1, tau2 = 0.0, 0.0, 0.0, 0.0
     for j in range(n_sub):
         ts = t0_s + j * h
@@ -495,12 +426,9 @@ def control_step(state, cmd, t0_s, t1_s, shared, env, table, step_out, work):
         context_into(te, shared, env, table, work, WK_C2)
         work[WK_TAG] = te
         x, y, z, w = work[WK_AUG], work[WK_AUG + 1], work[WK_AUG + 2], work[WK_AUG + 3]
-        # wheel momentum h_w = J_w (Ω + ω_bi,y), ω_bi = ω_bo − ν̇ R e_y
-        w_bi_y = work[WK_AUG + 5] + (1 - 2 * (x * x + z * z)) * (-work[WK_C0 + CX_ORB + OS_RATE])
-        h_w = j_w * (work[WK_AUG + 7] + w_bi_y)
-        t_w = cmd[3]
-        if abs(h_w) >= h_max and -t_w * h_w > 0:
-            t_w = 0.0
+        t_w = _wheel_torque(
+            cmd[3], x, z, work[WK_AUG + 5], work[WK_AUG + 7], work[WK_C0 + CX_ORB + OS_RATE], j_w, h_max
+        )
         wheel_sum += t_w
         b = WK_C0 + CX_B
         b0, b1, b2 = _body_vector(x, y, z, w, work[b], work[b + 1], work[b + 2])
@@ -517,7 +445,7 @@ def control_step(state, cmd, t0_s, t1_s, shared, env, table, step_out, work):
                 for i in range(AUG):
                     work[WK_TMP + i] = work[WK_AUG + i] + c * work[k + i]
             cb = WK_C0 if stage == 0 else (WK_C2 if stage == 3 else WK_C1)  # t, t + h/2, t + h/2, end
-            augmented_derivative(work, WK_TMP, cmd, t_w, shared, cb, WK_K + stage * AUG)
+            augmented_derivative(work, WK_TMP, cmd, t_w, shared, Q, R, diagonal, cb, WK_K + stage * AUG)
         for i in range(AUG):
             k1, k2 = work[WK_K + i], work[WK_K + AUG + i]
             k3, k4 = work[WK_K + 2 * AUG + i], work[WK_K + 3 * AUG + i]
@@ -558,7 +486,7 @@ def snapshot_into(state, t_s, shared, env, table, ctx, out):
 def snapshot_from_context(state, shared, ctx, cb, out):
     """:func:`snapshot_into` with the time context of the snapshot's time at ``ctx[cb:]``."""
     x, y, z, w = state[0], state[1], state[2], state[3]
-    ex, ey, ez, we0, we1, we2, ew = error_state(x, y, z, w, state[4], state[5], state[6], ctx, cb + CX_QD)
+    ex, ey, ez, we0, we1, we2, ew = error_state(x, y, z, w, state[4], state[5], state[6], ctx, cb + CX_QD, True)
     out[SN_X], out[SN_X + 1], out[SN_X + 2] = ex, ey, ez
     out[SN_X + 3], out[SN_X + 4], out[SN_X + 5] = we0, we1, we2
     out[SN_WHEEL] = state[7] / WHEEL_SPEED_SCALE_RAD_S
@@ -594,7 +522,7 @@ def snapshot_from_context(state, shared, ctx, cb, out):
 def advance(state, cmd, t0_s, t1_s, shared, env, table, step_out, snap, work):
     """:func:`control_step` from ``t0_s``, then :func:`snapshot_into` at ``t1_s`` (the end of
     the control step, computed by the caller from the step count), then ``step_out``'s
-    finiteness flag and ``max |ω_bo|``; returns the step cost."""
+    finiteness flag; returns the step cost."""
     cost = control_step(state, cmd, t0_s, t1_s, shared, env, table, step_out, work)
     if work[WK_TAG] != t1_s:
         context_into(t1_s, shared, env, table, work, WK_C2)
@@ -604,7 +532,6 @@ def advance(state, cmd, t0_s, t1_s, shared, env, table, step_out, snap, work):
     for i in range(AUG - 1):
         finite = finite and math.isfinite(state[i])
     step_out[ST_FINITE] = 1.0 if finite else 0.0
-    step_out[ST_MAX_RATE] = max(abs(state[4]), abs(state[5]), abs(state[6]))
     return cost
 
 

@@ -69,13 +69,13 @@ NUMPY = Ops("numpy", sin=np.sin, cos=np.cos, sqrt=np.sqrt, fabs=np.abs, where=np
 
 
 def define_quad_form(ops: Ops) -> Callable:
-    """``quad_form(M, v, n)``: ``vᵀ M v`` over the first ``n`` entries of ``v``, summed row by
-    row (``Σ_i v_i (Σ_j M_ij v_j)``, each sum from 0.0), the one summation order of every
-    stage cost. ``M`` is indexed ``M[i, j]``; ``v`` is any indexable of scalars."""
+    """``quad_form(M, v, n, total=0.0)``: ``total + vᵀ M v`` over the first ``n`` entries of
+    ``v``, summed row by row onto ``total`` (``Σ_i v_i (Σ_j M_ij v_j)``, each row's sum from
+    0.0), the one summation order of every stage cost. ``M`` is indexed ``M[i, j]``; ``v`` is
+    any indexable of scalars."""
 
     @ops.compile
-    def quad_form(M, v, n):
-        total = 0.0
+    def quad_form(M, v, n, total=0.0):
         for i in range(n):
             acc = 0.0
             for j in range(n):

@@ -1,7 +1,8 @@
 """The discrete problem of Magnetorquer-v0 (the nano-satellite of Sadigh, Kashaninia & Dehghan
 2022: three magnetorquers and one y wheel, attitude relative to the orbital frame) in CasADi.
 
-The step is :func:`attitude_envs.plants.magnetorquer_kernels.control_step` written out: the
+The step is :func:`attitude_envs.plants.magnetorquer_kernels.control_step` built from the plant's
+one definition (:mod:`attitude_envs.plants.magnetorquer_definition`): the
 normalized action clipped to [-1, 1] and scaled by the limits (dipoles A·m², wheel torque
 N·m), the episode's known actuator faults at the step's start ``t = k·control_dt_s`` (e.g.
 the paper's effectiveness loss of eq. 40), the wheel torque blocked where it would raise
@@ -35,44 +36,18 @@ import casadi
 import numpy as np
 
 from attitude_envs.plants import magnetorquer_kernels as kernels
+from attitude_envs.plants.magnetorquer_definition import COMPACT_LAYOUT, COMPACT_SIZE, define
 from attitude_envs.symbolic import actuators
-from attitude_envs.symbolic.cost import quad_form
+from attitude_envs.symbolic.ops import CASADI
 from attitude_envs.symbolic.problem import DiscreteProblem
 
-# the time context entries the step reads (indices into a kernels context, layout CX_*)
-_FIELDS = np.array(
-    [kernels.CX_ORB + kernels.OS_RATE, kernels.CX_ORB + kernels.OS_RATE_DOT, kernels.CX_ORB + kernels.OS_R]
-    + list(range(kernels.CX_B, kernels.CX_B + 3))
-    + list(range(kernels.CX_QD, kernels.CX_QD + 7))  # q_d (4), ω_d (3)
-    + list(range(kernels.CX_I, kernels.CX_I + 9))
-    + list(range(kernels.CX_EINV, kernels.CX_EINV + 9))
-    + list(range(kernels.CX_DIST, kernels.CX_DIST + 3))
-)
-N_FIELDS = len(_FIELDS)
-_RATE, _RATE_DOT, _R, _B, _QD, _WD, _I, _EINV, _DIST = 0, 1, 2, 3, 6, 10, 13, 22, 31
-
-
-def _body_vector(x, y, z, w, v0, v1, v2):
-    """``R v`` (orbital → body, Sadigh et al. 2022 eq. 4), as the kernel's ``_body_vector``."""
-    return (
-        (1 - 2 * (y * y + z * z)) * v0 + 2 * (x * y + z * w) * v1 + 2 * (x * z - y * w) * v2,
-        2 * (x * y - z * w) * v0 + (1 - 2 * (x * x + z * z)) * v1 + 2 * (y * z + x * w) * v2,
-        2 * (x * z + y * w) * v0 + 2 * (y * z - x * w) * v1 + (1 - 2 * (x * x + y * y)) * v2,
-    )
-
-
-def _stage_cost(q_mat: np.ndarray, r_mat: np.ndarray, x: list, u: list):
-    """``xᵀQx + uᵀRu`` in the kernel's ``stage_cost`` order (its diagonal fast path when diagonal)."""
-    total = 0.0
-    if np.array_equal(q_mat, np.diag(np.diag(q_mat))) and np.array_equal(r_mat, np.diag(np.diag(r_mat))):
-        for i in range(6):
-            if q_mat[i, i] != 0.0:
-                total = total + float(q_mat[i, i]) * x[i] * x[i]
-        for i in range(3):
-            if r_mat[i, i] != 0.0:
-                total = total + float(r_mat[i, i]) * u[i] * u[i]
-        return total
-    return quad_form(r_mat, u, quad_form(q_mat, x))
+_PLANT = define(CASADI)
+# the time context entries the step reads: the kernels' context (layout CX_*) picked into the
+# definition's compact layout (ν̇, ν̈, r, b_orb (3), q_d (4), ω_d (3), I (9), I_eff⁻¹ (9), disturbance (3))
+_SIZES = (1, 1, 1, 3, 4, 3, 9, 9, 3)
+_FIELDS = np.concatenate([np.arange(start, start + n) for start, n in zip(kernels.CONTEXT_LAYOUT, _SIZES, strict=True)])
+N_FIELDS = COMPACT_SIZE
+_RATE, _RATE_DOT, _R, _B, _QD, _WD, _I, _EINV, _DIST = COMPACT_LAYOUT
 
 
 class _Plant:
@@ -85,77 +60,35 @@ class _Plant:
         self.h = float(shared[kernels.SH_H])
         self.n_sub = int(shared[kernels.SH_NSUB])
         self.gravity_gradient = shared[kernels.SH_GG] != 0.0
-        self.Q = np.asarray(env.model.cost.Q, dtype=float)
-        self.R = np.asarray(env.model.cost.R, dtype=float)
+        q_mat = np.asarray(env.model.cost.Q, dtype=float)
+        r_mat = np.asarray(env.model.cost.R, dtype=float)
+        # the kernel's diagonal path when both are diagonal (its sums, without the zero products)
+        self.diagonal = bool(shared[kernels.SH_DIAG] != 0.0)
+        self.Q, self.R = casadi.DM(q_mat), casadi.DM(r_mat)
         # the sign of q_e changes xᵀQx only through Q's cross terms between q_e,vec and ω_e
-        self.flip_sign = bool(np.any(self.Q[:3, 3:] != 0.0))
+        self.flip_sign = bool(np.any(q_mat[:3, 3:] != 0.0))
 
     def augmented(self, z: list, m: list, t_w, c):
-        """d/dt ``[q, ω_bo, Ω, cost]`` (kernels' ``augmented_derivative``) at ``z`` with the
-        dipoles ``m`` (A·m²), wheel torque ``t_w`` (N·m) and the time context ``c`` (the
-        ``_FIELDS`` entries)."""
-        x, y, zq, w = z[0], z[1], z[2], z[3]
-        w0, w1, w2, om = z[4], z[5], z[6], z[7]
-        n = 1.0 / casadi.sqrt(x * x + y * y + zq * zq + w * w)
-        qx, qy, qz, qw = x * n, y * n, zq * n, w * n
-        b0, b1, b2 = _body_vector(qx, qy, qz, qw, c[_B], c[_B + 1], c[_B + 2])
-        tau0, tau1, tau2 = m[1] * b2 - m[2] * b1, m[2] * b0 - m[0] * b2, m[0] * b1 - m[1] * b0
-        e0, e1, e2 = c[_DIST], c[_DIST + 1], c[_DIST + 2]
-        inertia = [c[_I + i] for i in range(9)]
-        if self.gravity_gradient:
-            g0, g1, g2 = self._gravity_gradient(qx, qy, qz, qw, inertia, c[_R])
-            e0, e1, e2 = e0 + g0, e1 + g1, e2 + g2
-        r0, r1, r2 = 2 * (x * y + zq * w), 1 - 2 * (x * x + zq * zq), 2 * (y * zq - x * w)
-        nd = c[_RATE]
-        a0, a1, a2 = -nd * r0, -nd * r1, -nd * r2
-        c0, c1, c2 = w0 + a0, w1 + a1, w2 + a2
-        h0 = inertia[0] * c0 + inertia[1] * c1 + inertia[2] * c2
-        h1 = inertia[3] * c0 + inertia[4] * c1 + inertia[5] * c2 + self.j_w * om
-        h2 = inertia[6] * c0 + inertia[7] * c1 + inertia[8] * c2
-        s0 = -(c1 * h2 - c2 * h1) + (tau0 + e0)
-        s1 = -(c2 * h0 - c0 * h2) + (tau1 + e1) + t_w
-        s2 = -(c0 * h1 - c1 * h0) + (tau2 + e2)
-        ei = [c[_EINV + i] for i in range(9)]
-        d0 = ei[0] * s0 + ei[1] * s1 + ei[2] * s2
-        d1 = ei[3] * s0 + ei[4] * s1 + ei[5] * s2
-        d2 = ei[6] * s0 + ei[7] * s1 + ei[8] * s2
-        ndd = c[_RATE_DOT]
-        out = [
-            0.5 * (w * w0 + y * w2 - zq * w1),
-            0.5 * (w * w1 + zq * w0 - x * w2),
-            0.5 * (w * w2 + x * w1 - y * w0),
-            -0.5 * (x * w0 + y * w1 + zq * w2),
-            d0 + (w1 * a2 - w2 * a1) + ndd * r0,
-            d1 + (w2 * a0 - w0 * a2) + ndd * r1,
-            d2 + (w0 * a1 - w1 * a0) + ndd * r2,
-            -t_w / self.j_w - d1,
-        ]
-        err = self._error_state(qx, qy, qz, qw, w0, w1, w2, c)
-        out.append(_stage_cost(self.Q, self.R, err, [tau0, tau1 + t_w, tau2]))
-        return out
-
-    def _error_state(self, x, y, z, w, w0, w1, w2, c) -> list:
-        """``[q_e,vec, ω_e]``, ``q_e = q_d* ⊗ q`` (w ≥ 0), ``ω_e = ω − C(q_e)ᵀ ω_d`` (kernels' ``error_state``)."""
-        dx, dy, dz, dw = c[_QD], c[_QD + 1], c[_QD + 2], c[_QD + 3]
-        ex = dw * x - dx * w - dy * z + dz * y
-        ey = dw * y - dy * w - dz * x + dx * z
-        ez = dw * z - dz * w - dx * y + dy * x
-        ew = dw * w + dx * x + dy * y + dz * z
-        if self.flip_sign:  # otherwise the cost is exactly invariant to the sign
-            sign = casadi.if_else(ew < 0, -1.0, 1.0)
-            ex, ey, ez, ew = sign * ex, sign * ey, sign * ez, sign * ew
-        r0, r1, r2 = _body_vector(ex, ey, ez, ew, c[_WD], c[_WD + 1], c[_WD + 2])
-        return [ex, ey, ez, w0 - r0, w1 - r1, w2 - r2]
-
-    @staticmethod
-    def _gravity_gradient(x, y, z, w, inertia: list, radius):
-        """``3μ/r³ ô × (I ô)`` (kernels' ``gravity_gradient``), N·m."""
-        o0, o1, o2 = 2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)
-        p0 = inertia[0] * o0 + inertia[1] * o1 + inertia[2] * o2
-        p1 = inertia[3] * o0 + inertia[4] * o1 + inertia[5] * o2
-        p2 = inertia[6] * o0 + inertia[7] * o1 + inertia[8] * o2
-        k = 3.0 * kernels.GRAVITY_MU_M3_S2 / radius**3
-        return k * (o1 * p2 - o2 * p1), k * (o2 * p0 - o0 * p2), k * (o0 * p1 - o1 * p0)
+        """d/dt ``[q, ω_bo, Ω, cost]`` (the plant definition's augmented derivative) at ``z``
+        with the dipoles ``m`` (A·m²), wheel torque ``t_w`` (N·m) and the time context ``c``
+        (the definition's compact layout)."""
+        return list(
+            _PLANT.augmented(
+                z,
+                0,
+                m,
+                t_w,
+                c,
+                0,
+                COMPACT_LAYOUT,
+                self.j_w,
+                self.gravity_gradient,
+                self.Q,
+                self.R,
+                self.diagonal,
+                self.flip_sign,
+            )
+        )
 
 
 def _check_supported(env) -> None:
@@ -219,10 +152,7 @@ def _build_step(plant: _Plant, limits: np.ndarray, control_dt_s: float, realized
         c0, c1, c2 = (p[1 + (2 * j + s) * N_FIELDS : 1 + (2 * j + s + 1) * N_FIELDS] for s in range(3))
         t_w = cmd[3]
         if math.isfinite(plant.h_max):  # the wheel's storable momentum (blocks torque that raises |h_w|)
-            x, zq = aug[0], aug[2]
-            h_w = plant.j_w * (aug[7] + (aug[5] + (1 - 2 * (x * x + zq * zq)) * (-c0[_RATE])))
-            blocked = casadi.logic_and(casadi.fabs(h_w) >= plant.h_max, -t_w * h_w > 0)
-            t_w = casadi.if_else(blocked, 0.0, t_w)
+            t_w = _PLANT.wheel_torque(t_w, aug[0], aug[2], aug[5], aug[7], c0[_RATE], plant.j_w, plant.h_max)
         k1 = plant.augmented(aug, m, t_w, c0)
         k2 = plant.augmented([aug[i] + 0.5 * h * k1[i] for i in range(9)], m, t_w, c1)
         k3 = plant.augmented([aug[i] + 0.5 * h * k2[i] for i in range(9)], m, t_w, c1)
@@ -250,7 +180,9 @@ def build_magnetorquer(env) -> DiscreteProblem:
     params = step_parameters(env, n_steps)
     xs = casadi.SX.sym("x", 8)
     rate = float(env.max_rate_rad_s)
-    g = casadi.Function("magnetorquer_limits", [xs], [casadi.vertcat(xs[4:7] - rate, -xs[4:7] - rate)], ["x"], ["g"])
+    rows = _PLANT.limit_rows(xs[4], xs[5], xs[6], rate)
+    # the rows ordered as before (+ω_bo, then −ω_bo), so the NLP's constraint vector is unchanged
+    g = casadi.Function("magnetorquer_limits", [xs], [casadi.vertcat(*rows[0::2], *rows[1::2])], ["x"], ["g"])
     notes = [
         "orbit, field, reference, ΔJ(t) and disturbance precomputed per sub-step stage (params)",
         "tumble limit max|ω_bo| <= max_rate_rad_s as a state constraint",
@@ -371,5 +303,5 @@ def error_function(env) -> casadi.Function:
     y = casadi.SX.sym("y", 8)
     c = casadi.SX.sym("c", N_FIELDS)
     n = 1.0 / casadi.sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2] + y[3] * y[3])
-    err = plant._error_state(y[0] * n, y[1] * n, y[2] * n, y[3] * n, y[4], y[5], y[6], c)  # noqa: SLF001 (this module's class)
-    return casadi.Function("magnetorquer_error", [y, c], [casadi.vertcat(*err)], ["y", "c"], ["x"])
+    err = _PLANT.error_state(y[0] * n, y[1] * n, y[2] * n, y[3] * n, y[4], y[5], y[6], c, _QD, plant.flip_sign)
+    return casadi.Function("magnetorquer_error", [y, c], [casadi.vertcat(*err[:6])], ["y", "c"], ["x"])
