@@ -42,7 +42,10 @@ class AirBearingEnv(ReactionWheelEnv):
 
     **Observation space.** ``Box(float32)`` of ``x = [q_e,vec (3), ω (3, rad/s)]``,
     ``q_e = q_T* ⊗ q`` (w ≥ 0), target identity; the options of ReactionWheel-v0
-    (``observe_wheel_speeds``, ``fault_hint``, sensors) apply unchanged.
+    (``observe_wheel_speeds``, ``fault_hint``, sensors) apply unchanged, and so do its bounds:
+    the step that crosses a limit observes its measurement clipped to the bounds
+    (:meth:`~attitude_envs.envs.base.AttitudeEnv.clip_observation`; ``info["truth"]`` holds
+    the true state).
 
     **Reward.** ``−∫ (xᵀQx + T_cᵀR T_c) dt`` over the step with ``Q = diag(4·I3, I3)``,
     ``R = I3`` (assumed: the paper scores the integral of absolute error, IAE;

@@ -91,15 +91,20 @@ def _guarding_step(step):
     """``step`` with the episode-order guard: before the first ``reset`` it raises
     ``gymnasium.error.ResetNeeded``; after the episode returned ``terminated`` or
     ``truncated`` it warns once (as CartPole-v1 does), then steps as asked (undefined
-    behaviour: the state goes on from where it ended). One attribute test on the hot path."""
+    behaviour: the state goes on from where it ended). A step that returns ``terminated``
+    returns its observation clipped to the observation space
+    (:meth:`AttitudeEnv.clip_observation`). One attribute test on the hot path."""
 
     @functools.wraps(step)
     def guarded(self, action):
         if self._episode_over is not None:
             self._step_out_of_episode()
         result = step(self, action)
-        if (result[2] or result[3]) and self._episode_over is None:
-            self._episode_over = _TERMINATED if result[2] else _TRUNCATED
+        if result[2] or result[3]:
+            if self._episode_over is None:
+                self._episode_over = _TERMINATED if result[2] else _TRUNCATED
+            if result[2]:  # the step that crosses a limit: its observation clipped to the box
+                result = (self.clip_observation(result[0]), *result[1:])
         return result
 
     guarded.episode_guard = True
@@ -108,14 +113,15 @@ def _guarding_step(step):
 
 def _guarding_reset(reset):
     """``reset`` that starts the episode ``step`` checks for (a reset that raises leaves
-    the env needing one)."""
+    the env needing one); its observation clipped to the space
+    (:meth:`AttitudeEnv.clip_observation`: only a start given beyond the limits reaches a bound)."""
 
     @functools.wraps(reset)
     def guarded(self, *args: Any, **kwargs: Any):
         self._episode_over = _NOT_RESET
-        result = reset(self, *args, **kwargs)
+        obs, info = reset(self, *args, **kwargs)
         self._episode_over = None
-        return result
+        return self.clip_observation(obs), info
 
     guarded.episode_guard = True
     return guarded
@@ -306,6 +312,28 @@ class AttitudeEnv(gym.Env):
         """Observation bounds with the ``fault_hint`` flags' [0, 1] appended when on."""
         n = self.n_hint_flags
         return np.concatenate([low, np.zeros(n)]), np.concatenate([high, np.ones(n)])
+
+    def clip_observation(self, obs: np.ndarray) -> np.ndarray:
+        """``obs`` clipped to :attr:`observation_space` (a new float32 array): the observation
+        ``step`` returns on the step that ends an episode by crossing a limit, and ``reset``'s.
+
+        The bounds of the quantities that end an episode (rates, angles, divergence) lie
+        beyond their limits (twice the limit on the gyrostats, the magnetorquer and the fuel
+        slosh; one step's reach from the divergence threshold on LinearSystem), so a step that
+        crosses no limit never reaches one and is observed as measured. The step that crosses
+        a limit can overshoot a bound within its decision: FuelSlosh-v1's pitch rate (its
+        0.25 s decision, up to 1.8 times the bound on about a third of random-action
+        episodes), FuelSlosh-v0's on one in a hundred bang-bang episodes, and AirBearing-v1's
+        and Magnetorquer-v1's rates under limits smaller than the defaults. That terminal
+        observation is the measurement clipped to the box, a sensor saturating at its range;
+        ``info["truth"]`` holds the true state. No policy acts on a terminal observation and
+        no learner bootstraps from a terminated one, so the clip changes no return, no
+        trained agent and no benchmark. At ``reset`` only a start given beyond the limits
+        (``initial_state``, ``options["state"]``, limits set below a preset's start) reaches
+        a bound; its first step ends the episode. A diverged (non-finite) state is observed as
+        zeros. Not clipped: a sensor dropout in ``"nan"`` mode, which observes NaN on purpose."""
+        space = self.observation_space
+        return np.clip(obs, space.low, space.high).astype(np.float32, copy=False)
 
     def _fault_truth(self, actuator_t_s: float, sensor_t_s: float | None = None) -> list[dict]:
         """Ground truth of every fault of the episode and whether it is active."""

@@ -66,7 +66,13 @@ class FuelSloshEnv(AttitudeEnv):
     ψ2 (rad), ψ̇2 (rad/s), v_x (m/s)]``; with ``observe_slosh=False`` only ``[v_z, θ, Ω,
     v_x]``; with ``fault_hint`` 3 flags in [0, 1] appended (gimbal, moment, state sensor).
     Bounds: speeds ±1e4 m/s, angles and rates twice their termination limits, slosh rates
-    ±50 rad/s. With sensors the observation is measured (see below).
+    ±50 rad/s. With sensors the observation is measured (see below). The step that crosses a
+    limit observes its measurement clipped to the bounds: FuelSlosh-v1's 0.25 s decision
+    carries the pitch rate past twice its limit on about a third of random-action episodes
+    (:meth:`~attitude_envs.envs.base.AttitudeEnv.clip_observation`; ``info["truth"]`` holds the
+    true state). The speeds' bound is not a limit: the presets' burns reach about 6.0e3 m/s at
+    the end of v0's 1500 s (a_x = F/m ≈ 2 m/s²); a burn much longer than that
+    (``episode_duration_s`` beyond about 3,500 s) would pass it.
 
     **Reward.** ``−∫ (xᵀQx + u_cᵀRu_c) dt`` over the step (RK4 of the augmented state),
     with x = [v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2] and u_c the new inputs [a_z, Ω̇] the plant

@@ -60,7 +60,10 @@ class LinearSystemEnv(AttitudeEnv):
     ``state`` sensor). Bounds: ``‖A‖∞ · divergence_threshold + ‖B‖∞ · max(action_scale)
     + 10 · process_noise_std`` (what one step can reach from a non-terminated state), with
     k > 1 ``‖Aᵏ‖∞ · divergence_threshold + ‖B_k‖∞ · max(action_scale) + 10 · process_noise_std
-    · Σ_{i<k} ‖Aⁱ‖∞``.
+    · Σ_{i<k} ‖Aⁱ‖∞``. The step that crosses the divergence threshold observes its
+    measurement clipped to the bounds
+    (:meth:`~attitude_envs.envs.base.AttitudeEnv.clip_observation`; ``info["truth"]`` holds
+    the true state).
 
     **Reward.** ``−(xᵀQx + uᵀRu)`` with ``x`` the state the step starts from and ``u`` the
     applied input; with k > 1 the sum of the k plant steps' such costs,

@@ -86,7 +86,10 @@ class ReactionWheelEnv(AttitudeEnv):
     ``h_w = J_s Ω`` (N, N·m·s) when ``wheel_momentum_weight > 0``; plus ``Ω / Ω_max`` (N)
     with ``observe_wheel_speeds``; plus N + 3 fault flags with ``fault_hint`` (1.0 per
     actuator, then per sensor gyro, star tracker, tachometer, with an active fault).
-    Bounds: ``|q_e,vec| ≤ 1``, rates within 2 × ``max_rate_rad_s``. With sensors (or sensor
+    Bounds: ``|q_e,vec| ≤ 1``, rates within 2 × ``max_rate_rad_s``; the step that crosses a
+    limit observes its measurement clipped to the bounds
+    (:meth:`~attitude_envs.envs.base.AttitudeEnv.clip_observation`; ``info["truth"]`` holds
+    the true state). With sensors (or sensor
     faults) the observation is the error state of the *measured* attitude, rate and wheel
     speeds (a dropout in ``"nan"`` mode puts NaN in it, outside the bounds by design).
 

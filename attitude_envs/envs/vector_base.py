@@ -31,6 +31,10 @@ class BatchedEnv(VectorEnv):
     or ``"same_step"`` (the sub-env resets in the step that ends it;
     ``infos["final_obs"]`` holds its last observation; what SB3 expects).
 
+    A sub-env whose step crosses a limit (``terminated``), or that starts beyond one, observes
+    its state clipped to the single observation space, as the single env does
+    (:meth:`~attitude_envs.envs.base.AttitudeEnv.clip_observation`).
+
     Every array ``step`` returns is new (the env keeps no reference to it), so callers may
     keep and modify them; the ``_key`` masks of the infos are shared read-only arrays.
     """
@@ -85,7 +89,14 @@ class BatchedEnv(VectorEnv):
             self._never_reset[i] = False
         self._all_reset = not self._never_reset.any()
         self._n_needs_reset = int(np.count_nonzero(self._needs_reset))
-        return self._observations(), {}
+        return self._clip(self._observations()), {}
+
+    def _clip(self, obs: np.ndarray) -> np.ndarray:
+        """Rows of observations clipped to the single observation space, in place (rows inside
+        it keep their bits): the single env's
+        :meth:`~attitude_envs.envs.base.AttitudeEnv.clip_observation`."""
+        space = self.single_observation_space
+        return np.clip(obs, space.low, space.high, out=obs)
 
     def _check_actions(self, actions, n_actions: int) -> np.ndarray:
         """``actions`` as a float64 (num_envs, n_actions) array (no copy when it is one)."""
@@ -116,7 +127,10 @@ class BatchedEnv(VectorEnv):
             stepped = ~skipped
             stepped.setflags(write=False)
             _set_masks(infos, stepped)
-        n_done = int(np.count_nonzero(terminated)) + int(np.count_nonzero(truncated))
+        n_terminated = int(np.count_nonzero(terminated))
+        if n_terminated or self._n_needs_reset:  # a limit crossed or a start: clipped as the single env's
+            self._clip(obs)
+        n_done = n_terminated + int(np.count_nonzero(truncated))
         if self.autoreset_mode == AutoresetMode.NEXT_STEP:
             if n_done:
                 self._needs_reset = terminated | truncated
@@ -130,7 +144,7 @@ class BatchedEnv(VectorEnv):
             for i in idx:
                 final_obs[i] = obs[i].copy()
                 self._reset_one(i, None, None)
-            obs[idx] = self._observations(idx)
+            obs[idx] = self._clip(self._observations(idx))
             infos["final_obs"] = final_obs
             infos["_final_obs"] = done
         return obs, rewards, terminated, truncated, infos
