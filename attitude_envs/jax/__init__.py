@@ -17,5 +17,6 @@ except ImportError as exc:  # pragma: no cover - exercised without the extra
 from attitude_envs.jax.environment import Environment
 from attitude_envs.jax.make import make
 from attitude_envs.jax.spaces import Box
+from attitude_envs.jax.wrappers import DoneStep
 
-__all__ = ["Box", "Environment", "make"]
+__all__ = ["Box", "DoneStep", "Environment", "make"]

@@ -11,7 +11,26 @@ autoreset semantics as ``gymnax.environments.environment.Environment``):
   and ``info["final_observation"]`` holds the last observation of the episode that ended;
   ``info["terminated"]``, ``info["truncated"]`` repeat the flags.
 * ``env.action_space(params)``, ``env.observation_space(params)``,
-  ``env.default_params``, ``env.name``, ``env.num_actions``.
+  ``env.default_params``, ``env.name``, ``env.num_actions``. The spaces are
+  :class:`attitude_envs.jax.spaces.Box`, a ``gymnax.environments.spaces.Box`` where gymnax is
+  installed, so gymnax's ``GymnaxToGymWrapper``, ``GymnaxToVectorGymWrapper`` and
+  ``LogWrapper`` take these envs unmodified.
+
+One difference from gymnax 1.0.1, on purpose: ``truncated`` is the time limit of an episode
+that did *not* end at a limit (``truncated = time limit and not terminated``), as in the
+numba envs, where gymnax sets ``truncated = state.time >= max_steps_in_episode`` whatever
+``terminated`` says. The two differ only on a step that crosses a limit on an episode's last
+decision: gymnax would report both flags; here only ``terminated``. A trainer that
+bootstraps ``γ·V(final_observation)`` where ``truncated`` (the fused PPO trainer, SB3's
+time-limit handling) must not bootstrap past a limit crossing, and ``done = terminated or
+truncated`` is the same under either rule. :class:`~attitude_envs.jax.wrappers.DoneStep` adapts
+the envs to the 5-tuple ``step`` of PureJaxRL-style trainers (rejax).
+
+``info["final_observation"]`` is the plant's last observation as ``step_env`` computed it. On a
+step that crosses a limit it may lie beyond ``observation_space`` (the numba env returns that
+observation clipped to its box; no policy acts on it, and only ``truncated`` steps, which
+cross no limit, read it for a bootstrap); every ``obs`` that ``step`` and ``reset`` return
+lies in the space.
 
 A plant subclasses :class:`Environment` and implements ``step_env`` and ``reset_env``. What
 fixes array shapes or the compiled program's branches (wheel count, sub-steps, observation
@@ -56,7 +75,11 @@ class Environment:
 
     @partial(jax.jit, static_argnames=("self",))
     def step(self, key: jax.Array, state: Any, action: jax.Array, params: Any = None):
-        """One decision with autoreset (gymnax 1.0's ``step``)."""
+        """One decision with autoreset (gymnax 1.0's ``step``): ``(obs, state, reward,
+        terminated, truncated, info)``. ``truncated`` is the time limit and not ``terminated``
+        (gymnax 1.0.1 sets it at the time limit whatever ``terminated`` says; see the module
+        docstring); when either is set, ``obs`` and ``state`` start the next episode, drawn with
+        this step's key, and ``info["final_observation"]`` is the ended episode's last."""
         if params is None:
             params = self.default_params
         key_step, key_reset = jax.random.split(key)
