@@ -1,6 +1,6 @@
 """The policy interface of the controllers (``Policy``, from ``attitude_envs.evaluation``) and the zero policy.
 
-The Stable-Baselines3 adapter ``SB3Policy`` lives in ``experiments.sb3.policy``.
+The Stable-Baselines3 adapter ``SB3Policy`` lives in ``experiments.training.policy``.
 """
 
 from __future__ import annotations

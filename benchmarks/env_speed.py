@@ -131,8 +131,8 @@ def sb3_ppo(steps: int = 4096, rounds: int = 3) -> list[dict]:
         from stable_baselines3.common.vec_env import DummyVecEnv
     except ImportError:  # the sb3 extra is not installed
         return []
-    from experiments.sb3.sb3_vec_env import SB3VecEnv
-    from experiments.sb3.training import log_without_folder
+    from experiments.training.sb3_vec_env import SB3VecEnv
+    from experiments.training.training import log_without_folder
 
     env_id = "attitude_envs/ReactionWheel-v0"
     variants = {

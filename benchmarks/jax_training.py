@@ -160,7 +160,7 @@ def campaign_task(env_id: str, agent: str = "ppo") -> Task:
 
 
 def _recipe(env_id: str) -> dict[str, Any]:
-    from experiments.sb3.hyperparams import load_hyperparams
+    from experiments.training.hyperparams import load_hyperparams
 
     return load_hyperparams("ppo", env_id, None, {"backend": "jax"})
 
@@ -266,7 +266,7 @@ def _jax_trainers(env_id: str, env_kwargs: dict[str, Any], rollouts: int, seeds:
 
     from agents.fused_ppo.config import as_float32, from_zoo, stack_hparams
     from agents.fused_ppo.trainer import make_chunked
-    from experiments.sb3.jax_training import compiler_options, program
+    from experiments.training.jax_training import compiler_options, program
 
     config, hp = from_zoo(_recipe(env_id))
     hp = as_float32(hp._replace(schedule_timesteps=1e12))
@@ -456,7 +456,7 @@ def _train_run(spec: dict[str, Any]) -> dict[str, Any]:
     (the fused trainer's status lines, one per chunk, give them)."""
     import torch
 
-    from experiments.sb3.training import train
+    from experiments.training.training import train
 
     torch.set_num_threads(1)
     out_dir = Path(spec["out_dir"])
@@ -1009,7 +1009,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         import sbx  # noqa: F401
 
-        from experiments.sb3.backends import check_backend
+        from experiments.training.backends import check_backend
 
         check_backend("jax", "ppo")
     except (ImportError, ValueError) as exc:

@@ -18,7 +18,7 @@ import json
 from pathlib import Path
 
 from experiments.campaign import run_campaign
-from experiments.sb3.training import train
+from experiments.training.training import train
 
 ENV = "attitude_envs/ReactionWheel-v0"
 OUTAGE = [{"kind": "outage", "target": "actuator", "index": 0, "onset_s": 10.0}]

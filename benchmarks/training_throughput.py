@@ -31,11 +31,11 @@ from stable_baselines3.common.vec_env import VecNormalize
 import attitude_envs  # noqa: F401
 from benchmarks.env_speed import _with_spread
 from experiments.processes import pin_to_one_core
-from experiments.sb3.callbacks import NormalizedPredictor, episode_costs
-from experiments.sb3.hyperparams import load_hyperparams, split_hyperparams
-from experiments.sb3.registry import algorithm_class
-from experiments.sb3.training import log_without_folder
-from experiments.sb3.vec_envs import make_eval_env, make_training_env
+from experiments.training.callbacks import NormalizedPredictor, episode_costs
+from experiments.training.hyperparams import load_hyperparams, split_hyperparams
+from experiments.training.registry import algorithm_class
+from experiments.training.training import log_without_folder
+from experiments.training.vec_envs import make_eval_env, make_training_env
 
 REFERENCE = "sb3 DummyVecEnv"  # today's stack: what train() ran before the native env and SBX
 

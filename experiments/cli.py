@@ -52,9 +52,9 @@ from experiments.policies import POLICIES, check_policy_env, check_policy_name
 from experiments.progress import Heartbeat
 from experiments.reproduction import markdown_table
 from experiments.reproductions import REPRODUCTIONS
-from experiments.sb3.backends import BACKENDS
-from experiments.sb3.hyperparams import load_yaml, parse_overrides, read_yaml
-from experiments.sb3.registry import ALGORITHMS
+from experiments.training.backends import BACKENDS
+from experiments.training.hyperparams import load_yaml, parse_overrides, read_yaml
+from experiments.training.registry import ALGORITHMS
 from experiments.seeds import SYNTAX, seeds_arg
 
 #: every registered id of the suite: the papers' problems (-v0) and the learning tasks (-v1)
@@ -170,7 +170,7 @@ def _env_kwargs(args: argparse.Namespace) -> dict:
 
 def _train(args: argparse.Namespace) -> int:
     check_out_dir(args.out)
-    from experiments.sb3.training import train  # optional: the sb3 extra (stable-baselines3, torch)
+    from experiments.training.training import train  # optional: the sb3 extra (stable-baselines3, torch)
 
     if args.progress_bar:
         try:
@@ -260,11 +260,11 @@ def _model_snapshot(path: str, select: str) -> Path:
 
 
 def _check_models(env_id: str, env_kwargs: dict, models: list[str]) -> None:
-    """Each saved model fits the env (its env id and spaces: :func:`~experiments.sb3.training.load_trained`),
+    """Each saved model fits the env (its env id and spaces: :func:`~experiments.training.training.load_trained`),
     checked here before any episode runs, not in a worker."""
     if not models:
         return
-    from experiments.sb3.training import load_trained  # optional: the sb3 extra
+    from experiments.training.training import load_trained  # optional: the sb3 extra
 
     env = gym.make(env_id, **env_kwargs)
     try:
@@ -407,7 +407,7 @@ def _tune(args: argparse.Namespace) -> int:
     try:  # optional: the tune extra (optuna) and the sb3 extra
         import optuna  # noqa: F401
 
-        from experiments.sb3.tuning import tune
+        from experiments.training.tuning import tune
     except ImportError as exc:
         raise ValueError(
             f"tune needs the package {exc.name or 'optuna'!r}: pip install -c constraints.txt 'attitude-envs[tune,sb3]'"
@@ -440,7 +440,7 @@ def _tune(args: argparse.Namespace) -> int:
 
 
 def _tune_population(args: argparse.Namespace) -> int:
-    from experiments.sb3.jax_tuning import tune_population  # optional: the jax and sb3 extras
+    from experiments.training.jax_tuning import tune_population  # optional: the jax and sb3 extras
 
     if args.jobs not in (None, 1):
         raise ValueError("--jobs: the population search (--backend jax) trains every setting in one process")
@@ -611,7 +611,7 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument(
         "--timesteps", type=int_at_least(1), help="total env steps (default: n_timesteps of the hyperparameter file)"
     )
-    tr.add_argument("--hyperparams", help="Zoo-format YAML (default: experiments/sb3/hyperparams/<algo>.yml)")
+    tr.add_argument("--hyperparams", help="Zoo-format YAML (default: experiments/training/hyperparams/<algo>.yml)")
     tr.add_argument("--params", nargs="*", help="hyperparameter overrides key:value (Zoo syntax)")
     tr.add_argument(
         "--backend",

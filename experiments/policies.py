@@ -41,7 +41,7 @@ import importlib
 from dataclasses import dataclass
 from typing import Any
 
-from experiments.sb3.policy import SB3Policy
+from experiments.training.policy import SB3Policy
 
 GYROSTATS = ("ReactionWheel", "AirBearing")
 
@@ -99,7 +99,7 @@ POLICIES: dict[str, PolicyEntry] = {
     "ftsmc-standin": PolicyEntry("baselines.sliding_mode:FTSMCStandInPolicy", ("Magnetorquer",)),
     "bdot": PolicyEntry("baselines.bdot:BDotPolicy", ("Magnetorquer",)),
     "q-learning-lqr": PolicyEntry("agents:QLearningLQR", ("LinearSystem", "ReactionWheel")),
-    "sb3": PolicyEntry("experiments.sb3.training:load_trained"),  # the saved model's own env (checked on load)
+    "sb3": PolicyEntry("experiments.training.training:load_trained"),  # the saved model's own env (checked on load)
 }
 
 

@@ -62,7 +62,7 @@ agents:
 # while it is a single thread (importing starts none; checked): no lock is held in the child.
 ZYGOTE = r"""
 import json, os, select, sys, traceback
-import experiments.cli, experiments.sb3.training, stable_baselines3, torch._dynamo  # noqa: F401
+import experiments.cli, experiments.training.training, stable_baselines3, torch._dynamo  # noqa: F401
 try:
     import sbx  # noqa: F401  (imports jax without starting a backend: no thread yet)
 except ImportError:
@@ -235,7 +235,7 @@ def _weights(model_zip: Path) -> dict[str, bytes]:
 def _actions(model_zip: Path) -> bytes:
     """The deterministic actions of a saved model on fixed observations (an SBX model keeps its
     parameters in the zip's "data", beside wall times)."""
-    from experiments.sb3.training import load_trained
+    from experiments.training.training import load_trained
 
     obs = np.random.default_rng(0).normal(size=(64, 6)).astype(np.float32)
     return load_trained(model_zip).predict(obs, deterministic=True)[0].tobytes()

@@ -15,7 +15,7 @@ from baselines.base import ZeroPolicy
 from baselines.feedback_linearization import FeedbackLinearizationPolicy
 from baselines.quaternion_lqr import QuaternionLQRPolicy
 from experiments.plots import plot_episodes, plot_error_overlay, plot_metric_bars
-from experiments.sb3.policy import SB3Policy
+from experiments.training.policy import SB3Policy
 
 RPM = 60 / (2 * np.pi)
 

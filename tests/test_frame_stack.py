@@ -13,12 +13,12 @@ from stable_baselines3.common.vec_env import VecFrameStack  # noqa: E402
 
 import attitude_envs  # noqa: F401,E402
 from attitude_envs.evaluation.rollout import rollout  # noqa: E402
-from experiments.sb3.callbacks import NormalizedPredictor, episode_costs  # noqa: E402
-from experiments.sb3.hyperparams import split_hyperparams  # noqa: E402
-from experiments.sb3.policy import SB3Policy  # noqa: E402
-from experiments.sb3.sb3_vec_env import SB3VecEnv  # noqa: E402
-from experiments.sb3.training import load_trained, train  # noqa: E402
-from experiments.sb3.vec_envs import make_eval_env  # noqa: E402
+from experiments.training.callbacks import NormalizedPredictor, episode_costs  # noqa: E402
+from experiments.training.hyperparams import split_hyperparams  # noqa: E402
+from experiments.training.policy import SB3Policy  # noqa: E402
+from experiments.training.sb3_vec_env import SB3VecEnv  # noqa: E402
+from experiments.training.training import load_trained, train  # noqa: E402
+from experiments.training.vec_envs import make_eval_env  # noqa: E402
 
 AB = "attitude_envs/AirBearing-v0"
 SHORT = {"episode_duration_s": 0.3}  # 30 steps: several episode boundaries in 80 steps

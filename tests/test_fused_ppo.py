@@ -101,7 +101,7 @@ FAST = {"xla_backend_optimization_level": 0}  # a third less compile time; these
 @pytest.fixture(scope="module", autouse=True)
 def fast_compile():
     """``train(backend="jax")`` compiles as the tiny programs here do (FAST)."""
-    from experiments.sb3.jax_training import FAST_COMPILE_ENV
+    from experiments.training.jax_training import FAST_COMPILE_ENV
 
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv(FAST_COMPILE_ENV, "1")
@@ -138,7 +138,7 @@ def learned(tiny):
 
 # ---- config ---------------------------------------------------------------------------------
 def test_a_zoo_entry_means_what_it_means_to_sb3():
-    from experiments.sb3.hyperparams import load_hyperparams
+    from experiments.training.hyperparams import load_hyperparams
 
     config, hp = from_zoo(load_hyperparams("ppo", "attitude_envs/AirBearing-v1"))
     assert (config.n_envs, config.n_steps, config.batch_size, config.n_epochs) == (8, 40, 80, 10)
@@ -187,7 +187,7 @@ def test_bad_hyperparameters_are_named(entry, message):
 
 
 def test_the_backend_is_checked(monkeypatch):
-    from experiments.sb3.backends import check_backend
+    from experiments.training.backends import check_backend
 
     assert check_backend("JAX", "ppo") == "jax"
     with pytest.raises(ValueError, match=r"backend 'jax' implements \['ppo'\], not 'sac'"):
@@ -385,7 +385,7 @@ LS_TINY = {"n_envs": 2, "n_steps": 80, "batch_size": 80, "n_epochs": 2, "backend
 
 
 def _train(out, total, **kw):
-    from experiments.sb3.training import train
+    from experiments.training.training import train
 
     kw = {"eval_freq": 160, "checkpoint_freq": 160, "eval_episodes": 2, "overrides": LS_TINY, **kw}
     return train("ppo", LS, out, total_timesteps=total, **kw)
@@ -397,8 +397,8 @@ def _final_arrays(run):
 
 def test_train_backend_jax_writes_a_run_that_load_trained_plays(tmp_path, monkeypatch):
     from attitude_envs.evaluation.rollout import rollout
-    from experiments.sb3.policy import SB3Policy
-    from experiments.sb3.training import load_trained
+    from experiments.training.policy import SB3Policy
+    from experiments.training.training import load_trained
 
     run = tmp_path / "run"
     result = _train(run, 320)
@@ -417,7 +417,7 @@ def test_train_backend_jax_writes_a_run_that_load_trained_plays(tmp_path, monkey
     episode = rollout(env, SB3Policy(predictor), seed=3)
     assert np.isfinite(episode["J"]) and episode["J"] > 0
     last_eval = float(rows[-1].split(",")[1])
-    from experiments.sb3.callbacks import evaluate_cost
+    from experiments.training.callbacks import evaluate_cost
 
     assert evaluate_cost(predictor, env, [10_000, 10_001])["J_mean"] == pytest.approx(last_eval, rel=1e-5)
     copied = tmp_path / "elsewhere" / "model.zip"  # without its run's config.json: told by the file
@@ -491,7 +491,7 @@ def test_a_killed_population_search_resumes_to_the_uninterrupted_one(tmp_path, m
     """The search saves its state after every evaluation; run again with the same arguments, a
     search killed in its second evaluation resumes there and ends with the uninterrupted search's
     evaluations, bit for bit. Another search's state in the folder is an error."""
-    import experiments.sb3.jax_tuning as jt
+    import experiments.training.jax_tuning as jt
 
     options = dict(n_trials=2, timesteps=480, n_evaluations=3, eval_episodes=1, overrides=LS_TINY, progress=False)
     reference = jt.tune_population("ppo", LS, tmp_path / "whole", **options)
@@ -532,9 +532,9 @@ def test_a_killed_population_search_resumes_to_the_uninterrupted_one(tmp_path, m
 
 
 def test_population_draws_keep_the_entry_shapes_in_group_zero():
-    from experiments.sb3.hyperparams import load_hyperparams
-    from experiments.sb3.jax_tuning import draw_population
-    from experiments.sb3.tuning import PPO_SPACE
+    from experiments.training.hyperparams import load_hyperparams
+    from experiments.training.jax_tuning import draw_population
+    from experiments.training.tuning import PPO_SPACE
 
     entry = load_hyperparams("ppo", "attitude_envs/AirBearing-v1")
     trials = draw_population(entry, 6, 2, np.random.default_rng(0))
@@ -554,7 +554,7 @@ def test_hparams_are_a_pytree_and_config_is_static():
 
 
 def test_saved_leaves_go_back_only_into_a_state_they_fit():
-    from experiments.sb3.jax_training import leaves_into
+    from experiments.training.jax_training import leaves_into
 
     state = {"a": jnp.zeros((2, 3), jnp.float32), "b": (jnp.arange(4, dtype=jnp.int32),)}
     leaves = [np.full((2, 3), 1.5, np.float32), np.arange(4, dtype=np.int32) * 2]

@@ -22,7 +22,7 @@ import attitude_envs  # noqa: F401  (registers the ids)
 from attitude_envs.info import TRUTH, policy_view
 from attitude_envs.registration import LEARNING_TASKS, base_version, task_defaults
 from experiments.policies import build_policy
-from experiments.sb3.hyperparams import hyperparams_path, read_yaml
+from experiments.training.hyperparams import hyperparams_path, read_yaml
 
 V1 = sorted(LEARNING_TASKS)
 
@@ -184,7 +184,7 @@ def test_a_dive_into_a_limit_never_pays_in_the_learners_objective(env_id):
 def test_a_search_draws_only_discounts_whose_horizon_fits_the_episode(env_id):
     """``attitude-envs tune`` (optuna and the JAX population) draws γ from :func:`gamma_choices`
     of the task: at least three values, every horizon 1/(1 − γ) within the episode's decisions."""
-    from experiments.sb3.tuning import PPO_SPACE, gamma_choices, ppo_space, task_decisions
+    from experiments.training.tuning import PPO_SPACE, gamma_choices, ppo_space, task_decisions
 
     decisions = task_decisions(env_id)
     assert decisions == gym.make(env_id).unwrapped.decisions_per_episode

@@ -128,7 +128,7 @@ def test_sb3_adapter_matches_dummy_vec_env():
     pytest.importorskip("stable_baselines3")
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    from experiments.sb3.sb3_vec_env import SB3VecEnv
+    from experiments.training.sb3_vec_env import SB3VecEnv
 
     kwargs = {"episode_duration_s": 1.0}
     venv = SB3VecEnv(MT, num_envs=3, **kwargs)

@@ -218,7 +218,7 @@ def test_every_core_dependency_is_used():
 
 
 def test_env_kwargs_read_exponents_as_numbers_and_name_a_bad_value(tmp_path, capsys):
-    from experiments.sb3.hyperparams import load_yaml
+    from experiments.training.hyperparams import load_yaml
 
     assert load_yaml("{integrator_dt_s: 1e-3, n: 5E2, s: lin_1e-4, d: 1.0e-3}") == {
         "integrator_dt_s": 0.001,

@@ -12,7 +12,7 @@ import attitude_envs
 from attitude_envs.registration import LEARNING_TASKS
 from experiments import cli
 from experiments.campaign import PLANT_CAMPAIGNS, load_campaign, preset_path, probe_models
-from experiments.sb3.hyperparams import load_hyperparams
+from experiments.training.hyperparams import load_hyperparams
 
 
 def test_every_registered_plant_has_a_campaign():

@@ -14,9 +14,9 @@ pytest.importorskip("stable_baselines3")
 
 import attitude_envs  # noqa: F401,E402
 from attitude_envs.registration import VECTOR_ENTRY_POINTS  # noqa: E402
-from experiments.sb3.callbacks import episode_costs  # noqa: E402
-from experiments.sb3.training import load_trained, train  # noqa: E402
-from experiments.sb3.vec_envs import PicklableVecMonitor, make_eval_env, make_training_env  # noqa: E402
+from experiments.training.callbacks import episode_costs  # noqa: E402
+from experiments.training.training import load_trained, train  # noqa: E402
+from experiments.training.vec_envs import PicklableVecMonitor, make_eval_env, make_training_env  # noqa: E402
 
 RW, LS = "attitude_envs/ReactionWheel-v0", "attitude_envs/LinearSystem-v0"
 SHORT = {env_id: {"episode_duration_s": 5.0} for env_id in VECTOR_ENTRY_POINTS} | {
@@ -47,7 +47,7 @@ def test_train_runs_on_the_native_batched_env_of_every_env_id(tmp_path, env_id):
     assert result.timesteps == 500 and np.isfinite(result.last_eval["J_mean"])
     rows = (tmp_path / "run" / "evaluations.csv").read_text().splitlines()
     assert [r.split(",")[0] for r in rows[1:]] == ["0", "250", "500"]
-    from experiments.sb3.checkpoint import read_checkpoint
+    from experiments.training.checkpoint import read_checkpoint
 
     model = read_checkpoint(tmp_path / "run" / "checkpoints" / "step_000000000500")[0]
     monitor = model.get_env().venv
@@ -71,7 +71,7 @@ def test_sbx_trains_on_every_env_id_and_loads_back(tmp_path, env_id):
 _SAME_RUN = """
 import sys, pathlib
 sys.path.insert(0, "tests")
-import experiments.sb3.training as training
+import experiments.training.training as training
 from test_sb3_native_env import RW, _train, _weights
 native = _train(pathlib.Path(sys.argv[1]) / "native", RW)
 training.batched_supported = lambda env_id, env: False
@@ -99,8 +99,8 @@ def test_native_training_is_bitwise_the_single_env_training(tmp_path):
 
 
 def test_sensors_fall_back_to_single_envs(tmp_path):
-    from experiments.sb3.checkpoint import read_checkpoint
-    from experiments.sb3.vec_envs import batched_supported
+    from experiments.training.checkpoint import read_checkpoint
+    from experiments.training.vec_envs import batched_supported
 
     kwargs = {**SHORT[RW], "sensors": {"gyro": {"noise_std": 1e-3}}}
 
@@ -161,7 +161,7 @@ TUMBLING = {"episode_duration_s": 20.0, "max_rate_rad_s": 0.05}  # episodes of 1
 def test_batched_evaluation_is_bitwise_the_sequential_one_for_the_same_actions(env_id, kwargs):
     """Episodes that end early stop contributing; J per episode is the single env's bit for bit."""
     from attitude_envs.evaluation.rollout import rollout
-    from experiments.sb3.policy import SB3Policy
+    from experiments.training.policy import SB3Policy
 
     seeds = [11, 12, 13, 14, 15]
     single = make_eval_env(env_id, kwargs, len(seeds), batched=False)

@@ -9,9 +9,9 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 import attitude_envs  # noqa: F401,E402
-from experiments.sb3.hyperparams import load_hyperparams, parse_overrides, parse_python_literal, split_hyperparams  # noqa: E402
-from experiments.sb3.registry import ALGORITHMS, algorithm_class  # noqa: E402
-from experiments.sb3.training import load_trained, train  # noqa: E402
+from experiments.training.hyperparams import load_hyperparams, parse_overrides, parse_python_literal, split_hyperparams  # noqa: E402
+from experiments.training.registry import ALGORITHMS, algorithm_class  # noqa: E402
+from experiments.training.training import load_trained, train  # noqa: E402
 
 RW = "attitude_envs/ReactionWheel-v0"
 SHORT = {"episode_duration_s": 5.0}  # 50 control steps per episode
@@ -146,7 +146,7 @@ def test_resume_continues_a_killed_run_with_its_replay_buffer(tmp_path, sac_400)
     # Bitwise the uninterrupted run: the 250-step row of the killed run is gone, the replay buffer,
     # generators, optimizer and env states continued. The buffer holds 200 + 200 transitions.
     _same_run(out, sac_400)
-    from experiments.sb3.checkpoint import read_checkpoint
+    from experiments.training.checkpoint import read_checkpoint
 
     model = read_checkpoint(checkpoints / "step_000000000400")[0]
     assert model.replay_buffer.size() == 400
@@ -173,7 +173,7 @@ def test_kill_around_a_checkpoint_resumes_to_the_same_run(tmp_path, monkeypatch,
     """The two windows of an evaluation step: its row is in evaluations.csv but the checkpoint
     pointer has not moved (the step is evaluated again), or the pointer moved but best/ was not
     yet written (it is written from the checkpoint). Step 100 is the reference's best."""
-    import experiments.sb3.training as training
+    import experiments.training.training as training
 
     assert json.loads((sac_400 / "best" / "best.json").read_text())["timesteps"] == 100
     real = training.write_checkpoint
@@ -256,7 +256,7 @@ def test_rl_zoo3_trains_on_the_envs_with_the_shipped_file(tmp_path):
     import subprocess
     import sys
 
-    from experiments.sb3.hyperparams import hyperparams_path
+    from experiments.training.hyperparams import hyperparams_path
 
     cmd = [sys.executable, "-m", "rl_zoo3.train", "--algo", "ppo", "--env", RW, "--gym-packages", "attitude_envs"]
     cmd += ["--conf-file", str(hyperparams_path("ppo")), "-n", "128", "--log-folder", str(tmp_path), "--seed", "0"]

@@ -7,13 +7,13 @@ import json
 import numpy as np
 import pytest
 
-from experiments.sb3.backends import check_backend
+from experiments.training.backends import check_backend
 
 pytest.importorskip("stable_baselines3")
 
 import attitude_envs  # noqa: F401,E402
-from experiments.sb3.hyperparams import split_hyperparams  # noqa: E402
-from experiments.sb3.training import load_trained, train  # noqa: E402
+from experiments.training.hyperparams import split_hyperparams  # noqa: E402
+from experiments.training.training import load_trained, train  # noqa: E402
 
 RW = "attitude_envs/ReactionWheel-v0"
 LS_SHORT = {"episode_steps": 40, "x0_std": 0.1}
@@ -33,7 +33,7 @@ def test_backend_names_are_checked_with_the_accepted_ones():
 def test_without_the_extra_sbx_is_a_clear_error_naming_the_install_and_the_fallback(monkeypatch):
     import sys
 
-    from experiments.sb3.registry import algorithm_class
+    from experiments.training.registry import algorithm_class
 
     monkeypatch.setitem(sys.modules, "sbx", None)  # as if not installed
     with pytest.raises(ValueError, match=r"pip install 'attitude-envs\[sbx\]'; or train on PyTorch: --backend sb3"):
@@ -86,7 +86,7 @@ def test_sbx_sac_resumes_a_killed_run_bitwise(tmp_path, monkeypatch):
         "backend": "sbx",
     }
     reference = train("sac", RW, tmp_path / "reference", **options)
-    import experiments.sb3.training as training
+    import experiments.training.training as training
 
     real = training.write_checkpoint
     calls = {"n": 0}

@@ -12,7 +12,7 @@ pytest.importorskip("optuna")
 pytest.importorskip("stable_baselines3")
 
 from experiments.cli import main  # noqa: E402
-from experiments.sb3.tuning import tune  # noqa: E402
+from experiments.training.tuning import tune  # noqa: E402
 
 ENV = "attitude_envs/LinearSystem-v0"
 KWARGS = {"episode_steps": 50}
@@ -102,8 +102,8 @@ def test_every_drawn_setting_is_an_entry_the_algorithm_builds(algo):
     import optuna
     from stable_baselines3 import PPO, SAC
 
-    from experiments.sb3.hyperparams import load_hyperparams, split_hyperparams
-    from experiments.sb3.tuning import sample, search_space, task_decisions
+    from experiments.training.hyperparams import load_hyperparams, split_hyperparams
+    from experiments.training.tuning import sample, search_space, task_decisions
 
     env_id = "attitude_envs/AirBearing-v1"
     space = search_space(algo, task_decisions(env_id))

@@ -205,7 +205,7 @@ def test_sb3_trains_directly_on_the_batched_env():
     from stable_baselines3.common.env_checker import check_env  # noqa: F401  (import works)
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    from experiments.sb3.sb3_vec_env import SB3VecEnv
+    from experiments.training.sb3_vec_env import SB3VecEnv
 
     venv = SB3VecEnv(RW, num_envs=4, episode_duration_s=1.0)
     venv.seed(3)
@@ -220,7 +220,7 @@ def test_sb3_trains_directly_on_the_batched_env():
         assert np.allclose(obs, ref_obs) and np.allclose(rewards, ref_rewards) and np.array_equal(dones, ref_dones)
     assert dones.all() and infos[0]["TimeLimit.truncated"]
     assert np.allclose(infos[0]["terminal_observation"], ref_infos[0]["terminal_observation"])
-    from experiments.sb3.training import log_without_folder
+    from experiments.training.training import log_without_folder
 
     model = PPO("MlpPolicy", venv, n_steps=32, batch_size=64, n_epochs=1, seed=0, device="cpu")
     log_without_folder(model)  # else learn() makes a $TMPDIR/SB3-* folder

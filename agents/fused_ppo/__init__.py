@@ -4,7 +4,7 @@ Lu et al. 2022, "Discovered Policy Optimisation" (NeurIPS), showed that with the
 in JAX a whole PPO run (env steps, rollout, GAE, minibatch epochs, optimizer) compiles into
 one XLA program, and ``jax.vmap`` trains many seeds and settings at once. This package does
 that on the suite's JAX plants (:mod:`attitude_envs.jax`) with the meaning of a Zoo PPO entry
-(``experiments/sb3/hyperparams/ppo.yml``) under Stable-Baselines3 2.x. Modules, one job each:
+(``experiments/training/hyperparams/ppo.yml``) under Stable-Baselines3 2.x. Modules, one job each:
 
 * ``config`` — a Zoo entry → :class:`PPOConfig` (static shapes) + :class:`Hparams` (traced
   floats), checked; numpy only.

@@ -1,6 +1,6 @@
 """The fused trainer's settings from an RL Baselines3 Zoo PPO entry, checked (numpy only: no jax).
 
-A Zoo entry (``experiments/sb3/hyperparams/ppo.yml``) splits in two here:
+A Zoo entry (``experiments/training/hyperparams/ppo.yml``) splits in two here:
 
 * :class:`PPOConfig`: what fixes the compiled program's shapes and branches (env count, rollout
   length, minibatch size, epochs, layer widths, activation, which schedules and normalizations

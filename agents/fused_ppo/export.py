@@ -5,7 +5,7 @@ log-std, the action box and the frozen observation statistics. :class:`NumpyPPOP
 it with Stable-Baselines3's ``predict(obs, state=None, episode_start=None, deterministic=True)
 -> (action, None)``: the observation normalized as in training, the action the Gaussian's
 mean (or a draw from it with ``deterministic=False``) clipped to the action box, so the
-suite's evaluator (``experiments.sb3.callbacks.evaluate_cost``, campaigns, ``attitude-envs
+suite's evaluator (``experiments.training.callbacks.evaluate_cost``, campaigns, ``attitude-envs
 evaluate``) scores JAX-trained policies on the numba envs unchanged.
 
 The file (``model.zip``, the name the suite's run layout uses) is a zip archive with ``data``

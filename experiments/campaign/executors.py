@@ -16,7 +16,7 @@ from typing import Any
 from attitude_envs.registration import quiet_version_warnings
 from experiments.campaign.spec import Campaign
 from experiments.processes import die_with_parent, pin_to_one_core, pool_context
-from experiments.sb3.hyperparams import load_hyperparams
+from experiments.training.hyperparams import load_hyperparams
 
 
 def _init_worker(parent_pid: int, counter) -> None:

@@ -25,9 +25,9 @@ from attitude_envs.evaluation.success import SuccessMetric
 from attitude_envs.make import check_env_id
 from experiments.optimum_table import solve_by_default
 from experiments.policies import check_policy_env, check_policy_name
-from experiments.sb3.backends import check_backend
-from experiments.sb3.hyperparams import load_hyperparams, read_yaml
-from experiments.sb3.registry import check_algorithm
+from experiments.training.backends import check_backend
+from experiments.training.hyperparams import load_hyperparams, read_yaml
+from experiments.training.registry import check_algorithm
 from experiments.seeds import parse_seeds
 
 PLANT_CAMPAIGNS = ("wheel", "air-bearing", "magnetorquer", "slosh", "linear")  # `--config all`, in this order

@@ -1,6 +1,6 @@
 """``train(..., backend="jax")``: PPO with the fused JAX trainer (:mod:`agents.fused_ppo`) on the
 JAX plant of the env (:func:`attitude_envs.jax.make`), in the run layout of
-:func:`experiments.sb3.training.train`::
+:func:`experiments.training.training.train`::
 
     config.json            as train's, with "backend": "jax"
     checkpoints/           step_<n>/{state.pkl, model.zip}, latest.json (the 2 newest)
@@ -10,7 +10,7 @@ JAX plant of the env (:func:`attitude_envs.jax.make`), in the run layout of
     timing.jsonl           per segment: from/to timesteps, wall time (s), compile time (s)
 
 ``model.zip`` is the fused-PPO model file (:mod:`agents.fused_ppo.export`: the actor and the
-frozen observation statistics as numpy arrays); :func:`~experiments.sb3.training.load_trained`
+frozen observation statistics as numpy arrays); :func:`~experiments.training.training.load_trained`
 loads it as a numpy predictor with SB3's ``predict``, so ``attitude-envs evaluate`` and
 campaigns play it on the numba envs as any trained model.
 
@@ -41,8 +41,8 @@ import numpy as np
 
 from attitude_envs.make import make_checked
 from experiments.jsonable import json_ready
-from experiments.sb3.backends import check_backend
-from experiments.sb3.callbacks import (
+from experiments.training.backends import check_backend
+from experiments.training.callbacks import (
     EvalLog,
     atomic_write_text,
     evaluate_cost,
@@ -51,11 +51,11 @@ from experiments.sb3.callbacks import (
     read_json,
     save_snapshot,
 )
-from experiments.sb3.run_config import check_resume
-from experiments.sb3.run_config import run_config as make_run_config
-from experiments.sb3.vec_envs import batched_supported, make_eval_env
+from experiments.training.run_config import check_resume
+from experiments.training.run_config import run_config as make_run_config
+from experiments.training.vec_envs import batched_supported, make_eval_env
 
-STATE_FILE = "state.pkl"  # the name experiments.sb3.checkpoint.latest_checkpoint looks for
+STATE_FILE = "state.pkl"  # the name experiments.training.checkpoint.latest_checkpoint looks for
 #: set to 1: compile with XLA's backend optimization off (about a third less compile time, slower
 #: steps; for tests and very short runs)
 FAST_COMPILE_ENV = "ATTITUDE_ENVS_JAX_FAST_COMPILE"
@@ -183,7 +183,7 @@ def export_policy(prog: Program, state, meta: dict[str, Any] | None = None):
 
 
 class _Model:
-    """What :func:`~experiments.sb3.callbacks.save_snapshot` writes: ``model.zip`` (no VecNormalize
+    """What :func:`~experiments.training.callbacks.save_snapshot` writes: ``model.zip`` (no VecNormalize
     file: the statistics are inside the model file)."""
 
     def __init__(self, policy) -> None:
@@ -306,7 +306,7 @@ def train_jax(
     verbose: int,
     evaluate_initial: bool,
 ) -> dict[str, Any]:
-    """:func:`experiments.sb3.training.train` for ``backend="jax"`` (called by it, arguments
+    """:func:`experiments.training.training.train` for ``backend="jax"`` (called by it, arguments
     checked there; ``entry`` the Zoo entry with overrides). Returns the fields of its
     ``TrainResult``."""
     check_backend("jax", algo)

@@ -1,5 +1,5 @@
 """Hyperparameter search with Optuna, as the RL Baselines3 Zoo does it, on the suite's own
-:func:`~experiments.sb3.training.train` (the ``tune`` extra: ``pip install 'attitude-envs[tune]'``).
+:func:`~experiments.training.training.train` (the ``tune`` extra: ``pip install 'attitude-envs[tune]'``).
 
 Each trial trains one agent with Zoo-format overrides drawn by the algorithm's sampler
 (:data:`SAMPLERS`, a subset of the Zoo's ``hyperparams_opt.py`` ranges) on top of the
@@ -30,7 +30,7 @@ from typing import Any
 import yaml
 
 from experiments.processes import die_with_parent, pin_to_one_core
-from experiments.sb3.training import train
+from experiments.training.training import train
 
 INSTALL_HINT = "hyperparameter search needs optuna: pip install 'attitude-envs[tune]'"
 
@@ -46,7 +46,7 @@ def _optuna():
 #: PPO's search space (the Zoo's ``sample_ppo_params`` ranges, without the ones the suite fixes:
 #: gSDE stays as the entry sets it), in the order the sampler draws: a list is categorical,
 #: ``("log", low, high)`` log-uniform, ``("uniform", low, high)`` uniform. The jax backend's
-#: population search (:mod:`experiments.sb3.jax_tuning`) draws from the same space.
+#: population search (:mod:`experiments.training.jax_tuning`) draws from the same space.
 PPO_SPACE: dict[str, Any] = {
     "n_steps": [256, 512, 1000, 2000],
     "batch_size": [64, 128, 256, 512],

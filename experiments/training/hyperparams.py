@@ -29,8 +29,8 @@ from typing import Any
 import numpy as np
 import yaml
 
-from experiments.sb3.backends import check_backend, policy_kwargs_for
-from experiments.sb3.registry import check_algorithm
+from experiments.training.backends import check_backend, policy_kwargs_for
+from experiments.training.registry import check_algorithm
 
 # Keys the Zoo reads itself (not passed to the algorithm's constructor).
 ZOO_KEYS = ("n_timesteps", "policy", "normalize", "n_envs", "noise_type", "noise_std", "frame_stack", "env_wrapper")
@@ -41,7 +41,7 @@ _UNSUPPORTED = ("env_wrapper", "callback", "vec_env_wrapper")
 
 def hyperparams_path(algo: str) -> Path:
     """The shipped YAML file of ``algo`` (package data)."""
-    return Path(str(resources.files("experiments.sb3") / "hyperparams" / f"{check_algorithm(algo)}.yml"))
+    return Path(str(resources.files("experiments.training") / "hyperparams" / f"{check_algorithm(algo)}.yml"))
 
 
 def _safe_value(node: ast.AST) -> Any:

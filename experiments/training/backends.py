@@ -1,7 +1,7 @@
 """Training backends: Stable-Baselines3 (PyTorch, the default), SBX (the SB3 maintainers' JAX
 port with the same API, the optional ``sbx`` extra) and ``jax`` (PPO only: the suite's fused
 trainer, :mod:`agents.fused_ppo`, one jitted program per run on the JAX plants of
-:mod:`attitude_envs.jax`; the optional ``jax`` extra; :mod:`experiments.sb3.jax_training`).
+:mod:`attitude_envs.jax`; the optional ``jax`` extra; :mod:`experiments.training.jax_training`).
 
 A Zoo-format hyperparameter entry may say ``backend: sbx``; ``train --backend`` overrides it.
 The same entry serves every backend: :func:`policy_kwargs_for` maps what differs (activation

@@ -1,7 +1,7 @@
 """The envs ``train`` trains and evaluates on: the natively batched env where there is one.
 
 Every env id with a vector entry point (``-v0`` and ``-v1``: :mod:`attitude_envs.registration`)
-trains on :class:`~experiments.sb3.sb3_vec_env.SB3VecEnv` (one compiled call steps all
+trains on :class:`~experiments.training.sb3_vec_env.SB3VecEnv` (one compiled call steps all
 sub-envs, bitwise the single envs, no per-step deep copies of infos) under
 :class:`PicklableVecMonitor` (the episode statistics SB3 logs); kwargs the batched env does not
 support (sensors, ``fault_hint``) fall back to SB3's ``make_vec_env`` (one Monitor per env).
@@ -16,7 +16,7 @@ import gymnasium as gym
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import VecEnv, VecFrameStack, VecMonitor
 
-from experiments.sb3.sb3_vec_env import SB3VecEnv
+from experiments.training.sb3_vec_env import SB3VecEnv
 
 
 class _PicklableWrapper:

@@ -1,6 +1,6 @@
 """Exact-resume checkpoints of a training run: everything its continuation depends on.
 
-:func:`experiments.sb3.training.train` runs ``learn()`` in segments that end at rollout
+:func:`experiments.training.training.train` runs ``learn()`` in segments that end at rollout
 boundaries (where SB3 holds no half-collected data) and checkpoints between two segments, so a
 resumed run continues bitwise like an uninterrupted one. ``checkpoints/step_<n>/`` holds
 
@@ -33,7 +33,7 @@ from numba.core.dispatcher import Dispatcher
 from stable_baselines3.common.logger import Logger
 from stable_baselines3.common.vec_env import VecNormalize
 
-from experiments.sb3.callbacks import new_checkpoint_dir, publish_checkpoint, write_model_files
+from experiments.training.callbacks import new_checkpoint_dir, publish_checkpoint, write_model_files
 
 STATE_FILE = "state.pkl"
 

@@ -1,8 +1,8 @@
 """``attitude-envs tune --backend jax``: a population search with the fused JAX PPO trainer.
 
-Where the optuna search (:mod:`experiments.sb3.tuning`) trains one trial after the other, this
+Where the optuna search (:mod:`experiments.training.tuning`) trains one trial after the other, this
 one draws ``n_trials`` settings at random from the same search space
-(:data:`experiments.sb3.tuning.PPO_SPACE`) and trains them side by side: the settings that
+(:data:`experiments.training.tuning.PPO_SPACE`) and trains them side by side: the settings that
 share the compiled program's shapes (rollout, minibatch, epochs, network) form a group,
 trained by ``jax.vmap`` over their traced hyperparameters (learning rate, γ, GAE λ, clip
 range, initial log-std) in one compiled program per group. By default every setting keeps
@@ -43,12 +43,12 @@ import numpy as np
 import yaml
 
 from attitude_envs.make import make_checked
-from experiments.sb3.backends import check_backend
-from experiments.sb3.callbacks import evaluate_cost, fsync_dir
-from experiments.sb3.hyperparams import load_hyperparams
-from experiments.sb3.jax_training import compiler_options, leaves_into
-from experiments.sb3.tuning import PPO_SPACE, ppo_space, task_decisions
-from experiments.sb3.vec_envs import batched_supported, make_eval_env
+from experiments.training.backends import check_backend
+from experiments.training.callbacks import evaluate_cost, fsync_dir
+from experiments.training.hyperparams import load_hyperparams
+from experiments.training.jax_training import compiler_options, leaves_into
+from experiments.training.tuning import PPO_SPACE, ppo_space, task_decisions
+from experiments.training.vec_envs import batched_supported, make_eval_env
 
 #: the search's state after its last evaluation, in its ``out_dir``
 STATE_FILE = "population-state.pkl"
@@ -87,8 +87,8 @@ def draw_population(
     rng: np.random.Generator,
     space: dict[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
-    """``n_trials`` settings drawn from ``space`` (default :data:`~experiments.sb3.tuning.PPO_SPACE`;
-    a task's: :func:`~experiments.sb3.tuning.ppo_space`): ``{"params": drawn values,
+    """``n_trials`` settings drawn from ``space`` (default :data:`~experiments.training.tuning.PPO_SPACE`;
+    a task's: :func:`~experiments.training.tuning.ppo_space`): ``{"params": drawn values,
     "overrides": Zoo overrides}``. Setting ``i`` is in shape group ``i % shape_groups``; group 0
     keeps the entry's shapes, the others draw theirs (:data:`STATIC_KEYS`)."""
     from agents.fused_ppo.config import parse_literal

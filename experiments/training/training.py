@@ -28,8 +28,8 @@ from stable_baselines3.common.utils import set_random_seed
 from stable_baselines3.common.vec_env import VecNormalize
 
 from attitude_envs.make import check_env_id, make_checked
-from experiments.sb3.backends import check_backend
-from experiments.sb3.callbacks import (
+from experiments.training.backends import check_backend
+from experiments.training.callbacks import (
     EvalLog,
     NormalizedPredictor,
     atomic_write_text,
@@ -37,7 +37,7 @@ from experiments.sb3.callbacks import (
     read_json,
     save_snapshot,
 )
-from experiments.sb3.checkpoint import (
+from experiments.training.checkpoint import (
     BudgetSchedule,
     RunClock,
     latest_checkpoint,
@@ -45,11 +45,11 @@ from experiments.sb3.checkpoint import (
     restore_rng,
     write_checkpoint,
 )
-from experiments.sb3.hyperparams import load_hyperparams, split_hyperparams
-from experiments.sb3.progress import ProgressCallback
-from experiments.sb3.registry import algorithm_class, check_algorithm, rollout_steps
-from experiments.sb3.run_config import check_resume, run_config
-from experiments.sb3.vec_envs import PicklableVecFrameStack, batched_supported, make_eval_env, make_training_env
+from experiments.training.hyperparams import load_hyperparams, split_hyperparams
+from experiments.training.progress import ProgressCallback
+from experiments.training.registry import algorithm_class, check_algorithm, rollout_steps
+from experiments.training.run_config import check_resume, run_config
+from experiments.training.vec_envs import PicklableVecFrameStack, batched_supported, make_eval_env, make_training_env
 
 
 @dataclass
@@ -112,16 +112,16 @@ def train(
     ``eval_freq`` and ``checkpoint_freq`` (the final step is always evaluated and checkpointed).
     Every evaluation is followed by a checkpoint; a run killed at any moment and resumed
     (``resume``) continues from its last checkpoint bitwise like an uninterrupted one: same
-    ``evaluations.csv``, best snapshot and final step (see :mod:`experiments.sb3.checkpoint`).
+    ``evaluations.csv``, best snapshot and final step (see :mod:`experiments.training.checkpoint`).
     Resuming a run whose checkpoint already reached the budget does no training
     (``TrainResult.already_complete``); a larger budget extends it. The eval env uses
     ``eval_env_kwargs`` (default: the training kwargs) and seeds ``eval_seed + i``.
     Training and evaluation run on the natively batched env of ``env_id``
-    (:mod:`experiments.sb3.vec_envs`; evaluation plays its episodes as one batch); kwargs it
+    (:mod:`experiments.training.vec_envs`; evaluation plays its episodes as one batch); kwargs it
     does not support (sensors, ``fault_hint``) fall back to single envs.
     ``backend``: ``"sb3"`` (PyTorch), ``"sbx"`` (JAX, the ``sbx`` extra) or ``"jax"`` (PPO only:
-    the fused trainer on the env's JAX plant, the ``jax`` extra; :mod:`experiments.sb3.jax_training`;
-    :mod:`experiments.sb3.backends`); default: the entry's ``backend`` key, else ``"sb3"``.
+    the fused trainer on the env's JAX plant, the ``jax`` extra; :mod:`experiments.training.jax_training`;
+    :mod:`experiments.training.backends`); default: the entry's ``backend`` key, else ``"sb3"``.
     Checkpoints, resume, best/final snapshots and :func:`load_trained` work the same on all
     three (``progress_bar`` and ``tensorboard`` are SB3's: the jax backend ignores them).
     ``schedule_timesteps``: the budget the hyperparameter schedules (``lin_3e-4`` …) anneal over
@@ -153,7 +153,7 @@ def train(
     entry = load_hyperparams(algo, env_id, hyperparams_file, overrides)
     if str(entry.get("backend", "sb3")).lower() == "jax":  # the fused JAX trainer: its own loop, same layout
         check_backend("jax", algo)
-        from experiments.sb3.jax_training import train_jax
+        from experiments.training.jax_training import train_jax
 
         return TrainResult(
             **train_jax(

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import importlib
 
-from experiments.sb3.backends import check_backend, sbx_class
+from experiments.training.backends import check_backend, sbx_class
 
 # name → (module, class, off_policy)
 ALGORITHMS: dict[str, tuple[str, str, bool]] = {

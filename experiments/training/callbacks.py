@@ -14,7 +14,7 @@ import gymnasium as gym
 import numpy as np
 
 from attitude_envs.evaluation.rollout import rollout
-from experiments.sb3.policy import SB3Policy
+from experiments.training.policy import SB3Policy
 
 
 def fsync_dir(path: Path) -> None:

@@ -1,6 +1,6 @@
 """What a training run is (its ``config.json``) and whether ``--resume`` may continue a run
-directory: one definition for every backend (:mod:`experiments.sb3.training` for SB3 and SBX,
-:mod:`experiments.sb3.jax_training` for the fused JAX trainer)."""
+directory: one definition for every backend (:mod:`experiments.training.training` for SB3 and SBX,
+:mod:`experiments.training.jax_training` for the fused JAX trainer)."""
 
 from __future__ import annotations
 
