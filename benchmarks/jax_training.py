@@ -1009,7 +1009,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         import sbx  # noqa: F401
 
-        from experiments.training.backends import check_backend
+        from experiments.training.algorithm import check_backend
 
         check_backend("jax", "ppo")
     except (ImportError, ValueError) as exc:

@@ -31,9 +31,9 @@ from stable_baselines3.common.vec_env import VecNormalize
 import attitude_envs  # noqa: F401
 from benchmarks.env_speed import _with_spread
 from experiments.processes import pin_to_one_core
+from experiments.training.algorithm import Algorithm
 from experiments.training.callbacks import NormalizedPredictor, episode_costs
 from experiments.training.hyperparams import load_hyperparams, split_hyperparams
-from experiments.training.registry import algorithm_class
 from experiments.training.training import log_without_folder
 from experiments.training.vec_envs import make_eval_env, make_training_env
 
@@ -42,16 +42,17 @@ REFERENCE = "sb3 DummyVecEnv"  # today's stack: what train() ran before the nati
 
 def _sbx_installed() -> bool:
     try:
-        algorithm_class("ppo", "sbx")
+        Algorithm("ppo", "sbx").model_class()
     except ValueError:
         return False
     return True
 
 
 def _model(algo: str, env_id: str, env_kwargs: dict, backend: str, native: bool, seed: int = 0):
-    entry = {**load_hyperparams(algo, env_id), "backend": backend}
+    algorithm = Algorithm(algo, backend)
+    entry = load_hyperparams(algorithm, env_id)
     probe = gym.make(env_id, **env_kwargs)
-    hp = split_hyperparams(entry, int(np.prod(probe.action_space.shape)), algo)
+    hp = split_hyperparams(entry, int(np.prod(probe.action_space.shape)), algorithm)
     probe.close()
     if native:
         venv = make_training_env(env_id, env_kwargs, hp["n_envs"], seed, batched=True)
@@ -59,7 +60,7 @@ def _model(algo: str, env_id: str, env_kwargs: dict, backend: str, native: bool,
         venv = make_vec_env(env_id, n_envs=hp["n_envs"], seed=seed, env_kwargs={"render_mode": None, **env_kwargs})
     if hp["normalize"] is not None:
         venv = VecNormalize(venv, gamma=float(entry.get("gamma", 0.99)), **hp["normalize"])
-    model = algorithm_class(algo, backend)(hp["policy"], venv, seed=seed, verbose=0, **hp["kwargs"])
+    model = algorithm.model_class()(hp["policy"], venv, seed=seed, verbose=0, **hp["kwargs"])
     log_without_folder(model)
     return model
 

@@ -52,10 +52,9 @@ from experiments.policies import POLICIES, check_policy_env, check_policy_name
 from experiments.progress import Heartbeat
 from experiments.reproduction import markdown_table
 from experiments.reproductions import REPRODUCTIONS
-from experiments.training.backends import BACKENDS
-from experiments.training.hyperparams import load_yaml, parse_overrides, read_yaml
-from experiments.training.registry import ALGORITHMS
 from experiments.seeds import SYNTAX, seeds_arg
+from experiments.training.algorithm import ALGORITHMS, BACKENDS
+from experiments.training.hyperparams import load_yaml, parse_overrides, read_yaml
 
 #: every registered id of the suite: the papers' problems (-v0) and the learning tasks (-v1)
 ALL_IDS = (*attitude_envs.ENV_IDS, *LEARNING_TASKS)

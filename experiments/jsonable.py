@@ -20,3 +20,9 @@ def json_ready(value: Any, leaf: Callable[[Any], Any] | None = None) -> Any:
     if isinstance(value, np.generic):
         return value.item()
     return value if leaf is None else leaf(value)
+
+
+def repr_code(value: Any) -> Any:
+    """A ``leaf`` for :func:`json_ready` (a run's config): callables and classes (schedules,
+    activation classes) as their repr, other leaves as they are."""
+    return repr(value) if callable(value) or isinstance(value, type) else value

@@ -13,6 +13,7 @@ from stable_baselines3.common.vec_env import VecFrameStack  # noqa: E402
 
 import attitude_envs  # noqa: F401,E402
 from attitude_envs.evaluation.rollout import rollout  # noqa: E402
+from experiments.training.algorithm import Algorithm  # noqa: E402
 from experiments.training.callbacks import NormalizedPredictor, episode_costs  # noqa: E402
 from experiments.training.hyperparams import split_hyperparams  # noqa: E402
 from experiments.training.policy import SB3Policy  # noqa: E402
@@ -63,9 +64,9 @@ def test_the_predictor_stacks_like_vec_frame_stack_across_episode_ends():
 
 def test_frame_stack_is_validated():
     with pytest.raises(ValueError, match="frame_stack must be an integer >= 1"):
-        split_hyperparams({"frame_stack": 0}, 3, "ppo")
-    assert split_hyperparams({"frame_stack": 3}, 3, "ppo")["frame_stack"] == 3
-    assert split_hyperparams({}, 3, "ppo")["frame_stack"] == 1
+        split_hyperparams({"frame_stack": 0}, 3, Algorithm("ppo"))
+    assert split_hyperparams({"frame_stack": 3}, 3, Algorithm("ppo"))["frame_stack"] == 3
+    assert split_hyperparams({}, 3, Algorithm("ppo"))["frame_stack"] == 1
 
 
 def test_a_frame_stacked_run_trains_resumes_loads_and_plays(tmp_path):

@@ -187,7 +187,7 @@ def test_bad_hyperparameters_are_named(entry, message):
 
 
 def test_the_backend_is_checked(monkeypatch):
-    from experiments.training.backends import check_backend
+    from experiments.training.algorithm import check_backend
 
     assert check_backend("JAX", "ppo") == "jax"
     with pytest.raises(ValueError, match=r"backend 'jax' implements \['ppo'\], not 'sac'"):

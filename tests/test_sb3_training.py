@@ -9,8 +9,8 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 import attitude_envs  # noqa: F401,E402
+from experiments.training.algorithm import ALGORITHMS, Algorithm, algorithm_class  # noqa: E402
 from experiments.training.hyperparams import load_hyperparams, parse_overrides, parse_python_literal, split_hyperparams  # noqa: E402
-from experiments.training.registry import ALGORITHMS, algorithm_class  # noqa: E402
 from experiments.training.training import load_trained, train  # noqa: E402
 
 RW = "attitude_envs/ReactionWheel-v0"
@@ -24,7 +24,7 @@ def test_shipped_hyperparameters_build_every_algorithm(algo, env_id):
         pytest.importorskip("sb3_contrib")
     entry = load_hyperparams(algo, env_id)
     env = gym.make(env_id)
-    hp = split_hyperparams(entry, env.action_space.shape[0], algo)
+    hp = split_hyperparams(entry, env.action_space.shape[0], Algorithm(algo, entry.get("backend", "sb3")))
     assert hp["n_timesteps"] >= 1e5  # a real budget, not a test budget
     model = algorithm_class(algo)(
         hp["policy"], env, **{**hp["kwargs"], "buffer_size": 1000} if "buffer_size" in hp["kwargs"] else hp["kwargs"]
@@ -46,7 +46,7 @@ def test_zoo_strings_are_parsed_without_eval():
     }
     with pytest.raises(ValueError, match="key:value"):
         parse_overrides(["learning_rate=1e-3"])
-    lr = split_hyperparams({"learning_rate": "lin_3e-4"}, 4, "ppo")["kwargs"]["learning_rate"]
+    lr = split_hyperparams({"learning_rate": "lin_3e-4"}, 4, Algorithm("ppo"))["kwargs"]["learning_rate"]
     assert lr(1.0) == pytest.approx(3e-4) and lr(0.5) == pytest.approx(1.5e-4)
 
 

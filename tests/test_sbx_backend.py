@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from experiments.training.backends import check_backend
+from experiments.training.algorithm import Algorithm, check_backend
 
 pytest.importorskip("stable_baselines3")
 
@@ -27,13 +27,13 @@ def test_backend_names_are_checked_with_the_accepted_ones():
     with pytest.raises(ValueError, match="backend 'sbx' implements .* not 'a2c'"):
         check_backend("sbx", "a2c")
     with pytest.raises(ValueError, match="backend must be one of"):
-        split_hyperparams({"backend": "tf"}, 3, "ppo")
+        Algorithm("ppo", "tf")
 
 
 def test_without_the_extra_sbx_is_a_clear_error_naming_the_install_and_the_fallback(monkeypatch):
     import sys
 
-    from experiments.training.registry import algorithm_class
+    from experiments.training.algorithm import algorithm_class
 
     monkeypatch.setitem(sys.modules, "sbx", None)  # as if not installed
     with pytest.raises(ValueError, match=r"pip install 'attitude-envs\[sbx\]'; or train on PyTorch: --backend sb3"):
@@ -58,20 +58,21 @@ needs_sbx = pytest.mark.skipif(
 @needs_sbx
 def test_one_zoo_entry_serves_both_backends():
     entry = {"policy_kwargs": "dict(net_arch=[8], activation_fn=nn.ReLU)", "backend": "sbx"}
-    sbx_kwargs = split_hyperparams(entry, 3, "ppo")["kwargs"]["policy_kwargs"]
+    sbx_kwargs = split_hyperparams(entry, 3, Algorithm("ppo", "sbx"))["kwargs"]["policy_kwargs"]
     import flax.linen as fnn
 
     assert sbx_kwargs == {"net_arch": [8], "activation_fn": fnn.relu, "ortho_init": True}  # SB3's PPO default
-    keep = split_hyperparams({**entry, "policy_kwargs": "dict(ortho_init=False)"}, 3, "ppo")["kwargs"]
+    keep = split_hyperparams({**entry, "policy_kwargs": "dict(ortho_init=False)"}, 3, Algorithm("ppo", "sbx"))["kwargs"]
     assert keep["policy_kwargs"] == {"ortho_init": False}
-    assert "ortho_init" not in split_hyperparams({**entry}, 3, "sac")["kwargs"]["policy_kwargs"]
+    assert "ortho_init" not in split_hyperparams({**entry}, 3, Algorithm("sac", "sbx"))["kwargs"]["policy_kwargs"]
     import torch.nn as tnn
 
     assert (
-        split_hyperparams({**entry, "backend": "sb3"}, 3, "ppo")["kwargs"]["policy_kwargs"]["activation_fn"] is tnn.ReLU
+        split_hyperparams({**entry, "backend": "sb3"}, 3, Algorithm("ppo"))["kwargs"]["policy_kwargs"]["activation_fn"]
+        is tnn.ReLU
     )
     with pytest.raises(ValueError, match="activation_fn Softsign has no SBX equivalent"):
-        split_hyperparams({**entry, "policy_kwargs": "dict(activation_fn=nn.Softsign)"}, 3, "ppo")
+        split_hyperparams({**entry, "policy_kwargs": "dict(activation_fn=nn.Softsign)"}, 3, Algorithm("ppo", "sbx"))
 
 
 @needs_sbx

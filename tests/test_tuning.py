@@ -102,6 +102,7 @@ def test_every_drawn_setting_is_an_entry_the_algorithm_builds(algo):
     import optuna
     from stable_baselines3 import PPO, SAC
 
+    from experiments.training.algorithm import Algorithm
     from experiments.training.hyperparams import load_hyperparams, split_hyperparams
     from experiments.training.tuning import sample, search_space, task_decisions
 
@@ -112,7 +113,7 @@ def test_every_drawn_setting_is_an_entry_the_algorithm_builds(algo):
         params = {k: (v[pick] if isinstance(v, list) else v[1:][pick]) for k, v in space.items()}
         overrides = sample(optuna.trial.FixedTrial(params), algo, space)
         entry = load_hyperparams(algo, env_id, overrides={**overrides, "backend": "sb3"})
-        split = split_hyperparams(entry, n_actions=3, algo=algo)
+        split = split_hyperparams(entry, n_actions=3, algorithm=Algorithm(algo))
         assert split["kwargs"]["gamma"] == params["gamma"]
         env = gym.make(env_id)
         model = {"ppo": PPO, "sac": SAC}[algo](split["policy"], env, **split["kwargs"])

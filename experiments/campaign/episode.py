@@ -48,7 +48,7 @@ def run_job(job: dict[str, Any]) -> dict[str, Any]:
 
 def _run_training(job: dict[str, Any]) -> dict[str, Any]:
     # optional: the sb3 extra (importing stable-baselines3 and torch costs seconds; episode workers skip it)
-    from experiments.training.checkpoint import latest_checkpoint
+    from experiments.training.run_dir import latest_checkpoint
     from experiments.training.training import train
 
     out_dir = Path(job["out_dir"])

@@ -16,6 +16,7 @@ from typing import Any
 from attitude_envs.registration import quiet_version_warnings
 from experiments.campaign.spec import Campaign
 from experiments.processes import die_with_parent, pin_to_one_core, pool_context
+from experiments.training.algorithm import Algorithm
 from experiments.training.hyperparams import load_hyperparams
 
 
@@ -163,6 +164,6 @@ def trains_with_sbx(campaign: Campaign) -> bool:
                 continue
             env_id = agent.env_id or env.id  # an agent training on its own task uses that task's entry
             entry = load_hyperparams(t["algo"], env_id, t.get("hyperparams_file"), t.get("overrides"))
-            if str(t.get("backend", entry.get("backend", "sb3"))).lower() in ("sbx", "jax"):
+            if Algorithm(t["algo"], t.get("backend", entry.get("backend", "sb3"))).backend in ("sbx", "jax"):
                 return True
     return False

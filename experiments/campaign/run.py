@@ -34,7 +34,7 @@ from experiments.campaign.store import (
 from experiments.optimum_table import episode_specs, resolve
 from experiments.policies import POLICIES, PolicyUnavailable, build_policy, import_target
 from experiments.progress import Progress
-from experiments.training.registry import algorithm_class
+from experiments.training.algorithm import algorithm_class
 
 
 def _n_trained(trained: list[dict[str, Any]]) -> int:

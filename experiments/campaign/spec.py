@@ -25,10 +25,9 @@ from attitude_envs.evaluation.success import SuccessMetric
 from attitude_envs.make import check_env_id
 from experiments.optimum_table import solve_by_default
 from experiments.policies import check_policy_env, check_policy_name
-from experiments.training.backends import check_backend
-from experiments.training.hyperparams import load_hyperparams, read_yaml
-from experiments.training.registry import check_algorithm
 from experiments.seeds import parse_seeds
+from experiments.training.algorithm import Algorithm
+from experiments.training.hyperparams import load_hyperparams, read_yaml
 
 PLANT_CAMPAIGNS = ("wheel", "air-bearing", "magnetorquer", "slosh", "linear")  # `--config all`, in this order
 PRESETS = ("quick", "full", *PLANT_CAMPAIGNS)
@@ -226,7 +225,7 @@ def _train(where: str, train: Any, envs: list[EnvSpec], env_id: str | None = Non
     when it names one: its hyperparameter entry), its ``seeds`` parsed."""
     _require(isinstance(train, dict) and "algo" in train, f"{where} needs an algo, got {train!r}")
     _known(where, train, TRAIN_KEYS)
-    check_backend(train.get("backend", "sb3"), check_algorithm(train["algo"]))
+    algorithm = Algorithm(train["algo"], train.get("backend", "sb3")).trainable()
     train = {**train, "seeds": parse_seeds(train.get("seeds", [0]), f"{where}.seeds")}
     if train.get("timesteps") is not None:
         absent = " (or absent: the hyperparameter entry's n_timesteps)"
@@ -244,7 +243,7 @@ def _train(where: str, train: Any, envs: list[EnvSpec], env_id: str | None = Non
     _require(hp_file is None or isinstance(hp_file, str), f"{where}.hyperparams_file must be a path, got {hp_file!r}")
     for env in envs:
         try:
-            load_hyperparams(train["algo"], env_id or env.id, hp_file, overrides)
+            load_hyperparams(algorithm, env_id or env.id, hp_file, overrides)
         except ValueError as exc:
             raise ValueError(f"{where} on env {env.name!r}: {exc}") from None
     return train

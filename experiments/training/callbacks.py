@@ -1,4 +1,4 @@
-"""Training bookkeeping: evaluation on the shared cost J and its log, snapshots, durable writes, progress."""
+"""Training bookkeeping: evaluation on the shared cost J and its log, snapshots and checkpoint folders."""
 
 from __future__ import annotations
 
@@ -14,28 +14,8 @@ import gymnasium as gym
 import numpy as np
 
 from attitude_envs.evaluation.rollout import rollout
+from attitude_envs.files import atomic_write, fsync_dir
 from experiments.training.policy import SB3Policy
-
-
-def fsync_dir(path: Path) -> None:
-    """Make a rename or a new file in directory ``path`` durable."""
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
-def atomic_write_text(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` via a fsynced temporary file and ``os.replace`` (never half-written)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    with tmp.open("w", encoding="utf-8", newline="") as fh:
-        fh.write(text)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
-    fsync_dir(path.parent)
 
 
 def new_checkpoint_dir(root: Path, steps: int) -> tuple[Path, Path]:
@@ -56,7 +36,9 @@ def publish_checkpoint(root: Path, tmp: Path, directory: Path, steps: int, keep:
         shutil.rmtree(directory)
     os.replace(tmp, directory)
     fsync_dir(root)
-    atomic_write_text(root / "latest.json", json.dumps({"timesteps": int(steps), "dir": directory.name}) + "\n")
+    atomic_write(
+        root / "latest.json", json.dumps({"timesteps": int(steps), "dir": directory.name}) + "\n", durable=True
+    )
     done = sorted(p for p in root.glob("step_*") if p.is_dir() and not p.name.endswith(".tmp"))
     for old in done[: -max(1, int(keep))]:
         shutil.rmtree(old, ignore_errors=True)
@@ -165,7 +147,7 @@ class EvalLog:
 
     def restore(self, text: str) -> None:
         if text:
-            atomic_write_text(self.path, text)
+            atomic_write(self.path, text, durable=True)
         else:
             self.path.unlink(missing_ok=True)
 

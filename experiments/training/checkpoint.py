@@ -19,7 +19,6 @@ SB3/torch versions: they resume a run, they are not an exchange format (``model.
 
 from __future__ import annotations
 
-import json
 import os
 import pickle
 import random
@@ -34,8 +33,7 @@ from stable_baselines3.common.logger import Logger
 from stable_baselines3.common.vec_env import VecNormalize
 
 from experiments.training.callbacks import new_checkpoint_dir, publish_checkpoint, write_model_files
-
-STATE_FILE = "state.pkl"
+from experiments.training.run_dir import STATE_FILE
 
 
 class RunClock:
@@ -181,19 +179,3 @@ def read_checkpoint(directory: Path) -> tuple[Any, RunClock, dict[str, Any], dic
         ) from exc
     _restore_env(state["env"])  # the model's env, reconnected to its sub-envs
     return state["model"], state["clock"], state["run"], state["rng"]
-
-
-def latest_checkpoint(out_dir: Path) -> dict[str, Any] | None:
-    """``{"timesteps", "path"}`` of the last complete checkpoint of a run, or None. ``ValueError``
-    for a checkpoint without ``state.pkl`` (written by an earlier version: not resumable exactly)."""
-    pointer = Path(out_dir) / "checkpoints" / "latest.json"
-    if not pointer.is_file():
-        return None
-    data = json.loads(pointer.read_text(encoding="utf-8"))
-    path = pointer.parent / data["dir"]
-    if not (path / STATE_FILE).is_file():
-        raise ValueError(
-            f"checkpoint {str(path)!r} has no {STATE_FILE} (written by an earlier version, or deleted); "
-            "it cannot be resumed exactly: start the run again in an empty --out"
-        )
-    return {"timesteps": int(data["timesteps"]), "path": path}

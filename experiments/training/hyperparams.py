@@ -29,8 +29,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from experiments.training.backends import check_backend, policy_kwargs_for
-from experiments.training.registry import check_algorithm
+from experiments.training.algorithm import Algorithm, check_algorithm
 
 # Keys the Zoo reads itself (not passed to the algorithm's constructor).
 ZOO_KEYS = ("n_timesteps", "policy", "normalize", "n_envs", "noise_type", "noise_std", "frame_stack", "env_wrapper")
@@ -39,9 +38,18 @@ ZOO_KEYS = ("n_timesteps", "policy", "normalize", "n_envs", "noise_type", "noise
 _UNSUPPORTED = ("env_wrapper", "callback", "vec_env_wrapper")
 
 
-def hyperparams_path(algo: str) -> Path:
+def hyperparams_path(algo: str | Algorithm) -> Path:
     """The shipped YAML file of ``algo`` (package data)."""
-    return Path(str(resources.files("experiments.training") / "hyperparams" / f"{check_algorithm(algo)}.yml"))
+    return _shipped(_name(algo))
+
+
+def _name(algo: str | Algorithm) -> str:
+    """The name of a parsed ``algo``, else the checked name."""
+    return algo.name if isinstance(algo, Algorithm) else check_algorithm(algo)
+
+
+def _shipped(name: str) -> Path:
+    return Path(str(resources.files("experiments.training") / "hyperparams" / f"{name}.yml"))
 
 
 def _safe_value(node: ast.AST) -> Any:
@@ -123,15 +131,15 @@ def read_yaml(path: str | Path) -> Any:
 
 
 def load_hyperparams(
-    algo: str, env_id: str, path: str | Path | None = None, overrides: dict[str, Any] | None = None
+    algo: str | Algorithm, env_id: str, path: str | Path | None = None, overrides: dict[str, Any] | None = None
 ) -> dict[str, Any]:
     """The Zoo entry of ``env_id`` in ``path`` (default: the shipped ``<algo>.yml``), with overrides applied.
 
     Returns the raw entry (Zoo keys included); :func:`split_hyperparams` turns it into
     constructor arguments.
     """
-    algo = check_algorithm(algo)
-    path = hyperparams_path(algo) if path is None else Path(path)
+    name = _name(algo)
+    path = _shipped(name) if path is None else Path(path)
     table = read_yaml(path)
     if not isinstance(table, dict):
         raise ValueError(f"hyperparameter file {str(path)!r} must map env ids to settings, got {type(table).__name__}")
@@ -157,13 +165,14 @@ def _schedule(name: str, value: Any) -> Any:
     return value
 
 
-def split_hyperparams(entry: dict[str, Any], n_actions: int, algo: str | None = None) -> dict[str, Any]:
-    """Zoo entry → ``{"n_timesteps", "n_envs", "normalize" (dict | None), "frame_stack", "policy", "backend", "kwargs"}``.
+def split_hyperparams(entry: dict[str, Any], n_actions: int, algorithm: Algorithm | None = None) -> dict[str, Any]:
+    """Zoo entry → ``{"n_timesteps", "n_envs", "normalize" (dict | None), "frame_stack", "policy", "kwargs"}``.
 
     ``kwargs`` go to the algorithm's constructor (schedules, ``policy_kwargs`` and action
-    noise built); ``normalize`` holds VecNormalize arguments when observation/reward
-    normalization is on; ``frame_stack`` (≥ 1, default 1): how many of the latest
-    (normalized) observations the policy sees, as the Zoo's ``VecFrameStack``.
+    noise built; with ``algorithm``, ``policy_kwargs`` adapted to its backend, whose name the
+    entry's ``backend`` key gave it); ``normalize`` holds VecNormalize arguments when
+    observation/reward normalization is on; ``frame_stack`` (≥ 1, default 1): how many of the
+    latest (normalized) observations the policy sees, as the Zoo's ``VecFrameStack``.
     """
     entry = dict(entry)
     n_timesteps = int(float(entry.pop("n_timesteps", 100_000)))
@@ -176,9 +185,7 @@ def split_hyperparams(entry: dict[str, Any], n_actions: int, algo: str | None = 
         frame_stack = 1
     if isinstance(frame_stack, bool) or not isinstance(frame_stack, int) or frame_stack < 1:
         raise ValueError(f"frame_stack must be an integer >= 1 (observations stacked), got {frame_stack!r}")
-    backend = entry.pop("backend", "sb3")
-    if algo is not None:  # the backend's adaptations depend on the algorithm
-        backend = check_backend(backend, check_algorithm(algo))
+    entry.pop("backend", None)  # parsed into ``algorithm``
     normalize = parse_python_literal("normalize", entry.pop("normalize", False))
     if normalize is True:
         normalize = {"norm_obs": True, "norm_reward": True}
@@ -190,8 +197,8 @@ def split_hyperparams(entry: dict[str, Any], n_actions: int, algo: str | None = 
     noise_std = float(entry.pop("noise_std", 0.1))
     if "policy_kwargs" in entry:
         entry["policy_kwargs"] = parse_python_literal("policy_kwargs", entry["policy_kwargs"])
-    if algo is not None:
-        policy_kwargs = policy_kwargs_for(backend, check_algorithm(algo), entry.get("policy_kwargs"))
+    if algorithm is not None:  # the backend's adaptations depend on the algorithm
+        policy_kwargs = algorithm.policy_kwargs(entry.get("policy_kwargs"))
         if policy_kwargs is not None:
             entry["policy_kwargs"] = policy_kwargs
     for key in ("learning_rate", "clip_range", "clip_range_vf"):
@@ -211,6 +218,5 @@ def split_hyperparams(entry: dict[str, Any], n_actions: int, algo: str | None = 
         "normalize": normalize,
         "frame_stack": frame_stack,
         "policy": policy,
-        "backend": backend,
         "kwargs": entry,
     }

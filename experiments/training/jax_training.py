@@ -1,13 +1,8 @@
 """``train(..., backend="jax")``: PPO with the fused JAX trainer (:mod:`agents.fused_ppo`) on the
-JAX plant of the env (:func:`attitude_envs.jax.make`), in the run layout of
-:func:`experiments.training.training.train`::
-
-    config.json            as train's, with "backend": "jax"
-    checkpoints/           step_<n>/{state.pkl, model.zip}, latest.json (the 2 newest)
-    evaluations.csv        timesteps, J_mean, J_std of the periodic evaluations (numba envs, seeds eval_seed+i)
-    best/                  model.zip + best.json: the snapshot with the lowest evaluation J
-    final/                 model.zip + final.json when training completed
-    timing.jsonl           per segment: from/to timesteps, wall time (s), compile time (s)
+JAX plant of the env (:func:`attitude_envs.jax.make`), in the run directory of every backend
+(:mod:`experiments.training.run_dir`): ``config.json`` says ``"backend": "jax"``, a checkpoint
+holds ``state.pkl`` and ``model.zip``, ``evaluations.csv`` is played on the numba envs (seeds
+eval_seed+i) and ``timing.jsonl`` also records each segment's compile time (s).
 
 ``model.zip`` is the fused-PPO model file (:mod:`agents.fused_ppo.export`: the actor and the
 frozen observation statistics as numpy arrays); :func:`~experiments.training.training.load_trained`
@@ -31,7 +26,6 @@ import json
 import math
 import os
 import pickle
-import shutil
 import sys
 import time
 from pathlib import Path
@@ -39,23 +33,12 @@ from typing import Any
 
 import numpy as np
 
-from attitude_envs.make import make_checked
 from experiments.jsonable import json_ready
-from experiments.training.backends import check_backend
-from experiments.training.callbacks import (
-    EvalLog,
-    atomic_write_text,
-    evaluate_cost,
-    new_checkpoint_dir,
-    publish_checkpoint,
-    read_json,
-    save_snapshot,
-)
-from experiments.training.run_config import check_resume
-from experiments.training.run_config import run_config as make_run_config
-from experiments.training.vec_envs import batched_supported, make_eval_env
+from experiments.training.algorithm import Algorithm
+from experiments.training.callbacks import evaluate_cost, new_checkpoint_dir, publish_checkpoint
+from experiments.training.run_dir import STATE_FILE, RunDir, TrainResult
+from experiments.training.vec_envs import make_eval_env
 
-STATE_FILE = "state.pkl"  # the name experiments.training.checkpoint.latest_checkpoint looks for
 #: set to 1: compile with XLA's backend optimization off (about a third less compile time, slower
 #: steps; for tests and very short runs)
 FAST_COMPILE_ENV = "ATTITUDE_ENVS_JAX_FAST_COMPILE"
@@ -66,7 +49,7 @@ _PROGRAMS: dict[tuple, Any] = {}
 
 def _jax():
     """jax and the trainer (``ValueError`` naming the extra when they are not installed)."""
-    check_backend("jax", "ppo")
+    Algorithm("ppo", "jax").trainable()
     import jax
 
     from agents.fused_ppo import trainer
@@ -196,21 +179,6 @@ class _Model:
         return None
 
 
-def _next_multiple(steps: int, every: int) -> int:
-    return (steps // int(every) + 1) * int(every)
-
-
-def _latest(out_dir: Path) -> dict[str, Any] | None:
-    pointer = out_dir / "checkpoints" / "latest.json"
-    if not pointer.is_file():
-        return None
-    data = json.loads(pointer.read_text(encoding="utf-8"))
-    path = pointer.parent / data["dir"]
-    if not (path / STATE_FILE).is_file():
-        raise ValueError(f"checkpoint {str(path)!r} has no {STATE_FILE}: start the run again in an empty --out")
-    return {"timesteps": int(data["timesteps"]), "path": path}
-
-
 def write_checkpoint(root: Path, state, policy, run: dict[str, Any], keep: int = 2) -> Path:
     """The runner state (its leaves as numpy arrays), ``run`` bookkeeping and the portable model
     in ``root/step_<n>/``, then ``root/latest.json`` pointing at it (atomic, fsynced)."""
@@ -263,138 +231,53 @@ def leaves_into(reference, leaves: list[np.ndarray]):
     return jax.tree.unflatten(jax.tree.structure(reference), [jnp.asarray(x) for x in leaves])
 
 
-def _discard_partial_run(out_dir: Path) -> None:
-    for name in ("evaluations.csv", "evaluations.csv.tmp"):
-        (out_dir / name).unlink(missing_ok=True)
-    for name in ("best", "best.tmp", "best.old", "final", "final.tmp", "final.old", "checkpoints"):
-        if (out_dir / name).is_dir():
-            shutil.rmtree(out_dir / name)
-
-
-def _reconcile_best(best_dir: Path, best: dict[str, Any] | None, steps: int, policy) -> None:
-    """``best/`` made the snapshot the checkpoint records (see training._reconcile_best)."""
-    if best is None:
-        if best_dir.exists():
-            shutil.rmtree(best_dir)
-        return
-    if read_json(best_dir / "best.json") == best and (best_dir / "model.zip").is_file():
-        return
-    if int(best["timesteps"]) != steps:
-        raise ValueError(
-            f"{str(best_dir)!r} does not hold the best snapshot its checkpoint records ({best}); "
-            "the run directory was changed by hand: start it again in an empty --out"
-        )
-    save_snapshot(_Model(policy), best_dir, meta={"best.json": json.dumps(best) + "\n"})
-
-
 def train_jax(
-    algo: str,
-    env_id: str,
-    out_dir: Path,
-    entry: dict[str, Any],
-    env_kwargs: dict[str, Any],
-    eval_kwargs: dict[str, Any],
-    seed: int,
-    total_timesteps: int | None,
-    schedule_timesteps: int | None,
-    checkpoint_freq: int,
-    eval_freq: int,
-    eval_episodes: int,
-    eval_seed: int,
-    resume: bool,
-    progress: bool | str,
-    verbose: int,
-    evaluate_initial: bool,
-) -> dict[str, Any]:
-    """:func:`experiments.training.training.train` for ``backend="jax"`` (called by it, arguments
-    checked there; ``entry`` the Zoo entry with overrides). Returns the fields of its
-    ``TrainResult``."""
-    check_backend("jax", algo)
+    run_dir: RunDir, eval_batched: bool, progress: bool | str, verbose: int, evaluate_initial: bool
+) -> TrainResult:
+    """:func:`experiments.training.training.train`'s loop on the fused JAX trainer (called by it,
+    arguments checked there): chunks of whole PPO updates that end at the plan's evaluations and
+    checkpoints (``eval_batched``: whether the evaluation plays its episodes as one batch)."""
     jax, _ = _jax()
     from agents.fused_ppo.config import as_float32, from_zoo
 
-    out_dir = Path(out_dir)
-    for kwargs in (env_kwargs, eval_kwargs):  # validates the env kwargs before anything is written
-        make_checked(env_id, **kwargs).close()
-    total = int(total_timesteps if total_timesteps is not None else float(entry.get("n_timesteps", 1_000_000)))
-    if total < 1:
-        raise ValueError(f"total_timesteps must be >= 1, got {total}")
-    horizon = total if schedule_timesteps is None else int(schedule_timesteps)
-    if horizon < total:
-        raise ValueError(f"schedule_timesteps must be >= total_timesteps ({total}), got {schedule_timesteps}")
-    config, hparams = from_zoo(entry, total)
-    hparams = as_float32(hparams._replace(schedule_timesteps=float(horizon)))
-    saved = read_json(out_dir / "config.json")
-    run_config = make_run_config(
-        algo,
-        "jax",
-        env_id,
-        env_kwargs,
-        seed,
-        entry,
-        total,
-        eval_freq,
-        eval_episodes,
-        eval_seed,
-        eval_kwargs,
-        checkpoint_freq,
-    )
-    checkpoint = _latest(out_dir)
-    check_resume(out_dir, run_config, saved, checkpoint, resume)
-
-    prog = program(env_id, env_kwargs, config)
-    key = jax.random.PRNGKey(int(seed))
+    plan, out_dir = run_dir.plan, run_dir.path
+    algo, env_id, total = plan.algorithm.name, plan.env_id, plan.total
+    config, hparams = from_zoo(plan.entry, total)
+    hparams = as_float32(hparams._replace(schedule_timesteps=float(plan.horizon)))
+    prog = program(env_id, plan.env_kwargs, config)
+    key = jax.random.PRNGKey(plan.seed)
     meta = {"env_id": env_id, "algo": algo, "backend": "jax"}
-    evaluations = EvalLog(out_dir)
     compiled_before = prog.compile_s
-    if checkpoint is None:
-        _discard_partial_run(out_dir)
-        out_dir.mkdir(parents=True, exist_ok=True)
-        atomic_write_text(out_dir / "config.json", json.dumps(run_config, indent=2) + "\n")
+    if run_dir.checkpoint is None:
+        run = run_dir.start()
         prog.compile(key, hparams)
         state = prog.init(key, hparams)
-        run: dict[str, Any] = {"eval_log": "", "best": None, "last_eval": None}
         resumed_from = None
     else:
-        state, run = read_checkpoint(checkpoint["path"], prog, key, hparams)
-        evaluations.restore(run["eval_log"])
+        state, run = read_checkpoint(run_dir.checkpoint["path"], prog, key, hparams)
         steps = int(state.timesteps)
-        _reconcile_best(out_dir / "best", run["best"], steps, export_policy(prog, state, {**meta, "timesteps": steps}))
-        atomic_write_text(out_dir / "config.json", json.dumps(run_config, indent=2) + "\n")
+        run_dir.resume(run, steps, _Model(export_policy(prog, state, {**meta, "timesteps": steps})))
         resumed_from = steps
     already_complete = int(state.timesteps) >= total
 
-    eval_batched = batched_supported(env_id, probe := make_checked(env_id, **eval_kwargs))
-    probe.close()
-    eval_env = make_eval_env(env_id, eval_kwargs, int(eval_episodes), eval_batched)
-    seeds = [int(eval_seed) + i for i in range(int(eval_episodes))]
+    eval_env = make_eval_env(env_id, plan.eval_kwargs, plan.eval_episodes, eval_batched)
+    seeds = plan.eval_seeds
     label = progress if isinstance(progress, str) else f"train {algo} (jax) {env_id.split('/')[-1]}"
     rollout = config.rollout_size
-    planned = -(-total // rollout) * rollout
-    if progress and resumed_from is None and planned != total:
-        print(
-            f"note: {algo} trains in whole rollouts of {rollout} env steps ({config.n_envs} envs): "
-            f"a budget of {total} steps trains {planned}",
-            file=sys.stderr,
-            flush=True,
-        )
+    if progress and resumed_from is None:
+        plan.note_whole_rollouts(rollout, config.n_envs)
 
     def policy_of(st):
         return export_policy(prog, st, {**meta, "timesteps": int(st.timesteps)})
 
     start = time.perf_counter()
     if evaluate_initial and run["best"] is None and int(state.timesteps) == 0:
-        row = {"timesteps": 0, **evaluate_cost(policy_of(state), eval_env, seeds, name="ppo-jax")}
-        text = evaluations.row_text(row, header=True)
-        evaluations.append(text)
-        run["eval_log"] += text
-        run["best"], run["last_eval"] = row, row
-        save_snapshot(_Model(policy_of(state)), out_dir / "best", meta={"best.json": json.dumps(row) + "\n"})
+        run_dir.record(run, {"timesteps": 0, **evaluate_cost(policy_of(state), eval_env, seeds, name="ppo-jax")})
+        run_dir.save_best(run["best"], _Model(policy_of(state)))
     try:
         while int(state.timesteps) < total:
             done = int(state.timesteps)
-            target = min(_next_multiple(done, eval_freq), _next_multiple(done, checkpoint_freq), total)
-            n_updates = -(-(target - done) // rollout)
+            n_updates = -(-(plan.segment_end(done) - done) // rollout)
             chunk_start = time.perf_counter()
             state, metrics = prog.update_chunk(state, hparams, n_updates)
             steps = int(state.timesteps)  # waits for the chunk
@@ -402,19 +285,14 @@ def train_jax(
                 raise RuntimeError(f"fused PPO made no progress at {done} steps")
             new_best = False
             policy = policy_of(state)
-            if steps // eval_freq > done // eval_freq or steps >= total:
+            if plan.evaluates(done, steps):
                 row = {"timesteps": steps, **evaluate_cost(policy, eval_env, seeds, name="ppo-jax")}
-                text = evaluations.row_text(row, header=not run["eval_log"])
-                evaluations.append(text)
-                run["eval_log"] += text
-                run["last_eval"] = row
-                if run["best"] is None or row["J_mean"] < run["best"]["J_mean"]:
-                    run["best"], new_best = row, True
+                new_best = run_dir.record(run, row)
                 if verbose:
                     print(f"eval at {steps} steps: J = {row['J_mean']:.3f} ± {row['J_std']:.3f}")
             write_checkpoint(out_dir / "checkpoints", state, policy, run)
             if new_best:
-                save_snapshot(_Model(policy), out_dir / "best", meta={"best.json": json.dumps(run["best"]) + "\n"})
+                run_dir.save_best(run["best"], _Model(policy))
             if progress:
                 ret = float(metrics["episode_return"])
                 rate = (steps - done) / max(time.perf_counter() - chunk_start, 1e-9)
@@ -428,25 +306,14 @@ def train_jax(
     finally:
         eval_env.close()
     wall = time.perf_counter() - start
+    steps = int(state.timesteps)
+    segment = None
     if not already_complete:
         segment = {
             "from_timesteps": resumed_from or 0,
-            "to_timesteps": int(state.timesteps),
+            "to_timesteps": steps,
             "wall_time_s": wall,
             "compile_s": prog.compile_s - compiled_before,
         }
-        with (out_dir / "timing.jsonl").open("a", encoding="utf-8") as fh:
-            fh.write(json.dumps(segment) + "\n")
-    final = out_dir / "final"
-    marker = {"timesteps": int(state.timesteps)}
-    if read_json(final / "final.json") != marker or not (final / "model.zip").is_file():
-        save_snapshot(_Model(policy_of(state)), final, meta={"final.json": json.dumps(marker) + "\n"})
-    return {
-        "out_dir": out_dir,
-        "model_path": final / "model.zip",
-        "timesteps": int(state.timesteps),
-        "resumed_from": resumed_from,
-        "wall_time_s": wall,
-        "last_eval": run["last_eval"],
-        "already_complete": already_complete,
-    }
+    model_path = run_dir.finish(segment, steps, lambda: _Model(policy_of(state)))
+    return TrainResult(out_dir, model_path, steps, resumed_from, wall, run["last_eval"], already_complete)

@@ -32,7 +32,6 @@ import csv
 import hashlib
 import json
 import math
-import os
 import pickle
 import sys
 import time
@@ -42,9 +41,10 @@ from typing import Any
 import numpy as np
 import yaml
 
+from attitude_envs.files import atomic_write
 from attitude_envs.make import make_checked
-from experiments.training.backends import check_backend
-from experiments.training.callbacks import evaluate_cost, fsync_dir
+from experiments.training.algorithm import Algorithm
+from experiments.training.callbacks import evaluate_cost
 from experiments.training.hyperparams import load_hyperparams
 from experiments.training.jax_training import compiler_options, leaves_into
 from experiments.training.tuning import PPO_SPACE, ppo_space, task_decisions
@@ -154,8 +154,8 @@ def tune_population(
     """Train ``n_trials`` PPO settings of ``env_id`` side by side for ``timesteps`` env steps each
     (module docstring); returns ``{"best_value", "best_overrides", "best_trial", "n_complete",
     "n_pruned", "groups"}`` and writes ``trials.csv``, ``best.yml`` and ``population.json``."""
-    check_backend("jax", str(algo).lower())
-    algo = str(algo).lower()
+    algorithm = Algorithm(algo, "jax").trainable()
+    algo = algorithm.name
     for name, value, low in (("n_trials", n_trials, 1), ("timesteps", timesteps, 1), ("shape_groups", shape_groups, 1)):
         if int(value) < low:
             raise ValueError(f"{name} must be >= {low}, got {value!r}")
@@ -172,7 +172,7 @@ def tune_population(
 
     env_kwargs = dict(env_kwargs or {})
     fixed = {**dict(overrides or {}), "backend": "jax"}
-    entry = load_hyperparams(algo, env_id, hyperparams_file, fixed)
+    entry = load_hyperparams(algorithm, env_id, hyperparams_file, fixed)
     budget = int(timesteps)
     space = ppo_space(task_decisions(env_id, env_kwargs))  # γ within the task's episode
     trials = draw_population(entry, int(n_trials), int(shape_groups), np.random.default_rng(int(sampler_seed)), space)
@@ -340,14 +340,7 @@ def _read_state(out: Path, identity: str) -> dict[str, Any] | None:
 
 
 def _write_state(out: Path, payload: dict[str, Any]) -> None:
-    path = out / STATE_FILE
-    tmp = path.with_name(path.name + ".tmp")
-    with tmp.open("wb") as fh:
-        pickle.dump(payload, fh, protocol=pickle.HIGHEST_PROTOCOL)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
-    fsync_dir(out)
+    atomic_write(out / STATE_FILE, pickle.dumps(payload, protocol=pickle.HIGHEST_PROTOCOL), durable=True)
 
 
 def _restore(state, leaves: list[np.ndarray], out: Path):

@@ -1,23 +1,19 @@
-"""Train a Stable-Baselines3 agent on a registered env, with periodic J evaluation, checkpoints and resume.
+"""``train``: an agent on a registered env, with periodic J evaluation, checkpoints and resume, on
+any backend (:mod:`experiments.training.algorithm`): SB3 and SBX here, the fused JAX trainer in
+:mod:`experiments.training.jax_training`; the run directory is theirs alike
+(:mod:`experiments.training.run_dir`). ``load_trained`` loads what any of them saved.
 
-Run directory layout (``out_dir``)::
-
-    config.json            algorithm, env id, env kwargs, seed, resolved hyperparameters, budget, eval settings
-    checkpoints/           step_<n>/{state.pkl, model.zip, vecnormalize.pkl}, latest.json (the 2 newest)
-    evaluations.csv        timesteps, J_mean, J_std of the periodic evaluations
-    best/                  the snapshot with the lowest evaluation J (+ best.json)
-    final/                 model.zip (+ vecnormalize.pkl, final.json) when training completed
+A SB3/SBX checkpoint holds ``state.pkl``, ``model.zip`` and ``vecnormalize.pkl``
+(:mod:`experiments.training.checkpoint`); snapshots hold ``model.zip`` and ``vecnormalize.pkl``.
 """
 
 from __future__ import annotations
 
 import json
 import pickle
-import shutil
 import sys
 import time
 import zipfile
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -28,41 +24,13 @@ from stable_baselines3.common.utils import set_random_seed
 from stable_baselines3.common.vec_env import VecNormalize
 
 from attitude_envs.make import check_env_id, make_checked
-from experiments.training.backends import check_backend
-from experiments.training.callbacks import (
-    EvalLog,
-    NormalizedPredictor,
-    atomic_write_text,
-    evaluate_cost,
-    read_json,
-    save_snapshot,
-)
-from experiments.training.checkpoint import (
-    BudgetSchedule,
-    RunClock,
-    latest_checkpoint,
-    read_checkpoint,
-    restore_rng,
-    write_checkpoint,
-)
+from experiments.training.algorithm import Algorithm
+from experiments.training.callbacks import NormalizedPredictor, evaluate_cost, read_json
+from experiments.training.checkpoint import BudgetSchedule, RunClock, read_checkpoint, restore_rng, write_checkpoint
 from experiments.training.hyperparams import load_hyperparams, split_hyperparams
 from experiments.training.progress import ProgressCallback
-from experiments.training.registry import algorithm_class, check_algorithm, rollout_steps
-from experiments.training.run_config import check_resume, run_config
+from experiments.training.run_dir import RunDir, RunPlan, TrainResult, run_budget
 from experiments.training.vec_envs import PicklableVecFrameStack, batched_supported, make_eval_env, make_training_env
-
-
-@dataclass
-class TrainResult:
-    """Where the trained model is, how many steps it has seen and its last evaluation J."""
-
-    out_dir: Path
-    model_path: Path
-    timesteps: int
-    resumed_from: int | None
-    wall_time_s: float
-    last_eval: dict[str, float] | None
-    already_complete: bool = False  # resumed at or past its budget: nothing trained
 
 
 def _tensorboard_dir(out_dir: Path, tensorboard: bool | None) -> str | None:
@@ -121,7 +89,7 @@ def train(
     does not support (sensors, ``fault_hint``) fall back to single envs.
     ``backend``: ``"sb3"`` (PyTorch), ``"sbx"`` (JAX, the ``sbx`` extra) or ``"jax"`` (PPO only:
     the fused trainer on the env's JAX plant, the ``jax`` extra; :mod:`experiments.training.jax_training`;
-    :mod:`experiments.training.backends`); default: the entry's ``backend`` key, else ``"sb3"``.
+    :mod:`experiments.training.algorithm`); default: the entry's ``backend`` key, else ``"sb3"``.
     Checkpoints, resume, best/final snapshots and :func:`load_trained` work the same on all
     three (``progress_bar`` and ``tensorboard`` are SB3's: the jax backend ignores them).
     ``schedule_timesteps``: the budget the hyperparameter schedules (``lin_3e-4`` …) anneal over
@@ -133,7 +101,6 @@ def train(
     its label and means status lines (campaign workers); ``progress_bar``: SB3's own bar instead
     (one per segment).
     """
-    algo = check_algorithm(algo)
     check_env_id(env_id)
     if int(seed) < 0:
         raise ValueError(f"seed must be >= 0, got {seed}")
@@ -151,115 +118,97 @@ def train(
     if backend is not None:
         overrides = {**(overrides or {}), "backend": backend}
     entry = load_hyperparams(algo, env_id, hyperparams_file, overrides)
-    if str(entry.get("backend", "sb3")).lower() == "jax":  # the fused JAX trainer: its own loop, same layout
-        check_backend("jax", algo)
-        from experiments.training.jax_training import train_jax
-
-        return TrainResult(
-            **train_jax(
-                algo,
-                env_id,
-                out_dir,
-                entry,
-                env_kwargs,
-                eval_kwargs,
-                int(seed),
-                total_timesteps,
-                schedule_timesteps,
-                int(checkpoint_freq),
-                int(eval_freq),
-                int(eval_episodes),
-                int(eval_seed),
-                resume,
-                progress,
-                verbose,
-                evaluate_initial,
-            )
-        )
-    probe = make_checked(env_id, **env_kwargs)  # validates the env kwargs before anything is written
-    n_actions = int(np.prod(probe.action_space.shape))
-    batched = batched_supported(env_id, probe)
-    probe.close()
-    probe = make_checked(env_id, **eval_kwargs)
-    eval_batched = batched_supported(env_id, probe)
-    probe.close()
-    hp = split_hyperparams(entry, n_actions, algo)
-    total = int(total_timesteps if total_timesteps is not None else hp["n_timesteps"])
-    if total < 1:
-        raise ValueError(f"total_timesteps must be >= 1, got {total}")
-    horizon = total if schedule_timesteps is None else int(schedule_timesteps)
-    if horizon < total:
-        raise ValueError(f"schedule_timesteps must be >= total_timesteps ({total}), got {schedule_timesteps}")
-
-    config = run_config(
-        algo,
-        hp["backend"],
+    algorithm = Algorithm(algo, entry.get("backend", "sb3")).trainable()
+    n_actions, batched = _probe(env_id, env_kwargs)  # validates the env kwargs before anything is written
+    _, eval_batched = _probe(env_id, eval_kwargs)
+    hp = None if algorithm.backend == "jax" else split_hyperparams(entry, n_actions, algorithm)
+    default = entry.get("n_timesteps", 1_000_000) if hp is None else hp["n_timesteps"]
+    total, horizon = run_budget(total_timesteps, default, schedule_timesteps)
+    plan = RunPlan(
+        algorithm,
         env_id,
         env_kwargs,
-        seed,
+        eval_kwargs,
+        int(seed),
         entry,
         total,
-        eval_freq,
-        eval_episodes,
-        eval_seed,
-        eval_kwargs,
-        checkpoint_freq,
+        horizon,
+        int(eval_freq),
+        int(eval_episodes),
+        int(eval_seed),
+        int(checkpoint_freq),
     )
-    checkpoint = latest_checkpoint(out_dir)
-    check_resume(out_dir, config, saved, checkpoint, resume)
+    run_dir = RunDir(out_dir, plan, saved, resume)
+    if hp is None:  # the fused JAX trainer: its own loop, same run directory
+        from experiments.training.jax_training import train_jax
 
+        return train_jax(run_dir, eval_batched, progress, verbose, evaluate_initial)
+    return _train_sb3(
+        run_dir, hp, batched, eval_batched, progress, progress_bar, tensorboard, verbose, evaluate_initial
+    )
+
+
+def _probe(env_id: str, kwargs: dict[str, Any]) -> tuple[int, bool]:
+    """``(action size, whether the natively batched env serves)`` of ``env_id`` built with
+    ``kwargs`` (``ValueError`` for kwargs the env refuses)."""
+    probe = make_checked(env_id, **kwargs)
+    try:
+        return int(np.prod(probe.action_space.shape)), batched_supported(env_id, probe)
+    finally:
+        probe.close()
+
+
+def _train_sb3(
+    run_dir: RunDir,
+    hp: dict[str, Any],
+    batched: bool,
+    eval_batched: bool,
+    progress: bool | str,
+    progress_bar: bool,
+    tensorboard: bool | None,
+    verbose: int,
+    evaluate_initial: bool,
+) -> TrainResult:
+    """:func:`train`'s loop on Stable-Baselines3 or SBX: ``learn()`` in segments that end at the
+    plan's evaluations and checkpoints."""
+    plan, out_dir = run_dir.plan, run_dir.path
+    algo = plan.algorithm.name
     torch.set_num_threads(1)  # one thread: bitwise repeatable (and small networks gain nothing from more)
-    evaluations = EvalLog(out_dir)
+    checkpoint = run_dir.checkpoint
     if checkpoint is None:  # a new run, or one killed before its first checkpoint: start (again) from scratch
-        _discard_partial_run(out_dir)
-        out_dir.mkdir(parents=True, exist_ok=True)
-        atomic_write_text(out_dir / "config.json", json.dumps(config, indent=2) + "\n")
-        set_random_seed(int(seed))
-        clock = RunClock(horizon)
-        model = _new_model(
-            algo, env_id, env_kwargs, int(seed), hp, entry, clock, out_dir, tensorboard, verbose, batched
-        )
-        run: dict[str, Any] = {"eval_log": "", "best": None, "last_eval": None}
+        run = run_dir.start()
+        set_random_seed(plan.seed)
+        clock = RunClock(plan.horizon)
+        model = _new_model(plan, hp, clock, out_dir, tensorboard, verbose, batched)
         rng = None
         resumed_from = None
     else:
         model, clock, run, rng = read_checkpoint(checkpoint["path"])
-        clock.total = horizon
+        clock.total = plan.horizon
         model.verbose = verbose
-        evaluations.restore(run["eval_log"])  # drops rows written after this checkpoint by the killed run
-        _reconcile_best(out_dir / "best", run["best"], model)
-        atomic_write_text(out_dir / "config.json", json.dumps(config, indent=2) + "\n")
+        run_dir.resume(run, int(model.num_timesteps), model)
         resumed_from = int(model.num_timesteps)
+    total = plan.total
     already_complete = int(model.num_timesteps) >= total
 
-    eval_env = make_eval_env(env_id, eval_kwargs, int(eval_episodes), eval_batched)
-    seeds = [int(eval_seed) + i for i in range(int(eval_episodes))]
+    eval_env = make_eval_env(plan.env_id, plan.eval_kwargs, plan.eval_episodes, eval_batched)
+    seeds = plan.eval_seeds
     callback = None
-    label = progress if isinstance(progress, str) else f"train {algo} {env_id.split('/')[-1]}"
+    label = progress if isinstance(progress, str) else f"train {algo} {plan.env_id.split('/')[-1]}"
     if progress and resumed_from is not None and not already_complete:
         print(f"{label}: resuming at {resumed_from} steps ({checkpoint['path']})", file=sys.stderr, flush=True)
     if progress and not progress_bar and not already_complete:
         callback = ProgressCallback(total, label, bar=None if progress is True else False)
-    rollout = rollout_steps(algo, hp["kwargs"], hp["n_envs"])
-    planned = total if rollout is None else -(-total // rollout) * rollout
-    if progress and resumed_from is None and planned != total:
-        print(
-            f"note: {algo} trains in whole rollouts of {rollout} env steps ({hp['n_envs']} envs): "
-            f"a budget of {total} steps trains {planned} (--params n_steps:N or train_freq:N sets the rollout)",
-            file=sys.stderr,
-            flush=True,
-        )
+    if progress and resumed_from is None:
+        hint = " (--params n_steps:N or train_freq:N sets the rollout)"
+        plan.note_whole_rollouts(plan.algorithm.rollout_steps(hp["kwargs"], hp["n_envs"]), hp["n_envs"], hint)
     start = time.perf_counter()
     if evaluate_initial and run["best"] is None and int(model.num_timesteps) == 0:
         # the initial policy is a candidate snapshot too: a run that never beats it says so
         # (its best snapshot is at 0 steps) instead of presenting its least bad trained policy.
         # Deterministic evaluation draws from no global generator, so training is unchanged.
-        row = {"timesteps": 0, **evaluate_cost(_predictor(model, hp["frame_stack"]), eval_env, seeds)}
-        text = evaluations.row_text(row, header=True)
-        evaluations.append(text)
-        run["eval_log"] += text
-        run["best"], run["last_eval"] = row, row
-        save_snapshot(model, out_dir / "best", meta={"best.json": json.dumps(row) + "\n"})
+        run_dir.record(run, {"timesteps": 0, **evaluate_cost(_predictor(model, hp["frame_stack"]), eval_env, seeds)})
+        run_dir.save_best(run["best"], model)
     if model.tensorboard_log is None:
         log_without_folder(model)
     if rng is not None:
@@ -267,7 +216,7 @@ def train(
     try:
         while int(model.num_timesteps) < total:
             done = int(model.num_timesteps)
-            target = min(_next_multiple(done, eval_freq), _next_multiple(done, checkpoint_freq), total)
+            target = plan.segment_end(done)
             clock.segment_end = target
             model.learn(
                 target - done,
@@ -280,48 +229,28 @@ def train(
             if steps <= done:
                 raise RuntimeError(f"{algo}.learn() made no progress at {done} steps")
             new_best = False
-            if steps // eval_freq > done // eval_freq or steps >= total:
+            if plan.evaluates(done, steps):
                 row = {"timesteps": steps, **evaluate_cost(_predictor(model, hp["frame_stack"]), eval_env, seeds)}
-                text = evaluations.row_text(row, header=not run["eval_log"])
-                evaluations.append(text)  # fsynced before the checkpoint below moves the pointer
-                run["eval_log"] += text
-                run["last_eval"] = row
-                if run["best"] is None or row["J_mean"] < run["best"]["J_mean"]:
-                    run["best"], new_best = row, True
+                new_best = run_dir.record(run, row)  # fsynced before the checkpoint below moves the pointer
                 model.logger.record("eval/J_mean", row["J_mean"])  # TensorBoard, when on
                 model.logger.dump(step=steps)
                 if verbose:
                     print(f"eval at {steps} steps: J = {row['J_mean']:.3f} ± {row['J_std']:.3f}")
             write_checkpoint(out_dir / "checkpoints", model, clock, run)
             if new_best:  # after the pointer: a resume from an older checkpoint never sees a newer best
-                save_snapshot(model, out_dir / "best", meta={"best.json": json.dumps(run["best"]) + "\n"})
+                run_dir.save_best(run["best"], model)
     finally:
         if callback is not None:
             callback.close()
     wall = time.perf_counter() - start
-    if not already_complete:  # the run's training time over all its segments (the report sums them)
-        segment = {"from_timesteps": resumed_from or 0, "to_timesteps": int(model.num_timesteps), "wall_time_s": wall}
-        with (out_dir / "timing.jsonl").open("a", encoding="utf-8") as fh:
-            fh.write(json.dumps(segment) + "\n")
-    final = out_dir / "final"
-    marker = {"timesteps": int(model.num_timesteps)}
-    if read_json(final / "final.json") != marker or not (final / "model.zip").is_file():
-        save_snapshot(model, final, meta={"final.json": json.dumps(marker) + "\n"})
+    steps = int(model.num_timesteps)
+    segment = (
+        None if already_complete else {"from_timesteps": resumed_from or 0, "to_timesteps": steps, "wall_time_s": wall}
+    )
+    model_path = run_dir.finish(segment, steps, lambda: model)
     eval_env.close()
     model.get_env().close()
-    return TrainResult(
-        out_dir=out_dir,
-        model_path=final / "model.zip",
-        timesteps=int(model.num_timesteps),
-        resumed_from=resumed_from,
-        wall_time_s=wall,
-        last_eval=run["last_eval"],
-        already_complete=already_complete,
-    )
-
-
-def _next_multiple(steps: int, every: int) -> int:
-    return (steps // int(every) + 1) * int(every)
+    return TrainResult(out_dir, model_path, steps, resumed_from, wall, run["last_eval"], already_complete)
 
 
 def _predictor(model, frame_stack: int = 1) -> NormalizedPredictor:
@@ -337,55 +266,28 @@ def log_without_folder(model) -> None:
     model.set_logger(Logger(folder=None, output_formats=formats))
 
 
-def _new_model(algo, env_id, env_kwargs, seed, hp, entry, clock, out_dir, tensorboard, verbose, batched):
+def _new_model(plan: RunPlan, hp: dict[str, Any], clock: RunClock, out_dir: Path, tensorboard, verbose, batched):
     kwargs = dict(hp["kwargs"])
     for key in ("learning_rate", "clip_range", "clip_range_vf"):
         if callable(kwargs.get(key)):
             kwargs[key] = BudgetSchedule(kwargs[key], clock)  # progress over the whole run, not one segment
-    venv = make_training_env(env_id, env_kwargs, hp["n_envs"], seed, batched)
+    venv = make_training_env(plan.env_id, plan.env_kwargs, hp["n_envs"], plan.seed, batched)
     if hp["normalize"] is not None:
-        venv = VecNormalize(venv, gamma=float(entry.get("gamma", 0.99)), **hp["normalize"])
+        venv = VecNormalize(venv, gamma=float(plan.entry.get("gamma", 0.99)), **hp["normalize"])
     if hp["frame_stack"] > 1:  # after normalization, as the Zoo stacks
         venv = PicklableVecFrameStack(venv, hp["frame_stack"])
     try:
-        return algorithm_class(algo, hp["backend"])(
+        return plan.algorithm.model_class()(
             hp["policy"],
             venv,
-            seed=seed,
+            seed=plan.seed,
             verbose=verbose,
             tensorboard_log=_tensorboard_dir(out_dir, tensorboard),
             **kwargs,
         )
     except (TypeError, AssertionError, KeyError) as exc:  # SB3 reports bad hyperparameters this way
         venv.close()
-        raise ValueError(f"bad hyperparameters for {algo} ({sorted(hp['kwargs'])}): {exc}") from exc
-
-
-def _discard_partial_run(out_dir: Path) -> None:
-    """What a run killed before its first checkpoint left (nothing to continue from)."""
-    for name in ("evaluations.csv", "evaluations.csv.tmp"):
-        (out_dir / name).unlink(missing_ok=True)
-    for name in ("best", "best.tmp", "best.old", "final", "final.tmp", "final.old", "checkpoints"):
-        if (out_dir / name).is_dir():
-            shutil.rmtree(out_dir / name)
-
-
-def _reconcile_best(best_dir: Path, best: dict[str, Any] | None, model) -> None:
-    """Make ``best/`` the snapshot the checkpoint says is best. ``best/`` is written only after
-    the checkpoint of its step, so it can lag behind (killed in between): then that checkpoint's
-    model is the best one. A ``best/`` without a recorded best is from a killed run: removed."""
-    if best is None:
-        if best_dir.exists():
-            shutil.rmtree(best_dir)
-        return
-    if read_json(best_dir / "best.json") == best and (best_dir / "model.zip").is_file():
-        return
-    if int(best["timesteps"]) != int(model.num_timesteps):
-        raise ValueError(
-            f"{str(best_dir)!r} does not hold the best snapshot its checkpoint records ({best}); "
-            "the run directory was changed by hand: start it again in an empty --out"
-        )
-    save_snapshot(model, best_dir, meta={"best.json": json.dumps(best) + "\n"})
+        raise ValueError(f"bad hyperparameters for {plan.algorithm.name} ({sorted(hp['kwargs'])}): {exc}") from exc
 
 
 def load_trained(model_path: str | Path, env: gym.Env | None = None):
@@ -400,7 +302,7 @@ def load_trained(model_path: str | Path, env: gym.Env | None = None):
     if not model_path.is_file():
         raise ValueError(f"model file {str(model_path)!r} does not exist")
     saved = _run_config(model_path)
-    algo, backend = _algo_of(model_path, saved)
+    algorithm = _algo_of(model_path, saved)
     frame_stack = int(((saved or {}).get("hyperparams") or {}).get("frame_stack") or 1)
     if env is not None and saved is not None and getattr(env, "spec", None) is not None:
         if saved.get("env_id") not in (None, env.spec.id):
@@ -408,19 +310,17 @@ def load_trained(model_path: str | Path, env: gym.Env | None = None):
                 f"model {str(model_path)!r} was trained on {saved['env_id']} (its run's config.json), "
                 f"not on {env.spec.id}: evaluate it on {saved['env_id']}"
             )
-    if backend == "jax":  # a fused-PPO model file plays on numpy: no jax needed to load it
-        from agents.fused_ppo.export import NumpyPPOPolicy
-
-        model = NumpyPPOPolicy.load(model_path)
+    if algorithm.backend == "jax":  # a fused-PPO model file plays on numpy: no jax needed to load it
+        model = algorithm.model_class().load(model_path)
     else:
-        model = algorithm_class(algo, backend).load(model_path, device="cpu")
+        model = algorithm.model_class().load(model_path, device="cpu")
     if env is not None:
         for what in ("observation_space", "action_space"):
             ours, theirs = getattr(env, what), getattr(model, what)
             if what == "observation_space" and frame_stack > 1:  # VecFrameStack's stacked space
                 ours = gym.spaces.Box(np.repeat(ours.low, frame_stack, -1), np.repeat(ours.high, frame_stack, -1))
             # a fused-PPO model file (backend jax) keeps the observation's shape only
-            bounds_known = not (backend == "jax" and what == "observation_space")
+            bounds_known = not (algorithm.backend == "jax" and what == "observation_space")
             if ours.shape != theirs.shape or not (
                 not bounds_known
                 or (
@@ -464,10 +364,10 @@ def _run_config(model_path: Path) -> dict[str, Any] | None:
     return None
 
 
-def _algo_of(model_path: Path, saved: dict[str, Any] | None) -> tuple[str, str]:
-    """``(algorithm, backend)`` of a saved model: from its run's config.json (``saved``, :func:`_run_config`), else from its policy's module."""
+def _algo_of(model_path: Path, saved: dict[str, Any] | None) -> Algorithm:
+    """The algorithm and backend of a saved model: from its run's config.json (``saved``, :func:`_run_config`), else from its policy's module."""
     if saved is not None:
-        return saved["algo"], saved.get("backend", "sb3")
+        return Algorithm(saved["algo"], saved.get("backend", "sb3"))
     try:
         with zipfile.ZipFile(model_path) as zf:
             data = json.loads(zf.read("data").decode("utf-8"))
@@ -476,5 +376,7 @@ def _algo_of(model_path: Path, saved: dict[str, Any] | None) -> tuple[str, str]:
     module = str(data.get("policy_class", {}).get("__module__", ""))
     for prefix, algo in _POLICY_MODULES.items():
         if module.startswith(prefix):
-            return algo, "sbx" if prefix.startswith("sbx.") else "jax" if prefix.startswith("agents.") else "sb3"
+            return Algorithm(
+                algo, "sbx" if prefix.startswith("sbx.") else "jax" if prefix.startswith("agents.") else "sb3"
+            )
     raise ValueError(f"cannot tell the algorithm of {str(model_path)!r}; keep its config.json beside it")
