@@ -17,8 +17,6 @@ from attitude_envs.evaluation.success import FINAL_STATE_FRACTION
 from attitude_envs.integrators import substeps
 from attitude_envs.plants import slosh
 from attitude_envs.plants import slosh_kernels as kernels
-from attitude_envs.plants.ops import NUMPY
-from attitude_envs.plants.slosh_definition import define
 from attitude_envs.plants.slosh_model import REDUCED_INDEX, FuelSloshModel, reduced_state
 from attitude_envs.presets.navabi_slosh import PAPER_INITIAL_STATE  # re-exported: the paper's start state
 from attitude_envs.sensors import Channel
@@ -31,9 +29,6 @@ OBS_INDEX = np.append(REDUCED_INDEX, slosh.IVX)
 OBS_INDEX_NO_SLOSH = OBS_INDEX[[0, 1, 2, 7]]
 OBS_INDEX.setflags(write=False)
 OBS_INDEX_NO_SLOSH.setflags(write=False)
-
-
-_PLANT = define(NUMPY)
 
 
 def _read_only(a: np.ndarray) -> np.ndarray:
@@ -295,7 +290,9 @@ class FuelSloshEnv(AttitudeEnv):
         finite = math.isfinite(cost + sum(y) + a_z + dom) or (
             math.isfinite(cost) and all(map(math.isfinite, y)) and math.isfinite(a_z) and math.isfinite(dom)
         )
-        terminated = not finite or max(self._limit_rows(y)) > 0.0
+        terminated = not finite or kernels.limit_crossed(
+            self._y, self.max_slosh_angle_rad, self.max_pitch_rate_rad_s, self.max_pitch_angle_rad
+        )
         if terminated and finite:  # a limit crossed: the rest of the horizon is charged
             cost += self._termination_charge(reduced_state(self._y), self._t)
         truncated = bool(self._t >= self.episode_duration_s - 1e-9 * self.control_dt_s) and not terminated
@@ -338,12 +335,12 @@ class FuelSloshEnv(AttitudeEnv):
     def batch_termination(self, states: np.ndarray) -> np.ndarray:
         """The limits :meth:`step` terminates on (slosh angle, pitch rate, pitch angle) for
         rows of full states ``y`` (E × 10); the batched env's hook (it checks finiteness)."""
-        return np.stack(self._limit_rows(np.asarray(states).T)).max(axis=0) > 0.0
-
-    def _limit_rows(self, y):
-        """The plant definition's limit rows ``g(y) ≤ 0`` of a full state ``y`` (or of a batch, one
-        array per entry)."""
-        return _PLANT.limit_rows(y, self.max_slosh_angle_rad, self.max_pitch_rate_rad_s, self.max_pitch_angle_rad)
+        states = np.asarray(states, dtype=float)
+        out = np.empty(states.shape[0], dtype=bool)
+        kernels.limits_crossed(
+            states, self.max_slosh_angle_rad, self.max_pitch_rate_rad_s, self.max_pitch_angle_rad, out
+        )
+        return out
 
     # ------------------------------------------------------------------ internals
     def _measure(self) -> np.ndarray:

@@ -18,8 +18,6 @@ from attitude_envs.integrators import substeps
 from attitude_envs.plants import magnetorquer as mt
 from attitude_envs.plants import magnetorquer_kernels as kernels
 from attitude_envs.plants.magnetic_field import FieldModel
-from attitude_envs.plants.magnetorquer_definition import define
-from attitude_envs.plants.ops import NUMPY
 from attitude_envs.plants.orbit import KeplerOrbit
 from attitude_envs.presets.sadigh_2022 import TIME_VARYING_INERTIA
 from attitude_envs.sensors import Channel
@@ -52,9 +50,6 @@ _REQUIRED = (
     "Q",
     "R",
 )
-
-
-_PLANT = define(NUMPY)
 
 
 def _slice(offset: int, start: int, size: int) -> slice:
@@ -487,8 +482,10 @@ class MagnetorquerEnv(AttitudeEnv):
     def batch_termination(self, states: np.ndarray) -> np.ndarray:
         """The tumbling limit :meth:`step` terminates on (the plant definition's limit rows) for
         rows of states ``[q, ω_bo, Ω]`` (E × 8); the batched env's hook (it checks finiteness)."""
-        s = np.asarray(states)
-        return np.stack(_PLANT.limit_rows(s[:, 4], s[:, 5], s[:, 6], self.max_rate_rad_s)).max(axis=0) > 0.0
+        states = np.asarray(states, dtype=float)
+        out = np.empty(states.shape[0], dtype=bool)
+        kernels.tumbling_rows(states, self.max_rate_rad_s, out)
+        return out
 
     @property
     def state_row(self) -> np.ndarray:
@@ -618,7 +615,7 @@ class MagnetorquerEnv(AttitudeEnv):
             self._work,
         )
         finite = self._step_out[kernels.ST_FINITE] == 1.0
-        terminated = not finite or max(_PLANT.limit_rows(*self._y[4:7].tolist(), self.max_rate_rad_s)) > 0.0
+        terminated = not finite or kernels.tumbling(self._y, self.max_rate_rad_s)
         if terminated and finite:  # tumbling: the rest of the horizon is charged
             cost += self._termination_charge(self._snap[kernels.SN_X : kernels.SN_X + 6], self._t)
         truncated = bool(self._t >= self.episode_duration_s - 1e-9 * self.control_dt_s) and not terminated

@@ -363,6 +363,26 @@ error_state = _PLANT.error_state
 _gravity_gradient = _PLANT.gravity_gradient
 _augmented = _PLANT.augmented
 _wheel_torque = _PLANT.wheel_torque
+_limit_rows = _PLANT.limit_rows
+
+
+@njit(cache=True, error_model="numpy")
+def tumbling(state, max_rate_rad_s):
+    """Whether the state ``[q, ω_bo, Ω]`` (8) is past the tumbling limit (a limit row of the
+    definition > 0; rad/s)."""
+    crossed = False
+    for g in _limit_rows(state[4], state[5], state[6], max_rate_rad_s):
+        crossed = crossed or g > 0.0
+    return crossed
+
+
+@njit(cache=True, error_model="numpy")
+def tumbling_rows(states, max_rate_rad_s, out):
+    """``out[e]`` = :func:`tumbling` of state row ``e`` (E × 8)."""
+    for e in range(states.shape[0]):
+        out[e] = tumbling(states[e], max_rate_rad_s)
+
+
 #: where the definition's context entries sit in this module's time context (``CX_*``)
 CONTEXT_LAYOUT = (CX_ORB + OS_RATE, CX_ORB + OS_RATE_DOT, CX_ORB + OS_R, CX_B, CX_QD, CX_WD, CX_I, CX_EINV, CX_DIST)
 

@@ -61,7 +61,7 @@ NUMBA = Ops(
     sqrt=math.sqrt,
     fabs=math.fabs,
     where=_select,
-    compile=njit(cache=True, error_model="numpy"),
+    compile=njit(cache=True, error_model="numpy", inline="always"),
 )
 
 #: plain numpy, uncompiled: vectorized when the entries are arrays (a batch along the last axis)

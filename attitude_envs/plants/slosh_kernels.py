@@ -106,6 +106,24 @@ def forces_into(pk, y, delta, moment, out):
 
 _derivative = _PLANT.derivative
 _augmented = _PLANT.augmented
+_limit_rows = _PLANT.limit_rows
+
+
+@njit(cache=True, error_model="numpy")
+def limit_crossed(y, max_slosh_angle_rad, max_pitch_rate_rad_s, max_pitch_angle_rad):
+    """Whether the full state ``y`` (10) is past a termination limit (a limit row of the
+    definition > 0; rad, rad/s)."""
+    crossed = False
+    for g in _limit_rows(y, max_slosh_angle_rad, max_pitch_rate_rad_s, max_pitch_angle_rad):
+        crossed = crossed or g > 0.0
+    return crossed
+
+
+@njit(cache=True, error_model="numpy")
+def limits_crossed(states, max_slosh_angle_rad, max_pitch_rate_rad_s, max_pitch_angle_rad, out):
+    """``out[e]`` = :func:`limit_crossed` of full state row ``e`` (E × 10)."""
+    for e in range(states.shape[0]):
+        out[e] = limit_crossed(states[e], max_slosh_angle_rad, max_pitch_rate_rad_s, max_pitch_angle_rad)
 
 
 @njit(cache=True, error_model="numpy")
