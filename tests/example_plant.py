@@ -5,16 +5,24 @@ kg·m²) is driven by a motor torque ``u`` (N·m): ``J θ̈ = −u``, ``J_w Ω̇
 relative to inertial space; the total momentum ``J ω + J_w Ω`` is conserved). The stage
 cost ``xᵀQx + uᵀRu`` of the error ``x = [θ − θ_T, ω]`` is integrated next to the state by
 the same RK4 step, so the reward does not depend on the control period.
+
+The equations are written once, in :func:`define`, against the suite's operation set
+(:mod:`attitude_envs.plants.ops`): the env steps them with plain numpy here, and the same
+source compiles under numba, traces under JAX and builds CasADi expressions (the Jacobian
+of the linearization test comes from there).
 """
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 
 from attitude_envs.cost import QuadraticCost
 from attitude_envs.integrators import rk4_step
+from attitude_envs.plants.ops import NUMPY, Ops, define_quad_form
 
 
 @dataclass(frozen=True)
@@ -34,17 +42,32 @@ class SingleAxisModel:
         return a, b
 
 
-def derivative(y: np.ndarray, u: float, model: SingleAxisModel, target_rad: float) -> np.ndarray:
-    """``d/dt [θ, ω, Ω, J]`` with the cost rate as the last entry."""
-    x = np.array([y[0] - target_rad, y[1]])
-    return np.array(
-        [
+@functools.cache
+def define(ops: Ops) -> SimpleNamespace:
+    """The plant's equations for the executor ``ops``."""
+    quad_form = define_quad_form(ops)
+
+    @ops.compile
+    def derivative(y, u, inertia_kg_m2, wheel_inertia_kg_m2, target_rad, Q, R):
+        """``d/dt [θ, ω, Ω, J]`` (rad/s, rad/s², rad/s², cost rate) under the motor torque
+        ``u`` (N·m), with the cost rate ``xᵀQx + uᵀRu`` as the last entry."""
+        x = (y[0] - target_rad, y[1])
+        return (
             y[1],
-            -u / model.inertia_kg_m2,
-            u / model.wheel_inertia_kg_m2,
-            model.cost.stage(x, np.array([u])),
-        ]
+            -u / inertia_kg_m2,
+            u / wheel_inertia_kg_m2,
+            quad_form(R, (u,), 1, quad_form(Q, x, 2)),
+        )
+
+    return SimpleNamespace(derivative=derivative)
+
+
+def derivative(y: np.ndarray, u: float, model: SingleAxisModel, target_rad: float) -> np.ndarray:
+    """``d/dt [θ, ω, Ω, J]`` with the cost rate as the last entry (the definition, in numpy)."""
+    dy = define(NUMPY).derivative(
+        y, u, model.inertia_kg_m2, model.wheel_inertia_kg_m2, target_rad, model.cost.Q, model.cost.R
     )
+    return np.array(dy, dtype=float)
 
 
 def step(y: np.ndarray, u: float, model: SingleAxisModel, target_rad: float, n_sub: int) -> tuple[np.ndarray, float]:

@@ -87,3 +87,31 @@ def test_the_example_plant_declares_how_campaigns_judge_it():
     metric = env.success_metric
     assert metric.name == "final_state_fraction"
     assert metric.value(first, first) == 1.0  # the start judged against itself
+
+
+def test_the_plant_defined_once_runs_on_every_executor():
+    """The example's equations (example_plant.define) compile under numba bit for bit with
+    numpy, and CasADi's Jacobian of the same source is the model's linearization."""
+    from example_plant import define
+
+    from attitude_envs.plants.ops import NUMBA, NUMPY
+
+    m = gym.make(ENV_ID).unwrapped.model
+    args = (m.inertia_kg_m2, m.wheel_inertia_kg_m2, 0.5, m.cost.Q, m.cost.R)
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        y, u = rng.normal(size=4), float(rng.normal())
+        compiled = define(NUMBA).derivative(y, u, *args)
+        plain = define(NUMPY).derivative(y, u, *args)
+        assert np.array_equal(np.array(compiled), np.array(plain, dtype=float))
+    casadi = pytest.importorskip("casadi")
+    from attitude_envs.symbolic.ops import CASADI
+
+    y, u = casadi.SX.sym("y", 4), casadi.SX.sym("u")
+    dy = casadi.vertcat(*define(CASADI).derivative(y, u, *args[:3], casadi.DM(m.cost.Q), casadi.DM(m.cost.R)))
+    # the error state is [θ − θ_T, ω]: its Jacobian is the state's in those two entries
+    jac = casadi.Function("linearization", [y, u], [casadi.jacobian(dy[:2], y[:2]), casadi.jacobian(dy[:2], u)])
+    a, b = (np.asarray(v) for v in jac(np.array([0.7, -0.2, 3.0, 0.0]), 0.3))
+    a_model, b_model = m.linearize()
+    np.testing.assert_array_equal(a, a_model)
+    np.testing.assert_array_equal(b, b_model)
