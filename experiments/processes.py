@@ -7,19 +7,30 @@ which runs no clean-up. On Linux the kernel kills the worker when its parent die
 (``prctl(PR_SET_PDEATHSIG, SIGKILL)``); everywhere a watchdog thread checks every 0.25 s that
 the given process still runs (a forkserver's children watch that process, not the forkserver).
 Once the workers are gone, the forkserver and the resource tracker exit too.
+
+:func:`run_in_child` runs one function in a fresh interpreter instead (a benchmark's run that
+must start cold, on CPUs of its own): the spec and the result travel as JSON.
 """
 
 from __future__ import annotations
 
 import ctypes
+import importlib
+import json
 import os
 import signal
+import subprocess
 import sys
 import threading
 import time
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
 
 _PR_SET_PDEATHSIG = 1  # linux/prctl.h
 WATCH_INTERVAL_S = 0.25
+#: what starts the result line a :func:`run_in_child` child prints on its stdout
+RESULT_PREFIX = "CHILD_RESULT "
 
 
 def alive(pid: int) -> bool:
@@ -69,7 +80,7 @@ def pin_to_one_core(index: int) -> int | None:
 
     The local pool of a campaign that trains with SBX calls it in each worker (worker ``i`` →
     CPU ``i``), because JAX sizes its CPU thread pool from the process's CPU affinity and has
-    no setting for it (see :mod:`experiments.sb3.backends`). Returns the CPU, or None where the
+    no setting for it (see :mod:`experiments.training.algorithm`). Returns the CPU, or None where the
     platform has no affinity call (macOS) or refuses it."""
     if not hasattr(os, "sched_setaffinity"):
         return None
@@ -92,3 +103,50 @@ def pool_context():
     if "fork" in methods and not {"torch", "jax"} & set(sys.modules):
         return mp.get_context("fork")
     return mp.get_context("forkserver" if "forkserver" in methods else "spawn")
+
+
+def run_in_child(
+    target: str,
+    spec: Mapping[str, Any],
+    *,
+    cpus: Iterable[int] | None = None,
+    env: Mapping[str, str] | None = None,
+    cwd: str | Path | None = None,
+    timeout: float | None = None,
+) -> dict[str, Any]:
+    """``target(spec)`` in a fresh interpreter: ``target`` is ``"package.module:function"``,
+    ``spec`` and the dict it returns are JSON. The child runs on this process's CPUs, or on
+    ``cpus``: it sets that affinity itself before it imports ``target`` (so a thread pool sized
+    from the affinity, JAX's, follows it; not ``preexec_fn``, unsafe in a process that runs JAX),
+    with ``env`` (default: this process's environment) in ``cwd``. Returns the child's result
+    with ``process_wall_s`` (s, interpreter start to exit); ``RuntimeError`` with the end of
+    its stderr when it fails."""
+    code = "import sys; from experiments.processes import child_main; raise SystemExit(child_main(sys.argv[1:]))"
+    args = [target, json.dumps(dict(spec)), json.dumps(None if cpus is None else sorted(cpus))]
+    start = time.perf_counter()
+    proc = subprocess.run(
+        [sys.executable, "-c", code, *args],
+        cwd=cwd,
+        env=None if env is None else dict(env),
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        check=False,
+    )
+    wall = time.perf_counter() - start
+    lines = [ln for ln in proc.stdout.splitlines() if ln.startswith(RESULT_PREFIX)]
+    if proc.returncode != 0 or not lines:
+        raise RuntimeError(f"child {target} failed (exit {proc.returncode}):\n{proc.stderr[-4000:]}")
+    return {**json.loads(lines[-1][len(RESULT_PREFIX) :]), "process_wall_s": wall}
+
+
+def child_main(argv: Sequence[str]) -> int:
+    """The interpreter :func:`run_in_child` starts: ``argv`` is the target, the spec (JSON) and
+    the CPUs (JSON list, or null); prints the target's result on one line of stdout."""
+    target, spec, cpus = argv[0], json.loads(argv[1]), json.loads(argv[2])
+    if cpus is not None:  # before the target's imports start a thread pool
+        os.sched_setaffinity(0, set(cpus))
+    module, _, name = target.partition(":")
+    result = getattr(importlib.import_module(module), name)(spec)
+    print(RESULT_PREFIX + json.dumps(result), flush=True)
+    return 0

@@ -1,4 +1,4 @@
-"""``benchmarks/jax_training.py`` (SB3 vs SBX vs the fused JAX trainer): a smoke test of its
+"""``benchmarks/jax_training/`` (SB3 vs SBX vs the fused JAX trainer): a smoke test of its
 cheapest pieces on minimal budgets. The JSON it writes has the documented keys with finite
 values; no speed or quality is asserted (the numbers come from the benchmark run itself)."""
 
@@ -17,7 +17,11 @@ pytest.importorskip("optax")
 pytest.importorskip("sbx")
 pytest.importorskip("stable_baselines3")
 
-from benchmarks import jax_training as jt  # noqa: E402
+from benchmarks.jax_training.checkpoint import Checkpoint  # noqa: E402
+from benchmarks.jax_training.quality import PROGRESS, TimedLines  # noqa: E402
+from benchmarks.jax_training.speed import VMAPPED_SEEDS  # noqa: E402
+from benchmarks.jax_training.stepping import env_stepping  # noqa: E402
+from benchmarks.jax_training.task import ENV_ID, campaign_task  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -27,25 +31,25 @@ def _finite(value) -> bool:
 
 
 def test_the_task_is_the_campaign_agents_with_j_star_for_every_cell_episode():
-    task = jt.campaign_task(jt.ENV_ID)
-    assert task.campaign == "air-bearing" and task.env_id == jt.ENV_ID
+    task = campaign_task(ENV_ID)
+    assert task.campaign == "air-bearing" and task.env_id == ENV_ID
     assert task.env_kwargs == {"preset": "air-bearing-85kg"}
     assert task.seeds == list(range(20)) and task.cell == ("ab", "regulation", "none")
-    assert all(j["env_id"] == jt.ENV_ID and j["cell_env_id"] == "attitude_envs/AirBearing-v0" for j in task.jobs)
+    assert all(j["env_id"] == ENV_ID and j["cell_env_id"] == "attitude_envs/AirBearing-v0" for j in task.jobs)
     assert all(_finite(task.j_star[s]) and task.j_star[s] > 0 for s in task.seeds)
 
 
 def test_status_lines_are_timed_and_give_each_chunks_steps():
-    lines = jt._TimedLines(time.perf_counter())
+    lines = TimedLines(time.perf_counter())
     lines.write("train jax: 320/640 steps, 900 steps/s, episode return -1, eval J 2.3\ntrain jax: 64")
     lines.write("0/640 steps, 950 steps/s, episode return -1, eval J 2.2\n")
-    steps = [int(jt._PROGRESS.search(text).group(1)) for _, text in lines.lines]
+    steps = [int(PROGRESS.search(text).group(1)) for _, text in lines.lines]
     assert steps == [320, 640]
     assert all(t >= 0 for t, _ in lines.lines)
 
 
 def test_env_stepping_rows_have_units_and_finite_rates():
-    rows = jt.env_stepping((jt.ENV_ID,), sizes=(2,), seconds=0.01, rounds=1, steps_per_call=2, pinned="test")
+    rows = env_stepping((ENV_ID,), sizes=(2,), seconds=0.01, rounds=1, steps_per_call=2, pinned="test")
     assert {r["stack"].split()[0] for r in rows} == {"jax", "numba"}
     for r in rows:
         assert r["unit"] == "env steps/s, all envs together" and r["pinned"] == "test" and r["num_envs"] == 2
@@ -65,11 +69,11 @@ def test_the_committed_results_have_the_documented_keys():
     assert meta["quick"] is False and _finite(meta["wall_s"]) and meta["cores"] >= 1
     for key in ("ppo_per_seed_vs_sbx", "ppo_16_seeds_vs_sbx"):
         entry = result[key]
-        assert entry["env"] == jt.ENV_ID and entry["unit"] and entry["pinned"]
+        assert entry["env"] == ENV_ID and entry["unit"] and entry["pinned"]
         assert _finite(entry["median"]) and entry["median"] > 0
         assert len(entry["range"]) == 2 and all(_finite(v) for v in entry["range"])
     rows = result["speed"]["rows"]
-    assert [r["stack"] for r in rows] == ["sb3 native", "sbx native", "jax 1 seed", f"jax {jt.VMAPPED_SEEDS} seeds"]
+    assert [r["stack"] for r in rows] == ["sb3 native", "sbx native", "jax 1 seed", f"jax {VMAPPED_SEEDS} seeds"]
     for r in rows:
         assert r["unit"].startswith("env steps/s") and all(_finite(r[k]) for k in ("steps_per_s", "ratio_to_sbx"))
     assert {"ppo_per_seed_vs_sbx", "ppo_16_seeds_vs_sbx", "compile_s"} <= set(result["targets"])
@@ -105,13 +109,13 @@ def test_finished_sections_are_kept_and_taken_by_a_rerun_of_the_same_command(tmp
 
         return fn
 
-    first = jt._Checkpoint(path, key)
+    first = Checkpoint(path, key)
     assert first.run("speed", section(1)) == {"value": 1}
     with pytest.raises(RuntimeError):
         first.run("quality", lambda: (_ for _ in ()).throw(RuntimeError("killed")))
-    again = jt._Checkpoint(path, key)
+    again = Checkpoint(path, key)
     assert again.run("speed", section(2)) == {"value": 1} and again.reused == ["speed"]
     assert again.run("quality", section(3)) == {"value": 3}
     assert calls == [1, 3] and set(json.loads(path.read_text())["sections"]) == {"speed", "quality"}
-    other = jt._Checkpoint(path, {**key, "git_revision": "def"})
+    other = Checkpoint(path, {**key, "git_revision": "def"})
     assert other.run("speed", section(4)) == {"value": 4} and other.reused == []

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import importlib.util
 import inspect
 import re
 import shlex
@@ -201,8 +202,8 @@ def _module(text: str) -> str | None:
         words.pop(0)
     if words[0] == "attitude-envs" or words[1] == "train.py":
         return None
-    if words[1] == "-m":
-        return words[2] if words[2] != "benchmarks" else "benchmarks.__main__"
+    if words[1] == "-m":  # a package runs its __main__
+        return words[2] + ".__main__" if importlib.util.find_spec(words[2]).submodule_search_locations else words[2]
     return words[1].removesuffix(".py").replace("/", ".")
 
 
