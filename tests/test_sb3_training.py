@@ -277,3 +277,30 @@ def test_training_without_tensorboard_leaves_no_folders_in_the_temp_dir(tmp_path
     options = dict(env_kwargs=SHORT, seed=3, overrides=SAC_TINY, total_timesteps=200, eval_episodes=1)
     train("sac", RW, tmp_path / "run", checkpoint_freq=100, eval_freq=100, tensorboard=False, **options)
     assert list(scratch.iterdir()) == []
+
+
+def test_a_model_whose_schedules_name_a_moved_module_still_plays(tmp_path, sac_400):
+    """Schedules are pickled into model.zip naming their module; a model file written before the
+    module moved (experiments.sb3 → experiments.training) plays: loading replaces what only
+    training needs, and the actions are the same."""
+    import base64
+    import shutil
+    import zipfile
+
+    gone = base64.b64encode(b"cexperiments.sb3.checkpoint\nBudgetSchedule\n.").decode()  # a pickle of a moved class
+    old = tmp_path / "old" / "final" / "model.zip"
+    shutil.copytree(sac_400 / "final", old.parent)  # with its vecnormalize.pkl
+    shutil.copy(sac_400 / "config.json", tmp_path / "old" / "config.json")
+    with zipfile.ZipFile(sac_400 / "final" / "model.zip") as src, zipfile.ZipFile(old, "w") as dst:
+        for name in src.namelist():
+            content = src.read(name)
+            if name == "data":
+                data = json.loads(content)
+                for key in ("learning_rate", "lr_schedule"):
+                    data[key] = {":type:": "<class 'function'>", ":serialized:": gone}
+                content = json.dumps(data).encode()
+            dst.writestr(name, content)
+    env = gym.make(RW, **SHORT)
+    obs = np.stack([env.observation_space.sample() for _ in range(8)])
+    actions = {run: load_trained(run, env).predict(obs, deterministic=True)[0] for run in (old, sac_400 / "final")}
+    np.testing.assert_array_equal(actions[old], actions[sac_400 / "final"])

@@ -313,7 +313,7 @@ def load_trained(model_path: str | Path, env: gym.Env | None = None):
     if algorithm.backend == "jax":  # a fused-PPO model file plays on numpy: no jax needed to load it
         model = algorithm.model_class().load(model_path)
     else:
-        model = algorithm.model_class().load(model_path, device="cpu")
+        model = algorithm.model_class().load(model_path, device="cpu", custom_objects=_PLAYING_ONLY)
     if env is not None:
         for what in ("observation_space", "action_space"):
             ours, theirs = getattr(env, what), getattr(model, what)
@@ -339,6 +339,10 @@ def load_trained(model_path: str | Path, env: gym.Env | None = None):
         vecnorm.training = False
     return NormalizedPredictor(model, vecnorm, frame_stack)
 
+
+#: what a model file holds for training only, replaced on loading: a model that plays needs no
+#: schedules, and a file whose pickled schedules name a module since moved (experiments.sb3) still loads
+_PLAYING_ONLY = {"learning_rate": 0.0, "lr_schedule": lambda _: 0.0, "clip_range": lambda _: 0.0}
 
 _POLICY_MODULES = {
     "sbx.ppo": "ppo",
