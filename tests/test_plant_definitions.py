@@ -211,3 +211,51 @@ def test_magnetorquer_casadi_and_jax_evaluate_the_definition_to_rounding():
     )
     got = np.asarray(f(*(jnp.asarray(a) for a in (zs, ms, tws, ctxs))))
     np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-18)
+
+
+def _gyrostat_rows(rng, n: int):
+    """A scratch row list (one lane) of the gyrostat definition: state (7+n), u, u/J_s, ext (3),
+    matrices (18), target (4), then room for the error state (6+n) and the derivative (7+n);
+    and the constants C (wheel axes, Q (6+n)², R (n²), the scalars: ``pack_constants``)."""
+    from attitude_envs.plants import gyrostat_kernels as kernels
+
+    q = rng.normal(size=4)
+    y = np.r_[q / np.linalg.norm(q), rng.normal(0, 0.1, 3), rng.normal(0, 100, n)]
+    u = rng.normal(0, 0.05, n)
+    axes = rng.normal(size=(3, n))
+    axes /= np.linalg.norm(axes, axis=0)
+    inertia = np.diag([4.0, 4.5, 3.0]) + 0.1 * np.ones((3, 3))
+    j_s = 0.01
+    eff_inv = np.linalg.inv(inertia - j_s * axes @ axes.T)
+    Q = np.diag(rng.uniform(1, 5, 6 + n)) + 0.01 * rng.normal(size=(6 + n, 6 + n))
+    R = np.diag(rng.uniform(1, 5, n))
+    C = kernels.pack_constants(axes, Q, R, j_s, 0.2, 600.0, 0.01, rng.normal(0, 0.1, 3))
+    t = rng.normal(size=4)
+    W = np.r_[y, u, u / j_s, rng.normal(0, 1e-3, 3), kernels.pack_matrices(inertia, eff_inv), t / np.linalg.norm(t)]
+    W = np.r_[W, np.zeros((6 + n) + (7 + n))]
+    return W, C
+
+
+@pytest.mark.parametrize("n", [3, 4, 6])
+def test_gyrostat_rows_numba_equal_plain_python_bit_for_bit(n):
+    from attitude_envs.plants import gyrostat_definition as gd
+
+    compiled, plain = gd.define(NUMBA), gd.define(NUMPY)
+    rng = np.random.default_rng(n)
+    Y, U, UJ = 0, 7 + n, 7 + 2 * n
+    EXT = UJ + n
+    MAT = EXT + 3
+    TGT = MAT + gd.MAT_ROWS
+    X = TGT + 4
+    OUT = X + 6 + n
+    for _ in range(20):
+        W, C = _gyrostat_rows(rng, n)
+        sc = C.shape[0] - gd.N_SCALARS
+        cq = 3 * n
+        lists = [W.copy(), list(W)]
+        costs = []
+        for ex, w in zip((compiled, plain), lists, strict=True):
+            ex.derivative_lane(w, C, 0, 1, n, True, Y, U, UJ, EXT, MAT, OUT, 0, sc)
+            costs.append(ex.state_cost_lane(w, C, 0, 1, n, True, False, Y, TGT, X, cq, sc, True))
+        assert np.array_equal(np.asarray(lists[0]), np.array(lists[1], dtype=float))
+        assert costs[0] == costs[1]

@@ -53,10 +53,13 @@ from attitude_envs.faults import ActuatorFaults
 from attitude_envs.jax import faults as jfaults
 from attitude_envs.jax.cost import mode_code, termination_charge
 from attitude_envs.jax.environment import Environment
+from attitude_envs.jax.ops import JAX
 from attitude_envs.jax.spaces import Box
+from attitude_envs.plants.gyrostat_definition import define
 
 #: 2·(180/π): ``degrees(2 a)`` as the numba env computes it (times 2 is exact)
 _TWO_RAD_TO_DEG = 2.0 * (180.0 / np.pi)
+_G = define(JAX)
 #: start-attitude laws (``EnvParams.initial_mode``)
 START_FIXED, START_AXIS_ANGLE, START_EULER = 0, 1, 2
 #: sensor channels whose fault flags follow the actuators' in a ``fault_hint`` observation
@@ -154,89 +157,31 @@ def with_inertia(params: EnvParams, inertia_kg_m2: jax.Array) -> EnvParams:
 # envs, where dispatch dominates, 0.4-1x.
 
 
-def _error_state(y, target, j_s, n: int, include_h: bool):
-    """``x = [q_e,vec, ω, (J_s Ω)]`` (a tuple) with ``q_e = q_T* ⊗ q/|q|`` (``q_e,w ≥ 0``) and
-    ``q_e,w`` (``_error_state_lane``), of the state ``y = (q, ω, Ω)`` and ``target`` (4
-    scalars each)."""
-    qx, qy, qz, qw = y[0], y[1], y[2], y[3]
-    norm = jnp.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
-    qx, qy, qz, qw = qx / norm, qy / norm, qz / norm, qw / norm
-    px, py, pz, pw = -target[0], -target[1], -target[2], target[3]
-    ex = pw * qx + px * qw + py * qz - pz * qy
-    ey = pw * qy - px * qz + py * qw + pz * qx
-    ez = pw * qz + px * qy - py * qx + pz * qw
-    ew = pw * qw - px * qx - py * qy - pz * qz
-    sign = jnp.where(ew < 0.0, -1.0, 1.0).astype(ew.dtype)
-    x = (sign * ex, sign * ey, sign * ez, y[4], y[5], y[6])
-    if include_h:
-        x = x + tuple(j_s * y[7 + i] for i in range(n))
-    return x, sign * ew
-
-
-def _quad_form(M: jax.Array, v, k: int):
-    """``vᵀMv`` of the scalars ``v`` summed row by row
-    (:func:`attitude_envs.plants.ops.define_quad_form`): each row's ``Σ_j M_ij v_j`` in ``j``
-    order, then ``Σ_i v_i (Mv)_i``."""
-    total = None
-    for i in range(k):
-        acc = M[i, 0] * v[0]
-        for j in range(1, k):
-            acc = acc + M[i, j] * v[j]
-        total = v[i] * acc if total is None else total + v[i] * acc
-    return total
-
-
-def _cross(a, b):
-    """``a × b`` of 3 scalars each (the kernel's products)."""
-    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-
-
-def _derivative(y, u, uj, ext, p: EnvParams, n: int) -> tuple:
-    """``ẏ`` of ``y = (q, ω, Ω)`` (``_derivative_lane``, the same products and sums per entry):
-    motor torques ``u`` (N·m) and ``uj = u / J_s`` (``n`` scalars each), external torque
-    ``ext`` (3 scalars, N·m, body axes).
-
-    ``I_eff ω̇ = −ω × (Iω + J_s A Ω) − A u + T_ext + p × K``, ``Ω̇_i = u_i / J_s − a_i·ω̇``,
-    ``q̇ = ½ q ⊗ [ω, 0]``."""
-    I, M, A, j_s, po = p.inertia_kg_m2, p.inertia_eff_inv, p.wheel_axes, p.wheel_inertia_kg_m2, p.offset_torque_nm
-    qx, qy, qz, qw = y[0], y[1], y[2], y[3]
-    w = (y[4], y[5], y[6])
-    h = [I[i, 0] * w[0] + I[i, 1] * w[1] + I[i, 2] * w[2] for i in range(3)]
-    # gravity torque p × K, K = R(q)ᵀ e_Z (Ahangarani Farahani et al., eqs. 6–9); p = 0 adds 0
-    k = (2.0 * (qx * qz - qy * qw), 2.0 * (qy * qz + qx * qw), 1.0 - 2.0 * (qx * qx + qy * qy))
-    pk = _cross((po[0], po[1], po[2]), k)
-    r = [ext[i] + pk[i] for i in range(3)]
-    for j in range(n):
-        hw = j_s * y[7 + j]
-        h = [h[i] + A[i, j] * hw for i in range(3)]
-        r = [r[i] - A[i, j] * u[j] for i in range(3)]
-    wh = _cross(w, h)
-    r = [r[i] - wh[i] for i in range(3)]
-    d = tuple(M[i, 0] * r[0] + M[i, 1] * r[1] + M[i, 2] * r[2] for i in range(3))
-    qv = (qx, qy, qz)
-    q_dot_v = tuple(
-        0.5 * (qw * w[i] + qv[(i + 1) % 3] * w[(i + 2) % 3] - qv[(i + 2) % 3] * w[(i + 1) % 3]) for i in range(3)
+def _constants(p: EnvParams, n: int, n_state: int, m_cost: int) -> tuple[list, int, int, int, int]:
+    """The definition's flat constants ``C`` (the kernel's :func:`pack_constants` layout, as a
+    list of scalars: wheel axes, Q, R, the scalars) and the offsets ``(ax, cq, cr, sc)``."""
+    A, Q, R = p.wheel_axes, p.Q, p.R
+    cq = 3 * n
+    cr = cq + n_state * n_state
+    sc = cr + m_cost * m_cost
+    po = p.offset_torque_nm
+    C = (
+        [A[k, i] for k in range(3) for i in range(n)]
+        + [Q[i, j] for i in range(n_state) for j in range(n_state)]
+        + [R[i, j] for i in range(m_cost) for j in range(m_cost)]
+        + [p.wheel_inertia_kg_m2, p.max_wheel_torque_nm, p.max_wheel_speed_rad_s, p.integrator_dt_s]
+        + [po[0], po[1], po[2], p.max_rate_rad_s, p.control_dt_s, p.episode_duration_s, p.tilt_sin, p.tilt_cos]
     )
-    q_dot_w = -0.5 * (qx * w[0] + qy * w[1] + qz * w[2])
-    wheel_dot = tuple(uj[j] - (A[0, j] * d[0] + A[1, j] * d[1] + A[2, j] * d[2]) for j in range(n))
-    return (*q_dot_v, q_dot_w, *d, *wheel_dot)
+    return C, 0, cq, cr, sc
 
 
-def _tilt_exceeded(q: jax.Array, tilt_sin, tilt_cos) -> jax.Array:
-    """Roll or pitch (3-2-1) beyond the stop ``L``: ``|sin θ| > sin L`` or ``cos φ < cos L``
-    (``_tilt_lane``, no inverse trigonometry)."""
-    qx, qy, qz, qw = q[0], q[1], q[2], q[3]
-    n2 = qx * qx + qy * qy + qz * qz + qw * qw
-    s = 2.0 * (qw * qx + qy * qz)
-    c = n2 - 2.0 * (qx * qx + qy * qy)
-    sin_pitch = 2.0 * (qw * qy - qz * qx) / n2
-    return (jnp.abs(sin_pitch) > tilt_sin) | (c < tilt_cos * jnp.sqrt(s * s + c * c))
-
-
-def _clip(v, lo, hi):
-    """``min(max(v, lo), hi)`` as the kernel's two selects."""
-    v = jnp.where(v < lo, lo, v)
-    return jnp.where(v > hi, hi, v)
+def _error_state(y, target, C, sc: int, n: int, include_h: bool, n_state: int):
+    """``x = [q_e,vec, ω, (J_s Ω)]`` (a tuple) with ``q_e = q_T* ⊗ q/|q|`` (``q_e,w ≥ 0``) and
+    ``q_e,w`` (the definition's ``error_state_lane``), of the state ``y = (q, ω, Ω)`` and
+    ``target`` (4 scalars each); ``C``, ``sc``: :func:`_constants`."""
+    W = [*y[: 7 + n], *target] + [None] * n_state
+    qe_w = _G.error_state_lane(W, C, 0, 1, n, include_h, 0, 7 + n, 11 + n, sc, True)
+    return tuple(W[11 + n : 11 + n + n_state]), qe_w
 
 
 def _from_axis_angle(axis: jax.Array, angle_rad) -> jax.Array:
@@ -397,43 +342,39 @@ class GyrostatEnv(Environment):
         """``n_substeps`` RK4 sub-steps of ``y = [q, ω, Ω]`` with the motor command ``cmd``
         (N·m) held, the stage cost against ``target``; returns the new ``y``, the integrated
         stage cost and the mean motor torque delivered (N·m) (the kernel's sub-step loop)."""
-        n, h, j_s = self.n_wheels, p.integrator_dt_s, p.wheel_inertia_kg_m2
-        n_sub = self.n_substeps
+        n, h = self.n_wheels, p.integrator_dt_s
+        n_sub, n_state = self.n_substeps, self.n_state
         m_cost = 3 if self.body_cost_input else n
-        A, t_max, w_max = p.wheel_axes, p.max_wheel_torque_nm, p.max_wheel_speed_rad_s
-        speed_limited = w_max < jnp.inf
-        cmd_s = tuple(cmd[i] for i in range(n))
-        tgt = tuple(target[i] for i in range(4))
-        ext = tuple(p.disturbance_torque_nm[i] for i in range(3))
+        C, ax, cq, cr, sc = _constants(p, n, n_state, m_cost)
+        cmd_s = [cmd[i] for i in range(n)]
+        tgt = [target[i] for i in range(4)]
+        ext = [p.disturbance_torque_nm[i] for i in range(3)]
+        mat = [p.inertia_kg_m2[i, j] for i in range(3) for j in range(3)]
+        mat += [p.inertia_eff_inv[i, j] for i in range(3) for j in range(3)]
+        # rows of the definition's scratch list (one lane: B = 1, e = 0)
+        Y, U, UJ = 0, 7 + n, 7 + 2 * n
+        EXT = UJ + n
+        MAT = EXT + 3
+        TGT = MAT + len(mat)
+        X = TGT + 4
+        OUT = X + n_state
         half, sixth = 0.5 * h, h / 6.0
 
         def substep(_, carry):
             aug, applied = carry  # (q, ω, Ω, cost) and the mean delivered torque, as scalars
             # motor driver: torque limit, then no torque beyond ±max_speed over the next h
-            u = []
-            for i in range(n):
-                v = _clip(cmd_s[i], -t_max, t_max)
-                hi = j_s / h * (w_max - aug[7 + i])
-                lo = j_s / h * (-w_max - aug[7 + i])
-                limited = _clip(_clip(v, lo, hi), -t_max, t_max)
-                u.append(jnp.where(speed_limited, limited, v))
+            drive = cmd_s + list(aug[7 : 7 + n])
+            u = [_G.speed_limit_lane(drive, C, 0, 1, i, 0, n, sc) for i in range(n)]
             applied = tuple(applied[i] + u[i] / n_sub for i in range(n))
-            uj = [u[i] / j_s for i in range(n)]
-            if self.body_cost_input:  # u_c = −A u, summed over the wheels in order
-                uc = []
-                for c in range(3):
-                    acc = 0.0 - A[c, 0] * u[0]
-                    for i in range(1, n):
-                        acc = acc - A[c, i] * u[i]
-                    uc.append(acc)
-            else:
-                uc = u
-            ru = _quad_form(p.R, uc, m_cost)
+            terms = u + [None] * (n + max(3, n))
+            ru = _G.input_terms_lane(terms, C, 0, 1, n, self.body_cost_input, 0, n, 2 * n, ax, cr, sc)
+            uj = terms[n : 2 * n]
 
             def f(state):  # (ẏ, stage cost) as one tuple
-                dy = _derivative(state, u, uj, ext, p, n)
-                x, _ = _error_state(state, tgt, j_s, n, self.include_wheel_momentum)
-                return (*dy, _quad_form(p.Q, x, self.n_state) + ru)
+                W = [*state[: 7 + n], *u, *uj, *ext, *mat, *tgt] + [None] * (n_state + 7 + n)
+                _G.derivative_lane(W, C, 0, 1, n, True, Y, U, UJ, EXT, MAT, OUT, ax, sc)
+                x_cost = _G.state_cost_lane(W, C, 0, 1, n, self.include_wheel_momentum, False, Y, TGT, X, cq, sc, True)
+                return (*W[OUT : OUT + 7 + n], x_cost + ru)
 
             # classical RK4: stages at t, t + h/2, t + h/2, t + h, as a loop. Unrolled, the
             # stages ran 1.2x faster at 8 envs but XLA's CPU fusion recomputed shared terms
@@ -466,7 +407,9 @@ class GyrostatEnv(Environment):
         """The observation of state ``y`` at ``t_s`` (s) under the episode's ``faults``, the
         error state ``x`` and ``q_e,w``."""
         y_s, target_s = tuple(y[i] for i in range(7 + self.n_wheels)), tuple(target[i] for i in range(4))
-        x, qe_w = _error_state(y_s, target_s, params.wheel_inertia_kg_m2, self.n_wheels, self.include_wheel_momentum)
+        n, n_state = self.n_wheels, self.n_state
+        C, _, _, _, sc = _constants(params, n, n_state, 3 if self.body_cost_input else n)
+        x, qe_w = _error_state(y_s, target_s, C, sc, n, self.include_wheel_momentum, n_state)
         x = jnp.stack(x)
         parts = [x]
         if self.observe_wheel_speeds:
@@ -498,7 +441,7 @@ class GyrostatEnv(Environment):
         obs, x, qe_w = self._observe(y_new, state.target_attitude, state.faults, t1, p)
         finite = jnp.all(jnp.isfinite(y_new)) & jnp.isfinite(cost)
         rate = jnp.max(jnp.abs(y_new[4:7]))
-        tilt = _tilt_exceeded(y_new[0:4], p.tilt_sin, p.tilt_cos)
+        tilt = _G.tilt_lane(y_new[0], y_new[1], y_new[2], y_new[3], p.tilt_sin, p.tilt_cos)
         terminated = jnp.logical_not(finite) | (rate > p.max_rate_rad_s) | tilt
         charge = termination_charge(p.termination_mode, x, p.Q, p.episode_duration_s, t1)
         cost = cost + jnp.where(terminated & finite, charge, 0.0)

@@ -24,16 +24,25 @@ import functools
 import numpy as np
 from numba import njit
 
+from attitude_envs.plants.gyrostat_definition import (
+    MAT_ROWS,
+    N_SCALARS,
+    S_DT,
+    S_DURATION,
+    S_H,
+    S_JS,
+    S_MAX_RATE,
+    S_MAX_SPEED,
+    S_MAX_TORQUE,
+    S_TILT_COS,
+    S_TILT_SIN,
+    define,
+)
+from attitude_envs.plants.ops import NUMBA
+
 #: Block width of the batched step (envs per SIMD block). 64 lanes keep one block's
 #: scratch rows (~10 kB for 4 wheels) in the L1 cache.
 BATCH_LANES = 64
-
-#: Packed per-env matrices: rows 0–8 the inertia ``I`` (row-major), 9–17 ``I_eff⁻¹``.
-MAT_ROWS = 18
-
-# Scalar constants of the step, in the order of :func:`pack_constants`.
-_JS, _MAX_TORQUE, _MAX_SPEED, _H, _PX, _PY, _PZ, _MAX_RATE, _DT, _DURATION, _TILT_SIN, _TILT_COS = range(12)
-N_SCALARS = 12
 
 
 def pack_constants(
@@ -81,161 +90,18 @@ def pack_matrices(inertia: np.ndarray, inertia_eff_inv: np.ndarray) -> np.ndarra
 
 
 # ---------------------------------------------------------------------------- lane math
-# Each function computes one env (lane ``e``) of a block: row ``r`` of the scratch buffer
-# ``W`` is ``W[r * B + e]``, the shared constants are ``C`` (:func:`pack_constants`).
-# Inlined into the step's loops over ``e`` (numba IR inlining), so those loops vectorize.
-
-
-@njit(inline="always", error_model="numpy")
-def _derivative_lane(W, C, e, B, n, offset, y, u, uj, ext, mat, out, ax, sc):
-    """Rows ``out[0:7+n]`` = ẏ of the state rows ``y`` (q, ω, Ω), motor torque rows ``u``
-    (N·m) and ``uj`` (``u_i / J_s``, see :func:`_input_terms_lane`), external torque rows
-    ``ext`` (3, N·m, body), matrix rows ``mat``; ``ax`` and ``sc`` are the offsets of the
-    wheel axes and of the scalars (:func:`pack_constants`).
-
-    ``I_eff ω̇ = −ω × (Iω + J_s A Ω) − A u + T_ext + p × K`` with ``K = R(q)ᵀ e_Z`` the unit
-    gravity direction in body axes (air-bearing offset torque, Ahangarani Farahani et al.,
-    eqs. 6–9; left out unless ``offset``: ``p = 0`` for a free body),
-    ``Ω̇_i = u_i / J_s − a_i·ω̇``,
-    ``q̇ = ½ q ⊗ [ω, 0]``.
-    """
-    j_s = C[sc + _JS]
-    qx = W[y * B + e]
-    qy = W[(y + 1) * B + e]
-    qz = W[(y + 2) * B + e]
-    qw = W[(y + 3) * B + e]
-    w0 = W[(y + 4) * B + e]
-    w1 = W[(y + 5) * B + e]
-    w2 = W[(y + 6) * B + e]
-    h0 = W[mat * B + e] * w0 + W[(mat + 1) * B + e] * w1 + W[(mat + 2) * B + e] * w2
-    h1 = W[(mat + 3) * B + e] * w0 + W[(mat + 4) * B + e] * w1 + W[(mat + 5) * B + e] * w2
-    h2 = W[(mat + 6) * B + e] * w0 + W[(mat + 7) * B + e] * w1 + W[(mat + 8) * B + e] * w2
-    r0 = W[ext * B + e]
-    r1 = W[(ext + 1) * B + e]
-    r2 = W[(ext + 2) * B + e]
-    if offset:
-        k0 = 2.0 * (qx * qz - qy * qw)
-        k1 = 2.0 * (qy * qz + qx * qw)
-        k2 = 1.0 - 2.0 * (qx * qx + qy * qy)
-        p0, p1, p2 = C[sc + _PX], C[sc + _PY], C[sc + _PZ]
-        r0 += p1 * k2 - p2 * k1
-        r1 += p2 * k0 - p0 * k2
-        r2 += p0 * k1 - p1 * k0
-    for i in range(n):
-        a0, a1, a2 = C[ax + i], C[ax + n + i], C[ax + 2 * n + i]
-        hw = j_s * W[(y + 7 + i) * B + e]
-        h0 += a0 * hw
-        h1 += a1 * hw
-        h2 += a2 * hw
-        ui = W[(u + i) * B + e]
-        r0 -= a0 * ui
-        r1 -= a1 * ui
-        r2 -= a2 * ui
-    r0 -= w1 * h2 - w2 * h1
-    r1 -= w2 * h0 - w0 * h2
-    r2 -= w0 * h1 - w1 * h0
-    m = mat + 9
-    d0 = W[m * B + e] * r0 + W[(m + 1) * B + e] * r1 + W[(m + 2) * B + e] * r2
-    d1 = W[(m + 3) * B + e] * r0 + W[(m + 4) * B + e] * r1 + W[(m + 5) * B + e] * r2
-    d2 = W[(m + 6) * B + e] * r0 + W[(m + 7) * B + e] * r1 + W[(m + 8) * B + e] * r2
-    W[out * B + e] = 0.5 * (qw * w0 + qy * w2 - qz * w1)
-    W[(out + 1) * B + e] = 0.5 * (qw * w1 + qz * w0 - qx * w2)
-    W[(out + 2) * B + e] = 0.5 * (qw * w2 + qx * w1 - qy * w0)
-    W[(out + 3) * B + e] = -0.5 * (qx * w0 + qy * w1 + qz * w2)
-    W[(out + 4) * B + e] = d0
-    W[(out + 5) * B + e] = d1
-    W[(out + 6) * B + e] = d2
-    for i in range(n):
-        a0, a1, a2 = C[ax + i], C[ax + n + i], C[ax + 2 * n + i]
-        W[(out + 7 + i) * B + e] = W[(uj + i) * B + e] - (a0 * d0 + a1 * d1 + a2 * d2)
-
-
-@njit(inline="always", error_model="numpy")
-def _error_state_lane(W, C, e, B, n, include_h, y, target, x, sc):
-    """Rows ``x`` = ``[q_e,vec, ω, (J_s Ω)]`` with ``q_e = q_T* ⊗ q/|q|`` (``q_e,w ≥ 0``) of
-    the state rows ``y`` and target rows ``target``; returns ``q_e,w``."""
-    qx = W[y * B + e]
-    qy = W[(y + 1) * B + e]
-    qz = W[(y + 2) * B + e]
-    qw = W[(y + 3) * B + e]
-    norm = np.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
-    qx, qy, qz, qw = qx / norm, qy / norm, qz / norm, qw / norm
-    px = -W[target * B + e]
-    py = -W[(target + 1) * B + e]
-    pz = -W[(target + 2) * B + e]
-    pw = W[(target + 3) * B + e]
-    ex = pw * qx + px * qw + py * qz - pz * qy
-    ey = pw * qy - px * qz + py * qw + pz * qx
-    ez = pw * qz + px * qy - py * qx + pz * qw
-    ew = pw * qw - px * qx - py * qy - pz * qz
-    if ew < 0.0:
-        ex, ey, ez, ew = -ex, -ey, -ez, -ew
-    W[x * B + e] = ex
-    W[(x + 1) * B + e] = ey
-    W[(x + 2) * B + e] = ez
-    W[(x + 3) * B + e] = W[(y + 4) * B + e]
-    W[(x + 4) * B + e] = W[(y + 5) * B + e]
-    W[(x + 5) * B + e] = W[(y + 6) * B + e]
-    if include_h:
-        j_s = C[sc + _JS]
-        for i in range(n):
-            W[(x + 6 + i) * B + e] = j_s * W[(y + 7 + i) * B + e]
-    return ew
-
-
-@njit(inline="always", error_model="numpy")
-def _quad_form_lane(W, C, e, B, mat, v, k, diagonal):
-    """``vᵀ M v`` of the ``k`` rows ``v``, ``M`` row-major at offset ``mat`` (row-by-row
-    summation, the order of :func:`attitude_envs.plants.ops.define_quad_form`). With
-    ``diagonal`` (``M`` is) the zero terms are left out: for finite ``v`` the same value,
-    bit for bit (each row's sum is ``0 + M_ii v_i`` either way)."""
-    total = 0.0
-    for i in range(k):
-        if diagonal:
-            acc = 0.0 + C[mat + i * k + i] * W[(v + i) * B + e]
-        else:
-            acc = 0.0
-            for j in range(k):
-                acc += C[mat + i * k + j] * W[(v + j) * B + e]
-        total += W[(v + i) * B + e] * acc
-    return total
-
-
-@njit(inline="always", error_model="numpy")
-def _state_cost_lane(W, C, e, B, n, include_h, diagonal_q, y, target, x, cq, sc):
-    """``xᵀQx`` of the state rows ``y`` (``x``: scratch rows for the error state)."""
-    _error_state_lane(W, C, e, B, n, include_h, y, target, x, sc)
-    return _quad_form_lane(W, C, e, B, cq, x, 6 + n if include_h else 6, diagonal_q)
-
-
-@njit(inline="always", error_model="numpy")
-def _input_terms_lane(W, C, e, B, n, body_input, u, uj, uc, ax, cr, sc):
-    """What the RK4 stages share while the motor torque rows ``u`` are held: rows ``uj`` =
-    ``u_i / J_s``, and the returned input cost ``u_cᵀRu_c`` with ``u_c = −A u``
-    (``body_input``) or ``u`` (``uc``: scratch rows)."""
-    j_s = C[sc + _JS]
-    for i in range(n):
-        W[(uj + i) * B + e] = W[(u + i) * B + e] / j_s
-    if body_input:
-        for k in range(3):
-            acc = 0.0
-            for i in range(n):
-                acc -= C[ax + k * n + i] * W[(u + i) * B + e]
-            W[(uc + k) * B + e] = acc
-        return _quad_form_lane(W, C, e, B, cr, uc, 3, False)
-    return _quad_form_lane(W, C, e, B, cr, u, n, False)
-
-
-@njit(inline="always", error_model="numpy")
-def _tilt_lane(qx, qy, qz, qw, tilt_sin, tilt_cos):
-    """Whether roll φ or pitch θ (3-2-1 Euler angles of ``q``) is beyond the stop ``L``:
-    ``|θ| > L ⟺ |sin θ| > sin L`` and ``|φ| > L ⟺ cos φ < cos L`` (``L < π/2``), the
-    angles of :func:`attitude_envs.euler.euler_321_rad` without the inverse trigonometry."""
-    n2 = qx * qx + qy * qy + qz * qz + qw * qw
-    s = 2.0 * (qw * qx + qy * qz)
-    c = n2 - 2.0 * (qx * qx + qy * qy)
-    sin_pitch = 2.0 * (qw * qy - qz * qx) / n2
-    return (abs(sin_pitch) > tilt_sin) | (c < tilt_cos * np.sqrt(s * s + c * c))
+# The plant definition's row functions (attitude_envs.plants.gyrostat_definition): each
+# computes one env (lane ``e``) of a block, row ``r`` of the scratch buffer ``W`` at
+# ``W[r * B + e]``, the shared constants in ``C`` (:func:`pack_constants`); inlined into the
+# step's loops over ``e`` (numba IR inlining), so those loops vectorize.
+_G = define(NUMBA)
+_derivative_lane = _G.derivative_lane
+_error_state_lane = _G.error_state_lane
+_state_cost_lane = _G.state_cost_lane
+_input_terms_lane = _G.input_terms_lane
+_tilt_lane = _G.tilt_lane
+_clip = _G.clip
+_speed_limit_lane = _G.speed_limit_lane
 
 
 @njit(cache=True, error_model="numpy")
@@ -243,29 +109,7 @@ def tilt_exceeded(q, constants):
     """:func:`_tilt_lane` of one quaternion ``q`` with the stop of :func:`pack_constants`'s
     ``constants`` (the single env's ``info``; the step uses the same test)."""
     sc = constants.shape[0] - N_SCALARS
-    return _tilt_lane(q[0], q[1], q[2], q[3], constants[sc + _TILT_SIN], constants[sc + _TILT_COS])
-
-
-@njit(inline="always", error_model="numpy")
-def _clip(v, lo, hi):
-    """``min(max(v, lo), hi)`` written as two selects (numba's ``min``/``max`` do not vectorize)."""
-    v = lo if v < lo else v
-    return hi if v > hi else v
-
-
-@njit(inline="always", error_model="numpy")
-def _speed_limit_lane(W, C, e, B, i, cmd, wheel, sc):
-    """Motor torque (N·m) of wheel ``i`` after the torque limit and the motor driver's
-    speed limit: over the next ``h`` seconds the torque may take the wheel up to
-    ``±max_speed`` but not beyond (ignoring the small body-coupling term ``a_i·ω̇``), so a
-    wheel at its limit gets no further torque outwards."""
-    max_torque, max_speed, j_s, h = C[sc + _MAX_TORQUE], C[sc + _MAX_SPEED], C[sc + _JS], C[sc + _H]
-    v = _clip(W[(cmd + i) * B + e], -max_torque, max_torque)
-    wheel_speed = W[(wheel + i) * B + e]
-    hi = j_s / h * (max_speed - wheel_speed)
-    lo = j_s / h * (-max_speed - wheel_speed)
-    limited = _clip(_clip(v, lo, hi), -max_torque, max_torque)
-    return limited if max_speed < np.inf else v
+    return _tilt_lane(q[0], q[1], q[2], q[3], constants[sc + S_TILT_SIN], constants[sc + S_TILT_COS])
 
 
 class _Rows:
@@ -401,11 +245,11 @@ def step_kernel(n_wheels: int, lanes: int, include_h: bool, body_input: bool, di
                 zero += 0.0 * cmd[g, i]
         if zero != 0.0:
             return -1
-        h = C[SC + _H]
-        max_torque = C[SC + _MAX_TORQUE]
-        max_rate, dt, duration = C[SC + _MAX_RATE], C[SC + _DT], C[SC + _DURATION]
-        max_speed = C[SC + _MAX_SPEED]
-        tilt_sin, tilt_cos = C[SC + _TILT_SIN], C[SC + _TILT_COS]
+        h = C[SC + S_H]
+        max_torque = C[SC + S_MAX_TORQUE]
+        max_rate, dt, duration = C[SC + S_MAX_RATE], C[SC + S_DT], C[SC + S_DURATION]
+        max_speed = C[SC + S_MAX_SPEED]
+        tilt_sin, tilt_cos = C[SC + S_TILT_SIN], C[SC + S_TILT_COS]
         has_ext = ext.shape[1] > 0
         n_done = 0
         for b in range(Y.shape[0]):
@@ -457,7 +301,7 @@ def step_kernel(n_wheels: int, lanes: int, include_h: bool, body_input: bool, di
                     for e in range(B):  # SIMD loops: one env per lane
                         _derivative_lane(W, C, e, B, n, offset, TMP, U, UJ, EXT, MAT, K, AX, SC)
                     for e in range(B):  # the stage cost xᵀQx + u_cᵀRu_c
-                        state_cost = _state_cost_lane(W, C, e, B, n, include_h, diagonal_q, TMP, TGT, X, CQ, SC)
+                        state_cost = _state_cost_lane(W, C, e, B, n, include_h, diagonal_q, TMP, TGT, X, CQ, SC, True)
                         W[(K + SIZE - 1) * B + e] = state_cost + W[RU * B + e]
                     # acc = k1 + 2 k2 + 2 k3 + k4, summed in that order
                     if stage == 0:
@@ -483,7 +327,7 @@ def step_kernel(n_wheels: int, lanes: int, include_h: bool, body_input: bool, di
                     Y[b, r, e] = W[(AUG + r) * B + e]
             # outputs: error state, finiteness (Σ y·0 is 0 or NaN) and tumble rate per lane
             for e in range(B):
-                W[QEW * B + e] = _error_state_lane(W, C, e, B, n, include_h, AUG, TGT, X, SC)
+                W[QEW * B + e] = _error_state_lane(W, C, e, B, n, include_h, AUG, TGT, X, SC, True)
                 zero = 0.0
                 for r in range(SIZE):
                     zero += 0.0 * W[(AUG + r) * B + e]
@@ -545,7 +389,7 @@ def derivative_columns(Y, U, EXT, M, constants, out):
     for e in range(Y.shape[1]):
         W[y : y + 7 + n] = Y[:, e]
         W[u : u + n] = U[:, e]
-        W[uj : uj + n] = U[:, e] / constants[sc + _JS]
+        W[uj : uj + n] = U[:, e] / constants[sc + S_JS]
         W[ext : ext + 3] = EXT[:, e]
         W[mat : mat + MAT_ROWS] = M[:, e]
         _derivative_lane(W, constants, 0, 1, n, True, y, u, uj, ext, mat, o, 0, sc)
@@ -558,10 +402,10 @@ def error_state_columns(Y, T, j_s, include_h, out, qe_w_out):
     ``out`` (n_state, E) ``[q_e,vec, ω, (J_s Ω)]``, ``qe_w_out`` (E) ``q_e,w``."""
     n = Y.shape[0] - 7
     n_state = out.shape[0]
-    C = np.full(1, j_s)  # J_s at offset 0 (= _JS)
+    C = np.full(1, j_s)  # J_s at offset 0 (= S_JS)
     W = np.empty(11 + n + n_state)
     for e in range(Y.shape[1]):
         W[: 7 + n] = Y[:, e]
         W[7 + n : 11 + n] = T[:, e]
-        qe_w_out[e] = _error_state_lane(W, C, 0, 1, n, include_h, 0, 7 + n, 11 + n, 0)
+        qe_w_out[e] = _error_state_lane(W, C, 0, 1, n, include_h, 0, 7 + n, 11 + n, 0, True)
         out[:, e] = W[11 + n : 11 + n + n_state]

@@ -20,6 +20,10 @@ from attitude_envs.cost import QuadraticCost
 from attitude_envs.linearization import LinearModel
 from attitude_envs.plants import gyrostat_kernels as kernels
 from attitude_envs.plants.gyrostat import GyrostatParams
+from attitude_envs.plants.gyrostat_definition import MAT_ROWS, N_SCALARS, define
+from attitude_envs.plants.ops import NUMPY
+
+_PLANT = define(NUMPY)
 
 
 @dataclass(frozen=True)
@@ -59,24 +63,31 @@ class ReactionWheelModel:
     def error_derivative(
         self, x: np.ndarray, motor_torque_nm: np.ndarray, wheel_speed_rad_s: np.ndarray | None = None
     ) -> np.ndarray:
-        """``ẋ`` of the nonlinear plant in error coordinates (the target is inertially fixed).
+        """``ẋ`` of the nonlinear plant in error coordinates (the target is inertially fixed, so
+        ``q̇_e = ½ q_e ⊗ [ω, 0]``: the plant definition's derivative at ``q = q_e``).
 
         When wheel momentum is not part of ``x`` the wheels sit at ``wheel_speed_rad_s``
         (zero by default); used for finite-difference checks of :meth:`linearize`.
         """
         p = self.params
-        v, w = x[:3], x[3:6]
+        n, j_s = p.n_wheels, p.wheel_inertia_kg_m2
+        v, w = np.asarray(x[:3], dtype=float), np.asarray(x[3:6], dtype=float)
         if self.include_wheel_momentum:
-            wheel = x[6:] / p.wheel_inertia_kg_m2
+            wheel = np.asarray(x[6:], dtype=float) / j_s
         else:
-            wheel = np.zeros(p.n_wheels) if wheel_speed_rad_s is None else wheel_speed_rad_s
-        s = np.sqrt(max(0.0, 1.0 - v @ v))
-        v_dot = 0.5 * (s * w + np.cross(v, w))
-        h = p.inertia_kg_m2 @ w + p.wheel_inertia_kg_m2 * p.wheel_axes @ wheel
-        w_dot = p.inertia_eff_inv @ (-np.cross(w, h) - p.wheel_axes @ motor_torque_nm)
-        parts = [v_dot, w_dot]
+            wheel = np.zeros(n) if wheel_speed_rad_s is None else np.asarray(wheel_speed_rad_s, dtype=float)
+        u = np.asarray(motor_torque_nm, dtype=float)
+        y = [*v, float(np.sqrt(max(0.0, 1.0 - v @ v))), *w, *wheel]
+        constants = kernels.pack_constants(p.wheel_axes, np.zeros(0), np.zeros(0), j_s, 0.0, np.inf, 0.0, np.zeros(3))
+        sc = constants.shape[0] - N_SCALARS
+        mats = kernels.pack_matrices(p.inertia_kg_m2, p.inertia_eff_inv)
+        rows = [*y, *u, *(u / j_s), 0.0, 0.0, 0.0, *mats] + [0.0] * (7 + n)
+        out = 7 + 3 * n + 3 + MAT_ROWS
+        _PLANT.derivative_lane(rows, constants, 0, 1, n, False, 0, 7 + n, 7 + 2 * n, 7 + 3 * n, 10 + 3 * n, out, 0, sc)
+        dy = np.array(rows[out : out + 7 + n])
+        parts = [dy[0:3], dy[4:7]]
         if self.include_wheel_momentum:
-            parts.append(motor_torque_nm - p.wheel_inertia_kg_m2 * p.wheel_axes.T @ w_dot)
+            parts.append(j_s * dy[7:])
         return np.concatenate(parts)
 
     def linearize(self, wheel_speed_rad_s: np.ndarray | None = None, input: str | None = None) -> LinearModel:

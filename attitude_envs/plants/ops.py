@@ -48,7 +48,7 @@ class Ops:
     compile: Callable[[Callable], Callable] = _identity
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _select(condition, a, b):
     return a if condition else b
 

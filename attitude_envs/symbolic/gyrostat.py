@@ -6,7 +6,9 @@ One symbolic model serves both users of the equations: the optimal-control yards
 (:mod:`baselines.mpc`: the NOMINAL model, :meth:`GyrostatParameters.nominal`). They differ
 only in the :class:`GyrostatParameters` they pass to :func:`step_function` and in ``smooth``.
 
-The step of :func:`attitude_envs.plants.gyrostat_kernels.step_kernel`, written out in CasADi:
+The step of :func:`attitude_envs.plants.gyrostat_kernels.step_kernel`, built from the plant's one
+definition (:mod:`attitude_envs.plants.gyrostat_definition`, its row functions on a list of
+symbols) in the kernel's order of operations:
 state ``[q (4, scalar last), ω (3, rad/s), Ω (N, rad/s)]``; the action clipped to [−1, 1] and
 scaled by the torque limit (``action_frame="body"``: the minimum-norm allocation
 ``u = −A⁺T``, each wheel clipped); the actuator faults at the step's start time ``t``; then
@@ -36,8 +38,23 @@ from typing import Any
 import casadi
 import numpy as np
 
+from attitude_envs.plants.gyrostat_definition import (
+    MAT_ROWS,
+    N_SCALARS,
+    S_H,
+    S_JS,
+    S_MAX_SPEED,
+    S_MAX_TORQUE,
+    S_PX,
+    S_PY,
+    S_PZ,
+    define,
+)
 from attitude_envs.symbolic import actuators
+from attitude_envs.symbolic.ops import CASADI
 from attitude_envs.symbolic.problem import DiscreteProblem
+
+_G = define(CASADI)
 
 __all__ = [
     "GyrostatParameters",
@@ -166,25 +183,37 @@ def _disturbance(env):
     raise ValueError(f"disturbance kind must be 'constant' or 'sinusoidal' for a symbolic model, got {d.kind!r}")
 
 
+def _constants(params: GyrostatParameters) -> tuple[list, int, int, int, int]:
+    """The definition's flat constants ``C`` of ``params`` (the kernel's ``pack_constants``
+    layout as a list of floats: wheel axes, Q, R, the scalars) and the offsets
+    ``(ax, cq, cr, sc)``; the scalars the step does not read are 0."""
+    n, q_mat, r_mat = params.n_wheels, np.asarray(params.Q, float), np.asarray(params.R, float)
+    cq = 3 * n
+    cr = cq + q_mat.size
+    sc = cr + r_mat.size
+    scalars = np.zeros(N_SCALARS)
+    scalars[[S_JS, S_MAX_TORQUE, S_MAX_SPEED, S_H]] = [
+        params.wheel_inertia_kg_m2,
+        params.max_wheel_torque_nm,
+        params.max_wheel_speed_rad_s,
+        params.integrator_dt_s,
+    ]
+    scalars[[S_PX, S_PY, S_PZ]] = np.asarray(params.offset_torque_nm, dtype=float)
+    flat = np.concatenate([np.ravel(params.wheel_axes), q_mat.ravel(), r_mat.ravel(), scalars])
+    return [float(v) for v in flat], 0, cq, cr, sc
+
+
 def error_state(params: GyrostatParameters, y, q_target, smooth: bool = False):
     """The cost's error state ``x = [q_e,vec, ω, (J_s Ω)]`` of a symbolic state ``y``
     (SX or MX) with ``q_e = q_T* ⊗ q/|q|``, signed so that ``q_e,w ≥ 0`` as the env does
-    (``smooth=True``: no sign flip, a smooth function of ``y``)."""
-    q = y[0:4] / casadi.norm_2(y[0:4])
-    qx, qy, qz, qw = q[0], q[1], q[2], q[3]
-    px, py, pz, pw = -q_target[0], -q_target[1], -q_target[2], q_target[3]
-    vec = casadi.vertcat(
-        pw * qx + px * qw + py * qz - pz * qy,
-        pw * qy - px * qz + py * qw + pz * qx,
-        pw * qz + px * qy - py * qx + pz * qw,
-    )
-    if not smooth:
-        ew = pw * qw - px * qx - py * qy - pz * qz
-        vec = casadi.if_else(ew < 0.0, -1.0, 1.0) * vec
-    parts = [vec, y[4:7]]
-    if params.include_wheel_momentum:
-        parts.append(params.wheel_inertia_kg_m2 * y[7 : 7 + params.n_wheels])
-    return casadi.vertcat(*parts)
+    (``smooth=True``: no sign flip, a smooth function of ``y``); the definition's
+    ``error_state_lane``."""
+    n = params.n_wheels
+    n_state = 6 + n if params.include_wheel_momentum else 6
+    C, _, _, _, sc = _constants(params)
+    W = [y[i] for i in range(7 + n)] + [q_target[i] for i in range(4)] + [None] * n_state
+    _G.error_state_lane(W, C, 0, 1, n, params.include_wheel_momentum, 0, 7 + n, 11 + n, sc, not smooth)
+    return casadi.vertcat(*W[11 + n : 11 + n + n_state])
 
 
 def step_function(params: GyrostatParameters, smooth: bool = False) -> casadi.Function:
@@ -196,48 +225,27 @@ def step_function(params: GyrostatParameters, smooth: bool = False) -> casadi.Fu
     torque clips, no speed limiter, no error-quaternion sign flip (the caller bounds ``a``;
     realized ``faults``, if any, still clip at their limits as the env's fault layer does)."""
     n = params.n_wheels
-    axes = casadi.DM(params.wheel_axes)
-    j_s = float(params.wheel_inertia_kg_m2)
-    max_torque, max_speed = float(params.max_wheel_torque_nm), float(params.max_wheel_speed_rad_s)
-    offset = np.asarray(params.offset_torque_nm, dtype=float)
-    inertia, inertia_eff_inv = casadi.DM(params.inertia_kg_m2), casadi.DM(params.inertia_eff_inv)
-    q_mat, r_mat = casadi.DM(params.Q), casadi.DM(params.R)
+    max_torque = float(params.max_wheel_torque_nm)
+    offset = bool(np.any(np.asarray(params.offset_torque_nm) != 0.0))
+    include_h = bool(params.include_wheel_momentum)
+    n_state = 6 + n if include_h else 6
     body_input = params.cost_input == "body"
     h, n_sub = float(params.integrator_dt_s), int(params.n_substeps)
     ext = params.external_torque
-
-    def derivative(z, u, t_ext):
-        q, w, wheel = z[0:4], z[4:7], z[7 : 7 + n]
-        mom = casadi.mtimes(inertia, w) + j_s * casadi.mtimes(axes, wheel)
-        r = -casadi.mtimes(axes, u) - casadi.cross(w, mom)
-        if t_ext is not None:
-            r = r + t_ext
-        if np.any(offset != 0.0):
-            qx, qy, qz, qw = q[0], q[1], q[2], q[3]
-            k_dir = casadi.vertcat(
-                2.0 * (qx * qz - qy * qw), 2.0 * (qy * qz + qx * qw), 1.0 - 2.0 * (qx * qx + qy * qy)
-            )
-            r = r + casadi.cross(casadi.DM(offset), k_dir)
-        w_dot = casadi.mtimes(inertia_eff_inv, r)
-        qx, qy, qz, qw = q[0], q[1], q[2], q[3]
-        w0, w1, w2 = w[0], w[1], w[2]
-        q_dot = 0.5 * casadi.vertcat(
-            qw * w0 + qy * w2 - qz * w1,
-            qw * w1 + qz * w0 - qx * w2,
-            qw * w2 + qx * w1 - qy * w0,
-            -(qx * w0 + qy * w1 + qz * w2),
-        )
-        wheel_dot = u / j_s - casadi.mtimes(axes.T, w_dot)
-        return casadi.vertcat(q_dot, w_dot, wheel_dot)
+    C, ax, cq, cr, sc = _constants(params)
+    mat = [float(v) for v in np.ravel(params.inertia_kg_m2)] + [float(v) for v in np.ravel(params.inertia_eff_inv)]
+    # rows of the definition's scratch list (one lane: B = 1, e = 0)
+    Y, U, UJ = 0, 7 + n, 7 + 2 * n
+    EXT = UJ + n
+    MAT = EXT + 3
+    TGT = MAT + MAT_ROWS
+    X = TGT + 4
+    OUT = X + n_state
 
     y = casadi.SX.sym("y", 7 + n)
     a = casadi.SX.sym("a", params.n_actions)
     t0 = casadi.SX.sym("t")
     target = casadi.SX.sym("q_T", 4)
-
-    def stage_cost(z):
-        x = error_state(params, z, target, smooth)
-        return casadi.bilin(q_mat, x, x)
 
     a_c = a if smooth else actuators.clip(a, -1.0, 1.0)
     if params.action_frame == "body":
@@ -251,31 +259,33 @@ def step_function(params: GyrostatParameters, smooth: bool = False) -> casadi.Fu
         # delivered = e ⊙ commanded: the env's outage (e = 0) and loss of effectiveness (e = 1 − value)
         commanded = commanded * casadi.DM(np.asarray(eff, dtype=float))
     cmd = actuators.delivered(commanded, t0, params.faults, np.full(n, max_torque))
+    cmd = [cmd[i] for i in range(n)]
+    tgt = [target[i] for i in range(4)]
 
-    z, cost = y, casadi.SX(0.0)
+    z = [y[i] for i in range(7 + n)] + [casadi.SX(0.0)]
     for j in range(n_sub):
-        v = cmd
-        if not smooth:
-            v = actuators.clip(v, -max_torque, max_torque)
-            if np.isfinite(max_speed):  # the motor driver's speed limiter (gyrostat_kernels._speed_limit_lane)
-                wheel = z[7 : 7 + n]
-                v = actuators.clip(
-                    actuators.clip(v, j_s / h * (-max_speed - wheel), j_s / h * (max_speed - wheel)),
-                    -max_torque,
-                    max_torque,
-                )
-        u_c = -casadi.mtimes(axes, v) if body_input else v
-        input_cost = casadi.bilin(r_mat, u_c, u_c)
+        if smooth:
+            u = cmd
+        else:  # the motor driver: torque limit, speed limiter (the kernel's speed_limit_lane)
+            drive = cmd + z[7 : 7 + n]
+            u = [_G.speed_limit_lane(drive, C, 0, 1, i, 0, n, sc) for i in range(n)]
+        terms = u + [None] * (n + max(3, n))
+        input_cost = _G.input_terms_lane(terms, C, 0, 1, n, body_input, 0, n, 2 * n, ax, cr, sc)
+        uj = terms[n : 2 * n]
         t_j = t0 + j * h
-        ks, costs = [], []
+        ks = []
         for stage, frac in enumerate((0.0, 0.5, 0.5, 1.0)):
-            zs = z if stage == 0 else z + (h if stage == 3 else 0.5 * h) * ks[-1]
-            t_ext = None if ext is None else ext(t_j + frac * h)
-            ks.append(derivative(zs, v, t_ext))
-            costs.append(stage_cost(zs) + input_cost)
-        z = z + (h / 6.0) * (ks[0] + 2.0 * ks[1] + 2.0 * ks[2] + ks[3])
-        cost = cost + (h / 6.0) * (costs[0] + 2.0 * costs[1] + 2.0 * costs[2] + costs[3])
-        z = casadi.vertcat(z[0:4] / casadi.norm_2(z[0:4]), z[4:])
+            step = h if stage == 3 else 0.5 * h
+            zs = z if stage == 0 else [z[i] + step * ks[-1][i] for i in range(8 + n)]
+            t_ext = [0.0, 0.0, 0.0] if ext is None else ext(t_j + frac * h)
+            W = zs[: 7 + n] + u + uj + [t_ext[c] for c in range(3)] + mat + tgt + [None] * (n_state + 7 + n)
+            _G.derivative_lane(W, C, 0, 1, n, offset, Y, U, UJ, EXT, MAT, OUT, ax, sc)
+            state_cost = _G.state_cost_lane(W, C, 0, 1, n, include_h, False, Y, TGT, X, cq, sc, not smooth)
+            ks.append(W[OUT : OUT + 7 + n] + [state_cost + input_cost])
+        z = [z[i] + (h / 6.0) * (ks[0][i] + 2.0 * ks[1][i] + 2.0 * ks[2][i] + ks[3][i]) for i in range(8 + n)]
+        norm = casadi.sqrt(z[0] * z[0] + z[1] * z[1] + z[2] * z[2] + z[3] * z[3])
+        z = [z[i] / norm for i in range(4)] + z[4:]
+    z, cost = casadi.vertcat(*z[: 7 + n]), z[7 + n]
     return casadi.Function("gyrostat_step", [y, a, t0, target], [z, cost], ["y", "a", "t", "q_T"], ["y_next", "cost"])
 
 
