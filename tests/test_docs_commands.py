@@ -14,7 +14,18 @@ code spans, each command that starts with ``attitude-envs``, ``python train.py``
    Before parsing, comments are dropped, optional parts ``[--opt X]`` opened, alternatives
    ``a|b|c`` give their first, and the placeholders ``ID``, ``N``, ``S``, ``YAML`` get a
    sample value (the other upper-case words, ``DIR``, ``RUN``, …, and ``<id>`` stand as they are).
-2. ``test_doc_command_says_how_long``: a command that is not known-fast has a time statement
+2. ``test_doc_command_names_real_options``: every ``--option`` a command shows is one of its
+   parser's own option strings, spelled out. argparse also takes a unique prefix (``--check`` for
+   ``--checkpoint-freq``), so a renamed or shortened option in the docs would still parse in
+   test 1 while meaning something else, or nothing, to a reader.
+3. ``test_doc_synopsis_lists_every_option``: a *synopsis* (a code-block command with optional
+   parts ``[--opt X]``, such as ``train``'s in ``docs/guide/training.md``) shows every option its
+   parser has (but ``--help`` and hidden ones). Both directions fail: an option a synopsis names
+   that the parser lacks fails test 1 (or 2); an option the parser has and the synopsis leaves out
+   fails here, because a synopsis is where a reader looks up what a command takes (the train
+   synopsis once left out ``--eval-episodes``, ``--eval-freq`` and ``--checkpoint-freq``, issue 52).
+   An example command (no ``[...]``) shows only the options it uses and is not held to this.
+4. ``test_doc_command_says_how_long``: a command that is not known-fast has a time statement
    (``≈ 3 min``, ``about 90 s``, ``1 h 29 min``, ``under a minute``, ``seconds``) in its trailing
    comment or in the comment line just above it (code blocks), or on its own source line(s) or
    the line after, outside code spans (inline).
@@ -211,11 +222,14 @@ class _Parsed(BaseException):  # not an Exception: a main() that catches those l
     pass
 
 
-def _parse_with_module(module_name: str, args: list[str], monkeypatch) -> None:
+def _parse_with_module(module_name: str, args: list[str], monkeypatch) -> argparse.ArgumentParser:
+    """Parse ``args`` with the module's ``main``; returns the parser it built."""
     module = importlib.import_module(module_name)
     original = argparse.ArgumentParser.parse_args
+    used: list[argparse.ArgumentParser] = []
 
     def parse_then_stop(self, argv=None, namespace=None):
+        used.append(self)
         original(self, argv, namespace)
         raise _Parsed
 
@@ -226,6 +240,7 @@ def _parse_with_module(module_name: str, args: list[str], monkeypatch) -> None:
             module.main(args)
         else:  # a main() that reads sys.argv
             module.main()
+    return used[0]
 
 
 def _seed_count(text: str) -> float:
@@ -295,6 +310,72 @@ def test_doc_command_parses(cmd: Command, monkeypatch, capsys):
     except SystemExit as exc:
         error = capsys.readouterr().err.strip().splitlines()
         pytest.fail(f"{cmd.id}: `{cmd.text}` does not parse (exit {exc.code}): {error[-1] if error else ''}")
+
+
+def _innermost(parser: argparse.ArgumentParser, args: list[str]) -> argparse.ArgumentParser:
+    """The (sub)parser that reads the options of ``args``: the subcommands named in it, followed."""
+    while True:
+        subs = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+        name = next((w for w in args if subs and w in subs[0].choices), None)
+        if name is None:
+            return parser
+        parser, args = subs[0].choices[name], args[args.index(name) + 1 :]
+
+
+def _parser_of(cmd: Command, args: list[str], monkeypatch) -> argparse.ArgumentParser:
+    module = _module(cmd.text)
+    top = build_parser() if module is None else _parse_with_module(module, args, monkeypatch)
+    return _innermost(top, args)
+
+
+def _long_options(parser: argparse.ArgumentParser, shown_in_help: bool) -> set[str]:
+    return {
+        o
+        for a in parser._actions
+        if not (shown_in_help and a.help == argparse.SUPPRESS)
+        for o in a.option_strings
+        if o.startswith("--") and o != "--help"
+    }
+
+
+def _shown_options(args: list[str]) -> set[str]:
+    return {a.split("=")[0] for a in args if a.startswith("--")}
+
+
+def is_synopsis(cmd: Command) -> bool:
+    return not cmd.inline and re.search(r"\[--?\w", cmd.text) is not None
+
+
+PARSED = [c for c in COMMANDS if not _is_mention(c)]
+
+
+@pytest.mark.parametrize("cmd", PARSED, ids=[c.id for c in PARSED])
+def test_doc_command_names_real_options(cmd: Command, monkeypatch):
+    args = _arguments(cmd.text)
+    parser = _parser_of(cmd, args, monkeypatch)
+    unknown = _shown_options(args) - _long_options(parser, shown_in_help=False)
+    assert not unknown, (
+        f"{cmd.id}: `{cmd.text}` shows {sorted(unknown)}, which `{parser.prog}` has not (argparse may take it "
+        f"as an abbreviation); its options: {sorted(_long_options(parser, shown_in_help=True))}"
+    )
+
+
+SYNOPSES = [c for c in COMMANDS if is_synopsis(c)]
+
+
+def test_the_docs_have_synopses():
+    assert any(c.page == "docs/guide/training.md" and c.text.startswith("attitude-envs train ") for c in SYNOPSES)
+
+
+@pytest.mark.parametrize("cmd", SYNOPSES, ids=[c.id for c in SYNOPSES])
+def test_doc_synopsis_lists_every_option(cmd: Command, monkeypatch):
+    args = _arguments(cmd.text)
+    parser = _parser_of(cmd, args, monkeypatch)
+    left_out = _long_options(parser, shown_in_help=True) - _shown_options(args)
+    assert not left_out, (
+        f"{cmd.id}: the synopsis `{cmd.text}` leaves out {sorted(left_out)} of `{parser.prog}`: "
+        "add each as an optional part `[--opt X]`"
+    )
 
 
 @pytest.mark.parametrize("cmd", COMMANDS, ids=[c.id for c in COMMANDS])
