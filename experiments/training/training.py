@@ -27,6 +27,7 @@ from attitude_envs.make import check_env_id, make_checked
 from experiments.training.algorithm import Algorithm
 from experiments.training.callbacks import NormalizedPredictor, evaluate_cost, read_json
 from experiments.training.checkpoint import BudgetSchedule, RunClock, read_checkpoint, restore_rng, write_checkpoint
+from experiments.training.discount import warn_if_uncovered
 from experiments.training.hyperparams import load_hyperparams, split_hyperparams
 from experiments.training.progress import ProgressCallback
 from experiments.training.run_dir import RunDir, RunPlan, TrainResult, run_budget
@@ -119,7 +120,8 @@ def train(
         overrides = {**(overrides or {}), "backend": backend}
     entry = load_hyperparams(algo, env_id, hyperparams_file, overrides)
     algorithm = Algorithm(algo, entry.get("backend", "sb3")).trainable()
-    n_actions, batched = _probe(env_id, env_kwargs)  # validates the env kwargs before anything is written
+    # validates the env kwargs before anything is written; warns when γ is past what a limit charge covers
+    n_actions, batched = _probe(env_id, env_kwargs, gamma=entry.get("gamma", 0.99))
     _, eval_batched = _probe(env_id, eval_kwargs)
     hp = None if algorithm.backend == "jax" else split_hyperparams(entry, n_actions, algorithm)
     default = entry.get("n_timesteps", 1_000_000) if hp is None else hp["n_timesteps"]
@@ -148,11 +150,16 @@ def train(
     )
 
 
-def _probe(env_id: str, kwargs: dict[str, Any]) -> tuple[int, bool]:
+def _probe(env_id: str, kwargs: dict[str, Any], gamma: Any = None) -> tuple[int, bool]:
     """``(action size, whether the natively batched env serves)`` of ``env_id`` built with
-    ``kwargs`` (``ValueError`` for kwargs the env refuses)."""
+    ``kwargs`` (``ValueError`` for kwargs the env refuses); with ``gamma`` (the discount the
+    learner trains with; SB3's default 0.99 when the entry names none) a
+    :class:`~experiments.training.discount.LimitChargeWarning` when the env's limit charge does
+    not cover it."""
     probe = make_checked(env_id, **kwargs)
     try:
+        if gamma is not None:
+            warn_if_uncovered(probe, gamma, env_id)
         return int(np.prod(probe.action_space.shape)), batched_supported(env_id, probe)
     finally:
         probe.close()
