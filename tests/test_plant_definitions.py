@@ -88,7 +88,6 @@ def test_slosh_casadi_evaluates_the_definition_to_rounding():
 
 def test_slosh_jax_traces_the_definition_to_rounding():
     jax = pytest.importorskip("jax")
-    jax.config.update("jax_enable_x64", True)
     import jax.numpy as jnp
 
     from attitude_envs.jax.ops import JAX
@@ -104,7 +103,8 @@ def test_slosh_jax_traces_the_definition_to_rounding():
         )
         return jnp.stack([*dy, stage])
 
-    got = np.asarray(f(jnp.asarray(ys), jnp.asarray(deltas), jnp.asarray(moments)))
+    with jax.enable_x64(True):  # a context, never the global config (other tests run in float32)
+        got = np.asarray(f(jnp.asarray(ys), jnp.asarray(deltas), jnp.asarray(moments)))
     compiled = slosh_definition.define(NUMBA)
     want = np.array(
         [
@@ -186,7 +186,6 @@ def test_magnetorquer_error_state_sign_and_wheel_momentum_limit():
 def test_magnetorquer_casadi_and_jax_evaluate_the_definition_to_rounding():
     casadi = pytest.importorskip("casadi")
     jax = pytest.importorskip("jax")
-    jax.config.update("jax_enable_x64", True)
     import jax.numpy as jnp
 
     from attitude_envs.jax.ops import JAX
@@ -209,7 +208,8 @@ def test_magnetorquer_casadi_and_jax_evaluate_the_definition_to_rounding():
     f = jax.jit(
         jax.vmap(lambda *row: jnp.stack(traced.augmented(*_magnetorquer_args(*row, jnp.asarray(Q), jnp.asarray(R)))))
     )
-    got = np.asarray(f(*(jnp.asarray(a) for a in (zs, ms, tws, ctxs))))
+    with jax.enable_x64(True):  # a context, never the global config (other tests run in float32)
+        got = np.asarray(f(*(jnp.asarray(a) for a in (zs, ms, tws, ctxs))))
     np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-18)
 
 

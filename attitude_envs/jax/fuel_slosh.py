@@ -143,35 +143,7 @@ def _take(v: jax.Array, index: tuple[int, ...]) -> jax.Array:
 def plant_constants(params: EnvParams) -> jax.Array:
     """The packed constants (:mod:`attitude_envs.plants.slosh_definition`, ``P_*``) of the
     physical parameters, as :class:`~attitude_envs.plants.slosh.SloshParams` derives them."""
-    m, i, a, l, eps = (
-        params.slosh_mass_kg,
-        params.slosh_inertia_kg_m2,
-        params.hinge_m,
-        params.length_m,
-        params.damping_kg_m2_s,
-    )
-    return jnp.stack(
-        _PLANT.packed_constants(
-            params.mass_kg,
-            params.inertia_kg_m2,
-            params.fuel_mass_kg,
-            params.fuel_inertia_kg_m2,
-            m[0],
-            m[1],
-            i[0],
-            i[1],
-            a[0],
-            a[1],
-            l[0],
-            l[1],
-            params.fuel_offset_m,
-            params.b_m,
-            params.d_m,
-            params.thrust_n,
-            eps[0],
-            eps[1],
-        )
-    )
+    return jnp.stack(_PLANT.packed_constants(params))
 
 
 def derivative(pk: jax.Array, y: jax.Array, sin_d: jax.Array, cos_d: jax.Array, moment: jax.Array) -> jax.Array:
@@ -371,7 +343,8 @@ class FuelSloshEnv(Environment):
         actuator faults and their runtime state; ``time`` the decisions it has taken (0 after
         its reset: the numba env keeps its counter private). An intermittent fault not yet
         evaluated (no first switch drawn) gets its first switch time drawn with ``key``
-        (default ``PRNGKey(0)``) from the same law."""
+        (default ``PRNGKey(0)``) from the same law. ``numba_env`` may be wrapped (``gym.make``'s env)."""
+        numba_env = getattr(numba_env, "unwrapped", numba_env)
         faults, fault_state = jfaults.from_numba_layer(numba_env.fault_layer.realized, self.n_faults, key)
         return EnvState(
             time=jnp.asarray(int(time), jnp.int32),

@@ -97,33 +97,7 @@ class SloshParams:
         for name in ("fuel_offset_m", "b_m", "d_m"):
             validation.finite_array(name, getattr(self, name), ())
         validation.nonnegative("thrust_n", self.thrust_n)
-        m, i, a, l, eps = (
-            [float(v) for v in getattr(self, name)]
-            for name in ("slosh_mass_kg", "slosh_inertia_kg_m2", "hinge_m", "length_m", "damping_kg_m2_s")
-        )
-        packed = np.array(
-            define(NUMPY).packed_constants(
-                float(self.mass_kg),
-                float(self.inertia_kg_m2),
-                float(self.fuel_mass_kg),
-                float(self.fuel_inertia_kg_m2),
-                m[0],
-                m[1],
-                i[0],
-                i[1],
-                a[0],
-                a[1],
-                l[0],
-                l[1],
-                float(self.fuel_offset_m),
-                float(self.b_m),
-                float(self.d_m),
-                float(self.thrust_n),
-                eps[0],
-                eps[1],
-            ),
-            dtype=float,
-        )
+        packed = np.array(define(NUMPY).packed_constants(self), dtype=float)
         packed.setflags(write=False)
         set_ = object.__setattr__
         set_(self, "total_mass_kg", float(packed[P_MT]))

@@ -42,23 +42,28 @@ def define(ops: Ops) -> SimpleNamespace:
     sin, cos = ops.sin, ops.cos
     quad_form = define_quad_form(ops)
 
-    @ops.compile
-    def packed_constants(
-        mass, inertia, fuel_mass, fuel_inertia, m1, m2, i1, i2, a1, a2, l1, l2, fuel_offset, b, d, thrust, eps1, eps2
-    ):
-        """The 13 packed constants (module docstring) from the physical parameters
-        (Navabi & Davoodi, Table 3: kg, kg·m², m, N, kg·m²/s; slosh entries per pendulum)."""
+    def packed_constants(p):
+        """The 13 packed constants (module docstring) of the physical parameters ``p``: any
+        object with :class:`~attitude_envs.plants.slosh.SloshParams`' field names (Navabi &
+        Davoodi, Table 3: kg, kg·m², m, N, kg·m²/s; the slosh entries per pendulum), e.g. the
+        JAX twin's ``EnvParams``. Plain Python (run once per plant, not compiled)."""
+        m1, m2 = p.slosh_mass_kg[0], p.slosh_mass_kg[1]
+        i1, i2 = p.slosh_inertia_kg_m2[0], p.slosh_inertia_kg_m2[1]
+        a1, a2 = p.hinge_m[0], p.hinge_m[1]
+        l1, l2 = p.length_m[0], p.length_m[1]
+        mass, fuel_mass, fuel_offset, b = p.mass_kg, p.fuel_mass_kg, p.fuel_offset_m, p.b_m
         s_z = mass * b - fuel_mass * fuel_offset - (m1 * a1 + m2 * a2)
         # pitch inertia about O of everything, without the ψ-dependent pendulum terms
         i_rigid = (
-            inertia
-            + fuel_inertia
+            p.inertia_kg_m2
+            + p.fuel_inertia_kg_m2
             + (i1 + i2)
             + mass * (b * b)
             + fuel_mass * (fuel_offset * fuel_offset)
             + (m1 * (a1 * a1 + l1 * l1) + m2 * (a2 * a2 + l2 * l2))
         )
         total = mass + fuel_mass + (m1 + m2)
+        eps = p.damping_kg_m2_s
         return (
             total,
             s_z,
@@ -69,10 +74,10 @@ def define(ops: Ops) -> SimpleNamespace:
             i2 + m2 * (l2 * l2),
             a1,
             a2,
-            eps1,
-            eps2,
-            thrust,
-            b + d,
+            eps[0],
+            eps[1],
+            p.thrust_n,
+            b + p.d_m,
         )
 
     @ops.compile
