@@ -4,10 +4,10 @@
 
 The plant is the full 5-DOF nonlinear model in mass-matrix form (the paper's eqs. 11–14,
 re-derived from its Lagrangian, eqs. 1–10; :mod:`attitude_envs.plants.slosh`),
-``M(ψ) ṡ = f(s, ψ) + G(δ, M_c)`` with ``s = [v_x, v_z, Ω, ψ̇1, ψ̇2]``, solved as the numba
-kernel solves it (:func:`attitude_envs.plants.slosh_kernels.derivative_into`: the
-translational block eliminated in closed form, an unrolled LDLᵀ of the 3×3 Schur
-complement). A decision holds ``[δ (rad), M_c (N·m)]`` over ``n_substeps`` classical RK4
+``M(ψ) ṡ = f(s, ψ) + G(δ, M_c)`` with ``s = [v_x, v_z, Ω, ψ̇1, ψ̇2]``, traced from the plant's
+one definition (:mod:`attitude_envs.plants.slosh_definition`: the translational block
+eliminated in closed form, an unrolled LDLᵀ of the 3×3 Schur complement), which the numba
+kernel compiles. A decision holds ``[δ (rad), M_c (N·m)]`` over ``n_substeps`` classical RK4
 sub-steps of ``integrator_dt_s`` s, with the stage cost ``xᵀQx + u_cᵀRu_c`` (Q, R of the
 paper's eqs. 30–31 by default) and the new inputs ``u_c = [a_z, Ω̇]`` integrated as three
 extra states (:func:`attitude_envs.plants.slosh_kernels.control_step`), in the kernel's

@@ -1,6 +1,7 @@
 """ReactionWheel and AirBearing (the gyrostat) as a JAX-native plant in gymnax 1.0's API.
 
-The step is :mod:`attitude_envs.plants.gyrostat_kernels`'s, operation for operation: the
+The step is :mod:`attitude_envs.plants.gyrostat_kernels`'s, from the same definition
+(:mod:`attitude_envs.plants.gyrostat_definition`, its row functions on a list of scalars): the
 exact gyrostat ``I_eff ω̇ = −ω × (Iω + J_s A Ω) − A u + T_ext + p × K(q)``,
 ``Ω̇_i = u_i / J_s − a_i·ω̇``, ``q̇ = ½ q ⊗ [ω, 0]`` (:mod:`attitude_envs.plants.gyrostat`;
 the offset torque ``p × K`` is Ahangarani Farahani et al.'s air-bearing gravity torque, eqs.

@@ -63,7 +63,7 @@ def _step_constants(env) -> tuple:
 def _rk4_control_step(pk, h: float, n_sub: int, Q, R, y, delta, moment):
     """``(y_next, cost)``: ``n_sub`` classical RK4 sub-steps of ``h`` seconds of the state ``y``
     (10) and the stage-cost integral under the held gimbal angle ``delta`` (rad) and pitch
-    moment ``moment`` (N·m) — the compiled kernel's control step (same operation order)."""
+    moment ``moment`` (N·m) — the compiled kernel's control step, from the same definition."""
     sin_d, cos_d = casadi.sin(delta), casadi.cos(delta)
     n = slosh.N_STATE + 1
     aug = [y[i] for i in range(slosh.N_STATE)] + [0.0]
