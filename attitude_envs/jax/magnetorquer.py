@@ -64,7 +64,6 @@ from attitude_envs.plants.magnetorquer_definition import COMPACT_LAYOUT, define
 N_ACTUATORS = 4  # m_x, m_y, m_z (A·m²), wheel torque (N·m)
 _PLANT = define(JAX)
 N_SENSOR_FLAGS = 4  # gyro, star tracker, tachometer, magnetometer: never faulted here
-_DEG, _RAD = 180.0 / math.pi, math.pi / 180.0  # the kernel's round trip through degrees
 _UNCERTAINTY_CODES = {None: 0, "fixed": 1, "random": 2}
 
 
@@ -245,15 +244,8 @@ def orbital_to_body(q: jax.Array) -> jax.Array:
 def _field_orbital(params: EnvParams, r, u, pos, frame_t) -> jax.Array:
     """The field in the orbital frame (T): eq. (9) as printed (``field_printed``), or the axial
     dipole ``μ_e/r³ [3(m̂·r̂)r̂ − m̂]``, ``m̂ = −z``, at the ECI position rotated to the frame."""
-    si = jnp.sin(params.inclination_rad)
-    k = params.dipole_strength_t_m3 / r**3
-    printed = jnp.stack([k * (jnp.cos(u) * si), k * jnp.cos(params.inclination_rad), k * (-2.0 * jnp.sin(u) * si)])
-    px, py, pz = pos[0], pos[1], pos[2]
-    rr = jnp.sqrt(px * px + py * py + pz * pz)
-    rx, ry, rz = px / rr, py / rr, pz / rr
-    kd = params.dipole_strength_t_m3 / rr**3
-    s = 3.0 * (-rz)
-    b = jnp.stack([kd * (s * rx), kd * (s * ry), kd * (s * rz + 1.0)])
+    printed = jnp.stack(_PLANT.printed_field(r, u, params.dipole_strength_t_m3, params.inclination_rad))
+    b = jnp.stack(_PLANT.dipole_eci(pos[0], pos[1], pos[2], params.dipole_strength_t_m3))
     dipole = frame_t @ b  # eci_from_orbitalᵀ b
     return jnp.where(params.field_printed, printed, dipole)
 
@@ -274,47 +266,18 @@ def reference(ref: jax.Array, t_s: jax.Array) -> tuple[jax.Array, jax.Array]:
     for k in (2, 1, 0):
         inside = t_s <= pieces[k, 1]
         p, v = jnp.where(inside, acc[k, 1], p), jnp.where(inside, acc[k, 0], v)
-    g0, g1, g2 = ref[K.REF_GAIN], ref[K.REF_GAIN + 1], ref[K.REF_GAIN + 2]
-    phi = ref[K.REF_START] + g0 * p
-    theta = ref[K.REF_START + 1] + g1 * p
-    psi = ref[K.REF_START + 2] + g2 * p
-    dphi, dtheta, dpsi = g0 * v, g1 * v, g2 * v
-    hf, ht, hp = (phi * _DEG) * _RAD * 0.5, (theta * _DEG) * _RAD * 0.5, (psi * _DEG) * _RAD * 0.5
-    sf, cf, st, ct = jnp.sin(hf), jnp.cos(hf), jnp.sin(ht), jnp.cos(ht)
-    sp, cp = jnp.sin(hp), jnp.cos(hp)
-    q = jnp.stack(
-        [
-            sf * ct * cp - cf * st * sp,
-            cf * st * cp + sf * ct * sp,
-            cf * ct * sp - sf * st * cp,
-            cf * ct * cp + sf * st * sp,
-        ]
-    )
-    q = jnp.where(q[3] < 0, -q, q)
-    sf, cf, st, ct = jnp.sin(phi), jnp.cos(phi), jnp.sin(theta), jnp.cos(theta)
-    w = jnp.stack([dphi - dpsi * st, dtheta * cf + dpsi * sf * ct, -dtheta * sf + dpsi * cf * ct])
+    start, gain = ref[K.REF_START : K.REF_START + 3], ref[K.REF_GAIN : K.REF_GAIN + 3]
+    qw = jnp.stack(_PLANT.euler_reference(p, v, start[0], start[1], start[2], gain[0], gain[1], gain[2]))
     held_start = ref[K.REF_HELD_START : K.REF_HELD_START + 7]
     held_end = ref[K.REF_HELD_END : K.REF_HELD_END + 7]
-    qw = jnp.concatenate([q, w])
     qw = jnp.where(t_s >= ref[K.REF_TF], held_end, qw)
     qw = jnp.where(jnp.logical_or(ref[K.REF_CONST] != 0.0, t_s <= 0.0), held_start, qw)
     return qw[:4], qw[4:]
 
 
 def _inverse3(m):
-    """``inv(m)`` of a 3×3 matrix by its adjugate (the kernel's ``inverse3_into``)."""
-    a, b, c = m[0, 0], m[0, 1], m[0, 2]
-    d, e, f = m[1, 0], m[1, 1], m[1, 2]
-    g, h, i = m[2, 0], m[2, 1], m[2, 2]
-    c00, c01, c02 = e * i - f * h, f * g - d * i, d * h - e * g
-    inv_det = 1.0 / (a * c00 + b * c01 + c * c02)
-    return jnp.stack(
-        [
-            jnp.stack([c00 * inv_det, (c * h - b * i) * inv_det, (b * f - c * e) * inv_det]),
-            jnp.stack([c01 * inv_det, (a * i - c * g) * inv_det, (c * d - a * f) * inv_det]),
-            jnp.stack([c02 * inv_det, (b * g - a * h) * inv_det, (a * e - b * d) * inv_det]),
-        ]
-    )
+    """``inv(m)`` of a 3×3 matrix by its adjugate (the plant definition's ``inverse3``)."""
+    return jnp.stack(_PLANT.inverse3(m.reshape(9), 0)).reshape(3, 3)
 
 
 def disturbance_torque(params: EnvParams, disturbance: jax.Array, t_s: jax.Array) -> jax.Array:
@@ -326,15 +289,8 @@ def disturbance_torque(params: EnvParams, disturbance: jax.Array, t_s: jax.Array
     a = params.disturbance_rate_rad_s * t_s
     b = params.disturbance_harmonic * params.disturbance_rate_rad_s * t_s
     q = math.pi / 4
-    sa_p, sa_m = jnp.sin(a + q), jnp.sin(a - q)
-    sb_m, sb_p = jnp.sin(b - q), jnp.sin(b + q)
-    paper = jnp.stack(
-        [
-            scale * (1e-7 + 1e-5 * sa_p + 1e-5 * sb_m),
-            scale * (1e-7 + 1e-5 * sa_m + 1e-5 * sb_p),
-            scale * (1e-7 + 1e-5 * jnp.sin(a) + 1e-5 * jnp.sin(b + 2 * q)),
-        ]
-    )
+    sines = (jnp.sin(a + q), jnp.sin(a - q), jnp.sin(b - q), jnp.sin(b + q), jnp.sin(a), jnp.sin(b + 2 * q))
+    paper = jnp.stack(_PLANT.paper_disturbance(scale, *sines))
     held = scale * disturbance
     arg = 2 * math.pi * t_s / params.disturbance_period_s
     sinusoid = scale * (params.disturbance_amplitude_nm * jnp.sin(arg + disturbance))
@@ -353,11 +309,9 @@ def orbit_field(
     (3, T) at ``t_s`` (s): Keplerian, or the circular approximation
     (:func:`~attitude_envs.plants.magnetorquer_kernels.orbit_state_into`, ``field_orbital_into``)."""
     nu = true_anomaly(mean_anomaly0_rad, params, t_s)
-    e, h = params.eccentricity, params.angular_momentum_m2_s
-    r_k = params.semi_latus_rectum_m / (1.0 + e * jnp.cos(nu))
-    nd_k = h / r_k**2
-    r_dot = params.mu_m3_s2 / h * e * jnp.sin(nu)
-    ndd_k = -2.0 * nd_k * r_dot / r_k
+    r_k, nd_k, _, ndd_k = _PLANT.kepler_rates(
+        nu, params.eccentricity, params.angular_momentum_m2_s, params.semi_latus_rectum_m, params.mu_m3_s2
+    )
     u_c = params.arg_perigee_rad + mean_anomaly0_rad + params.mean_motion_rad_s * t_s
     circ = params.orbit_circular
     u = jnp.where(circ, u_c, params.arg_perigee_rad + nu)
@@ -675,7 +629,8 @@ class MagnetorquerEnv(Environment):
         taken, the episode's draws (orbit phase, true inertia, disturbance entry) and its
         realized actuator faults with their runtime state. An intermittent fault not yet
         evaluated gets its first switch time drawn with ``key`` (default ``PRNGKey(0)``)
-        from the same law."""
+        from the same law. ``numba_env`` may be wrapped (``gym.make``'s env)."""
+        numba_env = getattr(numba_env, "unwrapped", numba_env)
         realized = numba_env.fault_layer.realized
         if len(realized) > self.n_faults:
             raise ValueError(

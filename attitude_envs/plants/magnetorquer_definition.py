@@ -2,7 +2,9 @@
 with the consistent wheel bookkeeping of :mod:`attitude_envs.plants.magnetorquer`): the
 orbital-to-body rotation, the gravity gradient, the error state, the stage cost, the wheel's
 momentum limit and the augmented derivative ``d/dt [q, ω_bo, Ω, cost]``, written on scalars
-against an :class:`~attitude_envs.plants.ops.Ops`. :func:`define` returns them for one
+against an :class:`~attitude_envs.plants.ops.Ops`, and the pieces of its time context (the
+Kepler orbit's rates, the dipole and as-printed field models, the slew reference, the
+inverse inertia, the paper's disturbance). :func:`define` returns them for one
 executor: the numba kernels (:mod:`attitude_envs.plants.magnetorquer_kernels`), the JAX twin
 (:mod:`attitude_envs.jax.magnetorquer`) and the CasADi model
 (:mod:`attitude_envs.symbolic.magnetorquer`) are built from it.
@@ -22,6 +24,7 @@ Augmented state ``z`` (9): ``[q (4, scalar last, body relative to orbital), ω_b
 from __future__ import annotations
 
 import functools
+import math
 from types import SimpleNamespace
 
 from attitude_envs.plants.ops import Ops, define_quad_form
@@ -41,7 +44,7 @@ def define(ops: Ops) -> SimpleNamespace:
     Flags: ``gravity`` may be a runtime or traced boolean (selected with ``ops.where``);
     ``diagonal`` and ``flip`` are plain Python booleans for the tracing executors (JAX,
     CasADi) and may be runtime booleans under numba."""
-    sqrt, fabs, where = ops.sqrt, ops.fabs, ops.where
+    sin, cos, sqrt, fabs, where = ops.sin, ops.cos, ops.sqrt, ops.fabs, ops.where
     quad_form = define_quad_form(ops)
 
     @ops.compile
@@ -168,7 +171,101 @@ def define(ops: Ops) -> SimpleNamespace:
             -w2 - max_rate_rad_s,
         )
 
+    # ------------------------------------------------------------------ the time context
+    @ops.compile
+    def kepler_rates(nu, e, h, p, mu):
+        """``(r (m), ν̇ (rad/s), ṙ (m/s), ν̈ (rad/s²))`` of a Kepler orbit at true anomaly
+        ``nu`` (rad): eccentricity ``e``, specific angular momentum ``h`` (m²/s), semi-latus
+        rectum ``p`` (m), gravitational parameter ``mu`` (m³/s²)."""
+        r = p / (1.0 + e * cos(nu))
+        nu_dot = h / r**2
+        r_dot = mu / h * e * sin(nu)
+        return r, nu_dot, r_dot, -2.0 * nu_dot * r_dot / r
+
+    @ops.compile
+    def dipole_eci(px, py, pz, strength_t_m3):
+        """Axial dipole ``μ_e/r³ [3(m̂·r̂)r̂ − m̂]``, ``m̂ = −z``, at an ECI position (m), tesla."""
+        r = sqrt(px * px + py * py + pz * pz)
+        rx, ry, rz = px / r, py / r, pz / r
+        k = strength_t_m3 / r**3
+        s = 3.0 * (-rz)
+        return k * (s * rx), k * (s * ry), k * (s * rz + 1.0)
+
+    @ops.compile
+    def printed_field(radius, u, strength_t_m3, inclination_rad):
+        """The field in the orbital frame as Sadigh et al. 2022 print it (eq. 9), tesla, at
+        orbit radius ``radius`` (m) and argument of latitude ``u`` (rad)."""
+        si = sin(inclination_rad)
+        k = strength_t_m3 / radius**3
+        return k * (cos(u) * si), k * cos(inclination_rad), k * (-2.0 * sin(u) * si)
+
+    @ops.compile
+    def euler_reference(p, v, phi0, theta0, psi0, g0, g1, g2):
+        """``(q_d (4, scalar last, w ≥ 0), ω_d (3, rad/s))`` of the 3-2-1 slew at profile values
+        ``p = ∫∫f`` and ``v = ∫f`` (Sadigh et al. 2022 eqs. 36–38): angles ``start + gain·p``
+        (rad), the quaternion through degrees as
+        :func:`attitude_envs.quaternion.from_euler_321_deg` computes it."""
+        phi, theta, psi = phi0 + g0 * p, theta0 + g1 * p, psi0 + g2 * p
+        dphi, dtheta, dpsi = g0 * v, g1 * v, g2 * v
+        deg, rad = 180.0 / math.pi, math.pi / 180.0
+        hf, ht, hp = (phi * deg) * rad * 0.5, (theta * deg) * rad * 0.5, (psi * deg) * rad * 0.5
+        sf, cf, st, ct = sin(hf), cos(hf), sin(ht), cos(ht)
+        sp, cp = sin(hp), cos(hp)
+        qx = sf * ct * cp - cf * st * sp
+        qy = cf * st * cp + sf * ct * sp
+        qz = cf * ct * sp - sf * st * cp
+        qw = cf * ct * cp + sf * st * sp
+        sign = where(qw < 0.0, -1.0, 1.0)
+        sf, cf, st, ct = sin(phi), cos(phi), sin(theta), cos(theta)
+        return (
+            sign * qx,
+            sign * qy,
+            sign * qz,
+            sign * qw,
+            dphi - dpsi * st,
+            dtheta * cf + dpsi * sf * ct,
+            -dtheta * sf + dpsi * cf * ct,
+        )
+
+    @ops.compile
+    def inverse3(m, base):
+        """``inv`` of the 3×3 row-major matrix ``m[base : base + 9]`` by its adjugate (9 values)."""
+        a, b, c = m[base], m[base + 1], m[base + 2]
+        d, e, f = m[base + 3], m[base + 4], m[base + 5]
+        g, h, i = m[base + 6], m[base + 7], m[base + 8]
+        c00, c01, c02 = e * i - f * h, f * g - d * i, d * h - e * g
+        inv_det = 1.0 / (a * c00 + b * c01 + c * c02)
+        return (
+            c00 * inv_det,
+            (c * h - b * i) * inv_det,
+            (b * f - c * e) * inv_det,
+            c01 * inv_det,
+            (a * i - c * g) * inv_det,
+            (c * d - a * f) * inv_det,
+            c02 * inv_det,
+            (b * g - a * h) * inv_det,
+            (a * e - b * d) * inv_det,
+        )
+
+    @ops.compile
+    def paper_disturbance(scale, sin_a_p, sin_a_m, sin_b_m, sin_b_p, sin_a, sin_b_2q):
+        """Sadigh et al. 2022 eq. (39), N·m: ``d_j = d0 + d1 sin(ω0 t + φ_j1) + d2 sin(k ω0 t +
+        φ_j2)`` (d0 = 1e-7, d1 = d2 = 1e-5; φ_x = ±π/4, φ_y = ∓π/4, φ_z = (0, π/2)) times
+        ``scale``, from the sines of ``a = ω0 t`` and ``b = k ω0 t``: ``sin(a ± π/4)``,
+        ``sin(b ∓ π/4)``, ``sin a``, ``sin(b + π/2)`` (the caller may reuse ``a``'s for ``k = 1``)."""
+        return (
+            scale * (1e-7 + 1e-5 * sin_a_p + 1e-5 * sin_b_m),
+            scale * (1e-7 + 1e-5 * sin_a_m + 1e-5 * sin_b_p),
+            scale * (1e-7 + 1e-5 * sin_a + 1e-5 * sin_b_2q),
+        )
+
     return SimpleNamespace(
+        kepler_rates=kepler_rates,
+        dipole_eci=dipole_eci,
+        printed_field=printed_field,
+        euler_reference=euler_reference,
+        inverse3=inverse3,
+        paper_disturbance=paper_disturbance,
         limit_rows=limit_rows,
         body_vector=body_vector,
         gravity_gradient=gravity_gradient,

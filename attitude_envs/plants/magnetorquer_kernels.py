@@ -90,6 +90,21 @@ WK_TAG = WK_C0 + 3 * CONTEXT_SIZE
 WORK_SIZE = WK_TAG + 1
 
 
+_PLANT = define(NUMBA)
+_body_vector = _PLANT.body_vector
+error_state = _PLANT.error_state
+_gravity_gradient = _PLANT.gravity_gradient
+_augmented = _PLANT.augmented
+_wheel_torque = _PLANT.wheel_torque
+_limit_rows = _PLANT.limit_rows
+_kepler_rates = _PLANT.kepler_rates
+_dipole_eci = _PLANT.dipole_eci
+_printed_field = _PLANT.printed_field
+_euler_reference = _PLANT.euler_reference
+_inverse3 = _PLANT.inverse3
+_paper_disturbance = _PLANT.paper_disturbance
+
+
 # ----------------------------------------------------------------------------- orbit
 # Functions take (array, base) pairs rather than slices: a slice costs a reference-count
 # round trip in compiled code, which the per-stage functions would pay many times a step.
@@ -122,11 +137,9 @@ def orbit_state_into(orbit, ob, t_s, out, sb):
     else:
         nu = true_anomaly(orbit, ob, t_s)
         u = orbit[ob + ORB_ARGP] + nu
-        e, h = orbit[ob + ORB_E], orbit[ob + ORB_H]
-        r = orbit[ob + ORB_P] / (1.0 + e * math.cos(nu))
-        nu_dot = h / r**2
-        r_dot = orbit[ob + ORB_MU] / h * e * math.sin(nu)
-        nu_ddot = -2.0 * nu_dot * r_dot / r
+        r, nu_dot, r_dot, nu_ddot = _kepler_rates(
+            nu, orbit[ob + ORB_E], orbit[ob + ORB_H], orbit[ob + ORB_P], orbit[ob + ORB_MU]
+        )
     cu, su = math.cos(u), math.sin(u)
     for i in range(3):
         node, in_plane = orbit[ob + ORB_NODE + i], orbit[ob + ORB_IN_PLANE + i]
@@ -148,13 +161,7 @@ def orbit_state_into(orbit, ob, t_s, out, sb):
 @njit(cache=True, error_model="numpy")
 def dipole_eci_into(px, py, pz, strength_t_m3, out):
     """Axial dipole ``μ_e/r³ [3(m̂·r̂)r̂ − m̂]``, ``m̂ = −z``, at an ECI position (m), tesla."""
-    r = math.sqrt(px * px + py * py + pz * pz)
-    rx, ry, rz = px / r, py / r, pz / r
-    k = strength_t_m3 / r**3
-    s = 3.0 * (-rz)
-    out[0] = k * (s * rx)
-    out[1] = k * (s * ry)
-    out[2] = k * (s * rz + 1.0)
+    out[0], out[1], out[2] = _dipole_eci(px, py, pz, strength_t_m3)
 
 
 @njit(cache=True, error_model="numpy")
@@ -163,12 +170,9 @@ def field_orbital_into(t_s, orb, sb, model, strength_t_m3, inclination_rad, tabl
     state at ``orb[sb:]``: ``model`` 0 dipole, 1 the as-printed eq. (9), 2 the IGRF table
     (ECI, linear interpolation between nodes)."""
     if model == 1:
-        si = math.sin(inclination_rad)
-        k = strength_t_m3 / orb[sb + OS_R] ** 3
-        u = orb[sb + OS_U]
-        out[fb] = k * (math.cos(u) * si)
-        out[fb + 1] = k * math.cos(inclination_rad)
-        out[fb + 2] = k * (-2.0 * math.sin(u) * si)
+        out[fb], out[fb + 1], out[fb + 2] = _printed_field(
+            orb[sb + OS_R], orb[sb + OS_U], strength_t_m3, inclination_rad
+        )
         return
     if model == 2:
         k = min(int(t_s / table_step_s), table.shape[0] - 2)
@@ -177,12 +181,7 @@ def field_orbital_into(t_s, orb, sb, model, strength_t_m3, inclination_rad, tabl
         b1 = (1.0 - w) * table[k, 1] + w * table[k + 1, 1]
         b2 = (1.0 - w) * table[k, 2] + w * table[k + 1, 2]
     else:
-        px, py, pz = orb[sb + OS_POS], orb[sb + OS_POS + 1], orb[sb + OS_POS + 2]
-        r = math.sqrt(px * px + py * py + pz * pz)
-        rx, ry, rz = px / r, py / r, pz / r
-        k = strength_t_m3 / r**3
-        s = 3.0 * (-rz)
-        b0, b1, b2 = k * (s * rx), k * (s * ry), k * (s * rz + 1.0)
+        b0, b1, b2 = _dipole_eci(orb[sb + OS_POS], orb[sb + OS_POS + 1], orb[sb + OS_POS + 2], strength_t_m3)
     f = sb + OS_FRAME
     for j in range(3):  # eci_from_orbitalᵀ b
         out[fb + j] = orb[f + j] * b0 + orb[f + 3 + j] * b1 + orb[f + 6 + j] * b2
@@ -233,26 +232,16 @@ def reference_into(ref, rb, t_s, out, qb):
 def _reference_at(ref, rb, t_s, out, qb):
     """:func:`reference_into` evaluated from the profile (no held values)."""
     p, v, _ = profile(ref, rb, t_s)
-    g0, g1, g2 = ref[rb + REF_GAIN], ref[rb + REF_GAIN + 1], ref[rb + REF_GAIN + 2]
-    phi = ref[rb + REF_START] + g0 * p
-    theta = ref[rb + REF_START + 1] + g1 * p
-    psi = ref[rb + REF_START + 2] + g2 * p
-    dphi, dtheta, dpsi = g0 * v, g1 * v, g2 * v
-    # quaternion of the 3-2-1 angles through degrees, as quaternion.from_euler_321_deg
-    deg, rad = 180.0 / math.pi, math.pi / 180.0
-    hf, ht, hp = (phi * deg) * rad * 0.5, (theta * deg) * rad * 0.5, (psi * deg) * rad * 0.5
-    sf, cf, st, ct = math.sin(hf), math.cos(hf), math.sin(ht), math.cos(ht)
-    sp, cp = math.sin(hp), math.cos(hp)
-    qx = sf * ct * cp - cf * st * sp
-    qy = cf * st * cp + sf * ct * sp
-    qz = cf * ct * sp - sf * st * cp
-    qw = cf * ct * cp + sf * st * sp
-    if qw < 0:
-        qx, qy, qz, qw = -qx, -qy, -qz, -qw
-    sf, cf, st, ct = math.sin(phi), math.cos(phi), math.sin(theta), math.cos(theta)
-    wx = dphi - dpsi * st
-    wy = dtheta * cf + dpsi * sf * ct
-    wz = -dtheta * sf + dpsi * cf * ct
+    qx, qy, qz, qw, wx, wy, wz = _euler_reference(
+        p,
+        v,
+        ref[rb + REF_START],
+        ref[rb + REF_START + 1],
+        ref[rb + REF_START + 2],
+        ref[rb + REF_GAIN],
+        ref[rb + REF_GAIN + 1],
+        ref[rb + REF_GAIN + 2],
+    )
     out[qb], out[qb + 1], out[qb + 2], out[qb + 3] = qx, qy, qz, qw
     out[qb + 4], out[qb + 5], out[qb + 6] = wx, wy, wz
     # q̇_d = ½ q_d ⊗ [ω_d, 0]
@@ -273,29 +262,18 @@ def paper_disturbance_into(t_s, orbital_rate_rad_s, scale, k, out, db):
     q = math.pi / 4
     sa_p, sa_m = math.sin(a + q), math.sin(a - q)
     sb_m, sb_p = (sa_m, sa_p) if b == a else (math.sin(b - q), math.sin(b + q))  # k = 1: same arguments
-    out[db] = scale * (1e-7 + 1e-5 * sa_p + 1e-5 * sb_m)
-    out[db + 1] = scale * (1e-7 + 1e-5 * sa_m + 1e-5 * sb_p)
-    out[db + 2] = scale * (1e-7 + 1e-5 * math.sin(a) + 1e-5 * math.sin(b + 2 * q))
+    out[db], out[db + 1], out[db + 2] = _paper_disturbance(
+        scale, sa_p, sa_m, sb_m, sb_p, math.sin(a), math.sin(b + 2 * q)
+    )
 
 
 @njit(cache=True, error_model="numpy")
 def inverse3_into(m, base, out, out_base):
     """``out[out_base:+9] = inv(m[base:+9])`` for a 3×3 row-major matrix (adjugate / det);
     reads every entry before writing, so it may work in place."""
-    a, b, c = m[base], m[base + 1], m[base + 2]
-    d, e, f = m[base + 3], m[base + 4], m[base + 5]
-    g, h, i = m[base + 6], m[base + 7], m[base + 8]
-    c00, c01, c02 = e * i - f * h, f * g - d * i, d * h - e * g
-    inv_det = 1.0 / (a * c00 + b * c01 + c * c02)
-    out[out_base] = c00 * inv_det
-    out[out_base + 1] = (c * h - b * i) * inv_det
-    out[out_base + 2] = (b * f - c * e) * inv_det
-    out[out_base + 3] = c01 * inv_det
-    out[out_base + 4] = (a * i - c * g) * inv_det
-    out[out_base + 5] = (c * d - a * f) * inv_det
-    out[out_base + 6] = c02 * inv_det
-    out[out_base + 7] = (b * g - a * h) * inv_det
-    out[out_base + 8] = (a * e - b * d) * inv_det
+    inv = _inverse3(m, base)
+    for i in range(9):
+        out[out_base + i] = inv[i]
 
 
 @njit(cache=True, error_model="numpy")
@@ -355,15 +333,6 @@ def disturbance_into(t_s, shared, env, ctx, cb):
     else:
         for j in range(3):
             ctx[d + j] = 0.0
-
-
-_PLANT = define(NUMBA)
-_body_vector = _PLANT.body_vector
-error_state = _PLANT.error_state
-_gravity_gradient = _PLANT.gravity_gradient
-_augmented = _PLANT.augmented
-_wheel_torque = _PLANT.wheel_torque
-_limit_rows = _PLANT.limit_rows
 
 
 @njit(cache=True, error_model="numpy")
