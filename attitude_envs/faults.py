@@ -36,11 +36,14 @@ format and live in :mod:`attitude_envs.sensors`.
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from attitude_envs import validation
+from attitude_envs.plants.ops import PYTHON, Ops
 
 ACTUATOR_KINDS = (
     "loss_of_effectiveness",
@@ -52,6 +55,8 @@ ACTUATOR_KINDS = (
     "saturation",
     "intermittent",
 )
+#: kind code of each actuator fault kind (0: no fault, the JAX plants' padding)
+KIND_CODES = {kind: code for code, kind in enumerate(ACTUATOR_KINDS, start=1)}
 _COMMON_KEYS = {"kind", "target", "index", "value", "onset_s", "duration_s"}
 _EXTRA_KEYS = {"effectiveness": {"schedule"}, "intermittent": {"mean_on_s", "mean_off_s"}}
 _UNIT_VALUE = {"loss_of_effectiveness", "effectiveness", "saturation"}
@@ -81,6 +86,35 @@ def _check_range(name: str, value: float, low: float | None, high: float | None)
         lo = "-inf" if low is None else low
         hi = "inf" if high is None else high
         raise ValueError(f"{name} must be in [{lo}, {hi}], got {value}")
+
+
+@functools.cache
+def define_effect(ops: Ops) -> Callable:
+    """``effect(kind, x, value, t_s, onset_s, effectiveness, latched, on)``: the output of one
+    actuator's command ``x`` under an active fault of kind code ``kind`` (:data:`KIND_CODES`),
+    the one statement of the table in the module docstring for every executor (the numba
+    envs' layer here, the JAX plants, the CasADi model). ``value`` the fault's value (0.0
+    where it has none), ``t_s`` and ``onset_s`` in s, ``effectiveness`` the value or the
+    schedule at ``t_s`` (1.0 for other kinds), ``latched`` a stuck fault's held output,
+    ``on`` an intermittent fault's phase. Saturation acts on the limit, not here (the output
+    is ``x``)."""
+    where = ops.where
+    loe, eff, bias, drift, stuck, outage, _, inter = (KIND_CODES[k] for k in ACTUATOR_KINDS)
+
+    @ops.compile
+    def effect(kind, x, value, t_s, onset_s, effectiveness, latched, on):
+        out = where(kind == inter, where(on, x, 0.0), x)
+        out = where(kind == outage, 0.0, out)
+        out = where(kind == stuck, latched, out)
+        out = where(kind == drift, x + value * (t_s - onset_s), out)
+        out = where(kind == bias, x + value, out)
+        out = where(kind == eff, x * effectiveness, out)
+        return where(kind == loe, x * (1.0 - value), out)
+
+    return effect
+
+
+_effect = define_effect(PYTHON)
 
 
 @dataclass
@@ -238,27 +272,16 @@ class ActuatorFaults:
             if not f.active(t_s):
                 f.held = None
                 continue
-            if f.kind == "loss_of_effectiveness":
-                out[i] *= 1.0 - f.value
-            elif f.kind == "effectiveness":
-                if f.schedule is None:
-                    out[i] *= f.value
-                else:
-                    out[i] *= np.interp(t_s, f.schedule[:, 0], f.schedule[:, 1])
-            elif f.kind == "bias":
-                out[i] += f.value
-            elif f.kind == "drift":
-                out[i] += f.value * (t_s - f.onset_s)
-            elif f.kind == "stuck":
-                if f.held is None:
-                    f.held = float(out[i]) if f.value is None else f.value
-                out[i] = f.held
-            elif f.kind == "outage":
-                out[i] = 0.0
-            elif f.kind == "saturation":
+            if f.kind == "saturation":
                 limit[i] = min(limit[i], f.value * self.limits[i])
-            elif f.kind == "intermittent" and not f.on:
-                out[i] = 0.0
+                continue
+            if f.kind == "stuck" and f.held is None:
+                f.held = float(out[i]) if f.value is None else f.value
+            eff = 1.0
+            if f.kind == "effectiveness":
+                eff = f.value if f.schedule is None else float(np.interp(t_s, f.schedule[:, 0], f.schedule[:, 1]))
+            value = 0.0 if f.value is None else f.value
+            out[i] = _effect(KIND_CODES[f.kind], float(out[i]), value, t_s, f.onset_s, eff, f.held, f.on)
         return np.clip(out, -limit, limit)
 
     def _advance_intermittent(self, f: RealizedFault, t_s: float) -> None:

@@ -259,3 +259,40 @@ def test_gyrostat_rows_numba_equal_plain_python_bit_for_bit(n):
             costs.append(ex.state_cost_lane(w, C, 0, 1, n, True, False, Y, TGT, X, cq, sc, True))
         assert np.array_equal(np.asarray(lists[0]), np.array(lists[1], dtype=float))
         assert costs[0] == costs[1]
+
+
+def test_fault_effect_is_the_table_on_every_executor():
+    """attitude_envs.faults.define_effect: each kind's output, on the Python, JAX and CasADi
+    executors alike (saturation and unknown codes leave the command as it is)."""
+    from attitude_envs.faults import KIND_CODES, define_effect
+    from attitude_envs.plants.ops import PYTHON
+
+    x, value, t, onset, eff, latched = 0.8, 0.3, 7.0, 2.0, 0.25, -0.4
+    want = {
+        "loss_of_effectiveness": x * (1.0 - value),
+        "effectiveness": x * eff,
+        "bias": x + value,
+        "drift": x + value * (t - onset),
+        "stuck": latched,
+        "outage": 0.0,
+        "saturation": x,
+        "intermittent": 0.0,  # off
+    }
+    executors = [define_effect(PYTHON)]
+    jax = pytest.importorskip("jax")
+    from attitude_envs.jax.ops import JAX
+
+    executors.append(jax.jit(define_effect(JAX)))
+    casadi = pytest.importorskip("casadi")
+    from attitude_envs.symbolic.ops import CASADI
+
+    sym = casadi.SX.sym("x")
+    for kind, expected in want.items():
+        for effect in executors:
+            with jax.enable_x64(True):  # float64 like the others (a context: other tests run in float32)
+                got = float(effect(KIND_CODES[kind], x, value, t, onset, eff, latched, False))
+            assert got == expected, kind
+        expr = define_effect(CASADI)(KIND_CODES[kind], sym, value, t, onset, eff, latched, False)
+        assert float(casadi.Function("f", [sym], [expr])(x)) == expected, kind
+    assert define_effect(PYTHON)(KIND_CODES["intermittent"], x, value, t, onset, eff, latched, True) == x
+    assert define_effect(PYTHON)(0, x, value, t, onset, eff, latched, True) == x  # no fault (the JAX padding)

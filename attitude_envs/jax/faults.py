@@ -21,11 +21,11 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from attitude_envs.faults import ACTUATOR_KINDS, RealizedFault, validate_fault
+from attitude_envs.faults import KIND_CODES, RealizedFault, define_effect, validate_fault
+from attitude_envs.jax.ops import JAX
 
-#: kind code of each actuator fault kind (0: no fault, the padding)
-KIND_CODES = {kind: code for code, kind in enumerate(ACTUATOR_KINDS, start=1)}
-_LOE, _EFF, _BIAS, _DRIFT, _STUCK, _OUTAGE, _SAT, _INTER = (KIND_CODES[k] for k in ACTUATOR_KINDS)
+_STUCK, _SAT, _INTER = KIND_CODES["stuck"], KIND_CODES["saturation"], KIND_CODES["intermittent"]
+_effect = define_effect(JAX)
 #: breakpoints kept of an ``effectiveness`` schedule (padded by repeating the last one)
 SCHEDULE_POINTS = 8
 
@@ -258,11 +258,7 @@ def apply(
         mask = lanes == i
         x = out[i]
         latched = jnp.where(holding_j, held_j, jnp.where(has_value, v, x))
-        new = jnp.select(
-            [k == _LOE, k == _EFF, k == _BIAS, k == _DRIFT, k == _STUCK, k == _OUTAGE, k == _INTER],
-            [x * (1.0 - v), x * eff, x + v, x + v * (t_s - onset), latched, jnp.zeros_like(x), jnp.where(on_j, x, 0.0)],
-            x,
-        )
+        new = _effect(k, x, v, t_s, onset, eff, latched, on_j)
         out = jnp.where(mask & acting, new, out)
         limit = jnp.where(mask & acting & (k == _SAT), jnp.minimum(limit, v * full), limit)
         stuck_now = acting & (k == _STUCK)

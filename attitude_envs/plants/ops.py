@@ -6,7 +6,8 @@ its few non-arithmetic operations from an :class:`Ops`. The same source then run
 
 * compiled numba code (:data:`NUMBA`: ``math`` functions, every helper ``njit``-ed, cached),
   the CPU hot path the envs' kernels call;
-* plain numpy (:data:`NUMPY`): vectorized over a batch when each entry is an array;
+* plain numpy (:data:`NUMPY`): vectorized over a batch when each entry is an array, or
+  plain Python on floats (:data:`PYTHON`), for a few scalars called from Python code;
 * traced ``jax.numpy`` (``attitude_envs.jax.ops.JAX``) for the JAX twins;
 * CasADi expressions (``attitude_envs.symbolic.ops.CASADI``) for J*, the MPC and Jacobians.
 
@@ -66,6 +67,14 @@ NUMBA = Ops(
 
 #: plain numpy, uncompiled: vectorized when the entries are arrays (a batch along the last axis)
 NUMPY = Ops("numpy", sin=np.sin, cos=np.cos, sqrt=np.sqrt, fabs=np.abs, where=np.where)
+
+
+def _python_where(condition, a, b):
+    return a if condition else b
+
+
+#: plain Python on floats, uncompiled: the cheapest for a few scalars per call from Python code
+PYTHON = Ops("python", sin=math.sin, cos=math.cos, sqrt=math.sqrt, fabs=math.fabs, where=_python_where)
 
 
 def define_quad_form(ops: Ops) -> Callable:

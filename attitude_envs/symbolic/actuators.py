@@ -11,6 +11,11 @@ from __future__ import annotations
 import casadi
 import numpy as np
 
+from attitude_envs.faults import KIND_CODES, define_effect
+from attitude_envs.symbolic.ops import CASADI
+
+_effect = define_effect(CASADI)
+
 #: fault kinds the symbolic model represents (deterministic given the episode's draws)
 SUPPORTED = ("loss_of_effectiveness", "effectiveness", "bias", "drift", "stuck", "outage", "saturation")
 
@@ -56,20 +61,14 @@ def delivered(commanded, t, realized, limits: np.ndarray):
         i = f.index
         end = np.inf if f.duration_s is None else f.onset_s + f.duration_s
         active = t >= f.onset_s if not np.isfinite(end) else casadi.logic_and(t >= f.onset_s, t < end)
-        if f.kind == "loss_of_effectiveness":
-            new = out[i] * (1.0 - f.value)
-        elif f.kind == "effectiveness":
-            new = out[i] * (f.value if f.schedule is None else _schedule_value(f.schedule, t))
-        elif f.kind == "bias":
-            new = out[i] + f.value
-        elif f.kind == "drift":
-            new = out[i] + f.value * (t - f.onset_s)
-        elif f.kind == "stuck":
-            new = casadi.SX(float(f.value))
-        elif f.kind == "outage":
-            new = casadi.SX(0.0)
-        else:  # saturation
+        if f.kind == "saturation":
             limit[i] = casadi.if_else(active, casadi.fmin(limit[i], f.value * float(limits[i])), limit[i])
             continue
+        value = 0.0 if f.value is None else float(f.value)
+        eff = 1.0
+        if f.kind == "effectiveness":
+            eff = f.value if f.schedule is None else _schedule_value(f.schedule, t)
+        latched = casadi.SX(value)  # a stuck fault's value (one without is refused above)
+        new = _effect(KIND_CODES[f.kind], out[i], value, t, f.onset_s, eff, latched, True)
         out[i] = casadi.if_else(active, new, out[i])
     return casadi.vertcat(*[clip(out[i], -limit[i], limit[i]) for i in range(len(out))])
