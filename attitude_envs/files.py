@@ -4,10 +4,12 @@ also when the process is killed mid-write)."""
 
 from __future__ import annotations
 
+import json
 import os
 import threading
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 
 def fsync_dir(path: str | os.PathLike) -> None:
@@ -45,7 +47,9 @@ def atomic_write(
         if callable(content):
             content(tmp)
             if not tmp.is_file():
-                raise FileNotFoundError(f"the writer of {str(path)!r} did not write the file it was given, {str(tmp)!r}")
+                raise FileNotFoundError(
+                    f"the writer of {str(path)!r} did not write the file it was given, {str(tmp)!r}"
+                )
         else:
             with tmp.open("wb") as fh:
                 fh.write(content.encode("utf-8") if isinstance(content, str) else bytes(content))
@@ -61,3 +65,16 @@ def atomic_write(
     if durable:
         fsync_dir(path.parent)
     return path
+
+
+def read_json(path: str | os.PathLike, what: str = "file") -> Any:
+    """The content of the JSON file ``path``; a one-line ``ValueError`` naming the file (and
+    ``what`` it is, e.g. ``"the run's config"``) when it is not valid JSON (a file cut by a
+    kill, or edited by hand), instead of a ``JSONDecodeError`` that names no file."""
+    path = Path(path)
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ValueError(
+            f"{what} {str(path)!r} is not valid JSON ({exc}): it is cut or was edited; restore or delete it"
+        ) from None

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import numbers
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -178,8 +179,18 @@ def known_keys(where: str, mapping, accepted) -> None:
         raise ValueError(f"{where} has unknown keys {sorted(unknown)}; accepted: {sorted(accepted)}")
 
 
+def mapping(name: str, value) -> dict:
+    """``value`` (a mapping, or None for an empty one) as a dict; a ``ValueError`` naming
+    ``name`` otherwise (``dict("x")`` would say only "dictionary update sequence element")."""
+    if value is None:
+        return {}
+    if not isinstance(value, Mapping):
+        raise ValueError(f"{name} must be a mapping (dict) or None, got {value!r} ({type(value).__name__})")
+    return dict(value)
+
+
 def reset_options(options, accepted: set[str]) -> dict:
-    """``reset(options=...)`` as a dict, rejecting unknown keys."""
-    options = {} if options is None else dict(options)
+    """``reset(options=...)`` as a dict (a mapping or None), rejecting unknown keys."""
+    options = mapping("reset options", options)
     known_keys("reset options", options, accepted)
     return options

@@ -434,7 +434,7 @@ def env_page(env_id: str) -> str:
         "```python",
         "import gymnasium as gym",
         "",
-        "import attitude_envs  # noqa: F401  (registers the five ids)",
+        "import attitude_envs  # noqa: F401  (registers the ten ids: -v0 and -v1 of five plants)",
         "",
         f'env = gym.make("{env_id}")',
         "obs, info = env.reset(seed=0)",

@@ -33,7 +33,8 @@ import yaml
 import attitude_envs  # registers the env ids
 from attitude_envs import presets
 from attitude_envs.evaluation import rollout
-from attitude_envs.registration import LEARNING_TASKS, quiet_version_warnings, task_defaults
+from attitude_envs.files import read_json
+from attitude_envs.registration import LEARNING_TASKS, base_version, quiet_version_warnings, task_defaults
 from attitude_envs.scenarios import list_scenarios, load_scenario
 from baselines.base import ZeroPolicy
 from baselines.lqr import LQRPolicy
@@ -52,7 +53,7 @@ from experiments.policies import POLICIES, check_policy_env, check_policy_name
 from experiments.progress import Heartbeat
 from experiments.reproduction import markdown_table
 from experiments.reproductions import REPRODUCTIONS
-from experiments.seeds import SYNTAX, seeds_arg
+from experiments.seeds import LIMITS, MAX_SEED, SYNTAX, seeds_arg
 from experiments.training.algorithm import ALGORITHMS, BACKENDS
 from experiments.training.hyperparams import load_yaml, parse_overrides, read_yaml
 
@@ -110,6 +111,10 @@ def check_out_dir(out: str | Path, option: str = "--out") -> Path:
     """``out`` as a directory to write into: ``ValueError`` (before any work) when it, or a
     folder above it, is an existing file, or when it cannot be created or written. A folder
     this check creates to find out is removed again (the command creates it when it writes)."""
+    if not str(out).strip():
+        raise ValueError(
+            f"{option} must name a directory, got {str(out)!r} (an empty path would write into the current directory)"
+        )
     path = Path(out)
     for p in (path, *path.parents):
         if p.exists() and not p.is_dir():
@@ -200,7 +205,7 @@ def _train(args: argparse.Namespace) -> int:
         return 0
     resumed = f" (resumed at {result.resumed_from} steps)" if result.resumed_from is not None else ""
     ev = result.last_eval or {}
-    backend = json.loads((Path(args.out) / "config.json").read_text(encoding="utf-8"))["backend"]
+    backend = read_json(Path(args.out) / "config.json", "the run's config")["backend"]
     print(
         f"trained {args.algo} ({backend}) on {args.env}: {result.timesteps} steps{resumed} in {result.wall_time_s:.1f} s"
     )
@@ -209,7 +214,7 @@ def _train(args: argparse.Namespace) -> int:
     )
     best = Path(args.out) / "best" / "best.json"
     if best.is_file():  # what `evaluate --model RUN` and campaigns load by default (--select best)
-        b = json.loads(best.read_text(encoding="utf-8"))
+        b = read_json(best, "the best snapshot's record")
         print(
             f"best snapshot (evaluated by default): {best.parent / 'model.zip'}, eval J = {b['J_mean']:.3f} at {b['timesteps']} steps"
         )
@@ -247,7 +252,13 @@ def _model_snapshot(path: str, select: str) -> Path:
     if not p.is_dir():
         raise ValueError(f"--model {path!r} does not exist (a run directory, a snapshot folder or a model .zip)")
     if (p / "model.zip").is_file():
+        if select is not None and p.name in SELECT and p.name != select:  # RUN/best with --select final
+            raise ValueError(
+                f"--select {select} chooses a snapshot of a run directory, but --model {path!r} is the run's "
+                f"{p.name!r} snapshot itself: pass the run directory {str(p.parent)!r} (or {str(p.parent / select)!r})"
+            )
         return p / "model.zip"
+    select = select or "best"
     best, final = p / "best" / "model.zip", p / "final" / "model.zip"
     if select == "best" and best.is_file():
         return best
@@ -287,13 +298,29 @@ def _algo_label(model: Path) -> str:
     return "sb3"
 
 
+#: a campaign with more leaderboards than this prints one line per leaderboard, not the tables
+FULL_BOARDS = 2
+
+
 def _print_campaign(result, report) -> None:
+    """The leaderboards of a small campaign (``evaluate``: one cell), else one line per
+    leaderboard (its best agent, J and J / J*) and where the tables are."""
     # scipy.stats: not at start-up (see _evaluate)
     from experiments.report.leaderboards import campaign_thresholds, leaderboards
     from experiments.report.markdown import leaderboard_markdown
 
     boards = leaderboards(result.rows, campaign_thresholds(result.campaign))
-    print(leaderboard_markdown(boards, result.campaign.agent_notes))
+    if len(boards) <= FULL_BOARDS:
+        print(leaderboard_markdown(boards, result.campaign.agent_notes))
+    else:
+        print(f"{len(boards)} leaderboards (best agent by mean J; every agent, CIs and figures in {report}):")
+        for (env, scenario, fault), board in boards.items():
+            best = next((e for e in board if not e.get("oracle")), None)
+            if best is None:
+                continue
+            ratio = best.get("J_over_J_star", float("nan"))
+            vs = f", J/J* {ratio:.3f}" if np.isfinite(ratio) else ""
+            print(f"  {env}/{scenario}/{fault}: {best['agent']}, J {best['J_mean']:.4g}{vs}")
     print(
         f"{result.episodes_run} episodes run, {result.episodes_skipped} already done, {result.wall_time_s:.1f} s on "
         f"{result.executor}; report: {report}"
@@ -313,14 +340,28 @@ def _evaluate(args: argparse.Namespace) -> int:
         preset = load_scenario(args.scenario)
         if preset["env"] and args.env == ENV_DEFAULT:
             args.env = preset["env"]
+        elif preset["env"] and base_version(args.env) != base_version(preset["env"]):
+            fits = [n for n in list_scenarios() if load_scenario(n)["env"] in (None, base_version(args.env))]
+            raise ValueError(
+                f"--scenario {args.scenario} is a scenario of {preset['env']}, not of --env {args.env}: leave --env "
+                f"out, or pick a scenario of {base_version(args.env)}: {', '.join(fits) or 'none is packaged'}"
+            )
         kwargs = {**preset["env_kwargs"], **kwargs}
         faults = {"healthy": [], preset["name"]: preset["faults"]}
     agents = _policy_specs(args)
     _check_models(args.env, kwargs, [a["model"] for a in agents if a["policy"] == "sb3"])
+    seeds = [args.seed_offset + s for s in args.seeds]
+    if seeds and max(seeds) > MAX_SEED:
+        raise ValueError(f"--seed-offset {args.seed_offset} puts seed {max(seeds)} above {MAX_SEED}, the largest seed")
+    cell = {"name": "env", "id": args.env, "kwargs": kwargs, "scenarios": scenarios, "faults": faults}
+    if args.env in LEARNING_TASKS:  # a learning task plays its -v0 cell's episodes, scored on that cell's J*
+        cell, note = learning_task_cell(args.env, kwargs, faults, None if args.scenarios else scenarios)
+        agents = [{**a, "env_id": args.env} for a in agents]
+        print(note)
     config = {
         "name": "evaluate",
-        "seeds": [args.seed_offset + s for s in args.seeds],
-        "envs": [{"name": "env", "id": args.env, "kwargs": kwargs, "scenarios": scenarios, "faults": faults}],
+        "seeds": seeds,
+        "envs": [cell],
         "agents": agents,
         "video": False,
         "optimum": {"solve": not args.no_solve},
@@ -328,6 +369,72 @@ def _evaluate(args: argparse.Namespace) -> int:
     result = run_campaign(config, args.out, ray_address=args.ray, workers=args.jobs, progress=print)
     _print_campaign(result, write_campaign_report(result, command=shlex.join(["attitude-envs", *args.argv])))
     return 0
+
+
+def _same_task(env_id: str, a: dict, b: dict) -> bool:
+    """Whether keyword sets ``a`` and ``b`` make the same ``env_id`` env, as far as the keywords
+    tell: equal once the default preset and the learning task's own defaults are left out."""
+    from experiments.jsonable import json_ready
+
+    default_preset = next((p.name for p in presets.for_env(base_version(env_id)) if p.default), None)
+    defaults = task_defaults(env_id)
+
+    def plain(kw: dict) -> dict:
+        return {
+            k: v
+            for k, v in json_ready(kw).items()
+            if not (k == "preset" and v == default_preset) and not (k in defaults and json_ready(defaults[k]) == v)
+        }
+
+    return plain(a) == plain(b)
+
+
+def learning_task_cell(env_id: str, kwargs: dict, faults: dict, scenarios: list | None) -> tuple[dict, str]:
+    """The ``-v0`` campaign cell a ``-v1`` evaluation plays (every agent on ``env_id``'s task,
+    as a campaign's learned agents) and a line saying which: the cell of the plant campaign
+    (``--config wheel|air-bearing|…``) whose learned agents train on these ``kwargs`` and play
+    these faults, when there is one (its J* are in the shipped table: ``evaluate`` then gives the
+    campaign page's J / J* on the same seeds), else the ``-v0`` env with ``env_id``'s
+    episode keywords (its task keywords left out; J* solved unless ``--no-solve``).
+    ``scenarios``: the evaluation's (None: the campaign cell's)."""
+    from experiments.campaign.spec import task_keywords
+    from experiments.jsonable import json_ready
+
+    v0 = base_version(env_id)
+    task = task_keywords(v0)
+    user = {k: v for k, v in kwargs.items() if k != "faults"}
+    user_faults = json_ready(kwargs.get("faults") or [])
+    if faults == {"none": []}:
+        for name in PLANT_CAMPAIGNS:
+            for cell in load_campaign(name).envs:
+                played = {k: v for k, v in cell.kwargs.items() if k not in task}
+                if cell.id != v0 or not _same_task(env_id, played, user):
+                    continue
+                for fault, entries in cell.faults.items():
+                    if json_ready(entries) == user_faults:
+                        spec = {
+                            "name": cell.name,
+                            "id": v0,
+                            "kwargs": dict(cell.kwargs),
+                            "scenarios": cell.scenarios if scenarios is None else scenarios,
+                            "faults": {fault: entries},
+                        }
+                        return spec, (
+                            f"{env_id} plays the {name} campaign's cell {cell.name}/{fault} ({v0} {cell.kwargs}): "
+                            "J / J* against that cell's J*, as on its campaign page"
+                        )
+    cell_kwargs = {k: v for k, v in {**task_defaults(env_id), **kwargs}.items() if k not in task}
+    spec = {
+        "name": "env",
+        "id": v0,
+        "kwargs": cell_kwargs,
+        "scenarios": scenarios or [{"name": "default"}],
+        "faults": faults,
+    }
+    return spec, (
+        f"{env_id} plays the episodes of {v0} {cell_kwargs} (no plant campaign's cell has these keywords and "
+        "faults): J / J* against that cell's J*"
+    )
 
 
 def _benchmark(args: argparse.Namespace) -> int:
@@ -390,8 +497,8 @@ def int_at_least(low: int, high: int | None = None):
     return parse
 
 
-def _add_env_options(p: argparse.ArgumentParser, default: str = ENV_DEFAULT) -> None:
-    p.add_argument("--env", default=default, help=f"registered env id: {', '.join(ALL_IDS)}")
+def _add_env_options(p: argparse.ArgumentParser, default: str = ENV_DEFAULT, ids: tuple[str, ...] = ALL_IDS) -> None:
+    p.add_argument("--env", default=default, help=f"registered env id: {', '.join(ids)}")
     p.add_argument(
         "--env-kwargs", help="env keyword arguments as YAML/JSON (or @FILE), e.g. '{preset: pyramid-4wheel}'"
     )
@@ -403,6 +510,7 @@ def _tune(args: argparse.Namespace) -> int:
         return _tune_population(args)
     if args.shape_groups != 1:
         raise ValueError("--shape-groups is the population search's (--backend jax)")
+    check_out_dir(args.out)
     try:  # optional: the tune extra (optuna) and the sb3 extra
         import optuna  # noqa: F401
 
@@ -443,6 +551,7 @@ def _tune_population(args: argparse.Namespace) -> int:
 
     if args.jobs not in (None, 1):
         raise ValueError("--jobs: the population search (--backend jax) trains every setting in one process")
+    check_out_dir(args.out)
     summary = tune_population(
         args.algo,
         args.env,
@@ -471,6 +580,9 @@ def _tune_population(args: argparse.Namespace) -> int:
 
 
 def _tune_pid(args: argparse.Namespace) -> int:
+    pid_tuning.check_env(args.env)
+    if not str(args.out).strip():
+        raise ValueError("--out must name the gains file to write, got ''")
     check_out_dir(Path(args.out).parent)
     out = pid_tuning.tune_pid(args, _env_kwargs(args), args.jobs or 2)
     print(f"wrote {out} ({args.mode} gains, objective {args.objective})")
@@ -484,6 +596,10 @@ def _table_specs(cells: list[str]) -> list[dict]:
     for item in cells:
         name, _, rest = item.partition(":")
         only_envs, _, only_faults = rest.partition(":")
+        if name not in PRESETS and not Path(name).is_file():
+            raise ValueError(
+                f"--campaign {item!r}: NAME must be one of {list(PRESETS)} or a campaign YAML file, got {name!r}"
+            )
         campaign = load_campaign(name)
         envs = {e.name for e in campaign.envs}
         faults = {f for e in campaign.envs for f in e.faults}
@@ -509,7 +625,13 @@ def _table_specs(cells: list[str]) -> list[dict]:
 
 def _write_table(args: argparse.Namespace) -> int:
     cells = args.campaign or list(optimum_table.SHIPPED)
-    path = Path(args.table) if args.table else optimum_table.shipped_table_path()
+    if args.table and args.out is not None:
+        raise ValueError("--table FILE and --out DIR both name where --write-table writes: give one")
+    if args.out is not None:
+        path = check_out_dir(args.out) / optimum_table.TABLE_FILE
+    else:
+        path = Path(args.table) if args.table else optimum_table.shipped_table_path()
+        check_out_dir(path.parent, "--table")
     start = time.perf_counter()
     specs = _table_specs(cells)
     print(f"J* table ({optimum_table.COMMAND}): {len(specs)} episode key(s) of {', '.join(cells)} → {path}")
@@ -535,9 +657,7 @@ def _optimum(args: argparse.Namespace) -> int:
         return _write_table(args)
     if args.out is None:
         raise ValueError("optimum needs --out DIR (or --write-table)")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise ValueError(f"--out must be a directory, got the file {str(out)!r}")
+    out = check_out_dir(args.out)
     seeds = args.seeds
     kwargs = _env_kwargs(args)
     if args.max_iter < 1:
@@ -661,8 +781,9 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument(
         "--select",
         choices=SELECT,
-        default="best",
-        help="snapshot of a run directory, as campaigns choose: best (lowest eval J; the default) or final",
+        default=None,
+        help="snapshot of a run directory, as campaigns choose: best (lowest eval J; the default) or final "
+        "(a snapshot folder RUN/best or RUN/final is played as it is; --select naming the other one is refused)",
     )
     ev.add_argument("--scenarios", help="YAML list of {name, options, env_kwargs}, or @FILE")
     ev.add_argument("--fault-grid", help="YAML mapping fault-name → fault list, or @FILE")
@@ -670,8 +791,15 @@ def build_parser() -> argparse.ArgumentParser:
         "--scenario",
         help=f"a packaged scenario preset (its env, kwargs and faults): {', '.join(list_scenarios())}",
     )
-    ev.add_argument("--seeds", type=seeds_arg, default="5", help=f"episode seeds of every cell: {SYNTAX} (default 5)")
-    ev.add_argument("--seed-offset", type=int_at_least(0), default=0, help="added to every seed (>= 0)")
+    ev.add_argument(
+        "--seeds",
+        type=seeds_arg,
+        default="5",
+        help=f"episode seeds of every cell: {SYNTAX}; {LIMITS}, so a huge count is refused at once (default 5)",
+    )
+    ev.add_argument(
+        "--seed-offset", type=int_at_least(0, MAX_SEED), default=0, help=f"added to every seed (0 to {MAX_SEED})"
+    )
     ev.add_argument(
         "--no-solve",
         action="store_true",
@@ -735,8 +863,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="GA-tune per-axis PID gains (air-bearing PID paper) on an attitude env; writes a JSON gains file "
         "that `evaluate --policy pid:gains:FILE` and campaigns load.",
     )
-    _add_env_options(tp, default="attitude_envs/AirBearing-v0")
-    pid_tuning.add_arguments(tp)
+    _add_env_options(tp, default="attitude_envs/AirBearing-v0", ids=pid_tuning.ENV_IDS)
+    pid_tuning.add_arguments(tp, int_at_least)
     _add_jobs_option(tp, "parallel evaluation processes (>= 1; default 2)")
     tp.set_defaults(func=_tune_pid)
 
@@ -745,11 +873,15 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _add_env_options(op)
     op.add_argument("--seeds", type=seeds_arg, default="1", help=f"episode seeds: {SYNTAX} (default 1: seed 0)")
-    op.add_argument("--out", help="output directory (optimum.json, optimum.md); not with --write-table")
+    op.add_argument(
+        "--out",
+        help="output directory (optimum.json, optimum.md); with --write-table: the table is written to "
+        f"DIR/{optimum_table.TABLE_FILE} instead of the shipped one",
+    )
     op.add_argument(
         "--warm-start", default="lqr", choices=["lqr", "best", "none"], help="baseline rollout to start from"
     )
-    op.add_argument("--max-iter", type=int, default=1000, help="IPOPT iterations (>= 1)")
+    op.add_argument("--max-iter", type=int_at_least(1), default=1000, help="IPOPT iterations (>= 1)")
     op.add_argument("--no-cache", action="store_true", help="neither read nor write the on-disk cache")
     op.add_argument("--jit", action="store_true", help="compile the step with the C compiler (long horizons)")
     op.add_argument(
@@ -765,7 +897,9 @@ def build_parser() -> argparse.ArgumentParser:
         help="with --write-table: the cells to cover (a preset or campaign file, optionally only some envs "
         "and faults); default: " + " ".join(optimum_table.SHIPPED),
     )
-    op.add_argument("--table", help="with --write-table: the table file to write (default: the shipped one)")
+    op.add_argument(
+        "--table", help="with --write-table: the table file to write (default: the shipped one, or DIR/ of --out)"
+    )
     op.add_argument(
         "--keep-table",
         action="store_true",

@@ -7,7 +7,7 @@ import argparse
 import contextlib
 import json
 import os
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict
 from pathlib import Path
@@ -26,8 +26,23 @@ from agents.ga_tuning import (
 )
 from baselines.pid import GAIN_NAMES, UNITS
 from experiments.jsonable import json_ready
+from experiments.policies import GYROSTATS
 from experiments.processes import die_with_parent, pool_context
 from experiments.progress import Progress
+
+#: the ids tune-pid tunes: the per-axis PID of the gyrostat plants (the GA evaluates the
+#: wheel platform's error angles; :data:`experiments.policies.GYROSTATS`)
+ENV_IDS = tuple(f"attitude_envs/{name}-v{v}" for name in GYROSTATS for v in (0, 1))
+
+
+def check_env(env_id: str) -> str:
+    """``env_id`` when tune-pid tunes it, else a ``ValueError`` naming the ids it does."""
+    if env_id not in ENV_IDS:
+        raise ValueError(
+            f"tune-pid tunes the PID of the reaction-wheel plants only; --env must be one of {', '.join(ENV_IDS)}, "
+            f"got {env_id!r}"
+        )
+    return env_id
 
 
 def _pool_worker_init(parent_pid: int, env_id: str, env_kwargs: dict[str, Any]) -> None:
@@ -55,18 +70,24 @@ def evaluator(env_id: str, env_kwargs: dict[str, Any] | None = None, workers: in
         pool.shutdown()
 
 
-def add_arguments(p: argparse.ArgumentParser) -> None:
+def add_arguments(p: argparse.ArgumentParser, int_at_least: Callable[[int], Callable[[str], int]]) -> None:
     """The options of ``attitude-envs tune-pid`` (``--env``, ``--env-kwargs`` and ``--jobs`` come
-    from the command line's shared options)."""
+    from the command line's shared options); ``int_at_least(low)``: the command line's argparse
+    type of an integer >= low (one line naming the option otherwise)."""
     p.add_argument("--mode", choices=["fixed", "schedule"], default="fixed", help="constant gains or meta-model")
     p.add_argument("--objective", choices=OBJECTIVES, default="iae", help="IAE (deg·s) or the shared cost J")
-    p.add_argument("--maneuvers", type=int, default=0, help="random maneuvers from the env (0: the paper's lab test)")
-    p.add_argument("--maneuver-seed", type=int, default=0, help="first reset seed of the random maneuvers")
-    p.add_argument("--population", type=int, default=GAConfig.population)
-    p.add_argument("--generations", type=int, default=GAConfig.generations)
+    p.add_argument(
+        "--maneuvers",
+        type=int_at_least(0),
+        default=0,
+        help="random maneuvers from the env (>= 0; 0: the paper's lab test)",
+    )
+    p.add_argument("--maneuver-seed", type=int_at_least(0), default=0, help="first reset seed of the random maneuvers")
+    p.add_argument("--population", type=int_at_least(2), default=GAConfig.population, help="GA population (>= 2)")
+    p.add_argument("--generations", type=int_at_least(1), default=GAConfig.generations, help="GA generations (>= 1)")
     p.add_argument("--mutation-probability", type=float, default=GAConfig.mutation_probability)
     p.add_argument("--crossover-probability", type=float, default=GAConfig.crossover_probability)
-    p.add_argument("--seed", type=int, default=0, help="GA seed")
+    p.add_argument("--seed", type=int_at_least(0), default=0, help="GA seed (>= 0)")
     for g, b in zip(GAIN_NAMES, (GAConfig.kp_bounds, GAConfig.kd_bounds, GAConfig.ki_bounds), strict=True):
         p.add_argument(f"--{g}-bounds", type=float, nargs=2, default=list(b), metavar=("MIN", "MAX"))
     p.add_argument("--regressor", choices=REGRESSORS, default="initial", help="meta-model states (schedule mode)")
@@ -78,6 +99,7 @@ def tune_pid(args: argparse.Namespace, env_kwargs: dict[str, Any], workers: int)
     """Runs the GA (and the meta-model with ``--mode schedule``) and writes the gains file; returns its path.
 
     Raises ``ValueError`` for bad input."""
+    check_env(args.env)
     config = GAConfig(
         population=args.population,
         generations=args.generations,

@@ -46,6 +46,29 @@ def format_duration(seconds: float) -> str:
     return f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
 
 
+class _Bar(tqdm):
+    """tqdm whose rate (and so ETA) is measured from the first item done on (``origin``, set by
+    :class:`Progress`): none before it, as the status lines. tqdm's own rate would take the
+    start-up into its first estimate (110 campaign episodes, the first after 35 s of workers
+    starting and compiling: ETA 1:05, for a minute of work)."""
+
+    origin: tuple[float, int] | None = None
+
+    def mark_origin(self, n: int) -> None:
+        """``n`` items are done now: the rate is measured from here on."""
+        self.origin = (self._time(), int(n))
+
+    @property
+    def format_dict(self):
+        d = super().format_dict
+        now = self._time()
+        if self.origin is None or self.n <= self.origin[1] or now <= self.origin[0]:
+            d["rate"] = 0  # tqdm prints '?' for the rate and the time left
+        else:
+            d["rate"] = (self.n - self.origin[1]) / (now - self.origin[0])
+        return d
+
+
 class Progress:
     """Progress over ``total`` items (``n`` starts at ``initial``, e.g. a resumed run's steps).
 
@@ -74,13 +97,14 @@ class Progress:
         self.stream = stream if stream is not None else sys.stderr
         self.interval_s = status_interval_s() if interval_s is None else float(interval_s)
         self.start = self.last = time.monotonic()
+        self.first: tuple[float, int] | None = None  # (time, count) of the first progress: the ETA's origin
         self.lines = 0
         self.postfix = ""
         self._closed = False
         use_bar = self.stream.isatty() if bar is None else bool(bar)
         self._bar = None
         if self.enabled and use_bar:
-            self._bar = tqdm(
+            self._bar = _Bar(
                 total=self.total, initial=self.n, desc=desc, unit=unit, file=self.stream, dynamic_ncols=True
             )
 
@@ -108,18 +132,26 @@ class Progress:
             return
         n = int(n)
         if self._bar is not None:
+            if self._bar.origin is None and n > self.initial:
+                self._bar.mark_origin(n)
             self._bar.update(n - self.n)
         self.n = n
         now = time.monotonic()
+        if self.first is None and n > self.initial:
+            self.first = (now, n)
         if self._bar is None and now - self.last >= self.interval_s and self.n < self.total:
             self._line(now)
 
     def status(self, now: float | None = None) -> str:
-        """The one-line status: done/total, percent, elapsed, ETA (from this run's rate)."""
+        """The one-line status: done/total, percent, elapsed, ETA. The ETA is ``?`` until the
+        first item is done and progress has been made since: its rate is measured from the first
+        item done on, so a start-up (workers starting, a JIT compilation, a first job much longer
+        than the rest) does not stretch it (a first ETA of an hour for three minutes of work)."""
         now = time.monotonic() if now is None else now
         elapsed = now - self.start
-        done = self.n - self.initial
-        rate = done / elapsed if elapsed > 0 else 0.0
+        rate = 0.0
+        if self.first is not None and self.n > self.first[1] and now > self.first[0]:
+            rate = (self.n - self.first[1]) / (now - self.first[0])
         eta = (self.total - self.n) / rate if rate > 0 else float("nan")
         pct = 100.0 * self.n / self.total if self.total else 100.0
         unit = f" {self.unit}" if self.unit != "it" and self.unit not in self.desc else ""

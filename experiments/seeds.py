@@ -9,7 +9,9 @@ written            means                           seeds
 ``[0, 3, 7]``      a YAML list (campaign files)    0, 3, 7
 =================  ==============================  ======================
 
-A single seed ``k`` is the range ``k-k``. Seeds are integers >= 0 and distinct.
+A single seed ``k`` is the range ``k-k``. Seeds are distinct integers in [0, :data:`MAX_SEED`],
+at most :data:`MAX_COUNT` of them (a count such as ``100000000`` is refused at once: at about a
+second an episode it would run for years, and its job list alone would take minutes to build).
 """
 
 from __future__ import annotations
@@ -17,11 +19,29 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+#: the largest seed (numpy's and the batched envs' seeds are 32-bit)
+MAX_SEED = 2**31 - 1
+#: the most seeds one list may hold (episodes per cell)
+MAX_COUNT = 100_000
 SYNTAX = "a count N (seeds 0..N-1), a range A-B, or a comma list like 0,3,7-9"
+LIMITS = f"seeds distinct, in [0, {MAX_SEED}], at most {MAX_COUNT} of them"
 
 
 def _bad(name: str, value: Any, why: str) -> ValueError:
-    return ValueError(f"{name} must be {SYNTAX} (seeds >= 0, distinct): {why}, got {value!r}")
+    return ValueError(f"{name} must be {SYNTAX} ({LIMITS}): {why}, got {_short(value)}")
+
+
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 80 else f"{text[:60]}... ({len(text)} characters)"
+
+
+def _check_size(name: str, value: Any, count: int, largest: int) -> None:
+    """Before a list is built: at most :data:`MAX_COUNT` seeds, none above :data:`MAX_SEED`."""
+    if count > MAX_COUNT:
+        raise _bad(name, value, f"{count} seeds is more than {MAX_COUNT}")
+    if largest > MAX_SEED:
+        raise _bad(name, value, f"seed {largest} is above {MAX_SEED}")
 
 
 def _items(name: str, text: str) -> list[int]:
@@ -34,10 +54,12 @@ def _items(name: str, text: str) -> list[int]:
         except ValueError:
             raise _bad(name, text, f"{part!r} is not an integer or a range") from None
         if b is None:
+            _check_size(name, text, len(seeds) + 1, a)
             seeds.append(a)
         elif b < a:
             raise _bad(name, text, f"range {part!r} runs backwards")
         else:
+            _check_size(name, text, len(seeds) + b - a + 1, b)
             seeds.extend(range(a, b + 1))
     return seeds
 
@@ -50,11 +72,13 @@ def parse_seeds(value: Any, name: str = "seeds") -> list[int]:
     if isinstance(value, int):
         if value < 1:
             raise _bad(name, value, "a count must be >= 1")
+        _check_size(name, value, value, value - 1)
         return list(range(value))
     if isinstance(value, list | tuple):
         if not value or not all(isinstance(s, int) and not isinstance(s, bool) for s in value):
             raise _bad(name, value, "a list must hold at least one integer and only integers")
         seeds = [int(s) for s in value]
+        _check_size(name, value, len(seeds), max(seeds))
     elif isinstance(value, str):
         text = value.strip()
         if not text:

@@ -85,7 +85,8 @@ def test_seeds_0_is_a_one_line_error_naming_seeds_not_the_usage():
     assert proc.returncode == 2
     assert (
         proc.stderr == "error: argument --seeds: must be a count N (seeds 0..N-1), a range A-B, or a comma list like "
-        "0,3,7-9 (seeds >= 0, distinct): a count must be >= 1, got 0 (see attitude-envs evaluate --help)\n"
+        "0,3,7-9 (seeds distinct, in [0, 2147483647], at most 100000 of them): a count must be >= 1, got 0 "
+        "(see attitude-envs evaluate --help)\n"
     )
 
 
@@ -203,7 +204,8 @@ def test_progress_writes_status_lines_off_a_terminal_and_a_bar_on_one():
         for _ in range(4):
             p.update()
     text = lines.getvalue().splitlines()
-    assert text[0].startswith("campaign episodes: 1/4 (25 %), 0:00 elapsed, ETA 0:0")
+    assert text[0] == "campaign episodes: 1/4 (25 %), 0:00 elapsed, ETA ?"  # no rate before a second item
+    assert text[1].startswith("campaign episodes: 2/4 (50 %), 0:00 elapsed, ETA 0:0")
     assert text[-1].startswith("campaign episodes: 4/4 done in 0:00")
     bar = io.StringIO()
     with Progress(10, "train ppo", "steps", bar=True, stream=bar) as p:

@@ -145,7 +145,7 @@ class AirBearingEnv(ReactionWheelEnv):
     def reset_episode(self, seed: int | None = None, options: dict[str, Any] | None = None) -> None:
         """:meth:`ReactionWheelEnv.reset_episode` with the start attitude drawn in 3-2-1 Euler
         angles (or given as ``options["euler_321_deg"]``)."""
-        options = {} if options is None else dict(options)
+        options = validation.mapping("reset options", options)
         gym.Env.reset(self, seed=seed)  # seed here: the start attitude is drawn before the parent's draws
         if "euler_321_deg" in options:
             if "attitude" in options:

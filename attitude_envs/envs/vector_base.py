@@ -80,7 +80,7 @@ class BatchedEnv(VectorEnv):
             seeds = list(seed)
             if len(seeds) != self.num_envs:
                 raise ValueError(f"seed must be an int or a list of {self.num_envs} seeds, got {len(seeds)}")
-        options = dict(options or {})
+        options = validation.mapping("reset options", options)
         reset_mask = options.pop("reset_mask", None)
         indices = range(self.num_envs) if reset_mask is None else np.flatnonzero(reset_mask)
         for i in indices:

@@ -26,6 +26,12 @@ time-limit handling) must not bootstrap past a limit crossing, and ``done = term
 truncated`` is the same under either rule. :class:`~attitude_envs.jax.wrappers.DoneStep` adapts
 the envs to the 5-tuple ``step`` of PureJaxRL-style trainers (rejax).
 
+An action that is not finite (NaN or inf) cannot raise inside a compiled program: the step
+that takes it ends the episode (``terminated``; the reward it returns is NaN, and
+``info["invalid_action"]`` is set), and the autoreset starts a fresh episode, so no NaN state
+carries over. An action of the wrong shape, or another plant's ``EnvParams``, raises a
+``ValueError`` when the step is traced (:meth:`Environment.check_step_arguments`).
+
 ``info["final_observation"]`` is the plant's last observation as ``step_env`` computed it. On a
 step that crosses a limit it may lie beyond ``observation_space`` (the numba env returns that
 observation clipped to its box; no policy acts on it, and only ``truncated`` steps, which
@@ -82,15 +88,49 @@ class Environment:
         this step's key, and ``info["final_observation"]`` is the ended episode's last."""
         if params is None:
             params = self.default_params
+        self.check_step_arguments(action, params)
         key_step, key_reset = jax.random.split(key)
         obs_st, state_st, reward, terminated, info = self.step_env(key_step, state, action, params)
+        # a non-finite action cannot raise under jit: it ends the episode, flagged (the reward stays NaN)
+        invalid = jnp.logical_not(jnp.all(jnp.isfinite(action)))
+        terminated = jnp.logical_or(terminated, invalid)
         truncated = jnp.logical_and(self.is_truncated(state_st, params), jnp.logical_not(terminated))
         done = jnp.logical_or(terminated, truncated)
         obs_re, state_re = self.reset_env(key_reset, params)
         state = jax.tree.map(lambda x, y: jax.lax.select(done, x, y), state_re, state_st)
         obs = jax.lax.select(done, obs_re, obs_st)
-        info = {**info, "terminated": terminated, "truncated": truncated, "final_observation": obs_st}
+        info = {
+            **info,
+            "terminated": terminated,
+            "truncated": truncated,
+            "final_observation": obs_st,
+            "invalid_action": invalid,
+        }
         return obs, state, reward, terminated, truncated, info
+
+    def check_step_arguments(self, action: Any, params: Any) -> None:
+        """``ValueError`` unless ``params`` is this env's ``EnvParams`` class and ``action`` has
+        the action space's shape ``(n,)``: one decision, not a batch (``jax.vmap`` the step
+        for a batch). Shapes and types are static under ``jax.jit``, so this raises when the
+        step is traced, not in the compiled program. The gyrostats' ReactionWheel and
+        AirBearing share one ``EnvParams`` class, so their params are not told apart here."""
+        try:
+            expected = type(self.default_params)
+        except ValueError:  # a plant built without default params: nothing to compare with
+            expected = None
+        if expected is not None and not isinstance(params, expected):
+            raise ValueError(
+                f"params must be {self.name}'s {expected.__module__}.{expected.__qualname__} (from "
+                f"attitude_envs.jax.make or env.default_params), got {type(params).__module__}."
+                f"{type(params).__qualname__}"
+            )
+        n = tuple(self.action_space(params).shape)
+        shape = tuple(jnp.shape(action))
+        if shape != n:
+            raise ValueError(
+                f"action must have shape {n} (one decision of {self.name}, each in [-1, 1]; jax.vmap the step "
+                f"for a batch), got shape {shape}"
+            )
 
     @partial(jax.jit, static_argnames=("self",))
     def reset(self, key: jax.Array, params: Any = None):

@@ -230,7 +230,8 @@ class LinearSystemEnv(Environment):
         """The JAX state of the numba env's current episode: its state ``x``, decisions
         taken, realized actuator faults and their runtime state. An intermittent fault not
         yet evaluated (no first switch drawn) gets its first switch time drawn with ``key``
-        (default ``PRNGKey(0)``) from the same law."""
+        (default ``PRNGKey(0)``) from the same law. ``numba_env`` may be wrapped (``gym.make``'s env)."""
+        numba_env = getattr(numba_env, "unwrapped", numba_env)
         faults, fault_state = jfaults.from_numba_layer(numba_env.fault_layer.realized, self.n_faults, key)
         steps = int(numba_env.steps_taken)  # plant steps elapsed
         return EnvState(

@@ -25,7 +25,13 @@ NAMESPACE = "attitude_envs"
 
 
 def full_id(env_id: str) -> str:
-    """``env_id`` with the suite's namespace; ``ValueError`` naming the ids for another."""
+    """``env_id`` with the suite's namespace; ``ValueError`` naming the ids for another (or for
+    anything not a string)."""
+    if not isinstance(env_id, str):
+        raise ValueError(
+            f"env_id must be a string, one of the suite's ids ({sorted(PLANT_MODULES)}, -v0 or -v1, e.g. "
+            f"'AirBearing-v1'), got {env_id!r} ({type(env_id).__name__})"
+        )
     full = env_id if "/" in env_id else f"{NAMESPACE}/{env_id}"
     namespace, _, name = full.partition("/")
     plant = name.rsplit("-v", 1)[0]

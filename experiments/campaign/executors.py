@@ -121,7 +121,13 @@ class RayExecutor:
                     _node_ip_address="127.0.0.1",
                 )
             else:
-                ray.init(address=address, runtime_env=runtime_env, log_to_driver=False)
+                try:
+                    ray.init(address=address, runtime_env=runtime_env, log_to_driver=False)
+                except ConnectionError as exc:  # one line, not ray's traceback
+                    raise ValueError(
+                        f"--ray {address!r}: no Ray cluster answers at that address ({str(exc).splitlines()[0]}); "
+                        "start one with 'ray start --head' and pass its address (or 'auto'), or use --ray local"
+                    ) from None
         self._ray = ray
         self.name = f"ray[{address}]"
 

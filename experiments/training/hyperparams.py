@@ -21,6 +21,7 @@ Command-line overrides use the Zoo's ``key:value`` syntax (value parsed as YAML)
 from __future__ import annotations
 
 import ast
+import math
 import re
 from importlib import resources
 from pathlib import Path
@@ -29,6 +30,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from attitude_envs import validation
 from experiments.training.algorithm import Algorithm, check_algorithm
 
 # Keys the Zoo reads itself (not passed to the algorithm's constructor).
@@ -152,7 +154,63 @@ def load_hyperparams(
             raise ValueError(
                 f"hyperparameter {key!r} is not supported here (accepted Zoo keys: {[k for k in ZOO_KEYS if k not in _UNSUPPORTED]})"
             )
+    check_hyperparams(entry)
     return entry
+
+
+#: the range of each numeric hyperparameter that has one (as :mod:`attitude_envs.validation`
+#: writes it: low, high, open low, open high); a schedule ``lin_<x>`` is checked on ``x``
+RANGES: dict[str, tuple[float, float, bool, bool]] = {
+    "gamma": (0.0, 1.0, True, False),
+    "gae_lambda": (0.0, 1.0, False, False),
+    "learning_rate": (0.0, math.inf, True, True),
+    "clip_range": (0.0, math.inf, True, True),
+    "clip_range_vf": (0.0, math.inf, True, True),
+    "vf_coef": (0.0, math.inf, False, True),
+    "max_grad_norm": (0.0, math.inf, True, True),
+    "tau": (0.0, 1.0, True, False),
+    "noise_std": (0.0, math.inf, False, True),
+}
+#: whole-number hyperparameters and their least value
+MINIMA = {
+    "n_timesteps": 1,
+    "n_envs": 1,
+    "n_steps": 1,
+    "batch_size": 1,
+    "n_epochs": 1,
+    "buffer_size": 1,
+    "learning_starts": 0,
+}
+
+
+def check_hyperparams(entry: dict[str, Any]) -> None:
+    """``ValueError`` naming the hyperparameter and its accepted range when a value in
+    ``entry`` is outside it (``gamma`` in (0, 1], ``learning_rate`` > 0, ``n_steps`` an
+    integer >= 1, …: :data:`RANGES`, :data:`MINIMA`). The one check of a recipe, whether it
+    comes from a file, ``--params`` (``train``, ``tune``) or a campaign's ``overrides``:
+    :func:`load_hyperparams` calls it. ``ent_coef`` may also be SAC's ``auto``/``auto_<x>``."""
+    for key, (low, high, open_low, open_high) in RANGES.items():
+        if key not in entry or entry[key] is None and key == "clip_range_vf":
+            continue
+        value = entry[key]
+        if (
+            isinstance(value, str)
+            and value.startswith("lin_")
+            and key in ("learning_rate", "clip_range", "clip_range_vf")
+        ):
+            try:
+                value = float(value[4:])
+            except ValueError:
+                raise ValueError(
+                    f"hyperparameter {key} schedule must look like lin_<number>, got {entry[key]!r}"
+                ) from None
+        validation.in_range(f"hyperparameter {key}", value, low, high, open_low=open_low, open_high=open_high)
+    ent = entry.get("ent_coef")
+    if ent is not None and not (isinstance(ent, str) and ent.startswith("auto")):
+        validation.in_range("hyperparameter ent_coef", ent, 0.0)
+    for key, minimum in MINIMA.items():
+        if key in entry:
+            validation.integer(f"hyperparameter {key}", entry[key], minimum)
 
 
 def _schedule(name: str, value: Any) -> Any:

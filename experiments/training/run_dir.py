@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from attitude_envs.files import atomic_write
+from attitude_envs.files import read_json as read_json_file
 from experiments.jsonable import json_ready, repr_code
 from experiments.training.algorithm import Algorithm
 from experiments.training.callbacks import EvalLog, read_json, save_snapshot
@@ -149,7 +150,11 @@ def latest_checkpoint(out_dir: Path) -> dict[str, Any] | None:
     pointer = Path(out_dir) / "checkpoints" / "latest.json"
     if not pointer.is_file():
         return None
-    data = json.loads(pointer.read_text(encoding="utf-8"))
+    data = read_json_file(pointer, "the checkpoint pointer")
+    if not isinstance(data, dict) or not isinstance(data.get("dir"), str) or "timesteps" not in data:
+        raise ValueError(
+            f"the checkpoint pointer {str(pointer)!r} lacks its 'dir' and 'timesteps': restore or delete it"
+        )
     path = pointer.parent / data["dir"]
     if not (path / STATE_FILE).is_file():
         raise ValueError(

@@ -23,6 +23,7 @@ import torch
 from stable_baselines3.common.utils import set_random_seed
 from stable_baselines3.common.vec_env import VecNormalize
 
+from attitude_envs.files import read_json as read_json_file
 from attitude_envs.make import check_env_id, make_checked
 from experiments.training.algorithm import Algorithm
 from experiments.training.callbacks import NormalizedPredictor, evaluate_cost, read_json
@@ -317,10 +318,15 @@ def load_trained(model_path: str | Path, env: gym.Env | None = None):
                 f"model {str(model_path)!r} was trained on {saved['env_id']} (its run's config.json), "
                 f"not on {env.spec.id}: evaluate it on {saved['env_id']}"
             )
-    if algorithm.backend == "jax":  # a fused-PPO model file plays on numpy: no jax needed to load it
-        model = algorithm.model_class().load(model_path)
-    else:
-        model = algorithm.model_class().load(model_path, device="cpu", custom_objects=_PLAYING_ONLY)
+    try:
+        if algorithm.backend == "jax":  # a fused-PPO model file plays on numpy: no jax needed to load it
+            model = algorithm.model_class().load(model_path)
+        else:
+            model = algorithm.model_class().load(model_path, device="cpu", custom_objects=_PLAYING_ONLY)
+    except (zipfile.BadZipFile, EOFError, pickle.UnpicklingError, KeyError, OSError, ValueError) as exc:
+        raise ValueError(
+            f"model file {str(model_path)!r} cannot be loaded ({exc}): it is cut or not a model file"
+        ) from None
     if env is not None:
         for what in ("observation_space", "action_space"):
             ours, theirs = getattr(env, what), getattr(model, what)
@@ -341,9 +347,15 @@ def load_trained(model_path: str | Path, env: gym.Env | None = None):
     vecnorm = None
     stats = model_path.parent / "vecnormalize.pkl"
     if stats.is_file():
-        with stats.open("rb") as fh:
-            vecnorm = pickle.load(fh)
-        vecnorm.training = False
+        try:
+            with stats.open("rb") as fh:
+                vecnorm = pickle.load(fh)
+            vecnorm.training = False
+        except (EOFError, pickle.UnpicklingError, AttributeError, ImportError, ValueError) as exc:
+            raise ValueError(
+                f"normalization statistics {str(stats)!r} cannot be loaded ({exc}): the file is cut; "
+                "the model cannot play without them"
+            ) from None
     return NormalizedPredictor(model, vecnorm, frame_stack)
 
 
@@ -371,7 +383,7 @@ def _run_config(model_path: Path) -> dict[str, Any] | None:
     a ``best``/``final`` snapshot), or None."""
     for config in (model_path.parent / "config.json", model_path.parent.parent / "config.json"):
         if config.is_file():
-            return json.loads(config.read_text(encoding="utf-8"))
+            return read_json_file(config, "the run's config")
     return None
 
 

@@ -29,7 +29,9 @@ from typing import Any
 
 import yaml
 
+from attitude_envs.make import check_env_id
 from experiments.processes import die_with_parent, pin_to_one_core
+from experiments.training.hyperparams import load_hyperparams
 from experiments.training.training import train
 
 INSTALL_HINT = "hyperparameter search needs optuna: pip install 'attitude-envs[tune]'"
@@ -246,7 +248,16 @@ def _worker(spec: dict[str, Any], n_trials: int, index: int | None = None, paren
     if sum(t.state in states for t in study.trials) >= n_trials:
         return
     stop = optuna.study.MaxTrialsCallback(n_trials, states=states)
-    study.optimize(_objective(spec), callbacks=[stop], catch=(ValueError,))
+    failed_before = sum(t.state == TrialState.FAIL for t in study.trials)
+
+    def stop_failing(study, trial) -> None:  # a drawn setting that cannot train is redrawn, not for ever
+        if sum(t.state == TrialState.FAIL for t in study.trials) - failed_before >= n_trials:
+            study.stop()
+
+    study.optimize(_objective(spec), callbacks=[stop, stop_failing], catch=(ValueError,))
+    failed = sum(t.state == TrialState.FAIL for t in study.trials) - failed_before
+    if failed >= n_trials:
+        raise ValueError(f"tune: {failed} trials failed (their errors are printed above); stopped the search")
 
 
 def tune(
@@ -277,6 +288,10 @@ def tune(
             raise ValueError(f"{name} must be >= {low}, got {value!r}")
     if not 1 <= int(n_evaluations) <= int(timesteps):
         raise ValueError(f"n_evaluations must be in [1, timesteps], got {n_evaluations!r}")
+    # the env id and the fixed overrides checked once, before any trial: a trial that fails on
+    # them (a ValueError) would be caught by optuna, and a failed trial does not count to n_trials
+    check_env_id(env_id)
+    load_hyperparams(algo, env_id, None, {**dict(overrides or {}), **({"backend": backend} if backend else {})})
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     spec = {
