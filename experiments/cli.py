@@ -355,7 +355,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         raise ValueError(f"--seed-offset {args.seed_offset} puts seed {max(seeds)} above {MAX_SEED}, the largest seed")
     cell = {"name": "env", "id": args.env, "kwargs": kwargs, "scenarios": scenarios, "faults": faults}
     if args.env in LEARNING_TASKS:  # a learning task plays its -v0 cell's episodes, scored on that cell's J*
-        cell, note = learning_task_cell(args.env, kwargs, faults, None if args.scenarios else scenarios)
+        cell, note = learning_task_cell(args.env, kwargs, faults, scenarios if args.scenarios else None)
         agents = [{**a, "env_id": args.env} for a in agents]
         print(note)
     config = {
@@ -762,7 +762,10 @@ def build_parser() -> argparse.ArgumentParser:
         description=(
             "Evaluate policies on an env × scenario × fault × seed grid. "
             f"Policies: {', '.join(p for p in POLICIES if p != 'sb3')} (saved SB3 models: --model). "
-            f"Env ids: {', '.join(ALL_IDS)}. Scenario presets: {', '.join(list_scenarios())}."
+            f"Env ids: {', '.join(ALL_IDS)}. Scenario presets: {', '.join(list_scenarios())}. "
+            "On a learning task (-v1) every policy plays the episodes of its -v0 cell: the plant campaign's cell "
+            "whose learned agents train on the same --env-kwargs and --faults, with J* from the shipped table (so "
+            "train + evaluate gives the campaign page's J / J*), else the -v0 env with the task's episode keywords."
         ),
     )
     _add_env_options(ev)

@@ -458,6 +458,7 @@ def test_evaluate_a_v1_model_scores_against_its_v0_cells_j_star(tiny_run, tmp_pa
     with open(out / "episodes.csv", newline="", encoding="utf-8") as fh:
         rows = list(csv.DictReader(fh))
     assert {r["agent"] for r in rows} >= {"ppo", "zero"}
+    assert {(r["env"], r["scenario"], r["fault"]) for r in rows} == {("ab", "regulation", "none")}  # the cell's own
     for r in rows:
         assert float(r["j_star"]) == pytest.approx(expected[int(r["seed"])], rel=1e-12)
     board = [line for line in printed.splitlines() if line.startswith("| ") and "ppo" in line]
@@ -504,3 +505,35 @@ def test_progress_bar_eta_is_measured_from_the_first_item():
     bar.update()
     assert "<01:20" in str(bar._bar), str(bar._bar)
     bar.close()
+
+
+@pytest.mark.parametrize(
+    ("v1", "kwargs", "campaign", "cell", "fault"),
+    [
+        ("ReactionWheel-v1", {"action_frame": "body"}, "wheel", "rw", "none"),
+        ("AirBearing-v1", {}, "air-bearing", "ab", "none"),
+        ("LinearSystem-v1", {}, "linear", "ls", "none"),
+        ("FuelSlosh-v1", {}, "slosh", "fs", "none"),
+        ("Magnetorquer-v1", {}, "magnetorquer", "mt", "none"),
+        (
+            "AirBearing-v1",
+            {"faults": [{"kind": "outage", "target": "actuator", "index": 2, "onset_s": 2.0}]},
+            "air-bearing",
+            "ab",
+            "yaw-wheel-outage-2s",
+        ),
+    ],
+)
+def test_a_learning_task_maps_to_its_plant_campaigns_cell(v1, kwargs, campaign, cell, fault):
+    from experiments.campaign import load_campaign
+
+    spec, note = cli.learning_task_cell(f"attitude_envs/{v1}", kwargs, {"none": []}, None)
+    (expected,) = [e for e in load_campaign(campaign).envs if e.name == cell]
+    assert spec["id"] == expected.id and spec["kwargs"] == expected.kwargs and list(spec["faults"]) == [fault]
+    assert spec["scenarios"] == expected.scenarios and f"the {campaign} campaign's cell {cell}/{fault}" in note
+
+
+def test_a_learning_task_off_the_campaigns_plays_its_v0_episodes():
+    spec, note = cli.learning_task_cell("attitude_envs/FuelSlosh-v1", {"episode_duration_s": 50.0}, {"none": []}, None)
+    assert spec["id"] == "attitude_envs/FuelSlosh-v0" and "no plant campaign's cell" in note
+    assert spec["kwargs"] == {"episode_duration_s": 50.0, "randomize_initial_state": True}  # task keywords left out
