@@ -1,5 +1,5 @@
 """The campaign's J of an episode is the sum of every step's cost, on every plant's path
-(issue 52, item 3: dropping the last step's cost in ``experiments/campaign/episode.py``'s generic
+(dropping the last step's cost in ``experiments/campaign/episode.py``'s generic
 metrics passed the whole suite).
 
 For each plant campaign of ``--config all``, the ``zero`` agent's first episode job of each cell

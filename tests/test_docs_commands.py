@@ -23,7 +23,7 @@ code spans, each command that starts with ``attitude-envs``, ``python train.py``
    parser has (but ``--help`` and hidden ones). Both directions fail: an option a synopsis names
    that the parser lacks fails test 1 (or 2); an option the parser has and the synopsis leaves out
    fails here, because a synopsis is where a reader looks up what a command takes (the train
-   synopsis once left out ``--eval-episodes``, ``--eval-freq`` and ``--checkpoint-freq``, issue 52).
+   synopsis once left out ``--eval-episodes``, ``--eval-freq`` and ``--checkpoint-freq``).
    An example command (no ``[...]``) shows only the options it uses and is not held to this.
 4. ``test_doc_command_says_how_long``: a command that is not known-fast has a time statement
    (``≈ 3 min``, ``about 90 s``, ``1 h 29 min``, ``under a minute``, ``seconds``) in its trailing

@@ -1,4 +1,4 @@
-"""Held-out episodes: what training sees is not what a campaign scores (issue 52, item 3).
+"""Held-out episodes: what training sees is not what a campaign scores.
 
 For every training job of the plant campaigns of ``--config all`` (the campaign's own
 :func:`~experiments.campaign.jobs.training_jobs`, turned into a run plan by ``train`` itself,
@@ -11,7 +11,7 @@ which the tests check first):
   the best snapshot (``train``'s eval env, seeds ``eval_seed`` + i, 10000+) start nowhere a
   campaign episode of the same env starts. On LinearSystem-v1 every seed plays the paper's x₀,
   so there the validation episodes *are* the evaluated one: an expected failure until that cell
-  validates on the training distribution (issue 52, item 3, first bullet).
+  validates on the training distribution.
 * ``test_training_episodes_are_not_evaluation_episodes`` (SB3/SBX jobs): the first episode of
   every training sub-env starts nowhere a campaign episode starts. It fails today, and is marked
   so (strict: it flips when the seeding is fixed): ``make_training_env`` seeds sub-env i with
@@ -123,7 +123,7 @@ def _deterministic_mark(job_id: str):
             strict=True,
             raises=AssertionError,
             reason="every seed of this cell starts from the paper's x0: the validation episodes are the evaluated "
-            "episode until it validates on the training distribution (issue 52, item 3)",
+            "episode until it validates on the training distribution",
         )
     return ()
 
@@ -146,7 +146,7 @@ SB3_JOBS = [(i, j) for i, j in JOBS if not i.startswith(("magnetorquer:", "slosh
     strict=True,
     raises=AssertionError,
     reason="make_training_env seeds sub-env i with s + i, so its first training episode is evaluation episode "
-    "s + i (issue 52, item 3); changing the seeding changes the committed results and waits for a campaign rerun",
+    "s + i; changing the seeding changes the committed results and waits for a campaign rerun",
 )
 @pytest.mark.parametrize("job", [j for _, j in SB3_JOBS], ids=[i for i, _ in SB3_JOBS])
 def test_training_episodes_are_not_evaluation_episodes(job, monkeypatch):

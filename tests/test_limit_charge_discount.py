@@ -1,4 +1,4 @@
-"""The limit charge holds for the γ a user picks, or training says it does not (issue 52, item 4).
+"""The limit charge holds for the γ a user picks, or training says it does not.
 
 A ``-v1`` task charges a limit crossing ``T·xᵀQx`` (``termination_cost="episode"``): at least what
 holding the state reached is worth to a learner that bootstraps at the time limit,

@@ -1,4 +1,4 @@
-"""Issue 52, item 8: the inputs a new user tried that hung, gave a traceback, were silently
+"""The inputs a new user tried that hung, gave a traceback, were silently
 accepted or got a vague message. Each now gives one clear line (a ``ValueError`` naming the
 parameter and what is accepted) or works."""
 

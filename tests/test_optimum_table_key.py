@@ -1,4 +1,4 @@
-"""The J* table answers for the episode asked for (issue 52, item 3: nothing checked it).
+"""The J* table answers for the episode asked for (nothing checked it before).
 
 * The key (:func:`~experiments.optimum_table.episode_key`, hashed by ``key_hash``) distinguishes
   reset options: the same env, kwargs and seed with other options is another episode (empty
