@@ -408,9 +408,10 @@ class GyrostatEnv(Environment):
         """The observation of state ``y`` at ``t_s`` (s) under the episode's ``faults``, the
         error state ``x`` and ``q_e,w``."""
         y_s, target_s = tuple(y[i] for i in range(7 + self.n_wheels)), tuple(target[i] for i in range(4))
-        n, n_state = self.n_wheels, self.n_state
-        C, _, _, _, sc = _constants(params, n, n_state, 3 if self.body_cost_input else n)
-        x, qe_w = _error_state(y_s, target_s, C, sc, n, self.include_wheel_momentum, n_state)
+        # the error state reads only J_s of the constants: a C of that one scalar (offset 0)
+        x, qe_w = _error_state(
+            y_s, target_s, [params.wheel_inertia_kg_m2], 0, self.n_wheels, self.include_wheel_momentum, self.n_state
+        )
         x = jnp.stack(x)
         parts = [x]
         if self.observe_wheel_speeds:

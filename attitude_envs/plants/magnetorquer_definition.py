@@ -68,6 +68,18 @@ def define(ops: Ops) -> SimpleNamespace:
         return k * (o1 * p2 - o2 * p1), k * (o2 * p0 - o0 * p2), k * (o0 * p1 - o1 * p0)
 
     @ops.compile
+    def external_torque(qx, qy, qz, qw, ctx, cb, lay, gravity):
+        """The external torque (N·m, body axes) at the unit attitude ``q``: the context's
+        disturbance plus, where ``gravity``, the gravity gradient."""
+        d = cb + lay[L_DIST]
+        g0, g1, g2 = gravity_gradient(qx, qy, qz, qw, ctx, cb + lay[L_INERTIA], ctx[cb + lay[L_RADIUS]])
+        return (
+            where(gravity, ctx[d] + g0, ctx[d]),
+            where(gravity, ctx[d + 1] + g1, ctx[d + 1]),
+            where(gravity, ctx[d + 2] + g2, ctx[d + 2]),
+        )
+
+    @ops.compile
     def error_state(x, y, z, w, w0, w1, w2, ref, base, flip):
         """``q_e = q_d* ⊗ q`` and ``ω_e = ω − C(q_e)ᵀ ω_d`` with ``[q_d, ω_d] =
         ref[base : base + 7]``: the 7 numbers ``(q_e,x, q_e,y, q_e,z, ω_e (3), q_e,w)``. With
@@ -122,11 +134,7 @@ def define(ops: Ops) -> SimpleNamespace:
         f = cb + lay[L_FIELD]
         b0, b1, b2 = body_vector(qx, qy, qz, qw, ctx[f], ctx[f + 1], ctx[f + 2])
         tau0, tau1, tau2 = m[1] * b2 - m[2] * b1, m[2] * b0 - m[0] * b2, m[0] * b1 - m[1] * b0  # m × b (eq. 8)
-        d = cb + lay[L_DIST]
-        g0, g1, g2 = gravity_gradient(qx, qy, qz, qw, ctx, cb + lay[L_INERTIA], ctx[cb + lay[L_RADIUS]])
-        e0 = where(gravity, ctx[d] + g0, ctx[d])
-        e1 = where(gravity, ctx[d + 1] + g1, ctx[d + 1])
-        e2 = where(gravity, ctx[d + 2] + g2, ctx[d + 2])
+        e0, e1, e2 = external_torque(qx, qy, qz, qw, ctx, cb, lay, gravity)
         # gyrostat equations (the raw quaternion, as integrated); R e_y is row 1 of to_matrix(q)
         r0, r1, r2 = 2 * (x * y + zq * w), 1 - 2 * (x * x + zq * zq), 2 * (y * zq - x * w)
         nd = ctx[cb + lay[L_RATE]]
@@ -269,6 +277,7 @@ def define(ops: Ops) -> SimpleNamespace:
         limit_rows=limit_rows,
         body_vector=body_vector,
         gravity_gradient=gravity_gradient,
+        external_torque=external_torque,
         error_state=error_state,
         stage_cost=stage_cost,
         wheel_torque=wheel_torque,

@@ -93,7 +93,7 @@ WORK_SIZE = WK_TAG + 1
 _PLANT = define(NUMBA)
 _body_vector = _PLANT.body_vector
 error_state = _PLANT.error_state
-_gravity_gradient = _PLANT.gravity_gradient
+_external_torque = _PLANT.external_torque
 _augmented = _PLANT.augmented
 _wheel_torque = _PLANT.wheel_torque
 _limit_rows = _PLANT.limit_rows
@@ -357,13 +357,6 @@ CONTEXT_LAYOUT = (CX_ORB + OS_RATE, CX_ORB + OS_RATE_DOT, CX_ORB + OS_R, CX_B, C
 
 
 @njit(cache=True, error_model="numpy")
-def gravity_gradient(x, y, z, w, ctx, cb):
-    """``3μ/r³ ô × (I ô)``, ô the nadir (orbital z) in body axes, I the true inertia of the
-    context ``ctx[cb:]``, N·m."""
-    return _gravity_gradient(x, y, z, w, ctx, cb + CX_I, ctx[cb + CX_ORB + OS_R])
-
-
-@njit(cache=True, error_model="numpy")
 def cost_weights(shared):
     """``(Q (6×6), R (3×3), diagonal)``: the stage cost's weights of ``shared`` (views) and
     whether both are diagonal."""
@@ -497,10 +490,7 @@ def snapshot_from_context(state, shared, ctx, cb, out):
     out[SN_R] = ctx[cb + CX_ORB + OS_R]
     out[SN_U] = ctx[cb + CX_ORB + OS_U]
     out[SN_RATE] = nd
-    e0, e1, e2 = ctx[cb + CX_DIST], ctx[cb + CX_DIST + 1], ctx[cb + CX_DIST + 2]
-    if shared[SH_GG] != 0.0:
-        g0, g1, g2 = gravity_gradient(x, y, z, w, ctx, cb)
-        e0, e1, e2 = e0 + g0, e1 + g1, e2 + g2
+    e0, e1, e2 = _external_torque(x, y, z, w, ctx, cb, CONTEXT_LAYOUT, shared[SH_GG] != 0.0)
     out[SN_EXT], out[SN_EXT + 1], out[SN_EXT + 2] = e0, e1, e2
     for i in range(9):
         out[SN_I + i] = ctx[cb + CX_I + i]

@@ -54,7 +54,8 @@ def _select(condition, a, b):
     return a if condition else b
 
 
-#: compiled numba: ``math`` on float64 scalars, helpers ``njit(cache=True, error_model="numpy")``
+#: compiled numba: ``math`` on float64 scalars, helpers ``njit(cache=True, error_model="numpy",
+#: inline="always")`` (inlined into the kernels that call them, so their loops vectorize)
 NUMBA = Ops(
     "numba",
     sin=math.sin,
@@ -69,12 +70,8 @@ NUMBA = Ops(
 NUMPY = Ops("numpy", sin=np.sin, cos=np.cos, sqrt=np.sqrt, fabs=np.abs, where=np.where)
 
 
-def _python_where(condition, a, b):
-    return a if condition else b
-
-
 #: plain Python on floats, uncompiled: the cheapest for a few scalars per call from Python code
-PYTHON = Ops("python", sin=math.sin, cos=math.cos, sqrt=math.sqrt, fabs=math.fabs, where=_python_where)
+PYTHON = Ops("python", sin=math.sin, cos=math.cos, sqrt=math.sqrt, fabs=math.fabs, where=_select.py_func)
 
 
 def define_quad_form(ops: Ops) -> Callable:

@@ -6,8 +6,7 @@ single env, the batched env and (through the thin wrappers in
 :mod:`attitude_envs.plants.slosh`) by the linearization, the input inversion and the physics
 tests; no arrays beyond one scratch buffer per call.
 
-Packed plant constants (:func:`pack`, ``SloshParams.packed``): the definition's ``P_*``
-layout. The control step takes them with the sub-step and the cost weights in one array
+Packed plant constants (``SloshParams.packed``): the definition's ``P_*`` layout. The control step takes them with the sub-step and the cost weights in one array
 (:func:`step_constants`): few arguments keep numba's dispatch cheap.
 """
 
@@ -31,25 +30,6 @@ _C_DT = N_PACKED + 2
 _C_Q = N_PACKED + 3
 _C_R = _C_Q + 49
 N_CONSTANTS = _C_R + 4
-
-
-def pack(
-    total_mass_kg: float,
-    s_z: float,
-    i_rigid: float,
-    ml,
-    J,
-    hinge_m,
-    damping,
-    thrust_n: float,
-    lever_arm_m: float,
-) -> np.ndarray:
-    """The packed constant vector (the definition's ``P_*`` layout) of a slosh plant."""
-    return np.array(
-        [total_mass_kg, s_z, i_rigid, ml[0], ml[1], J[0], J[1], hinge_m[0], hinge_m[1], damping[0], damping[1]]
-        + [thrust_n, lever_arm_m],
-        dtype=float,
-    )
 
 
 def step_constants(

@@ -38,18 +38,8 @@ from typing import Any
 import casadi
 import numpy as np
 
-from attitude_envs.plants.gyrostat_definition import (
-    MAT_ROWS,
-    N_SCALARS,
-    S_H,
-    S_JS,
-    S_MAX_SPEED,
-    S_MAX_TORQUE,
-    S_PX,
-    S_PY,
-    S_PZ,
-    define,
-)
+from attitude_envs.plants import gyrostat_kernels as kernels
+from attitude_envs.plants.gyrostat_definition import MAT_ROWS, N_SCALARS, define
 from attitude_envs.symbolic import actuators
 from attitude_envs.symbolic.ops import CASADI
 from attitude_envs.symbolic.problem import DiscreteProblem
@@ -184,23 +174,23 @@ def _disturbance(env):
 
 
 def _constants(params: GyrostatParameters) -> tuple[list, int, int, int, int]:
-    """The definition's flat constants ``C`` of ``params`` (the kernel's ``pack_constants``
-    layout as a list of floats: wheel axes, Q, R, the scalars) and the offsets
-    ``(ax, cq, cr, sc)``; the scalars the step does not read are 0."""
-    n, q_mat, r_mat = params.n_wheels, np.asarray(params.Q, float), np.asarray(params.R, float)
-    cq = 3 * n
-    cr = cq + q_mat.size
-    sc = cr + r_mat.size
-    scalars = np.zeros(N_SCALARS)
-    scalars[[S_JS, S_MAX_TORQUE, S_MAX_SPEED, S_H]] = [
+    """The definition's flat constants ``C`` of ``params`` (the kernel's
+    :func:`~attitude_envs.plants.gyrostat_kernels.pack_constants` as a list of floats: wheel
+    axes, Q, R, the scalars; the limits the step does not read at their defaults) and the
+    offsets ``(ax, cq, cr, sc)``."""
+    q_mat, r_mat = np.asarray(params.Q, float), np.asarray(params.R, float)
+    packed = kernels.pack_constants(
+        params.wheel_axes,
+        q_mat,
+        r_mat,
         params.wheel_inertia_kg_m2,
         params.max_wheel_torque_nm,
         params.max_wheel_speed_rad_s,
         params.integrator_dt_s,
-    ]
-    scalars[[S_PX, S_PY, S_PZ]] = np.asarray(params.offset_torque_nm, dtype=float)
-    flat = np.concatenate([np.ravel(params.wheel_axes), q_mat.ravel(), r_mat.ravel(), scalars])
-    return [float(v) for v in flat], 0, cq, cr, sc
+        params.offset_torque_nm,
+    )
+    cq = 3 * params.n_wheels
+    return [float(v) for v in packed], 0, cq, cq + q_mat.size, packed.shape[0] - N_SCALARS
 
 
 def error_state(params: GyrostatParameters, y, q_target, smooth: bool = False):
