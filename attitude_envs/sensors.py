@@ -11,6 +11,9 @@ key                    meaning (units are the channel's, see below)
                        per sample (units per √s)
 ``initial_bias``       bias at reset (number or one per axis), default 0
 ``initial_bias_std``   plus a draw ``N(0, initial_bias_std²)`` per axis at reset
+``period_s``           sample period, s (default 0: a new sample at every observation);
+                       a slower sensor repeats its last sample between samples (a star
+                       tracker at 2 Hz under a 10 Hz control loop), the first at reset
 =====================  ==============================================================
 
 Channels of the suite: ``gyro`` (body rate, rad/s), ``star_tracker`` (attitude; its
@@ -56,7 +59,7 @@ from attitude_envs.faults import _draw
 SENSOR_KINDS = ("bias", "drift", "stuck", "dropout", "noise_increase")
 _FAULT_KEYS = {"kind", "target", "sensor", "index", "value", "onset_s", "duration_s"}
 _NEEDS_VALUE = {"bias", "drift", "noise_increase"}
-_CHANNEL_KEYS = {"noise_std", "bias_walk_std", "initial_bias", "initial_bias_std"}
+_CHANNEL_KEYS = {"noise_std", "bias_walk_std", "initial_bias", "initial_bias_std", "period_s"}
 _WHOLE_SENSOR = {"stuck", "dropout"}  # on an attitude channel these act on the whole quaternion
 
 
@@ -125,6 +128,7 @@ class SensorSuite:
         self.bias: dict[str, np.ndarray] = {}
         self._last: dict[str, np.ndarray] = {}
         self._t_last = 0.0
+        self._t_sampled: dict[str, float] = {}
         self._rng = np.random.default_rng(0)
 
     # ------------------------------------------------------------------ config
@@ -149,6 +153,7 @@ class SensorSuite:
             if bias0.shape != (axes,):
                 raise ValueError(f"sensors[{name!r}].initial_bias must be a number or have {axes} entries")
             p["initial_bias"] = bias0
+            p["period_s"] = validation.nonnegative(f"sensors[{name!r}].period_s", params.get("period_s", 0.0))
             out[name] = p
         return out
 
@@ -199,6 +204,7 @@ class SensorSuite:
         self.enabled = bool(self.config) or bool(chosen)
         self.realized, self.bias, self._last = [], {}, {}
         self._t_last = 0.0
+        self._t_sampled = {}
         if not self.enabled:
             return
         self._rng = rng.spawn(1)[0]
@@ -230,14 +236,23 @@ class SensorSuite:
     def measure(self, truth: dict[str, np.ndarray], t_s: float) -> dict[str, np.ndarray]:
         """The measurements of every channel at time ``t_s`` (s) given the ``truth``
         (vectors; the attitude as a scalar-last quaternion). Advances the bias walks and
-        draws the noise (one normal per axis per configured channel, every call)."""
-        dt = max(0.0, t_s - self._t_last)
+        draws the noise (one normal per axis per configured channel, every call); a channel
+        with a ``period_s`` between its samples repeats its last sample and draws nothing."""
+        dt_all = max(0.0, t_s - self._t_last)
         self._t_last = t_s
         out = {}
         for name, channel in self.channels.items():
             if name not in truth:
                 continue
             p = self.config.get(name)
+            dt = dt_all
+            if p is not None and p["period_s"] > 0:
+                sampled = self._t_sampled.get(name)
+                if sampled is not None and t_s < sampled + p["period_s"] * (1.0 - 1e-9):
+                    out[name] = self._last[name].copy()  # between samples: the last one again
+                    continue
+                dt = 0.0 if sampled is None else t_s - sampled
+                self._t_sampled[name] = t_s
             err = np.zeros(channel.axes)
             noise_scale = np.ones(channel.axes)
             if p is not None:
@@ -284,7 +299,13 @@ class SensorSuite:
         """The configured (nominal) noise parameters of channel ``name`` (zeros if unmodelled)."""
         validation.choice("sensor", name, set(self.channels))
         axes = self.channels[name].axes
-        zero = {"noise_std": 0.0, "bias_walk_std": 0.0, "initial_bias_std": 0.0, "initial_bias": np.zeros(axes)}
+        zero = {
+            "noise_std": 0.0,
+            "bias_walk_std": 0.0,
+            "initial_bias_std": 0.0,
+            "initial_bias": np.zeros(axes),
+            "period_s": 0.0,
+        }
         return dict(self.config.get(name, zero))
 
     def active_flags(self, t_s: float) -> np.ndarray:

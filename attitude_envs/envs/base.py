@@ -35,6 +35,8 @@ import numpy as np
 from gymnasium import error, logger
 
 from attitude_envs import presets, validation
+from attitude_envs.actuator_dynamics import ActuatorChain
+from attitude_envs.conditions import Conditions
 from attitude_envs.disturbances import Disturbance
 from attitude_envs.evaluation.success import SuccessMetric
 from attitude_envs.faults import ActuatorFaults
@@ -182,11 +184,39 @@ class AttitudeEnv(gym.Env):
         sensors: dict | None,
         fault_hint: bool,
         disturbance: dict | None = None,
+        conditions=None,
+        control_dt_s: float | None = None,
     ) -> None:
-        """Build the actuator-fault, sensor and disturbance layers (validated here, once).
-        ``faults`` entries with ``"target": "sensor"`` go to the sensor layer."""
+        """Build the actuator-fault, sensor, disturbance and flight layers (validated here,
+        once). ``faults`` entries with ``"target": "sensor"`` go to the sensor layer.
+        ``conditions`` (:mod:`attitude_envs.conditions`) takes its flight values from
+        :func:`attitude_envs.presets.flight.table` of this env and preset; ``control_dt_s``
+        is the env's control period (s; needed by the delay and the actuator dynamics)."""
+        self.conditions = Conditions.from_config(conditions)
+        cond = self.conditions
+        self.flight_table = None
+        if not cond.is_lab:
+            from attitude_envs.presets import flight
+
+            self.flight_table = flight.table(self.env_name, self.preset)
+            if sensors is None and cond.sensors > 0:
+                sensors = self.flight_table.sensor_config(cond.sensors)
         self._fault_layer = ActuatorFaults(faults, n_actuators, actuator_limits, other_targets={"sensor"})
         self._sensor_layer = SensorSuite(sensors, channels, faults)
+        self._actuator_chain = None
+        if cond.actuators or cond.delay_steps:
+            limits = np.broadcast_to(np.asarray(actuator_limits, dtype=float), (n_actuators,))
+            model = self.flight_table.actuator_model(limits) if cond.actuators else None
+            self._actuator_chain = ActuatorChain(model, cond.delay_steps, control_dt_s)
+        #: the relative scale-factor tolerance of each actuator drawn per episode (0: exact)
+        self._gain_tolerance = (
+            np.zeros(n_actuators)
+            if cond.parameters == 0
+            else self.flight_table.gain_tolerance_of(n_actuators) * cond.parameters
+        )
+        self._n_actuators = n_actuators
+        #: this episode's drawn true parameters (empty in the lab; see :meth:`drawn_parameters`)
+        self._drawn: dict[str, Any] = {}
         self.fault_hint = validation.flag("fault_hint", fault_hint)
         self._disturbance = None if disturbance is None else Disturbance(disturbance)
 
@@ -285,18 +315,54 @@ class AttitudeEnv(gym.Env):
             )
             self._episode_over = _WARNED
 
-    def _reset_layers(self, rng: np.random.Generator, options: Mapping[str, Any]) -> None:
+    def _flight_rng(self, rng: np.random.Generator) -> np.random.Generator | None:
+        """A generator for this episode's flight draws (the true plant, the actuator gains),
+        spawned from ``rng`` without advancing it, so the episode's start, target and faults
+        are the lab episode's of the same seed; None in the lab (nothing drawn). Call it once
+        per reset, before :meth:`_reset_layers`."""
+        if self.conditions.is_lab:
+            return None
+        self._drawn = {}
+        return rng.spawn(1)[0]
+
+    def _reset_layers(
+        self, rng: np.random.Generator, options: Mapping[str, Any], flight_rng: np.random.Generator | None = None
+    ) -> None:
         """Draw this episode's sensor faults and biases (from a generator the sensor layer
-        spawns: ``rng``'s own stream is unchanged by it), actuator faults and disturbance."""
+        spawns: ``rng``'s own stream is unchanged by it), actuator faults and disturbance;
+        with flight conditions, the actuator gains (from ``flight_rng``) and an empty delay
+        line."""
         faults = options.get("faults")
         if self._disturbance is not None:
             self._disturbance.reset(rng)
         self._sensor_layer.reset(rng, faults)
         self._fault_layer.reset(rng, faults)
+        if flight_rng is not None:
+            tol = self._gain_tolerance
+            gain = 1.0 + tol * flight_rng.uniform(-1.0, 1.0, size=tol.shape) if tol.any() else np.ones(tol.shape)
+            self._drawn["actuator_gain"] = gain
+        if self._actuator_chain is not None:
+            self._actuator_chain.reset(self._n_actuators, self._drawn.get("actuator_gain"))
 
-    def _deliver(self, commanded: np.ndarray, t_s: float) -> np.ndarray:
-        """The actuator outputs delivered for ``commanded`` at time ``t_s`` (faults applied)."""
-        return self._fault_layer.apply(commanded, t_s)
+    def _deliver(self, commanded: np.ndarray, t_s: float, speeds: np.ndarray | None = None) -> np.ndarray:
+        """The actuator outputs delivered for ``commanded`` at time ``t_s`` (faults applied;
+        with flight conditions also the delay, the actuator dynamics and the scale-factor
+        errors, :mod:`attitude_envs.actuator_dynamics`; ``speeds``, rad/s per actuator, give
+        wheel friction)."""
+        if self._actuator_chain is not None:
+            out = self._actuator_chain.deliver(commanded, lambda c: self._fault_layer.apply(c, t_s), speeds)
+            return out if self._actuator_chain.model is not None else self._with_gain(out)
+        return self._with_gain(self._fault_layer.apply(commanded, t_s))
+
+    def _with_gain(self, delivered: np.ndarray) -> np.ndarray:
+        gain = self._drawn.get("actuator_gain")
+        return delivered if gain is None else delivered * gain
+
+    def drawn_parameters(self) -> dict[str, Any]:
+        """This episode's true parameters drawn by the flight conditions (copies; empty in
+        the lab): ``actuator_gain`` (scale-factor of each actuator) and the plant's own
+        (e.g. ``inertia_kg_m2``). The truth: controllers hold the nominal model."""
+        return {k: np.array(v, copy=True) if isinstance(v, np.ndarray) else v for k, v in self._drawn.items()}
 
     def _hint_flags(self, t_s: float) -> np.ndarray:
         """1.0 per actuator, then per sensor channel, with a fault active at ``t_s``."""
@@ -350,4 +416,6 @@ class AttitudeEnv(gym.Env):
         ``truth["state"]``), ``cost``, ``time_s`` and the env's other public entries."""
         if self._sensor_layer.enabled:
             truth = dict(truth, sensor_bias={k: v.copy() for k, v in self._sensor_layer.bias.items()})
+        if not self.conditions.is_lab:
+            truth = dict(truth, drawn_parameters=self.drawn_parameters())
         return {TRUTH: truth, MEASURED: measured, "cost": cost, "time_s": time_s, **public}

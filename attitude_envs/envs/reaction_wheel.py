@@ -272,6 +272,7 @@ class ReactionWheelEnv(AttitudeEnv):
         sensors: dict | None = None,
         fault_hint: bool | None = None,
         termination_cost: str | None = None,
+        conditions=None,
         render_mode: str | None = None,
     ) -> None:
         cfg = _DEFAULTS | self._configure(self.default_preset if preset is None else preset, locals())
@@ -341,7 +342,10 @@ class ReactionWheelEnv(AttitudeEnv):
             sensors=cfg.get("sensors"),
             fault_hint=cfg["fault_hint"],
             disturbance=cfg.get("disturbance"),
+            conditions=cfg.get("conditions"),
+            control_dt_s=self.control_dt_s,
         )
+        self._flight_plant = self._flight_plant_tolerances()
         self._init_termination_cost(cfg["termination_cost"], cost.Q, self.episode_duration_s)
         self._meas: dict[str, np.ndarray] = {}
         self.max_rate_rad_s = validation.positive("max_rate_rad_s", cfg["max_rate_rad_s"])
@@ -428,9 +432,10 @@ class ReactionWheelEnv(AttitudeEnv):
     @property
     def true_offset_torque_nm(self) -> np.ndarray:
         """The true plant's offset torque ``m g r_s`` (N·m, body axes; zeros: none), which
-        ``true_offset_torque_nm=`` may set apart from the nominal model's. Truth, for
-        batched envs and tools: controllers use ``model.params.offset_torque_nm``."""
-        return self._true_params.offset_torque_nm
+        ``true_offset_torque_nm=`` may set apart from the nominal model's (and flight
+        conditions draw per episode). Truth, for batched envs and tools: controllers use
+        ``model.params.offset_torque_nm``."""
+        return self._plant.offset_torque_nm
 
     @property
     def reset_distribution(self) -> dict[str, Any]:
@@ -511,9 +516,12 @@ class ReactionWheelEnv(AttitudeEnv):
         options = validation.reset_options(options, _OPTION_KEYS)
         rng = self.np_random
         n_w = self._plant.n_wheels
+        flight_rng = self._flight_rng(rng)
         if self._uncertainty is not None:
             self._plant = self._true_params.with_inertia(self._uncertainty.draw(self.model.params.inertia_kg_m2, rng))
             self._pack_matrices()
+        if self._flight_plant is not None:
+            self._draw_flight_plant(flight_rng)
         q0 = self._draw_attitude(self._initial_fixed, self._initial_angle)
         target = self._draw_attitude(self._target_fixed, self._target_angle)
         rate = self._rate_fixed if self._rate_fixed is not None else rng.uniform(-self._rate_max, self._rate_max, 3)
@@ -531,11 +539,61 @@ class ReactionWheelEnv(AttitudeEnv):
         self._t = 0.0
         self._steps = 0
         self._step_count[0] = 0
-        self._reset_layers(rng, options)  # the sensor layer spawns its own generator: rng's stream is unchanged
+        # the sensor layer spawns its own generator: rng's stream is unchanged
+        self._reset_layers(rng, options, flight_rng)
+
+    def _flight_plant_tolerances(self) -> dict[str, float] | None:
+        """The flight conditions' plant tolerances times ``conditions["parameters"]``
+        (None when no parameter is drawn): inertia moments (relative) and principal axes
+        (deg), wheel misalignment (deg) and, on an air bearing, the offset torque (N·m per
+        axis)."""
+        scale = self.conditions.parameters
+        if scale == 0:
+            return None
+        table = self.flight_table
+        tol = {
+            k: table.plant_value(k) * scale for k in ("inertia_moment", "inertia_axis_deg", "wheel_misalignment_deg")
+        }
+        if tol["inertia_moment"] >= 0.9:
+            raise ValueError(
+                f"conditions['parameters'] = {scale:g} scales the inertia tolerance to "
+                f"{tol['inertia_moment']:.0%}; it must stay below 90 % (parameters < "
+                f"{0.9 / table.plant_value('inertia_moment'):.3g})"
+            )
+        if "offset_torque_nm" in table.plant:
+            tol["offset_torque_nm"] = table.plant_value("offset_torque_nm") * scale
+        return tol
+
+    def _draw_flight_plant(self, rng: np.random.Generator) -> None:
+        """This episode's true plant within the flight tolerances (from the flight generator):
+        the inertia (:class:`~attitude_envs.uncertainty.InertiaUncertainty`, unless
+        ``inertia_uncertainty`` is given), each wheel axis tilted by a uniform angle within
+        the misalignment tolerance about a random perpendicular, and the offset torque plus a
+        uniform error per axis."""
+        tol = self._flight_plant
+        base = self._plant if self._uncertainty is not None else self._true_params
+        inertia = base.inertia_kg_m2
+        if self._uncertainty is None:
+            draw = InertiaUncertainty("random", None, tol["inertia_moment"], tol["inertia_axis_deg"])
+            inertia = draw.draw(self.model.params.inertia_kg_m2, rng)
+        axes = misaligned_axes(self.model.params.wheel_axes, tol["wheel_misalignment_deg"], rng)
+        offset = self._true_params.offset_torque_nm
+        if "offset_torque_nm" in tol:
+            offset = offset + tol["offset_torque_nm"] * rng.uniform(-1.0, 1.0, 3)
+        p = self._true_params
+        self._plant = gyrostat.GyrostatParams(
+            inertia, axes, p.wheel_inertia_kg_m2, p.max_wheel_torque_nm, p.max_wheel_speed_rad_s, offset
+        )
+        self._drawn.update(
+            inertia_kg_m2=self._plant.inertia_kg_m2.copy(),
+            wheel_axes=self._plant.wheel_axes.copy(),
+            offset_torque_nm=self._plant.offset_torque_nm.copy(),
+        )
+        self._pack_kernel_arguments()
 
     def step(self, action):
         commanded = self.commanded_torques(validation.action(action, self.action_space.shape[0]))
-        delivered = self._deliver(commanded, self._t)
+        delivered = self._deliver(commanded, self._t, self._y[7:])
         if self._disturbance is not None:
             self._disturbance.advance(self.np_random, self.control_dt_s)
             self.disturbance_stages(self._t)
@@ -724,6 +782,20 @@ class ReactionWheelEnv(AttitudeEnv):
         return self._make_info(
             truth=truth, measured=measured, cost=cost, time_s=self._t, commanded=commanded, sensors=sensors
         )
+
+
+def misaligned_axes(axes: np.ndarray, max_angle_deg: float, rng: np.random.Generator) -> np.ndarray:
+    """Unit wheel axes (3×N columns), each tilted by an angle uniform in [0, ``max_angle_deg``]
+    about a uniformly random direction perpendicular to it (a mounting error)."""
+    out = np.array(axes, dtype=float)
+    for i in range(out.shape[1]):
+        a = out[:, i]
+        r = rng.normal(size=3)
+        perp = r - (r @ a) * a
+        perp /= np.linalg.norm(perp)
+        angle = math.radians(max_angle_deg) * rng.uniform()
+        out[:, i] = math.cos(angle) * a + math.sin(angle) * perp
+    return out
 
 
 def _divides(control_dt_s: float, integrator_dt_s: float) -> bool:
