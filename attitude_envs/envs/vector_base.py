@@ -52,6 +52,12 @@ class BatchedEnv(VectorEnv):
         self.envs = [single_env_factory() for _ in range(self.num_envs)]
         if self.envs[0].sensor_layer.enabled or self.envs[0].fault_hint:
             raise ValueError("sensors and fault_hint are not supported by the batched env yet; use SyncVectorEnv")
+        conditions = getattr(self.envs[0], "conditions", None)
+        if conditions is not None and not conditions.is_lab:
+            raise ValueError(
+                f"conditions={conditions.name!r}: the batched env runs the lab conditions only; "
+                "use gymnasium.vector.SyncVectorEnv (vectorization_mode='sync') for flight conditions"
+            )
         self.single_observation_space = self.envs[0].observation_space
         self.single_action_space = self.envs[0].action_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)

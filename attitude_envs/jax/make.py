@@ -52,6 +52,11 @@ def make(env_id: str, **kwargs: Any):
     """The JAX plant of ``env_id`` (``"AirBearing-v1"`` or ``"attitude_envs/AirBearing-v1"``)
     and its default ``EnvParams``, configured by the numba env's keywords."""
     env = numba_env(env_id, **kwargs)
+    if not env.conditions.is_lab:
+        raise ValueError(
+            f"conditions={env.conditions.name!r} ({env.conditions.as_dict()}): the JAX plants model the lab "
+            "conditions only so far; use the numba env (gymnasium.make) for flight conditions"
+        )
     plant = full_id(env_id).split("/")[1].rsplit("-v", 1)[0]
     module = importlib.import_module(PLANT_MODULES[plant])
     return module.from_env(env)
