@@ -134,9 +134,11 @@ def _load_tables() -> None:
 
 
 def main() -> None:  # pragma: no cover - a printout
-    _load_tables()
+    # the registry of the imported module (run as a script this file is a second module)
+    from attitude_envs.presets import flight as registry
 
-    for family, t in sorted(_TABLES.items()):
+    registry._load_tables()
+    for family, t in sorted(registry._TABLES.items()):
         print(f"## {family}")
         for name, value, source in t.sources():
             print(f"- {name} = {value}: {source}")
