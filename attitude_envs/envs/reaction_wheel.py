@@ -179,6 +179,10 @@ class ReactionWheelEnv(AttitudeEnv):
     ``termination_cost``        str         "hold"            —           ``"hold"``: a limit crossing is charged the
                                                                           terminal running cost over the rest (see Episode
                                                                           end); ``"episode"`` (v1): ``T·xᵀQx``; ``"none"``: no charge
+    ``conditions``              str / dict  "lab"             —           ``"lab"``: the papers' world; ``"flight"``: cited
+                                                                          sensors, actuator dynamics, a one-period delay and
+                                                                          per-episode plant draws; a dict: features one at a
+                                                                          time (:mod:`attitude_envs.conditions`)
     ``render_mode``             str         None              —           ``"rgb_array"`` or ``"human"`` (matplotlib)
     ==========================  ==========  ================  ==========  ==================================================
 
@@ -196,6 +200,17 @@ class ReactionWheelEnv(AttitudeEnv):
     (attitude; errors are a body rotation vector, rad) and ``tachometer`` (wheel speeds,
     rad/s). ``inertia_uncertainty`` draws the true inertia per episode and ``disturbance``
     adds an external torque; the controllers' model ``env.unwrapped.model`` stays nominal.
+
+    **Flight conditions** (``conditions=``, :mod:`attitude_envs.conditions`; values and sources
+    in :mod:`attitude_envs.presets.flight_gyrostat`). Sensors: a tactical gyro with bias and bias
+    walk, a star tracker slower than the control loop (held between its samples), tachometers.
+    Actuators (:mod:`attitude_envs.actuator_dynamics`): the command acts one period late, at the
+    torque resolution, through a first-order motor lag, times a per-episode scale-factor error,
+    minus Coulomb and viscous wheel friction. The true plant per episode: inertia moments and
+    principal axes, each wheel axis tilted within the mounting tolerance and, on an air bearing,
+    the offset torque; ``info["truth"]["drawn_parameters"]`` holds the draws. They come from a
+    generator spawned from the env's, so a flight episode starts where the lab episode of the
+    same seed starts.
 
     **Info** (:mod:`attitude_envs.info`). ``info["truth"]`` holds ``state``
     (``attitude``, ``rate_rad_s``, ``wheel_speed_rad_s``, ``target_attitude``),
