@@ -20,7 +20,12 @@ One control period of one actuator, in this order:
    duty cycle (the fraction of the period the actuator is on: magnetorquers are off while
    the magnetometer samples);
 7. **friction** (wheels): minus ``coulomb · sign(Ω) + viscous · Ω`` at the wheel speed Ω
-   (rad/s) at the start of the period, held over it.
+   (rad/s) at the start of the period, held over it. Ω is the speed in the sense a positive
+   output spins the wheel up: the gyrostats' output is the motor torque on the wheel (Ω is
+   the wheel speed); an env whose output is the torque on the body passes −Ω.
+
+The delay is in the env's control periods (its decision period: ``-v1`` envs decide more
+slowly, so their delay is longer in seconds).
 
 Every quantity is per actuator in the actuator's own units (N·m, A·m², rad); a zero
 coefficient (an infinite rate limit, a unit gain) leaves that stage out.
@@ -105,6 +110,15 @@ class ActuatorChain:
                 self._mean_weight = np.where(lag > 0, lag / self.dt_s * (1.0 - decay), 0.0)
             self._decay = decay
         self.reset(None)
+
+    @property
+    def lag_weights(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(φ, e^{−Δt/τ})`` per actuator (copies; zeros where there is no lag, and for a
+        chain without a model): the period-mean weight and the decay of the lag stage, the
+        very numbers :meth:`output` uses (read-only, for tools such as the J* oracle)."""
+        if self.model is None:
+            return np.zeros(0), np.zeros(0)
+        return self._mean_weight.copy(), self._decay.copy()
 
     def reset(self, n: int | None, gain: np.ndarray | None = None) -> None:
         """Start an episode: empty delay line (``n`` actuators), outputs at rest, ``gain``

@@ -194,31 +194,36 @@ class AttitudeEnv(gym.Env):
         is the env's control period (s; needed by the delay and the actuator dynamics)."""
         self.conditions = Conditions.from_config(conditions)
         cond = self.conditions
-        self.flight_table = None
-        if not cond.is_lab:
-            from attitude_envs.presets import flight
-
-            self.flight_table = flight.table(self.env_name, self.preset)
-            if sensors is None and cond.sensors > 0:
-                sensors = self.flight_table.sensor_config(cond.sensors)
+        table = None if cond.is_lab else self.flight_table
+        if table is not None and sensors is None and cond.sensors > 0:
+            sensors = table.sensor_config(cond.sensors)
         self._fault_layer = ActuatorFaults(faults, n_actuators, actuator_limits, other_targets={"sensor"})
         self._sensor_layer = SensorSuite(sensors, channels, faults)
         self._actuator_chain = None
         if cond.actuators or cond.delay_steps:
             limits = np.broadcast_to(np.asarray(actuator_limits, dtype=float), (n_actuators,))
-            model = self.flight_table.actuator_model(limits) if cond.actuators else None
+            model = table.actuator_model(limits) if cond.actuators else None
             self._actuator_chain = ActuatorChain(model, cond.delay_steps, control_dt_s)
         #: the relative scale-factor tolerance of each actuator drawn per episode (0: exact)
         self._gain_tolerance = (
             np.zeros(n_actuators)
             if cond.parameters == 0
-            else self.flight_table.gain_tolerance_of(n_actuators) * cond.parameters
+            else table.gain_tolerance_of(n_actuators) * cond.parameters
         )
         self._n_actuators = n_actuators
         #: this episode's drawn true parameters (empty in the lab; see :meth:`drawn_parameters`)
         self._drawn: dict[str, Any] = {}
         self.fault_hint = validation.flag("fault_hint", fault_hint)
         self._disturbance = None if disturbance is None else Disturbance(disturbance)
+
+    @property
+    def flight_table(self):
+        """This env's cited flight values (:class:`attitude_envs.presets.flight.FlightTable`),
+        looked up by env name (not stored: the env stays picklable); ValueError for a plant
+        without one."""
+        from attitude_envs.presets import flight
+
+        return flight.table(self.env_name, self.preset)
 
     @property
     def fault_layer(self) -> ActuatorFaults:
@@ -337,10 +342,9 @@ class AttitudeEnv(gym.Env):
             self._disturbance.reset(rng)
         self._sensor_layer.reset(rng, faults)
         self._fault_layer.reset(rng, faults)
-        if flight_rng is not None:
+        if flight_rng is not None and self._gain_tolerance.any():
             tol = self._gain_tolerance
-            gain = 1.0 + tol * flight_rng.uniform(-1.0, 1.0, size=tol.shape) if tol.any() else np.ones(tol.shape)
-            self._drawn["actuator_gain"] = gain
+            self._drawn["actuator_gain"] = 1.0 + tol * flight_rng.uniform(-1.0, 1.0, size=tol.shape)
         if self._actuator_chain is not None:
             self._actuator_chain.reset(self._n_actuators, self._drawn.get("actuator_gain"))
 

@@ -197,6 +197,9 @@ class MagnetorquerEnv(AttitudeEnv):
     ``fault_hint``                   bool          False               —         append the 8 active-fault flags
     ``termination_cost``             str           "hold"              —         ``"hold"``: charge tumbling (see Episode
                                                                                  end); ``"episode"`` (v1): ``T·xᵀQx``; ``"none"``: none
+    ``conditions``                   str/dict      "lab"               —         ``"lab"``, ``"flight"`` or a dict of
+                                                                                 features (:mod:`attitude_envs.conditions`;
+                                                                                 values :mod:`~attitude_envs.presets.flight_magnetorquer`)
     ===============================  ============  ==================  ========  ==========================================
 
     **Presets.** ``"sadigh-2022"`` (default): the paper's spacecraft, orbit and actuators
@@ -281,6 +284,7 @@ class MagnetorquerEnv(AttitudeEnv):
         sensors: dict | None = None,
         fault_hint: bool = False,
         termination_cost: str = "hold",
+        conditions=None,
         render_mode: str | None = None,
         preset: str | None = None,  # last: positional callers of the earlier signature keep working
     ) -> None:
@@ -360,7 +364,10 @@ class MagnetorquerEnv(AttitudeEnv):
             sensors=sensors,
             fault_hint=fault_hint,
             disturbance=None if self.paper_disturbance else disturbance,
+            conditions=cfg.get("conditions"),
+            control_dt_s=self.control_dt_s,
         )
+        self._flight_inertia = self._flight_inertia_draw()
         self.max_rate_rad_s = validation.positive("max_rate_rad_s", max_rate_rad_s)
         self._init_termination_cost(termination_cost, q_mat, self.episode_duration_s)
         if render_mode is not None:
@@ -549,8 +556,13 @@ class MagnetorquerEnv(AttitudeEnv):
         options = validation.reset_options(options, _OPTION_KEYS)
         rng = self.np_random
         nominal = self.model.params.inertia_kg_m2
+        flight_rng = self._flight_rng(rng)  # spawned: rng's stream is the lab's
         self._inertia = nominal if self._uncertainty is None else self._uncertainty.draw(nominal, rng)
-        if self.time_varying_inertia is not None and self._uncertainty is not None:
+        if self._flight_inertia is not None:
+            self._inertia = self._flight_inertia.draw(nominal, flight_rng)
+        if self.conditions.parameters > 0:  # the true inertia (drawn by inertia_uncertainty when given)
+            self._drawn["inertia_kg_m2"] = self._inertia.copy()
+        if self.time_varying_inertia is not None and self._inertia is not nominal:
             self.time_varying_inertia.check_against(self._inertia)
         if "mean_anomaly_deg" in options:
             anomaly = float(validation.finite_array("options['mean_anomaly_deg']", options["mean_anomaly_deg"], ()))
@@ -576,7 +588,7 @@ class MagnetorquerEnv(AttitudeEnv):
         self._y = np.concatenate([q0, rate, wheel])
         self._t = 0.0
         self._steps = 0
-        self._reset_layers(rng, options)  # disturbance, sensors (own spawned generator), faults
+        self._reset_layers(rng, options, flight_rng)  # disturbance, sensors (own spawned generator), faults
         self._env_vec = self._pack_env()
         self._work[kernels.WK_TAG] = np.nan  # new draws: no context to reuse
         kernels.snapshot_into(
@@ -596,7 +608,7 @@ class MagnetorquerEnv(AttitudeEnv):
     def step(self, action):
         a = validation.action(action, 4)
         commanded = np.minimum(np.maximum(a, -1.0), 1.0) * self._limits
-        delivered = self._deliver(commanded, self._t)
+        delivered = self._deliver(commanded, self._t, self._friction_speeds())
         if self._disturbance is not None:  # the held torque may change between steps
             self.advance_disturbance()
         t0 = self._t
@@ -625,6 +637,26 @@ class MagnetorquerEnv(AttitudeEnv):
         return obs, -cost, terminated, truncated, self._info(commanded, cost)
 
     # ------------------------------------------------------------------ internals
+    def _flight_inertia_draw(self) -> InertiaUncertainty | None:
+        """The flight conditions' true-inertia draw (principal moments and axes within the
+        flight table's tolerances times ``conditions["parameters"]``), or None when no
+        parameter is drawn or ``inertia_uncertainty`` is given (it then draws the inertia)."""
+        scale = self.conditions.parameters
+        if scale == 0 or self._uncertainty is not None:
+            return None
+        table = self.flight_table  # ±5 % × at most 10 (conditions.MAX_PARAMETER_SCALE): positive moments
+        moment, axis = table.plant_value("inertia_moment") * scale, table.plant_value("inertia_axis_deg") * scale
+        return InertiaUncertainty("random", None, moment, axis)
+
+    def _friction_speeds(self) -> np.ndarray | None:
+        """The speeds the wheel friction of the actuator dynamics acts against, one per
+        actuator (None without actuator dynamics): zeros for the dipoles, and the wheel's
+        speed negated, because ``T_w`` is the torque on the body (the wheel receives −T_w),
+        so friction that opposes the wheel's spin adds ``+coulomb·sign(Ω)`` to ``T_w``."""
+        if self._actuator_chain is None or self._actuator_chain.model is None:
+            return None
+        return np.array([0.0, 0.0, 0.0, -self._y[7]])
+
     def _snapshot(self, t_s: float, y: np.ndarray) -> np.ndarray:
         """A fresh :func:`kernels.snapshot_into` of state ``y`` at ``t_s`` (layout ``SN_*``)."""
         out = np.empty(kernels.SNAPSHOT_SIZE)

@@ -102,10 +102,10 @@ def register(family: str, table: FlightTable) -> FlightTable:
 
 
 def table(env_name: str, preset: str | None = None) -> FlightTable:
-    """The flight table of env ``env_name`` (``"ReactionWheel-v0"``; the family before
-    ``-v`` names it; ``preset`` is for tables that differ by preset, none today)."""
+    """The flight table of env ``env_name`` (``"ReactionWheel-v0"`` or
+    ``"attitude_envs/ReactionWheel-v1"``; the family before ``-v`` names it; ``preset`` is for tables that differ by preset, none today)."""
     _load_tables()
-    family = env_name.split("-v")[0]
+    family = env_name.rpartition("/")[2].split("-v")[0]
     if family not in _TABLES:
         raise ValueError(f"{env_name} has no flight conditions yet (known: {sorted(_TABLES)})")
     return _TABLES[family]
@@ -128,6 +128,12 @@ def make_table(
 TABLE_MODULES = ("flight_gyrostat", "flight_magnetorquer", "flight_slosh", "flight_linear")
 
 
+def all_tables() -> dict[str, FlightTable]:
+    """Every plant's flight table by family name (``"ReactionWheel"``, …)."""
+    _load_tables()
+    return dict(_TABLES)
+
+
 def _load_tables() -> None:
     for name in TABLE_MODULES:
         importlib.import_module(f"attitude_envs.presets.{name}")
@@ -137,8 +143,7 @@ def main() -> None:  # pragma: no cover - a printout
     # the registry of the imported module (run as a script this file is a second module)
     from attitude_envs.presets import flight as registry
 
-    registry._load_tables()
-    for family, t in sorted(registry._TABLES.items()):
+    for family, t in sorted(registry.all_tables().items()):
         print(f"## {family}")
         for name, value, source in t.sources():
             print(f"- {name} = {value}: {source}")
