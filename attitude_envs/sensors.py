@@ -7,10 +7,12 @@ one entry per channel to model, each a dict of
 key                    meaning (units are the channel's, see below)
 =====================  ==============================================================
 ``noise_std``          white measurement noise, standard deviation per sample
+                       (number or one per axis)
 ``bias_walk_std``      bias random walk: ``b ← b + bias_walk_std · √Δt · N(0, 1)``
-                       per sample (units per √s)
+                       per sample (units per √s; number or one per axis)
 ``initial_bias``       bias at reset (number or one per axis), default 0
 ``initial_bias_std``   plus a draw ``N(0, initial_bias_std²)`` per axis at reset
+                       (number or one per axis)
 ``period_s``           sample period, s (default 0: a new sample at every observation);
                        a slower sensor repeats its last sample between samples (a star
                        tracker at 2 Hz under a 10 Hz control loop), the first at reset
@@ -19,7 +21,8 @@ key                    meaning (units are the channel's, see below)
 Channels of the suite: ``gyro`` (body rate, rad/s), ``star_tracker`` (attitude; its
 noise and bias are a small body-frame rotation vector in rad: ``q_m = q ⊗ exp(e)``),
 ``tachometer`` (wheel speeds, rad/s), ``magnetometer`` (body-frame field, T, in envs with
-a field) and ``state`` (the state vector of LinearSystem-v0). A channel left out of
+a field) and ``state`` (the state vector of LinearSystem-v0 and FuelSlosh-v0, whose
+entries have different units: give their noise one per axis). A channel left out of
 ``sensors`` measures the truth, but still takes faults.
 
 Sensor faults use the actuator faults' dict format (:mod:`attitude_envs.faults`) with
@@ -103,6 +106,18 @@ class RealizedSensorFault:
         return d
 
 
+def _std(name: str, value, axes: int) -> float | np.ndarray:
+    """A standard deviation of a channel: a number ≥ 0 (kept a float: the estimators read
+    the gyro's as scalars) or one per axis (a read-only array of ``axes`` numbers ≥ 0)."""
+    if np.ndim(value) == 0:
+        return validation.nonnegative(name, value)
+    arr = validation.finite_array(name, value)
+    if arr.shape != (axes,) or np.any(arr < 0):
+        raise ValueError(f"{name} must be a number >= 0 or {axes} of them (one per axis), got {arr.tolist()}")
+    arr.setflags(write=False)
+    return arr
+
+
 def sensor_faults_of(configs: list[dict] | None) -> list[tuple[int, dict]]:
     """The ``(position, dict)`` entries of a fault list that target a sensor."""
     if configs is None:
@@ -146,7 +161,7 @@ class SensorSuite:
             axes = self.channels[name].axes
             p = {}
             for key in ("noise_std", "bias_walk_std", "initial_bias_std"):
-                p[key] = validation.nonnegative(f"sensors[{name!r}].{key}", params.get(key, 0.0))
+                p[key] = _std(f"sensors[{name!r}].{key}", params.get(key, 0.0), axes)
             bias0 = validation.finite_array(f"sensors[{name!r}].initial_bias", params.get("initial_bias", 0.0))
             if bias0.ndim == 0:
                 bias0 = np.full(axes, float(bias0))
@@ -187,7 +202,7 @@ class SensorSuite:
             raise ValueError(f"{where}.value must be null for stuck of the attitude sensor (held at onset)")
         if value is not None:
             _draw(f"{where}.value", value, None, 1.0 if kind == "noise_increase" else None, None)
-        if kind == "noise_increase" and self.config.get(name, {}).get("noise_std", 0.0) == 0.0:
+        if kind == "noise_increase" and not np.any(self.config.get(name, {}).get("noise_std", 0.0)):
             raise ValueError(f"{where}: noise_increase needs sensors[{name!r}].noise_std > 0 (it scales that noise)")
         if kind == "dropout":
             validation.choice(f"{where}.mode", c.get("mode", "nan"), {"nan", "hold"})
@@ -256,7 +271,7 @@ class SensorSuite:
             err = np.zeros(channel.axes)
             noise_scale = np.ones(channel.axes)
             if p is not None:
-                if p["bias_walk_std"] > 0 and dt > 0:
+                if np.any(p["bias_walk_std"] > 0) and dt > 0:
                     self.bias[name] = self.bias[name] + p["bias_walk_std"] * np.sqrt(dt) * self._rng.normal(
                         size=channel.axes
                     )
@@ -296,7 +311,8 @@ class SensorSuite:
         return out
 
     def parameters(self, name: str) -> dict:
-        """The configured (nominal) noise parameters of channel ``name`` (zeros if unmodelled)."""
+        """The configured (nominal) noise parameters of channel ``name`` (zeros if unmodelled;
+        each standard deviation a float, or an array where it was given one per axis)."""
         validation.choice("sensor", name, set(self.channels))
         axes = self.channels[name].axes
         zero = {

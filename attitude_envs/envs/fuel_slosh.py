@@ -3,6 +3,7 @@ year not in our copy, ≥ 2012)."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 from typing import Any
@@ -11,6 +12,7 @@ import numpy as np
 from gymnasium import spaces
 
 from attitude_envs import presets, validation
+from attitude_envs.conditions import Conditions
 from attitude_envs.cost import QuadraticCost
 from attitude_envs.envs.base import AttitudeEnv
 from attitude_envs.evaluation.success import FINAL_STATE_FRACTION
@@ -18,6 +20,8 @@ from attitude_envs.integrators import substeps
 from attitude_envs.plants import slosh
 from attitude_envs.plants import slosh_kernels as kernels
 from attitude_envs.plants.slosh_model import REDUCED_INDEX, FuelSloshModel, reduced_state
+from attitude_envs.presets.flight_slosh import MEASURED as _FLIGHT_MEASURED
+from attitude_envs.presets.flight_slosh import state_sensor_config
 from attitude_envs.presets.navabi_slosh import PAPER_INITIAL_STATE  # re-exported: the paper's start state
 from attitude_envs.sensors import Channel
 
@@ -115,6 +119,9 @@ class FuelSloshEnv(AttitudeEnv):
     ``termination_cost``        str              "hold"       —         ``"hold"``: charge a limit crossing (see
                                                                         Episode end); ``"episode"`` (v1): ``T·xᵀQx``; ``"none"``: none
     ``fill_preset``             str              None         —         deprecated: ``preset="i"`` … ``"iv"``
+    ``conditions``              str or dict      "lab"        —         ``"lab"``, ``"flight"`` or features
+                                                                        (:mod:`attitude_envs.conditions`; see
+                                                                        Flight conditions)
     ==========================  ===============  ===========  ========  ==========================================
 
     **Presets** (:mod:`attitude_envs.presets.navabi_slosh`): ``navabi-fill-i`` (default,
@@ -125,6 +132,32 @@ class FuelSloshEnv(AttitudeEnv):
     **Faults and sensors.** Actuator 0 is the gimbal angle (rad), actuator 1 the pitch
     moment (N·m); ``"target": "sensor"`` faults hit the ``state`` sensor, which measures
     the observation vector (without the flags).
+
+    **Flight conditions** (``conditions=``, :mod:`attitude_envs.conditions`; values and
+    sources in :mod:`attitude_envs.presets.flight_slosh`). ``"lab"`` (default) is the
+    paper's world, bit for bit. ``"flight"``:
+
+    * *sensors*: the ``state`` sensor is an IMU navigation solution, one noise, bias walk and
+      bias spread per entry (STIM300 gyro on Ω, a star-tracker-grade θ, navigation velocities).
+      **The slosh states are not measured**: the observation's ψ1, ψ̇1, ψ2, ψ̇2 entries are
+      0 (the observation keeps its shape, so lab policies and controllers run; an estimator
+      must reconstruct the slosh from the rigid-body response; ``observe_slosh=False`` drops
+      the entries), ``info["measured"]`` has no ``slosh_angle_rad``/``slosh_rate_rad_s`` and
+      :attr:`measured_entries` marks them False (an estimator drops them from its model).
+      This holds with the flight sensors; an explicit ``sensors=`` replaces them, and then
+      the slosh entries are measured as that dict says;
+    * *actuators*: the gimbal slews at most 10 °/s (as a fraction of ``max_gimbal_deg``: 1/3
+      of the 30° limit per second) behind a 0.05 s first-order lag; the pitch moment is ideal;
+    * *delay*: one control period (a command acts from the next step; zeros before);
+    * *parameters*: per episode, the true slosh masses and pendulum lengths are drawn
+      uniformly within ±15 % (each pendulum, each quantity; the fixed propellant mass takes
+      the slosh mass change, so the total mass is the nominal one) and each actuator's scale
+      factor within ±5 %, from a generator spawned at reset: starts equal the lab's of the
+      same seed. :meth:`~attitude_envs.envs.base.AttitudeEnv.drawn_parameters` (and
+      ``info["truth"]["drawn_parameters"]``) holds them; ``model`` stays the nominal plant.
+
+    The batched env (``vector_entry_point``) runs the lab only; use
+    ``gymnasium.vector.SyncVectorEnv`` for flight conditions.
 
     **Info** (:mod:`attitude_envs.info`). ``truth``: ``state`` (``position_m`` [X, Z] of the
     tank centre, ``theta_rad``, ``slosh_angle_rad`` [ψ1, ψ2], ``v_x_m_s``, ``v_z_m_s``,
@@ -183,6 +216,7 @@ class FuelSloshEnv(AttitudeEnv):
         fault_hint: bool = False,
         termination_cost: str = "hold",
         fill_preset: str | None = None,
+        conditions=None,
         render_mode: str | None = None,
     ) -> None:
         if fill_preset is not None:
@@ -224,6 +258,14 @@ class FuelSloshEnv(AttitudeEnv):
         slosh_high = np.array([2 * self.max_slosh_angle_rad, 50.0] * 2)
         high = np.concatenate([high, slosh_high, [1e4]]) if self.observe_slosh else np.append(high, 1e4)
         self._limits = _read_only(np.array([self.model.max_gimbal_rad, self.model.max_moment_nm]))
+        obs_entries = np.arange(8) if self.observe_slosh else np.array([0, 1, 2, 7])
+        cond = Conditions.from_config(conditions)
+        #: observation entries the sensors do not measure (reported as 0): the slosh states
+        #: under the flight sensors
+        self._unmeasured = np.zeros(0, dtype=int)
+        if sensors is None and cond.sensors > 0:  # the flight sensors, one value per observed entry
+            sensors = {"state": state_sensor_config(obs_entries, cond.sensors)}
+            self._unmeasured = np.flatnonzero(~np.array(_FLIGHT_MEASURED)[obs_entries])
         # actuator 0: gimbal angle (rad), actuator 1: pitch moment (N·m)
         self._init_layers(
             n_actuators=2,
@@ -232,7 +274,10 @@ class FuelSloshEnv(AttitudeEnv):
             faults=faults,
             sensors=sensors,
             fault_hint=fault_hint,
+            conditions=cond,
+            control_dt_s=self.control_dt_s,
         )
+        self._flight_plant = self._flight_plant_tolerances()
         low, high = self._hint_bounds(-high, high)
         self.observation_space = spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
@@ -242,21 +287,15 @@ class FuelSloshEnv(AttitudeEnv):
         self._sensing = self.sensor_layer.enabled
         self._obs_index = OBS_INDEX if self.observe_slosh else OBS_INDEX_NO_SLOSH
         self._work = np.empty(kernels.WORK_SIZE)
-        self._constants = _read_only(
-            kernels.step_constants(
-                self.model.params.packed,
-                self.integrator_dt_s,
-                self._substeps,
-                self.control_dt_s,
-                self.model.cost.Q,
-                self.model.cost.R,
-            )
-        )
+        self._constants = self._step_constants(self.model.params)
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
         options = validation.reset_options(options, _OPTION_KEYS)
+        flight_rng = self._flight_rng(self.np_random)  # spawned: the start is the lab's of this seed
+        if self._flight_plant is not None:
+            self._draw_flight_plant(flight_rng)
         init = self._initial.copy()
         if self.randomize_initial_state:
             scale = np.abs(PAPER_INITIAL_STATE)
@@ -268,7 +307,7 @@ class FuelSloshEnv(AttitudeEnv):
         self._y[list(_INITIAL_ORDER)] = init
         self._t = 0.0
         self._steps = 0
-        self._reset_layers(self.np_random, options)
+        self._reset_layers(self.np_random, options, flight_rng)
         self._sensing = self.sensor_layer.enabled  # fixed for the episode
         zero = np.zeros(2)
         measured = self._measure()
@@ -279,7 +318,7 @@ class FuelSloshEnv(AttitudeEnv):
         gimbal, moment = self.model.max_gimbal_rad, self.model.max_moment_nm
         commanded = np.array([a0 * gimbal, a1 * moment])
         applied = np.array([min(max(a0, -1.0), 1.0) * gimbal, min(max(a1, -1.0), 1.0) * moment])
-        applied = self._deliver(applied, self._t)
+        applied = self._deliver(applied, self._t)  # faults; in flight the delay, dynamics and gains
         new_inputs = np.empty(2)  # step-mean [a_z, Ω̇]
         cost = kernels.control_step(self._y, applied, self._constants, new_inputs, self._work)
         self._steps += 1
@@ -322,6 +361,16 @@ class FuelSloshEnv(AttitudeEnv):
         return self._obs_index
 
     @property
+    def measured_entries(self) -> np.ndarray:
+        """One bool per observation entry (before any fault flags): whether the sensors
+        measure it. All True but under the flight sensors, whose slosh entries (ψ1, ψ̇1, ψ2,
+        ψ̇2) are not measured and read 0: an estimator drops them from its measurement model
+        (a copy)."""
+        out = np.ones(len(self._obs_index), dtype=bool)
+        out[self._unmeasured] = False
+        return out
+
+    @property
     def actuator_limits(self) -> np.ndarray:
         """``[max gimbal angle (rad), max pitch moment (N·m)]``, read-only."""
         return self._limits
@@ -329,7 +378,8 @@ class FuelSloshEnv(AttitudeEnv):
     @property
     def kernel_constants(self) -> np.ndarray:
         """The constants of :func:`~attitude_envs.plants.slosh_kernels.control_step` (plant,
-        sub-step, cost weights; the same for every env built with the same keywords), read-only."""
+        sub-step, cost weights; the same for every env built with the same keywords, except
+        under flight conditions with ``parameters``: this episode's drawn true plant), read-only."""
         return self._constants
 
     def batch_termination(self, states: np.ndarray) -> np.ndarray:
@@ -343,18 +393,66 @@ class FuelSloshEnv(AttitudeEnv):
         return out
 
     # ------------------------------------------------------------------ internals
+    def _step_constants(self, params: slosh.SloshParams) -> np.ndarray:
+        """The compiled step's constants for the plant ``params`` (read-only)."""
+        return _read_only(
+            kernels.step_constants(
+                params.packed,
+                self.integrator_dt_s,
+                self._substeps,
+                self.control_dt_s,
+                self.model.cost.Q,
+                self.model.cost.R,
+            )
+        )
+
+    def _flight_plant_tolerances(self) -> dict[str, float] | None:
+        """The flight tolerances of the slosh masses and pendulum lengths (relative) times
+        ``conditions["parameters"]``; None when no parameter is drawn."""
+        scale = self.conditions.parameters
+        if scale == 0:
+            return None
+        table = self.flight_table
+        tol = {k: table.plant_value(k) * scale for k in ("slosh_mass", "pendulum_length")}
+        for key, value in tol.items():
+            if value >= 0.9:
+                raise ValueError(
+                    f"conditions['parameters'] = {scale:g} scales the {key} tolerance to {value:.0%}; it must "
+                    f"stay below 90 % (parameters < {0.9 / table.plant_value(key):.3g})"
+                )
+        return tol
+
+    def _draw_flight_plant(self, rng: np.random.Generator) -> None:
+        """This episode's true plant (from the flight generator): each pendulum's slosh mass
+        and length times ``1 + tol · U(−1, 1)``; the fixed propellant mass takes the change of
+        the slosh masses (the propellant load is known, its split into sloshing and fixed
+        parts is not). Recorded in ``_drawn``; the compiled step's constants follow."""
+        tol = self._flight_plant
+        nominal = self.model.params
+        masses = np.asarray(nominal.slosh_mass_kg, dtype=float) * (1.0 + tol["slosh_mass"] * rng.uniform(-1, 1, 2))
+        lengths = np.asarray(nominal.length_m, dtype=float) * (1.0 + tol["pendulum_length"] * rng.uniform(-1, 1, 2))
+        fuel = max(0.0, nominal.fuel_mass_kg - float(masses.sum() - np.sum(nominal.slosh_mass_kg)))
+        true = dataclasses.replace(
+            nominal, slosh_mass_kg=tuple(masses.tolist()), length_m=tuple(lengths.tolist()), fuel_mass_kg=fuel
+        )
+        self._constants = self._step_constants(true)
+        self._drawn.update(slosh_mass_kg=masses, length_m=lengths, fuel_mass_kg=fuel)
+
     def _measure(self) -> np.ndarray:
-        """The observation's state entries, measured by the ``state`` sensor when sensors are on."""
+        """The observation's state entries, measured by the ``state`` sensor when sensors are
+        on (entries the sensors do not measure, the slosh states in flight, read 0)."""
         obs = self._y[self._obs_index]
         if self._sensing:
             obs = self.sensor_layer.measure({"state": obs}, self._t)["state"]
+            if self._unmeasured.size:
+                obs[self._unmeasured] = 0.0
         return obs
 
     def _measured_state(self, reading: np.ndarray) -> dict[str, Any]:
         """``info["measured"]`` from the ``state`` sensor's reading."""
         m = reading.tolist()
         out: dict[str, Any] = {"theta_rad": m[1], "v_x_m_s": m[-1], "v_z_m_s": m[0], "pitch_rate_rad_s": m[2]}
-        if self.observe_slosh:
+        if self.observe_slosh and not self._unmeasured.size:
             out["slosh_angle_rad"] = reading[[3, 5]]
             out["slosh_rate_rad_s"] = reading[[4, 6]]
         return out

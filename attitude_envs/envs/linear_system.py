@@ -9,11 +9,13 @@ import numpy as np
 from gymnasium import spaces
 
 from attitude_envs import validation
+from attitude_envs.conditions import Conditions
 from attitude_envs.cost import QuadraticCost
 from attitude_envs.envs.base import AttitudeEnv
 from attitude_envs.evaluation.success import FINAL_STATE_FRACTION
 from attitude_envs.linearization import LinearModel
 from attitude_envs.plants import linear_hold, linear_kernels
+from attitude_envs.presets.flight_linear import state_sensor_config
 from attitude_envs.sensors import Channel
 
 ENV = "LinearSystem-v0"
@@ -106,6 +108,9 @@ class LinearSystemEnv(AttitudeEnv):
     ``fault_hint``            bool            False        —       append the active-fault flags
     ``termination_cost``      str             "hold"       —       ``"hold"``/``"episode"``: charge a divergence
                                                                    (see Episode end); ``"none"``: no charge
+    ``conditions``            str or dict     "lab"        —       ``"lab"``, ``"flight"`` or features
+                                                                   (:mod:`attitude_envs.conditions`; see Flight
+                                                                   conditions)
     ========================  ==============  ===========  ======  ==============================================
 
     **Presets.** ``heravi-2017`` (default): Heravi & Novinzadeh
@@ -120,6 +125,24 @@ class LinearSystemEnv(AttitudeEnv):
     **Faults and sensors.** Actuator i is input u_i (physical units, limit
     ``action_scale[i]``); ``"target": "sensor"`` faults hit the ``state`` sensor, which
     measures the whole state at the observation times (reset and the end of each step).
+
+    **Flight conditions** (``conditions=``, :mod:`attitude_envs.conditions`; values and
+    sources in :mod:`attitude_envs.presets.flight_linear`, all assumed but the delay: the
+    plant is abstract). ``"lab"`` (default) is the exact plant, bit for bit. ``"flight"``:
+
+    * *sensors*: the ``state`` sensor adds white noise of 1 % of each entry's typical scale
+      (:attr:`state_scale`) to the whole state; an explicit ``sensors=`` replaces it;
+    * *delay*: one decision period (``control_dt_s``; a command acts from the next step,
+      zeros before: with k > 1 that is k plant steps);
+    * *parameters*: each input's scale factor drawn per episode within ±5 % (the flight
+      error of ``B``: the true plant is ``B · diag(gain)``), from a generator spawned at
+      reset, so the start equals the lab's of the same seed;
+      :meth:`~attitude_envs.envs.base.AttitudeEnv.drawn_parameters` holds ``actuator_gain``;
+      ``model`` stays the nominal plant;
+    * *actuators*: no dynamics beyond the scale factor (the inputs are abstract).
+
+    The batched env (``vector_entry_point``) runs the lab only; use
+    ``gymnasium.vector.SyncVectorEnv`` for flight conditions.
 
     **Info** (:mod:`attitude_envs.info`). ``truth``: ``state`` (the state the observation
     shows: after the step; at reset the initial state x0), ``previous_state`` (the state the
@@ -177,6 +200,7 @@ class LinearSystemEnv(AttitudeEnv):
         sensors: dict | None = None,
         fault_hint: bool = False,
         termination_cost: str = "hold",
+        conditions=None,
         render_mode: str | None = None,
     ) -> None:
         if preset is DEFAULT_PRESET:  # a user's own system takes no preset values
@@ -229,6 +253,9 @@ class LinearSystemEnv(AttitudeEnv):
         if render_mode is not None:
             raise ValueError(f"render_mode must be None for {ENV}, got {render_mode!r}")
         self.render_mode = None
+        cond = Conditions.from_config(conditions)
+        if sensors is None and cond.sensors > 0:  # the flight sensors, scaled to this plant's state
+            sensors = {"state": state_sensor_config(self.state_scale, cond.sensors)}
         self._init_layers(
             n_actuators=m,
             actuator_limits=self.action_scale,
@@ -236,6 +263,8 @@ class LinearSystemEnv(AttitudeEnv):
             faults=faults,
             sensors=sensors,
             fault_hint=fault_hint,
+            conditions=cond,
+            control_dt_s=self.control_dt_s,
         )
         # |x⁺|∞ <= ‖A‖∞ |x|∞ + ‖B‖∞ |u|∞ (+ noise, 10σ margin) while |x|∞ <= divergence_threshold;
         # over k held steps A_k = Aᵏ, B_k and the noise Σ_{i<k} Aⁱ w_{k−1−i}.
@@ -269,6 +298,23 @@ class LinearSystemEnv(AttitudeEnv):
         return self._x.copy()
 
     @property
+    def measured_entries(self) -> np.ndarray:
+        """One bool per observation entry (before any fault flags): whether the sensors
+        measure it; the ``state`` sensor measures every entry (all True; FuelSlosh's flight
+        sensors leave some out)."""
+        return np.ones(self.model.n, dtype=bool)
+
+    @property
+    def state_scale(self) -> np.ndarray:
+        """Each state entry's typical scale, the RMS of its initial distribution
+        ``√(x0_mean² + x0_std²)`` (state units; an entry whose start is exactly 0 takes the
+        largest entry's, and 1 when every entry's is 0): what the flight sensor noise is a
+        fraction of (:mod:`attitude_envs.presets.flight_linear`)."""
+        scale = np.hypot(self._x0_mean, self._x0_std)
+        top = float(scale.max())
+        return np.where(scale > 0, scale, top if top > 0 else 1.0)
+
+    @property
     def reset_distribution(self) -> dict[str, np.ndarray]:
         """How :meth:`reset` draws ``x0 ~ N(x0_mean, diag(x0_std²))`` (read only, copies):
         ``x0_mean`` and ``x0_std`` (n, state units)."""
@@ -283,12 +329,13 @@ class LinearSystemEnv(AttitudeEnv):
         super().reset(seed=seed)
         options = validation.reset_options(options, {"state", "faults"})
         n = self.model.n
+        flight_rng = self._flight_rng(self.np_random)  # spawned: the start is the lab's of this seed
         if "state" in options:
             self._x = validation.finite_array("options['state']", options["state"], (n,)).copy()
         else:
             self._x = self._x0_mean + self._x0_std * self.np_random.normal(size=n)
         self._steps = 0
-        self._reset_layers(self.np_random, options)
+        self._reset_layers(self.np_random, options, flight_rng)
         self._sensing = self.sensor_layer.enabled  # fixed for the episode
         x = self._x.copy()
         truth = {"state": x, "faults": self._fault_truth(0.0)}
@@ -303,7 +350,7 @@ class LinearSystemEnv(AttitudeEnv):
         a = np.clip(validation.action(action, self.model.m), -1.0, 1.0)
         t_s = self._steps * self.model.dt_s
         commanded = self.action_scale * a
-        u = self._deliver(commanded, t_s)
+        u = self._deliver(commanded, t_s)  # faults; in flight the delay and the gains
         x = self._x
         x_next = np.empty_like(x)
         k, noisy = self.decision_steps, self.process_noise_std > 0

@@ -50,14 +50,14 @@ class BatchedEnv(VectorEnv):
         self.autoreset_mode = AutoresetMode.NEXT_STEP if mode == "next_step" else AutoresetMode.SAME_STEP
         self.metadata = {"autoreset_mode": self.autoreset_mode, "render_modes": []}
         self.envs = [single_env_factory() for _ in range(self.num_envs)]
+        conditions = self.envs[0].conditions
+        if not conditions.is_lab:  # one set of plant constants, no delay line or actuator dynamics
+            raise ValueError(
+                f"conditions={conditions.name!r} ({conditions.as_dict()}): the batched env runs the lab conditions "
+                "only; use gymnasium.vector.SyncVectorEnv (vectorization_mode='sync') for flight conditions"
+            )
         if self.envs[0].sensor_layer.enabled or self.envs[0].fault_hint:
             raise ValueError("sensors and fault_hint are not supported by the batched env yet; use SyncVectorEnv")
-        conditions = getattr(self.envs[0], "conditions", None)
-        if conditions is not None and not conditions.is_lab:
-            raise ValueError(
-                f"conditions={conditions.name!r}: the batched env runs the lab conditions only; "
-                "use gymnasium.vector.SyncVectorEnv (vectorization_mode='sync') for flight conditions"
-            )
         self.single_observation_space = self.envs[0].observation_space
         self.single_action_space = self.envs[0].action_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)

@@ -52,10 +52,10 @@ class FlightTable:
         noise, the bias walk and the initial bias spread (not the sample periods)."""
         out = {}
         for channel, entries in self.sensors.items():
-            p = {k: float(v.value) for k, v in entries.items()}
+            p = {k: _number_or_axes(v.value) for k, v in entries.items()}
             for key in ("noise_std", "bias_walk_std", "initial_bias_std"):
                 if key in p:
-                    p[key] *= noise_scale
+                    p[key] = p[key] * noise_scale
             out[channel] = p
         return out
 
@@ -86,6 +86,12 @@ class FlightTable:
         rows += [("gain_tolerance", self.gain_tolerance.value, self.gain_tolerance.source)]
         rows += [(f"plant.{k}", v.value, v.source) for k, v in self.plant.items()]
         return rows
+
+
+def _number_or_axes(value) -> float | np.ndarray:
+    """A table value as the sensor layer takes it: a float, or one float per axis."""
+    arr = np.asarray(value, dtype=float)
+    return float(arr) if arr.ndim == 0 else arr.copy()
 
 
 def _frozen(mapping: dict) -> MappingProxyType:
