@@ -15,6 +15,13 @@ solve converged. Results are cached on disk (:func:`cache_dir`), keyed by a hash
 id, keyword arguments, seed, reset options, solver settings and package versions, so
 repeated campaign cells are free.
 
+Under flight conditions (``conditions=`` in ``env_kwargs``) the oracle knows the drawn plant
+and gains and acts through the env's delay and actuator dynamics (how each stage enters the
+problem: :mod:`attitude_envs.symbolic.gyrostat`); for the wheels' Coulomb friction the first
+solve's ``tanh`` relaxation is followed by re-solves with the signs fixed
+(:func:`_fix_friction_signs`), and J* is the cheapest replay among the passes. The cache key
+holds the resolved conditions (:func:`conditions_of`; lab keys are unchanged).
+
 The replay also measures the episode with the env's success metric
 (:attr:`OptimumResult.measurements`, :mod:`attitude_envs.evaluation.success`), so a report can
 say whether the optimum itself succeeds (it need not: J weighs the whole episode, success
@@ -139,6 +146,15 @@ def cache_dir() -> Path:
     return suite_cache_dir("optimum")
 
 
+def conditions_of(env_kwargs: dict | None) -> dict | None:
+    """The resolved flight conditions of an env built with ``env_kwargs``
+    (:meth:`attitude_envs.conditions.Conditions.as_dict`), or None in the lab."""
+    from attitude_envs.conditions import Conditions
+
+    cond = Conditions.from_config((env_kwargs or {}).get("conditions"))
+    return None if cond.is_lab else cond.as_dict()
+
+
 def _cache_key(env_id, env_kwargs, seed, options, settings) -> str:
     payload = {
         "env_id": env_name(env_id),
@@ -149,6 +165,9 @@ def _cache_key(env_id, env_kwargs, seed, options, settings) -> str:
         "version": attitude_envs.__version__,
         "casadi": casadi.__version__,
     }
+    conditions = conditions_of(env_kwargs)
+    if conditions is not None:  # flight entries keyed by their resolved conditions; lab keys unchanged
+        payload["conditions"] = conditions
     text = json.dumps(payload, sort_keys=True, default=repr)
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
@@ -287,7 +306,12 @@ def solve_problem(
     constraints = [casadi.vec(casadi.diag(casadi.DM(1.0 / scale)) @ x_next - xs_scaled)]
     lbg, ubg = [np.zeros(nx * n)], [np.zeros(nx * n)]
     if problem.g is not None:
-        path = casadi.vec(problem.g.map(n)(xs))
+        if problem.g.n_in() == 2:  # g(x_k, p_k): the step's per-step input of x_k's own step (none for x_N)
+            inputs = problem.step_inputs()
+            after = np.hstack([inputs[:, 1:], np.zeros((inputs.shape[0], 1))])
+            path = casadi.vec(problem.g.map(n)(xs, casadi.DM(after)))
+        else:
+            path = casadi.vec(problem.g.map(n)(xs))
         constraints.append(path)
         lbg.append(np.full(path.shape[0], -np.inf))
         ubg.append(np.zeros(path.shape[0]))
@@ -317,6 +341,47 @@ def solve_problem(
     w_opt = np.asarray(sol["x"]).ravel()
     actions = w_opt[nx * n :].reshape(n, nu)
     return actions, float(sol["f"]), str(stats.get("return_status")), int(stats.get("iter_count", -1)), solve_s
+
+
+#: envs whose wheel friction's Coulomb sign the solver fixes from a first solve
+_FRICTION_SIGN_ENVS = ("ReactionWheel-v0", "AirBearing-v0")
+#: re-solves with the signs fixed, at most (each from the last one's trajectory)
+FRICTION_SIGN_PASSES = 3
+
+
+def _fix_friction_signs(env, problem, actions, seed, options, max_iter, tol, jit):
+    """Flight conditions' wheel friction: the first solve smooths the Coulomb term's
+    ``sign(Ω)`` as ``tanh(Ω/ε)`` (:data:`attitude_envs.symbolic.actuators.FRICTION_EPS_RAD_S`);
+    this re-solves with ``sign(Ω_k)`` of the last trajectory fixed per step (then the problem
+    is the env's wherever the optimum keeps those signs) until the signs repeat, at most
+    :data:`FRICTION_SIGN_PASSES` times. ``(passes, solve_s)``: each pass's ``(problem,
+    actions, j_nlp, status, iterations)`` (none when the episode has no Coulomb friction)
+    and their IPOPT time; the caller keeps the pass whose env replay is cheapest."""
+    if env_name(problem.env_id) not in _FRICTION_SIGN_ENVS:
+        return [], 0.0
+    from attitude_envs.symbolic import actuators, gyrostat
+
+    n_w = env.unwrapped.model.params.wheel_axes.shape[1]
+    if not actuators.ChainSpec.from_env(env.unwrapped, n_w).has_friction:
+        return [], 0.0  # the lab, and flight without the actuator dynamics: nothing relaxed
+    passes, solve_total = [], 0.0
+    signs = np.sign(problem.rollout(actions)[0][:-1, 7 : 7 + n_w])
+    for _ in range(FRICTION_SIGN_PASSES):
+        env.reset(seed=seed, options=options)
+        fixed = gyrostat.with_friction_signs(env.unwrapped, signs)
+        if fixed is None:
+            break
+        a, j, status, it, s = solve_problem(fixed, actions, max_iter, tol, jit=jit)
+        solve_total += s
+        if status not in SOLVED:
+            break
+        actions = np.clip(a, fixed.a_lb, fixed.a_ub)
+        passes.append((fixed, actions, j, status, it))
+        new = np.sign(fixed.rollout(actions)[0][:-1, 7 : 7 + n_w])
+        if np.array_equal(new, signs):
+            break
+        signs = new
+    return passes, solve_total
 
 
 def solve_episode(
@@ -357,7 +422,15 @@ def solve_episode(
         actions0, j_warm, label = _warm_start(env, problem, warm_start, seed, options)
         actions, j_nlp, status, iterations, solve_s = solve_problem(problem, actions0, max_iter, tol, jit=jit)
         actions = np.clip(actions, problem.a_lb, problem.a_ub)
+        passes, extra_s = _fix_friction_signs(env, problem, actions, seed, options, max_iter, tol, jit)
+        solve_s += extra_s
         j_star, terminated, measurements = replay_measured(env, actions, seed, options)
+        for p_fixed, a_fixed, j_fixed, status_fixed, it_fixed in passes:
+            # every pass's commands are the env's to play: J* is the best replay among them
+            replayed = replay_measured(env, a_fixed, seed, options)
+            if status_fixed in SOLVED and replayed.J < j_star:
+                problem, actions, j_nlp, status, iterations = p_fixed, a_fixed, j_fixed, status_fixed, it_fixed
+                j_star, terminated, measurements = replayed
     finally:
         env.close()
     result = OptimumResult(

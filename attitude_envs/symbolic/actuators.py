@@ -8,6 +8,8 @@ at the possibly reduced limit), so the symbolic command equals the env's to roun
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import casadi
 import numpy as np
 
@@ -72,3 +74,180 @@ def delivered(commanded, t, realized, limits: np.ndarray):
         new = _effect(KIND_CODES[f.kind], out[i], value, t, f.onset_s, eff, latched, True)
         out[i] = casadi.if_else(active, new, out[i])
     return casadi.vertcat(*[clip(out[i], -limit[i], limit[i]) for i in range(len(out))])
+
+
+# ---------------------------------------------------------------- flight actuator chain
+#: the smoothing speed ε (rad/s) of the wheel's Coulomb friction in the oracle's problem:
+#: ``sign(Ω)`` is replaced by ``tanh(Ω/ε)`` (the env keeps the sign; J* is the env's replay)
+FRICTION_EPS_RAD_S = 0.05
+
+
+@dataclass(frozen=True)
+class ChainSpec:
+    """What the J* oracle knows of an env's flight actuator chain
+    (:mod:`attitude_envs.actuator_dynamics`; one entry per actuator, in its own units), and
+    the chain's extra state in the symbolic model: ``delay_steps · N`` queued commands (oldest
+    first), then ``N`` rate-limiter outputs (when a rate limit is finite), then ``N`` lag
+    states (when a lag is on).
+
+    ``gain``: this episode's drawn scale factors times the duty cycle (the env's
+    ``gain · duty``); ``has_model``: the actuator dynamics are on (without them only the
+    delay and the gain act, the gain after the faults as the env's ``_with_gain`` does);
+    ``mean_weight``/``decay``: the lag's ``φ`` and ``e^{−Δt/τ}`` (the env's own numbers);
+    ``rate_step``: ``rate_limit · Δt`` (inf: none); ``coulomb``, ``viscous``: wheel friction;
+    ``resolution``: the command's quantum, relaxed (not modelled); ``friction_eps``: the
+    smoothing speed of ``sign(Ω)``."""
+
+    n: int
+    delay_steps: int = 0
+    has_model: bool = False
+    gain: np.ndarray | None = None
+    lag: np.ndarray | None = None
+    mean_weight: np.ndarray | None = None
+    decay: np.ndarray | None = None
+    rate_step: np.ndarray | None = None
+    coulomb: np.ndarray | None = None
+    viscous: np.ndarray | None = None
+    resolution: np.ndarray | None = None
+    friction_eps: float = FRICTION_EPS_RAD_S
+    #: the Coulomb term's sign(Ω) is a per-step input of the step (fixed from a first solve)
+    fixed_signs: bool = False
+
+    @property
+    def has_rate(self) -> bool:
+        return self.rate_step is not None and bool(np.isfinite(self.rate_step).any())
+
+    @property
+    def has_lag(self) -> bool:
+        return self.lag is not None and bool(np.any(self.lag > 0))
+
+    @property
+    def has_friction(self) -> bool:
+        return self.has_model and bool(np.any(self.coulomb != 0) or np.any(self.viscous != 0))
+
+    @property
+    def n_state(self) -> int:
+        """Extra state entries the chain adds to the plant's."""
+        return self.n * (self.delay_steps + int(self.has_rate) + int(self.has_lag))
+
+    @property
+    def is_identity(self) -> bool:
+        """Nothing between the fault layer's output and the plant (the lab's graph)."""
+        gain_one = self.gain is None or bool(np.all(self.gain == 1.0))
+        return self.delay_steps == 0 and not self.has_model and gain_one
+
+    def notes(self) -> list[str]:
+        """How each stage enters the optimal-control problem (exact or relaxed)."""
+        out = []
+        if self.delay_steps:
+            out.append(
+                f"delay of {self.delay_steps} period(s) exact: a queue of past commands in the state (zeros at the "
+                "start), the decision variables stay the commands"
+            )
+        if self.has_model:
+            if self.resolution is not None and np.any(self.resolution > 0):
+                out.append("command resolution relaxed: the oracle's command is continuous (the env quantizes it)")
+            if self.has_rate:
+                out.append("rate limit exact: the env's clip about the limiter's previous output, a state (non-smooth)")
+            if self.has_lag:
+                out.append(
+                    "first-order lag exact: its state in the problem, the period mean c + (y0 - c) phi delivered"
+                )
+            out.append("gain times duty cycle exact")
+            if self.has_friction and self.fixed_signs:
+                out.append(
+                    "wheel friction at the period-start speed: viscous exact, Coulomb sign(Omega) fixed per step "
+                    "from the previous solve (exact where the optimum keeps those signs)"
+                )
+            elif self.has_friction:
+                out.append(
+                    f"wheel friction at the period-start speed: viscous exact, Coulomb sign(Omega) relaxed to "
+                    f"tanh(Omega / {self.friction_eps:g} rad/s)"
+                )
+        elif self.gain is not None and np.any(self.gain != 1.0):
+            out.append("actuator scale-factor gains exact")
+        return out
+
+    @classmethod
+    def from_env(cls, env, n: int) -> ChainSpec:
+        """The chain of ``env`` (an unwrapped env, just reset) for ``n`` actuators."""
+        chain = getattr(env, "_actuator_chain", None)
+        drawn = env.drawn_parameters() if hasattr(env, "drawn_parameters") else {}
+        gain = drawn.get("actuator_gain")
+        gain = None if gain is None else np.asarray(gain, dtype=float)
+        if chain is None:
+            return cls(n, gain=gain)
+        m = chain.model
+        if m is None:
+            return cls(n, delay_steps=int(chain.delay_steps), gain=gain)
+        mean_weight, decay = chain.lag_weights
+        return cls(
+            n,
+            delay_steps=int(chain.delay_steps),
+            has_model=True,
+            gain=np.asarray(chain.gain, dtype=float) * m.duty,  # the env's gain · duty, in its order
+            lag=np.asarray(m.lag_s, dtype=float),
+            mean_weight=mean_weight,
+            decay=decay,
+            rate_step=np.asarray(m.rate_limit, dtype=float) * float(chain.dt_s),
+            coulomb=np.asarray(m.coulomb, dtype=float),
+            viscous=np.asarray(m.viscous, dtype=float),
+            resolution=np.asarray(m.resolution, dtype=float),
+        )
+
+
+def chain_command(spec: ChainSpec, commanded, extra):
+    """Stages 1–3 (delay, resolution relaxed, rate limit) on the ``commanded`` outputs (list of
+    N SX) with the chain's state ``extra`` (list of SX): ``(command, new_extra_head)``, the
+    command the fault layer receives and the new queue and rate-limiter entries."""
+    n, d = spec.n, spec.delay_steps
+    c = list(commanded)
+    new = []
+    if d:
+        queue = extra[: d * n]
+        new += queue[n:] + c
+        c = queue[:n]
+    if spec.has_rate:
+        last = extra[d * n : d * n + n]
+        c = [
+            clip(c[i], last[i] - float(spec.rate_step[i]), last[i] + float(spec.rate_step[i]))
+            if np.isfinite(spec.rate_step[i])
+            else c[i]
+            for i in range(n)
+        ]
+        new += c
+    return c, new
+
+
+def chain_output(spec: ChainSpec, faulted, extra, speeds, signs=None):
+    """Stages 5–7 (lag, gain · duty, friction at the period-start wheel ``speeds``) on the
+    ``faulted`` outputs (list of N SX): ``(output, new_lag_states)``. ``signs`` (list of N
+    SX, with ``spec.fixed_signs``): the Coulomb term's ``sign(Ω)``; else ``tanh(Ω/ε)``."""
+    n = spec.n
+    y = list(faulted)
+    new = []
+    if not spec.has_model:
+        if spec.gain is not None and np.any(spec.gain != 1.0):
+            y = [y[i] * float(spec.gain[i]) for i in range(n)]
+        return y, new
+    if spec.has_lag:
+        lag0 = extra[spec.n_state - n :]
+        mean, dec = [], []
+        for i in range(n):
+            if spec.lag[i] > 0:
+                mean.append(y[i] + (lag0[i] - y[i]) * float(spec.mean_weight[i]))
+                dec.append(y[i] + (lag0[i] - y[i]) * float(spec.decay[i]))
+            else:
+                mean.append(y[i])
+                dec.append(y[i])
+        y, new = mean, dec
+    y = [y[i] * float(spec.gain[i]) for i in range(n)]
+    if spec.has_friction:
+        eps = float(spec.friction_eps)
+        y = [
+            y[i]
+            - float(spec.coulomb[i]) * (casadi.tanh(speeds[i] / eps) if signs is None else signs[i])
+            - float(spec.viscous[i]) * speeds[i]
+            for i in range(n)
+        ]
+    return y, new

@@ -26,6 +26,34 @@ non-smooth operations (the action and per-wheel clips, the held torque's clip, t
 limiter, the error quaternion's sign flip) for a controller that bounds its actions itself.
 For J*, the tumble limit, the roll/pitch stop and the wheel-speed limit are the path
 constraint ``g``.
+
+Flight conditions (:mod:`attitude_envs.conditions`): the oracle's plant is the episode's drawn
+one (inertia, misaligned wheel axes, offset torque; the body-frame allocation stays the
+nominal one, as the env's) and it acts through the env's actuator chain
+(:mod:`attitude_envs.actuator_dynamics`, :class:`~attitude_envs.symbolic.actuators.ChainSpec`);
+the decision variables stay the normalized commands, and the chain's state follows
+``[q, ω, Ω]`` in the step's state (zeros at the start). Stage by stage:
+
+* **delay** (exact): a queue of the last ``d`` commanded torques; the plant receives the
+  oldest (zeros for the first ``d`` periods);
+* **resolution** (relaxed): the command is continuous; the env quantizes it, so the env's
+  replay differs from the NLP by the quantization's effect (about 1e-6 relative here);
+* **rate limit** (exact, non-smooth): the env's clip about the limiter's last output, a
+  state (no wheel has one in the flight tables);
+* **faults**: as in the lab, on the delayed command;
+* **lag** (exact): its state ``y``; the period delivers ``c + (y₀ − c) φ`` and
+  ``y⁺ = c + (y₀ − c) e^{−Δt/τ}`` with the env's own ``φ`` and decay;
+* **gain × duty** (exact): the drawn scale factors times the duty cycle (without the
+  actuator dynamics only the gain, after the faults);
+* **friction** (at the period-start wheel speed): ``viscous · Ω`` exact; the Coulomb term's
+  ``sign(Ω)`` is ``tanh(Ω/ε)`` (ε = :data:`~attitude_envs.symbolic.actuators.FRICTION_EPS_RAD_S`)
+  in a first solve, then fixed per step from that solve's trajectory
+  (:func:`with_friction_signs`) with the wheels held at least
+  :data:`FRICTION_SIGN_MARGIN_RAD_S` from zero on the side of their sign, so that the env's
+  replay keeps the signs the NLP assumed.
+
+J* itself is always the env's replay of the optimal commands (:mod:`experiments.optimum`),
+so a relaxation can cost optimality, never the number's honesty.
 """
 
 from __future__ import annotations
@@ -75,6 +103,10 @@ class GyrostatParameters:
     fraction of its commanded motor torque each wheel delivers at every time (0: an outage),
     applied to the command after the allocation and the per-wheel clip, as the env's
     ``outage``/``loss_of_effectiveness`` faults do (:func:`with_effectiveness`).
+    The flight conditions' actuator chain (:mod:`attitude_envs.actuator_dynamics`):
+    ``chain`` (:class:`~attitude_envs.symbolic.actuators.ChainSpec`, or None: the lab's ideal
+    actuators), the delay, rate limit, lag, gains, duty and friction around the faults; its
+    states (queued commands, limiter and lag outputs) follow ``[q, ω, Ω]`` in the step's state.
     """
 
     inertia_kg_m2: np.ndarray
@@ -95,6 +127,12 @@ class GyrostatParameters:
     external_torque: Callable[[Any], Any] | None = None
     faults: tuple = ()
     effectiveness: np.ndarray | None = None
+    chain: actuators.ChainSpec | None = None
+
+    @property
+    def n_chain_states(self) -> int:
+        """Entries the flight actuator chain adds after ``[q, ω, Ω]`` (0: none)."""
+        return 0 if self.chain is None else self.chain.n_state
 
     @property
     def n_wheels(self) -> int:
@@ -132,18 +170,26 @@ class GyrostatParameters:
     @classmethod
     def true_plant(cls, env) -> GyrostatParameters:
         """The episode's true plant of ``env`` (an unwrapped ReactionWheel-v0 or AirBearing-v0,
-        just reset; an oracle's knowledge): its drawn inertia, true offset torque,
-        disturbance and realized faults. ValueError for a fault kind or disturbance without a
-        symbolic model."""
+        just reset; an oracle's knowledge): its drawn inertia, wheel axes (flight conditions
+        misalign them), true offset torque, disturbance, realized faults and, with flight
+        conditions, its actuator chain (delay, actuator dynamics, drawn scale-factor gains).
+        The allocation of a body-frame action stays the nominal one (the env's). ValueError
+        for a fault kind or disturbance without a symbolic model."""
         actuators.check_supported(env.fault_layer.realized)
         mats = np.array(env.kernel_matrices, dtype=float)  # this episode's true inertia
+        nominal = cls.nominal(env.model, env.n_substeps, env.integrator_dt_s, env.action_frame)
+        drawn = env.drawn_parameters() if hasattr(env, "drawn_parameters") else {}
+        axes = drawn.get("wheel_axes")
+        chain = actuators.ChainSpec.from_env(env, nominal.n_wheels)
         return replace(
-            cls.nominal(env.model, env.n_substeps, env.integrator_dt_s, env.action_frame),
+            nominal,
             inertia_kg_m2=mats[:9].reshape(3, 3),
             inertia_eff_inv=mats[9:18].reshape(3, 3),
+            wheel_axes=nominal.wheel_axes if axes is None else np.array(axes, dtype=float),
             offset_torque_nm=np.array(env.true_offset_torque_nm, dtype=float),  # may differ from the model's
             external_torque=_disturbance(env),
             faults=tuple(env.fault_layer.realized),
+            chain=None if chain.is_identity else chain,
         )
 
 
@@ -208,7 +254,9 @@ def error_state(params: GyrostatParameters, y, q_target, smooth: bool = False):
 
 def step_function(params: GyrostatParameters, smooth: bool = False) -> casadi.Function:
     """The control step of ``params`` as a CasADi SX function
-    ``(y (7+N), a (n_u), t (1), q_T (4)) -> (y_next (7+N), cost (1))``: ``y = [q, ω, Ω]``,
+    ``(y (7+N+M), a (n_u), t (1), q_T (4)) -> (y_next (7+N+M), cost (1))``: ``y = [q, ω, Ω]``
+    followed by the ``M`` = :attr:`GyrostatParameters.n_chain_states` states of a flight
+    actuator chain (none in the lab),
     ``a`` the normalized action, ``t`` the step's start time (s; the faults and the
     disturbance are functions of it, nothing else is), ``q_T`` the target attitude,
     ``cost`` the env's step cost (see the module docstring). ``smooth=True``: no action or
@@ -232,7 +280,12 @@ def step_function(params: GyrostatParameters, smooth: bool = False) -> casadi.Fu
     X = TGT + 4
     OUT = X + n_state
 
-    y = casadi.SX.sym("y", 7 + n)
+    chain = params.chain
+    n_extra = params.n_chain_states
+    y = casadi.SX.sym("y", 7 + n + n_extra)
+    extra = [y[7 + n + i] for i in range(n_extra)]
+    # with fixed friction signs: sign(Ω) of each wheel at this step is a fifth input
+    sgn = casadi.SX.sym("s", n) if chain is not None and chain.has_friction and chain.fixed_signs else None
     a = casadi.SX.sym("a", params.n_actions)
     t0 = casadi.SX.sym("t")
     target = casadi.SX.sym("q_T", 4)
@@ -248,8 +301,16 @@ def step_function(params: GyrostatParameters, smooth: bool = False) -> casadi.Fu
     if eff is not None and np.any(np.asarray(eff) != 1.0):  # all ones: the healthy graph, bit-identical
         # delivered = e ⊙ commanded: the env's outage (e = 0) and loss of effectiveness (e = 1 − value)
         commanded = commanded * casadi.DM(np.asarray(eff, dtype=float))
+    new_extra = []
+    if chain is not None:  # the flight chain's stages 1-3: delay, (resolution relaxed), rate limit
+        commanded, new_extra = actuators.chain_command(chain, [commanded[i] for i in range(n)], extra)
+        commanded = casadi.vertcat(*commanded)
     cmd = actuators.delivered(commanded, t0, params.faults, np.full(n, max_torque))
     cmd = [cmd[i] for i in range(n)]
+    if chain is not None:  # stages 5-7: lag, gain and duty, friction at the period-start wheel speeds
+        signs = [sgn[i] for i in range(n)] if sgn is not None else None
+        cmd, lag_next = actuators.chain_output(chain, cmd, extra, [y[7 + i] for i in range(n)], signs)
+        new_extra = new_extra + lag_next
     tgt = [target[i] for i in range(4)]
 
     z = [y[i] for i in range(7 + n)] + [casadi.SX(0.0)]
@@ -275,7 +336,11 @@ def step_function(params: GyrostatParameters, smooth: bool = False) -> casadi.Fu
         z = [z[i] + (h / 6.0) * (ks[0][i] + 2.0 * ks[1][i] + 2.0 * ks[2][i] + ks[3][i]) for i in range(8 + n)]
         norm = casadi.sqrt(z[0] * z[0] + z[1] * z[1] + z[2] * z[2] + z[3] * z[3])
         z = [z[i] / norm for i in range(4)] + z[4:]
-    z, cost = casadi.vertcat(*z[: 7 + n]), z[7 + n]
+    z, cost = casadi.vertcat(*z[: 7 + n], *new_extra), z[7 + n]
+    if sgn is not None:
+        return casadi.Function(
+            "gyrostat_step", [y, a, t0, target, sgn], [z, cost], ["y", "a", "t", "q_T", "s"], ["y_next", "cost"]
+        )
     return casadi.Function("gyrostat_step", [y, a, t0, target], [z, cost], ["y", "a", "t", "q_T"], ["y_next", "cost"])
 
 
@@ -289,15 +354,40 @@ def build_air_bearing(env) -> DiscreteProblem:
     return _build(env)
 
 
-def _build(env) -> DiscreteProblem:
+#: the margin (rad/s) by which a wheel keeps the Coulomb sign fixed for it (:func:`with_friction_signs`):
+#: the env's quantized commands move its wheel speeds off the oracle's by a few 0.01 rad/s
+FRICTION_SIGN_MARGIN_RAD_S = 0.1
+
+
+def with_friction_signs(env, signs) -> DiscreteProblem | None:
+    """The problem of the episode ``env`` (unwrapped, just reset) starts, with the wheels'
+    Coulomb friction signs fixed per step to ``signs`` ((n_steps, N), e.g. ``sign(Ω_k)`` of a
+    first solve's trajectory) in place of the ``tanh`` relaxation: exact wherever the
+    optimum keeps those signs. None when the episode has no Coulomb friction."""
+    return _build(env, signs)
+
+
+def _build(env, friction_signs=None) -> DiscreteProblem:
     params = GyrostatParameters.true_plant(env)
+    if friction_signs is not None:
+        if params.chain is None or not params.chain.has_friction:
+            return None
+        params = replace(params, chain=replace(params.chain, fixed_signs=True))
     dt = float(env.control_dt_s)
-    n_x, n_u = 7 + params.n_wheels, env.action_space.shape[0]
+    n_w = params.n_wheels
+    n_x, n_u = 7 + n_w + params.n_chain_states, env.action_space.shape[0]
     plant = step_function(params)
     y, a, k = casadi.SX.sym("y", n_x), casadi.SX.sym("a", n_u), casadi.SX.sym("k")
     # the env's time: steps · control_dt_s; its target is fixed for the episode
-    y_next, cost = plant(y, a, k * dt, casadi.DM(np.array(env.target_attitude, dtype=float)))
-    step = casadi.Function("step", [y, a, k], [y_next, cost], ["x", "a", "k"], ["x_next", "cost"])
+    target = casadi.DM(np.array(env.target_attitude, dtype=float))
+    step_params = None
+    if friction_signs is None:
+        y_next, cost = plant(y, a, k * dt, target)
+        step = casadi.Function("step", [y, a, k], [y_next, cost], ["x", "a", "k"], ["x_next", "cost"])
+    else:  # per-step inputs [k, sign(Ω_k) of each wheel]
+        p = casadi.SX.sym("p", 1 + n_w)
+        y_next, cost = plant(y, a, p[0] * dt, target, p[1:])
+        step = casadi.Function("step", [y, a, p], [y_next, cost], ["x", "a", "p"], ["x_next", "cost"])
 
     # path constraints g(x) <= 0: tumble limit, wheel-speed limit, roll/pitch stop
     max_speed = params.max_wheel_speed_rad_s
@@ -305,7 +395,7 @@ def _build(env) -> DiscreteProblem:
     g_parts = [(xs[4:7] / float(env.max_rate_rad_s)) ** 2 - 1.0]  # normalized: each entry O(1)
     notes = ["tumble limit max|ω| <= max_rate_rad_s as a state constraint"]
     if np.isfinite(max_speed):
-        g_parts.append((xs[7:] / max_speed) ** 2 - 1.0)
+        g_parts.append((xs[7 : 7 + n_w] / max_speed) ** 2 - 1.0)
         notes.append(
             "wheel-speed limit |Ω| <= max_wheel_speed_rad_s as a state constraint (the limiter is in the step)"
         )
@@ -319,17 +409,33 @@ def _build(env) -> DiscreteProblem:
         # |θ| <= L: sin²θ <= sin²L; |φ| <= L: c > 0 and s² <= tan²L c²
         g_parts += [sin_pitch**2 - math.sin(lim) ** 2, s**2 - math.tan(lim) ** 2 * c**2, -c]
         notes.append("roll/pitch stop as a state constraint")
-    g = casadi.Function("g", [xs], [casadi.vertcat(*g_parts)], ["x"], ["g"])
+    if friction_signs is None:
+        g = casadi.Function("g", [xs], [casadi.vertcat(*g_parts)], ["x"], ["g"])
+    else:  # the fixed signs kept with a margin: s·Ω >= δ where s = ±1 (nothing where s = 0)
+        ps = casadi.SX.sym("p", 1 + n_w)
+        margin = float(FRICTION_SIGN_MARGIN_RAD_S)
+        g_parts += [ps[1 + i] * (margin * ps[1 + i] - xs[7 + i]) / margin for i in range(n_w)]
+        notes.append(f"the fixed friction signs held with a margin |Omega| >= {margin:g} rad/s")
+        g = casadi.Function("g", [xs, ps], [casadi.vertcat(*g_parts)], ["x", "p"], ["g"])
+    if params.chain is not None:
+        notes += params.chain.notes()
     n_steps = int(math.ceil(env.episode_duration_s / dt - 1e-9))
+    if friction_signs is not None:
+        signs = np.asarray(friction_signs, dtype=float).reshape(n_steps, n_w)
+        step_params = np.column_stack([np.arange(n_steps, dtype=float), signs])
+    x0 = np.array(env.state_row, dtype=float)
+    if params.n_chain_states:  # the chain at rest: empty delay line, limiter and lag outputs zero
+        x0 = np.concatenate([x0, np.zeros(params.n_chain_states)])
     return DiscreteProblem(
         env_id=env.env_name,
         n_x=n_x,
         n_u=n_u,
         n_steps=n_steps,
         step=step,
-        x0=np.array(env.state_row, dtype=float),
+        x0=x0,
         a_lb=-np.ones(n_u),
         a_ub=np.ones(n_u),
         g=g,
         notes="; ".join(notes),
+        params=step_params,
     )
