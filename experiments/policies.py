@@ -28,6 +28,11 @@ ftsmc-standin       (Magnetorquer-v0)
 bdot                B-dot detumbling (Magnetorquer-v0)                           gain_nms
 q-learning-lqr      ``agents.QLearningLQR`` (model-free; learns at build time)   constructor kwargs; ``learn``
 sb3                 a saved Stable-Baselines3 model (``model: PATH``)            deterministic
+lqr+mekf,           the controller acting through its estimator                  the controller's, and
+amnftsmc+mekf,      (``baselines.estimated``; the env needs sensors, e.g.        estimator_params
+slosh-lqr+kf,       ``conditions: flight``): the MEKF on the gyrostats and the
+linear-lqr+kf       magnetorquer, filterpy Kalman filters on FuelSlosh and
+                    LinearSystem
 ==================  ==========================================================  =================
 
 Each policy declares the envs it applies to (:attr:`PolicyEntry.envs`); building one for another env
@@ -99,6 +104,10 @@ POLICIES: dict[str, PolicyEntry] = {
     "ftsmc-standin": PolicyEntry("baselines.sliding_mode:FTSMCStandInPolicy", ("Magnetorquer",)),
     "bdot": PolicyEntry("baselines.bdot:BDotPolicy", ("Magnetorquer",)),
     "q-learning-lqr": PolicyEntry("agents:QLearningLQR", ("LinearSystem", "ReactionWheel")),
+    "lqr+mekf": PolicyEntry("baselines.estimated:lqr_mekf", GYROSTATS),
+    "amnftsmc+mekf": PolicyEntry("baselines.estimated:amnftsmc_mekf", ("Magnetorquer",)),
+    "slosh-lqr+kf": PolicyEntry("baselines.estimated:slosh_lqr_kf", ("FuelSlosh",)),
+    "linear-lqr+kf": PolicyEntry("baselines.estimated:linear_lqr_kf", ("LinearSystem",)),
     "sb3": PolicyEntry("experiments.training.training:load_trained"),  # the saved model's own env (checked on load)
 }
 

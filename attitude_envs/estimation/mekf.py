@@ -88,13 +88,42 @@ class AttitudeMEKF:
             [self.star_noise_std**2] * 3 + [self.initial_bias_std**2] * 3 + [self.gyro_noise_std**2] * 3
         )
 
-    def step(self, gyro_rad_s: np.ndarray, star_attitude: np.ndarray | None, dt_s: float) -> None:
+    def step(
+        self,
+        gyro_rad_s: np.ndarray,
+        star_attitude: np.ndarray | None,
+        dt_s: float,
+        *,
+        frame_rate_rad_s: np.ndarray | None = None,
+        vectors: list[tuple[np.ndarray, np.ndarray, float]] | None = None,
+    ) -> None:
         """Propagate over ``dt_s`` (s) to the new gyro sample, then update with the star
-        tracker (skipped when ``None`` or NaN: dropout). A NaN gyro axis holds its last sample."""
+        tracker (skipped when ``None`` or NaN: dropout). A NaN gyro axis holds its last sample.
+
+        ``frame_rate_rad_s``: when the attitude is relative to a rotating reference frame
+        (the Magnetorquer's orbital frame), that frame's angular rate relative to inertial,
+        in its own axes (the gyro still measures the inertial rate). ``vectors``: further
+        vector measurements ``(measured_body, reference, noise_std)`` (a magnetometer
+        against the field model in the reference frame), see :meth:`update_vector`."""
+        self.propagate(gyro_rad_s, dt_s, frame_rate_rad_s)
+        if star_attitude is not None and np.all(np.isfinite(star_attitude)):
+            self.update_attitude(star_attitude)
+        for measured, reference, noise_std in vectors or ():
+            self.update_vector(measured, reference, noise_std)
+        self.fold()
+
+    def propagate(self, gyro_rad_s: np.ndarray, dt_s: float, frame_rate_rad_s: np.ndarray | None = None) -> None:
+        """Time update over ``dt_s`` to the new gyro sample (see :meth:`step`); the error
+        state is not folded (call :meth:`fold` after the measurement updates)."""
         gyro = np.where(np.isfinite(gyro_rad_s), gyro_rad_s, self._gyro)
         w = 0.5 * (self._gyro + gyro) - self.bias
         self._gyro = gyro
         self.attitude = quaternion.multiply(self.attitude, quaternion.from_rotvec(w * dt_s))
+        if frame_rate_rad_s is not None:
+            # q_bo = q_oi* ⊗ q_bi: the frame's own rotation enters on the left; the body-frame
+            # error δθ is the same for q_bo and q_bi, so its dynamics use the inertial rate w
+            frame = quaternion.from_rotvec(-np.asarray(frame_rate_rad_s, dtype=float) * dt_s)
+            self.attitude = quaternion.multiply(frame, self.attitude)
         self.attitude /= np.linalg.norm(self.attitude)
         phi11, phi12 = _transition(w, dt_s)
         f = np.zeros((9, 9))
@@ -111,10 +140,29 @@ class AttitudeMEKF:
         q[:3, 6:] = q[6:, :3] = -0.5 * dt_s * sv2 * eye
         q[6:, 6:] = sv2 * eye
         self.kf.predict(F=f, Q=q)
-        if star_attitude is not None and np.all(np.isfinite(star_attitude)):
-            z = quaternion.to_rotvec(quaternion.multiply(quaternion.conjugate(self.attitude), star_attitude))
-            self.kf.update(z)
-        # fold δθ and δb into the reference (the gyro-noise estimate v̂ stays in the state)
+
+    def update_attitude(self, star_attitude: np.ndarray) -> None:
+        """Measurement update with a star-tracker quaternion ``q_m = q ⊗ exp(ν)``."""
+        z = quaternion.to_rotvec(quaternion.multiply(quaternion.conjugate(self.attitude), star_attitude))
+        self.kf.update(z)
+
+    def update_vector(self, measured_body: np.ndarray, reference: np.ndarray, noise_std: float) -> None:
+        """Measurement update with a body-frame vector ``b = A(q) r + ν`` (``A`` maps the
+        reference frame to the body, ``ν ~ N(0, noise_std² I)``), e.g. a magnetometer
+        against the field model ``r``: ``b ≈ b̂ + [b̂×] δθ`` with ``b̂ = A(q̂ ⊗ exp(δθ)) r``
+        linearized at the reference attitude. Skipped when either vector is not finite."""
+        b, r = np.asarray(measured_body, dtype=float), np.asarray(reference, dtype=float)
+        if not (np.all(np.isfinite(b)) and np.all(np.isfinite(r))):
+            return
+        b_hat = quaternion.to_matrix(self.attitude).T @ r
+        h = np.zeros((3, 9))
+        h[:, :3] = quaternion.skew(b_hat)
+        std = max(float(noise_std), _MIN_STD)
+        self.kf.update(b - b_hat, R=std**2 * np.eye(3), H=h)
+
+    def fold(self) -> None:
+        """Fold δθ and δb into the reference attitude and bias (the gyro-noise estimate v̂
+        stays in the state)."""
         self.attitude = quaternion.multiply(self.attitude, quaternion.from_rotvec(self.kf.x[:3]))
         self.attitude /= np.linalg.norm(self.attitude)
         self.bias = self.bias + self.kf.x[3:6]

@@ -7,6 +7,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from attitude_envs.estimation.estimators import SampleGate, _mekf_params
 from attitude_envs.estimation.mekf import AttitudeMEKF
 
 
@@ -17,9 +18,10 @@ class EstimatedAttitude(gym.Wrapper, gym.utils.RecordConstructorArgs):
 
     The wrapped env must have sensors on (``sensors={...}`` or a sensor fault); the filter
     uses the env's *nominal* sensor parameters unless ``filter_params`` overrides them
-    (keys of :class:`AttitudeMEKF`). ``info["measured"]`` becomes the estimate (``attitude``
-    q̂, ``rate_rad_s`` ω_m − b̂; ``wheel_speed_rad_s`` and ``target_attitude`` as the env
-    measured them), and ``info["estimate"]`` holds ``attitude``, ``gyro_bias_rad_s``,
+    (keys of :class:`AttitudeMEKF`). A star tracker slower than the loop (``period_s``)
+    updates the filter only when its sample changes (:class:`SampleGate`).
+    ``info["measured"]`` becomes the estimate (``attitude`` q̂, ``rate_rad_s`` ω_m − b̂;
+    ``wheel_speed_rad_s`` and ``target_attitude`` as the env measured them), and ``info["estimate"]`` holds ``attitude``, ``gyro_bias_rad_s``,
     ``rate_rad_s`` and ``covariance`` (6×6, [δθ rad, δb rad/s]).
     """
 
@@ -32,31 +34,26 @@ class EstimatedAttitude(gym.Wrapper, gym.utils.RecordConstructorArgs):
             raise ValueError("EstimatedAttitude needs an env with gyro and star_tracker sensors (ReactionWheel-v0)")
         if not sensors.enabled:
             raise ValueError("EstimatedAttitude needs sensors on: pass sensors={'gyro': ..., 'star_tracker': ...}")
-        gyro, star = sensors.parameters("gyro"), sensors.parameters("star_tracker")
-        params = {
-            "gyro_noise_std": gyro["noise_std"],
-            "bias_walk_std": gyro["bias_walk_std"],
-            "star_noise_std": star["noise_std"],
-            "initial_bias_std": gyro["initial_bias_std"],
-            "initial_bias": gyro["initial_bias"],
-        }
-        unknown = set(filter_params or {}) - set(params)
-        if unknown:
-            raise ValueError(f"filter_params has unknown keys {sorted(unknown)}; accepted: {sorted(params)}")
-        params.update(filter_params or {})
+        params = _mekf_params(sensors, filter_params)
         self.filter = AttitudeMEKF(**params)
+        # a star tracker slower than the loop repeats its sample: only new ones update
+        self._star_gate = SampleGate(sensors.parameters("star_tracker")["period_s"])
         self._t = 0.0
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         obs, info = self.env.reset(seed=seed, options=options)
         self.filter.reset(info["sensors"]["star_tracker"], info["sensors"]["gyro"])
+        self._star_gate.reset(info["sensors"]["star_tracker"])
         self._t = info["time_s"]
         return self._estimated(obs, info), info
 
     def step(self, action):
         obs, reward, terminated, truncated, info = self.env.step(action)
         if "sensors" in info:
-            self.filter.step(info["sensors"]["gyro"], info["sensors"]["star_tracker"], info["time_s"] - self._t)
+            star = info["sensors"]["star_tracker"]
+            self.filter.step(
+                info["sensors"]["gyro"], star if self._star_gate.is_new(star) else None, info["time_s"] - self._t
+            )
         self._t = info["time_s"]
         return self._estimated(obs, info), reward, terminated, truncated, info
 

@@ -145,8 +145,9 @@ def _require(cond: bool, message: str) -> None:
 
 def _name(where: str, value: Any) -> str:
     _require(
-        isinstance(value, str) and value and all(c.isalnum() or c in "-_." for c in value),
-        f"{where} must be a non-empty name of letters, digits, '-', '_' or '.', got {value!r}",
+        isinstance(value, str) and value and all(c.isalnum() or c in "-_.+" for c in value),
+        f"{where} must be a non-empty name of letters, digits, '-', '_', '.' or '+' (a controller and its "
+        f"estimator: lqr+mekf), got {value!r}",
     )
     return value
 

@@ -1,0 +1,213 @@
+"""Robustness curves: J/J* of controllers as one flight feature grows, on the lab's episodes.
+
+Every point has the flight sensors on (so a controller acts on measurements, through its
+estimator where it has one) and turns on one more feature of :mod:`attitude_envs.conditions`
+at increasing levels:
+
+* ``parameters``: the true plant drawn within ± that relative inertia error (0–50 %; the
+  other tolerances of the plant's flight table scale with it);
+* ``delay``: 0–3 control periods of command delay;
+* ``noise``: the flight sensors with their noise ×1–×10.
+
+Every episode is the lab episode of the same seed (flight draws come from a spawned
+generator) and J* is its oracle under the same conditions (:mod:`experiments.optimum`). The
+oracle knows the true state, so sensors do not change it: J* is solved without them.
+Rows are ``agent, axis, level, j_over_j_star, cvar10, seeds``: ΣJ/ΣJ* over the seeds and
+the CVaR₀.₁ of the per-episode J/J* (the mean of its worst tenth). Every episode is appended
+to ``<out>.episodes.jsonl`` as it finishes, so an interrupted run resumes where it stopped.
+
+    python -m benchmarks.robustness --plant wheel --seeds 20 --out docs/campaigns/wheel/robustness.csv
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+from collections.abc import Callable
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+import attitude_envs  # noqa: F401
+from attitude_envs.conditions import Conditions
+from attitude_envs.presets import flight
+from experiments import optimum
+
+#: the env id of each plant page and its flight table's inertia tolerance key
+PLANTS = {
+    "wheel": "attitude_envs/ReactionWheel-v0",
+    "air-bearing": "attitude_envs/AirBearing-v0",
+}
+#: the levels of each axis, as (level, conditions); the parameter level is the relative inertia error
+PARAMETER_LEVELS = (0.0, 0.1, 0.25, 0.5)
+DELAY_LEVELS = (0, 1, 2, 3)
+NOISE_LEVELS = (1.0, 3.0, 10.0)
+
+
+def axes(env_id: str) -> list[tuple[str, float, dict]]:
+    """``(axis, level, conditions)`` of every point of the curves."""
+    inertia_tol = flight.table(env_id).plant_value("inertia_moment")
+    points = [("parameters", p, {"sensors": 1.0, "parameters": p / inertia_tol}) for p in PARAMETER_LEVELS]
+    points += [("delay", float(d), {"sensors": 1.0, "delay_steps": d}) for d in DELAY_LEVELS]
+    points += [("noise", k, {"sensors": k}) for k in NOISE_LEVELS]
+    return points
+
+
+def agents() -> dict[str, Callable]:
+    """The controllers on the curves: name → factory(env) of a policy (``reset``, ``act``)."""
+    from baselines.lqr import LQRPolicy
+
+    found: dict[str, Callable] = {"lqr": LQRPolicy}
+    from baselines.estimated import lqr_mekf
+
+    found["lqr+mekf"] = lqr_mekf
+    return found
+
+
+def episode_cost(env, policy, seed: int) -> float:
+    """J of one episode of ``policy`` (the sum of the step costs)."""
+    obs, info = env.reset(seed=seed)
+    policy.reset(seed)
+    total, done = 0.0, False
+    while not done:
+        obs, reward, terminated, truncated, info = env.step(policy.act(obs, info))
+        total -= reward
+        done = terminated or truncated
+    return total
+
+
+def j_star(env_id: str, conditions: dict, seed: int, env_kwargs: dict | None = None) -> float:
+    """The oracle's J of the episode: under ``conditions`` without the sensors (the oracle
+    knows the true state), the lab's where nothing else is on."""
+    plant = Conditions.from_config({k: v for k, v in conditions.items() if k != "sensors"})
+    kwargs = dict(env_kwargs or {})
+    if not plant.is_lab:
+        kwargs["conditions"] = plant.as_dict()
+    return optimum.solve_episode(env_id, kwargs, seed=seed).j_star
+
+
+def cvar(ratios: np.ndarray, alpha: float = 0.1) -> float:
+    """The mean of the worst ``alpha`` fraction of ``ratios`` (at least one)."""
+    worst = np.sort(ratios)[::-1][: max(1, math.ceil(alpha * len(ratios)))]
+    return float(worst.mean())
+
+
+def run(
+    plant: str, seeds: int, out: Path, names: list[str] | None = None, env_kwargs: dict | None = None
+) -> list[dict]:
+    """Every point of ``plant``'s curves over ``seeds`` episodes (of the env built with
+    ``env_kwargs``, default: its default preset); rows written to ``out``."""
+    env_id = PLANTS[plant]
+    log = out.with_suffix(".episodes.jsonl")
+    done: dict[tuple, dict] = {}
+    if log.is_file():
+        for line in log.read_text().splitlines():
+            if line.strip():
+                r = json.loads(line)
+                done[(r["agent"], r["axis"], r["level"], r["seed"])] = r
+    factories = agents()
+    chosen = names or list(factories)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    rows = []
+    with log.open("a") as sink:
+        for axis, level, conditions in axes(env_id):
+            for name in chosen:
+                env = gym.make(env_id, conditions=conditions, **dict(env_kwargs or {}))
+                policy = factories[name](env)
+                ratios, js, jstars = [], [], []
+                for seed in range(seeds):
+                    key = (name, axis, level, seed)
+                    if key not in done:
+                        j = episode_cost(env, policy, seed)
+                        done[key] = {
+                            "agent": name,
+                            "axis": axis,
+                            "level": level,
+                            "seed": seed,
+                            "j": j,
+                            "j_star": j_star(env_id, conditions, seed, env_kwargs),
+                        }
+                        sink.write(json.dumps(done[key]) + "\n")
+                        sink.flush()
+                    r = done[key]
+                    js.append(r["j"])
+                    jstars.append(r["j_star"])
+                    ratios.append(r["j"] / r["j_star"])
+                env.close()
+                row = {
+                    "agent": name,
+                    "axis": axis,
+                    "level": level,
+                    "j_over_j_star": sum(js) / sum(jstars),
+                    "cvar10": cvar(np.array(ratios)),
+                    "seeds": seeds,
+                }
+                rows.append(row)
+                print(
+                    f"{plant} {name:9s} {axis:10s} {level:5g}  ΣJ/ΣJ* {row['j_over_j_star']:.4f}  "
+                    f"CVaR0.1 {row['cvar10']:.4f}",
+                    flush=True,
+                )
+    with out.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    return rows
+
+
+def figure(rows: list[dict], plant: str, path: Path) -> None:
+    """The curves, one panel per axis."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    axes_names = ["parameters", "delay", "noise"]
+    labels = {
+        "parameters": "inertia error (relative)",
+        "delay": "delay (control periods)",
+        "noise": "sensor noise (× flight)",
+    }
+    fig, panels = plt.subplots(1, 3, figsize=(11, 3.2), sharey=True)
+    for panel, axis in zip(panels, axes_names, strict=True):
+        for name in sorted({r["agent"] for r in rows}):
+            pts = sorted(
+                (r["level"], r["j_over_j_star"], r["cvar10"]) for r in rows if r["agent"] == name and r["axis"] == axis
+            )
+            if not pts:
+                continue
+            x, mean, tail = zip(*pts, strict=True)
+            line = panel.plot(x, mean, marker="o", label=f"{name} ΣJ/ΣJ*")[0]
+            panel.plot(x, tail, ls="--", color=line.get_color(), label=f"{name} CVaR₀.₁")
+        panel.set_xlabel(labels[axis])
+        panel.grid(alpha=0.3)
+    panels[0].set_ylabel("J / J*")
+    panels[-1].legend(fontsize=7)
+    seeds = rows[0]["seeds"]
+    fig.suptitle(f"{PLANTS[plant].split('/')[1]}: robustness ({seeds} lab episodes per point, flight sensors on)")
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--plant", choices=sorted(PLANTS), required=True)
+    parser.add_argument("--seeds", type=int, default=20)
+    parser.add_argument("--agents", nargs="*", default=None, help="names of agents() (default: all)")
+    parser.add_argument("--out", default=None, help="CSV (default docs/campaigns/<plant>/robustness.csv)")
+    args = parser.parse_args(argv)
+    if args.seeds < 1:
+        parser.error(f"--seeds must be >= 1, got {args.seeds}")
+    out = Path(args.out or f"docs/campaigns/{args.plant}/robustness.csv")
+    rows = run(args.plant, args.seeds, out, args.agents)
+    figure(rows, args.plant, out.parent / "figures" / "robustness.png")
+    return rows
+
+
+if __name__ == "__main__":
+    main()
