@@ -46,6 +46,8 @@ BUILDERS: dict[str, Callable[[Any], DiscreteProblem]] = {
     "FuelSlosh-v0": _builder("slosh", "build_fuel_slosh"),
     "Magnetorquer-v0": _builder("magnetorquer", "build_magnetorquer"),
 }
+#: the builders that model flight conditions (the drawn plant, the delay, the actuator chain)
+FLIGHT_BUILDERS = frozenset({"ReactionWheel-v0", "AirBearing-v0"})
 
 
 def problem_for(env: Any, seed: int | None = None, options: dict | None = None) -> DiscreteProblem:
@@ -58,5 +60,13 @@ def problem_for(env: Any, seed: int | None = None, options: dict | None = None) 
     name = getattr(base, "env_name", type(base).__name__)
     if name not in BUILDERS:
         raise ValueError(f"env must be one of {sorted(BUILDERS)} for a symbolic model, got {name!r}")
+    conditions = getattr(base, "conditions", None)
+    plant_conditions = None if conditions is None else conditions.as_dict() | {"sensors": 0.0}
+    if plant_conditions is not None and any(plant_conditions.values()) and name not in FLIGHT_BUILDERS:
+        # sensors do not change the plant (the oracle knows the true state); the rest does
+        raise ValueError(
+            f"the symbolic model of {name} does not model flight conditions yet ({conditions.as_dict()}); "
+            f"those of {sorted(FLIGHT_BUILDERS)} do"
+        )
     env.reset(seed=seed, options=options)
     return BUILDERS[name](base)

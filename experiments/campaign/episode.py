@@ -101,6 +101,7 @@ def _run_episode(job: dict[str, Any]) -> dict[str, Any]:
     else:
         metrics = _generic_metrics(env, policy, job)
     metrics["episode_wall_s"] = time.perf_counter() - start
+    metrics["conditions"] = env.unwrapped.conditions.name  # lab, flight or custom (attitude_envs.conditions)
     return {**key, **{k: (v.item() if isinstance(v, np.generic) else v) for k, v in metrics.items()}}
 
 
