@@ -98,6 +98,13 @@ def task_defaults(env_id: str) -> dict[str, Any]:
     return dict(LEARNING_TASKS[env_id][1]) if env_id in LEARNING_TASKS else {}
 
 
+#: Tasks beyond the five plants' regulation, registered beside them: the same plant and
+#: cost with constraints (:mod:`attitude_envs.constraints`); no batched entry point yet.
+CONSTRAINED_ENV_IDS = {
+    "attitude_envs/ConstrainedSlew-v0": "attitude_envs.envs.constrained_slew:ConstrainedSlewEnv",
+}
+
+
 def register_envs() -> None:
     """Register every env id (idempotent) and silence Gymnasium's out-of-date warning for the
     ``-v0`` ids (:data:`OUT_OF_DATE`)."""
@@ -121,3 +128,6 @@ def register_envs() -> None:
                 disable_env_checker=False,
                 kwargs=dict(defaults),
             )
+    for env_id, entry_point in CONSTRAINED_ENV_IDS.items():
+        if env_id not in gym.registry:
+            gym.register(id=env_id, entry_point=entry_point, disable_env_checker=False)
