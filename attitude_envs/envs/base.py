@@ -206,9 +206,7 @@ class AttitudeEnv(gym.Env):
             self._actuator_chain = ActuatorChain(model, cond.delay_steps, control_dt_s)
         #: the relative scale-factor tolerance of each actuator drawn per episode (0: exact)
         self._gain_tolerance = (
-            np.zeros(n_actuators)
-            if cond.parameters == 0
-            else table.gain_tolerance_of(n_actuators) * cond.parameters
+            np.zeros(n_actuators) if cond.parameters == 0 else table.gain_tolerance_of(n_actuators) * cond.parameters
         )
         self._n_actuators = n_actuators
         #: this episode's drawn true parameters (empty in the lab; see :meth:`drawn_parameters`)
