@@ -159,7 +159,8 @@ def run(
 
 
 def figure(rows: list[dict], plant: str, path: Path) -> None:
-    """The curves, one panel per axis."""
+    """The curves: ΣJ/ΣJ* (top row) and the CVaR₀.₁ of J/J* (bottom row, log scale: a few
+    episodes of tiny J* dominate it), one column per axis."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -171,8 +172,8 @@ def figure(rows: list[dict], plant: str, path: Path) -> None:
         "delay": "delay (control periods)",
         "noise": "sensor noise (× flight)",
     }
-    fig, panels = plt.subplots(1, 3, figsize=(11, 3.2), sharey=True)
-    for panel, axis in zip(panels, axes_names, strict=True):
+    fig, grid = plt.subplots(2, 3, figsize=(11, 5.2), sharex="col")
+    for col, axis in enumerate(axes_names):
         for name in sorted({r["agent"] for r in rows}):
             pts = sorted(
                 (r["level"], r["j_over_j_star"], r["cvar10"]) for r in rows if r["agent"] == name and r["axis"] == axis
@@ -180,12 +181,15 @@ def figure(rows: list[dict], plant: str, path: Path) -> None:
             if not pts:
                 continue
             x, mean, tail = zip(*pts, strict=True)
-            line = panel.plot(x, mean, marker="o", label=f"{name} ΣJ/ΣJ*")[0]
-            panel.plot(x, tail, ls="--", color=line.get_color(), label=f"{name} CVaR₀.₁")
-        panel.set_xlabel(labels[axis])
-        panel.grid(alpha=0.3)
-    panels[0].set_ylabel("J / J*")
-    panels[-1].legend(fontsize=7)
+            grid[0, col].plot(x, mean, marker="o", label=name)
+            grid[1, col].plot(x, tail, marker="o", ls="--", label=name)
+        grid[1, col].set_yscale("log")
+        grid[1, col].set_xlabel(labels[axis])
+        for row in (0, 1):
+            grid[row, col].grid(alpha=0.3)
+    grid[0, 0].set_ylabel("ΣJ / ΣJ*")
+    grid[1, 0].set_ylabel("CVaR₀.₁ of J / J*")
+    grid[0, -1].legend(fontsize=8)
     seeds = rows[0]["seeds"]
     fig.suptitle(f"{PLANTS[plant].split('/')[1]}: robustness ({seeds} lab episodes per point, flight sensors on)")
     fig.tight_layout()
