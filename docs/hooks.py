@@ -1,6 +1,6 @@
 """MkDocs hooks of the documentation site (``hooks:`` in ``mkdocs.yml``).
 
-* The five environment pages (``envs/<slug>.md``) are generated from the env classes'
+* The environment pages (``envs/<slug>.md``) are generated from the env classes'
   docstrings, the single source: each docstring's ``**Section.**`` paragraphs become the
   page's sections, its reStructuredText tables and roles become Markdown, and the presets
   section gets a table of every registered preset with each value's source
@@ -60,6 +60,7 @@ ENVS: dict[str, tuple[str, dict[str, str]]] = {
             "paper's start state, 1500 s.",
         },
     ),
+    "attitude_envs/ConstrainedSlew-v0": ("constrained-slew", {}),
     "attitude_envs/Magnetorquer-v0": (
         "magnetorquer",
         {

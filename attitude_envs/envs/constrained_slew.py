@@ -182,7 +182,7 @@ class ConstrainedSlewEnv(ReactionWheelEnv):
     **Reward.** ``−cost``, ReactionWheel-v0's J step cost (``info["cost"]``), unchanged: the
     constraints are not in the reward.
 
-    **Costs and info.** ReactionWheel-v0's info (:mod:`attitude_envs.info`) plus, on every
+    **Info.** ReactionWheel-v0's info (:mod:`attitude_envs.info`) plus, on every
     step and reset:
 
     * ``constraints``: name → ``g`` (float) of each active constraint at the end of the step;
@@ -234,7 +234,8 @@ class ConstrainedSlewEnv(ReactionWheelEnv):
     **Presets.** ``"pyramid-4wheel-slew"`` (default): ReactionWheel-v0's ``pyramid-4wheel``
     plant, cost and torque limit, the cited star tracker cones and the assumed limits.
 
-    **Flight conditions.** ReactionWheel-v0's table (:mod:`attitude_envs.presets.flight_gyrostat`).
+    **Faults and sensors.** ReactionWheel-v0's faults, sensors and flight conditions
+    (``conditions=``, its table :mod:`attitude_envs.presets.flight_gyrostat`).
 
     **Success** (:mod:`attitude_envs.evaluation.success`): ``FINAL_ERROR_DEG`` as
     ReactionWheel-v0; the violation count is reported beside it (``info["violations"]``).
