@@ -31,9 +31,27 @@ onsets, durations) are drawn by ``reset_env`` from its key with
 draws); the episode's faults live in the state (``EnvState.faults``), so the autoreset of
 ``step`` starts each episode with its own.
 
+Flight conditions (``conditions=``, :mod:`attitude_envs.conditions`): the delay and the actuator dynamics act between the faults' command and the plant
+as :meth:`attitude_envs.actuator_dynamics.ActuatorChain.deliver` (:mod:`attitude_envs.jax.actuators`;
+the chain's runtime state in ``EnvState.flight``), and ``reset_env`` draws the episode's true
+plant (inertia moments and principal axes, misaligned wheel axes, the air bearing's offset
+torque) and the motors' gains from its key by the numba env's laws (not its draws; the key is
+folded, so the start, target and faults are the lab episode's of the same key), kept in
+``EnvState.flight`` (the allocation and the cost stay nominal, as in the numba env). The
+flight sensors (:mod:`attitude_envs.jax.sensors`: gyro, star tracker, tachometers with noise,
+a bias drawn at reset, its walk, and the star tracker's sample-and-hold at its period) sample
+at reset and at each step's end from keys folded off the reset's and the step's (the same law
+as the numba sensor layer, not its draws); the observation is then the error state of the
+readings (:meth:`GyrostatEnv.measured_row`), as the numba env's, and ``info``, the cost and
+the limits stay the truth's.
+:func:`with_drawn_parameters` gives a numba episode's draws to the reset instead (the x64
+equality tests). The lab's compiled step is unchanged (``flight`` None in the env, its params
+and state). Per-episode plants in the state cost speed: each env's RK4 reads its own matrices.
+
 Modeled: every keyword of ReactionWheel-v0/-v1 and AirBearing-v0/-v1 but these, for which
 :func:`from_env` (and :func:`attitude_envs.jax.make`) raises a one-line ``ValueError``
-naming them: ``sensors`` and sensor faults; a ``disturbance`` other than ``"constant"``
+naming them: a ``sensors`` keyword in the lab (sensors only as flight conditions' sensors,
+which an explicit ``sensors`` dict may replace), sensor faults; a ``disturbance`` other than ``"constant"``
 (sinusoidal, random walk); ``inertia_uncertainty`` of kind ``"random"`` (``"fixed"`` is
 modeled; vmap over :func:`with_inertia` instead); ``render_mode``.
 """
@@ -41,6 +59,7 @@ modeled; vmap over :func:`with_inertia` instead); ``render_mode``.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import jax
@@ -51,7 +70,9 @@ from flax import struct
 from attitude_envs.envs.air_bearing import AirBearingEnv
 from attitude_envs.envs.reaction_wheel import ReactionWheelEnv
 from attitude_envs.faults import ActuatorFaults
+from attitude_envs.jax import actuators as jact
 from attitude_envs.jax import faults as jfaults
+from attitude_envs.jax import sensors as jsens
 from attitude_envs.jax.cost import mode_code, termination_charge
 from attitude_envs.jax.environment import Environment
 from attitude_envs.jax.ops import JAX
@@ -65,6 +86,104 @@ _G = define(JAX)
 START_FIXED, START_AXIS_ANGLE, START_EULER = 0, 1, 2
 #: sensor channels whose fault flags follow the actuators' in a ``fault_hint`` observation
 _N_SENSOR_CHANNELS = 3
+
+
+#: folded into ``reset_env``'s key for the flight draws (the true plant, the actuator gains),
+#: so a flight episode's start, target and faults are the lab episode's of the same key
+#: (as the numba env spawns its flight generator without advancing its own)
+_FLIGHT_STREAM = 0x464C54
+
+
+@dataclass(frozen=True)
+class FlightLayout:
+    """What the flight conditions (:mod:`attitude_envs.conditions`) switch on in the compiled
+    program (static): the ``actuators`` chain's layout (:class:`attitude_envs.jax.actuators.ActuatorLayout`:
+    delay, actuator dynamics, gains) and which true-plant parameters ``reset_env`` draws per
+    episode: ``draw_plant`` (the wheel axes, and the rest below), ``draw_inertia`` (not with
+    a fixed ``inertia_uncertainty``), ``draw_offset`` (the air bearing's offset torque)."""
+
+    actuators: jact.ActuatorLayout
+    draw_plant: bool = False
+    draw_inertia: bool = False
+    draw_offset: bool = False
+
+
+@struct.dataclass
+class FlightParams:
+    """The flight conditions' numbers: the ``actuators`` chain
+    (:class:`attitude_envs.jax.actuators.ActuatorParams`); the tolerances the true plant is
+    drawn within per episode (``inertia_moment``: relative, on each principal moment;
+    ``inertia_axis_deg``: the principal axes' rotation; ``misalignment_deg``: each wheel
+    axis' tilt; ``offset_tolerance_nm``: the offset torque, per axis; ``gain_tolerance``:
+    each motor's scale factor, relative), the nominal inertia's principal ``nominal_moments``
+    and ``nominal_principal_axes`` (numpy's ``eigh``, as the numba draw). ``given``: the reset
+    takes the ``given_*`` draws instead of drawing (an episode of the numba env:
+    :func:`with_drawn_parameters`)."""
+
+    actuators: jact.ActuatorParams
+    inertia_moment: jax.Array
+    inertia_axis_deg: jax.Array
+    misalignment_deg: jax.Array
+    offset_tolerance_nm: jax.Array
+    gain_tolerance: jax.Array
+    nominal_moments: jax.Array
+    nominal_principal_axes: jax.Array
+    given: jax.Array
+    given_inertia_kg_m2: jax.Array
+    given_inertia_eff_inv: jax.Array
+    given_wheel_axes: jax.Array
+    given_offset_torque_nm: jax.Array
+    given_gain: jax.Array
+
+
+@struct.dataclass
+class EpisodePlant:
+    """One episode's true plant drawn by the flight conditions: ``inertia_kg_m2``, its
+    ``inertia_eff_inv`` (with the drawn axes), ``wheel_axes`` (3×N), ``offset_torque_nm``."""
+
+    inertia_kg_m2: jax.Array
+    inertia_eff_inv: jax.Array
+    wheel_axes: jax.Array
+    offset_torque_nm: jax.Array
+
+
+@struct.dataclass
+class FlightState:
+    """An episode's flight state: its true ``plant`` (None: the params' plant), the motors'
+    scale-factor ``gain`` (None: ones) and the actuator chain's runtime state
+    ``actuators`` (delay line, rate limiter, lag)."""
+
+    actuators: jact.ActuatorState
+    plant: EpisodePlant | None = None
+    gain: jax.Array | None = None
+
+
+#: folded into the reset's and the step's keys for the sensors' draws (the other draws unchanged)
+_SENSOR_STREAM = 0x534E53
+#: the gyrostat's sensor channels: (name, slice of the state row ``[q, ω, Ω]``, attitude)
+_CHANNELS = (("gyro", (4, 7), False), ("star_tracker", (0, 4), True), ("tachometer", (7, None), False))
+
+
+@struct.dataclass
+class SensorParams:
+    """The modeled sensors (:mod:`attitude_envs.jax.sensors`): one
+    :class:`~attitude_envs.jax.sensors.ChannelParams` per configured channel (None: the
+    channel measures the truth)."""
+
+    gyro: jsens.ChannelParams | None = None
+    star_tracker: jsens.ChannelParams | None = None
+    tachometer: jsens.ChannelParams | None = None
+
+
+@struct.dataclass
+class SensorState:
+    """The sensors' runtime state: per configured channel its bias, last sample and sample
+    time; ``t_last``, the last observation's time (s)."""
+
+    t_last: jax.Array
+    gyro: jsens.ChannelState | None = None
+    star_tracker: jsens.ChannelState | None = None
+    tachometer: jsens.ChannelState | None = None
 
 
 @struct.dataclass
@@ -82,6 +201,8 @@ class EnvState:
     target_attitude: jax.Array
     faults: jfaults.FaultParams
     fault_state: jfaults.FaultState
+    flight: FlightState | None = None
+    sensors: SensorState | None = None
 
 
 @struct.dataclass
@@ -138,6 +259,8 @@ class EnvParams:
     target_angle_deg: jax.Array
     disturbance_torque_nm: jax.Array
     faults: jfaults.FaultParams
+    flight: FlightParams | None = None
+    sensors: SensorParams | None = None
 
 
 def with_inertia(params: EnvParams, inertia_kg_m2: jax.Array) -> EnvParams:
@@ -207,13 +330,87 @@ def _from_euler_321_deg(euler_deg: jax.Array) -> jax.Array:
     )
 
 
+def _to_matrix(q: jax.Array) -> jax.Array:
+    """The rotation matrix (body to inertial) of a unit quaternion (:func:`attitude_envs.quaternion.to_matrix`)."""
+    x, y, z, w = q
+    return jnp.stack(
+        [
+            jnp.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)]),
+            jnp.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)]),
+            jnp.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]),
+        ]
+    )
+
+
+def _normals(u: jax.Array) -> jax.Array:
+    """Standard normals of uniforms ``u`` in (−1, 1), as ``jax.random.normal`` makes them."""
+    lo = np.nextafter(np.array(-1.0, u.dtype), np.array(0.0, u.dtype))  # erf_inv(-1) = -inf
+    return np.sqrt(2.0) * jax.lax.erf_inv(jnp.maximum(u, lo))
+
+
+def _inv3(m: jax.Array) -> jax.Array:
+    """The inverse of a 3×3 matrix by its adjugate (elementwise under ``jax.vmap``: a batched
+    LU solve costs more than the whole draw)."""
+    a, b, c = m[0, 0], m[0, 1], m[0, 2]
+    d, e, f = m[1, 0], m[1, 1], m[1, 2]
+    g, h, i = m[2, 0], m[2, 1], m[2, 2]
+    co = jnp.stack(
+        [
+            jnp.stack([e * i - f * h, c * h - b * i, b * f - c * e]),
+            jnp.stack([f * g - d * i, a * i - c * g, c * d - a * f]),
+            jnp.stack([d * h - e * g, b * g - a * h, a * e - b * d]),
+        ]
+    )
+    return co / (a * co[0, 0] + b * co[1, 0] + c * co[2, 0])
+
+
+def _draw_inertia(key: jax.Array, u: jax.Array, moments, principal_axes, moment_scale, axis_angle_deg) -> jax.Array:
+    """A true inertia by :meth:`attitude_envs.uncertainty.InertiaUncertainty.draw`'s law: each
+    principal moment times ``1 + U(−s, s)``, redrawn until the triangle inequality holds (from
+    ``key``; rarely: the first try takes ``u[:3]``), the principal axes rotated about a
+    standard normal axis (``u[3:6]``) by an angle uniform in [0, max] (``u[6]``). ``u``: 7
+    uniforms in (−1, 1)."""
+    dtype = moments.dtype
+
+    def draw(v):
+        drawn = moments * (1.0 + v * moment_scale)
+        s = jnp.sort(drawn)
+        return drawn, s[0] + s[1] >= s[2]
+
+    def redraw(carry):
+        k, _, _ = carry
+        k, sub = jax.random.split(k)
+        return (k, *draw(jax.random.uniform(sub, (3,), dtype, -1.0, 1.0)))
+
+    _, drawn, _ = jax.lax.while_loop(lambda c: jnp.logical_not(c[2]), redraw, (key, *draw(u[:3])))
+    angle = jnp.radians(0.5 * (u[6] + 1.0) * axis_angle_deg)
+    rot = _to_matrix(_from_axis_angle(_normals(u[3:6]), angle)) @ principal_axes
+    inertia = (rot * drawn) @ rot.T  # rot diag(drawn) rotᵀ
+    return 0.5 * (inertia + inertia.T)
+
+
+def _misaligned_axes(u: jax.Array, axes: jax.Array, max_angle_deg) -> jax.Array:
+    """Unit wheel axes (3×N), each tilted by an angle uniform in [0, max] (``u[3N:]``) about a
+    uniformly random perpendicular (standard normals of ``u[:3N]``;
+    :func:`attitude_envs.envs.reaction_wheel.misaligned_axes`'s law), normalized as
+    :class:`~attitude_envs.plants.gyrostat.GyrostatParams` does. ``u``: 4N uniforms in (−1, 1)."""
+    n = axes.shape[1]
+    r = _normals(u[: 3 * n]).reshape(3, n)
+    perp = r - jnp.sum(r * axes, axis=0) * axes
+    perp = perp / jnp.sqrt(jnp.sum(perp * perp, axis=0))
+    angle = jnp.radians(max_angle_deg) * (0.5 * (u[3 * n :] + 1.0))
+    out = jnp.cos(angle) * axes + jnp.sin(angle) * perp
+    return out / jnp.sqrt(jnp.sum(out * out, axis=0))
+
+
 class GyrostatEnv(Environment):
     """ReactionWheel-v0/-v1 and AirBearing-v0/-v1 in JAX (see the module docstring).
 
     Static (fixed at construction, part of the compiled program): ``n_wheels``,
     ``n_substeps``, ``include_wheel_momentum`` (``x`` carries ``J_s Ω``), ``body_cost_input``
     (``u_c = −A u``, else ``u``), ``observe_wheel_speeds``, ``body_action_frame``,
-    ``fault_hint``, ``has_tilt_stop``, the fault configs (``fault_configs``, validated
+    ``fault_hint``, ``has_tilt_stop``, ``flight`` (:class:`FlightLayout`, None in the lab),
+    ``sensors`` (the modeled sensor channels), the fault configs (``fault_configs``, validated
     fault dicts; ``redraw_faults``: ``reset_env`` draws each episode's faults from them).
     Envs with equal static attributes are equal (they share compiled code; the fault
     configs count only with ``redraw_faults``, so envs of different fixed faults share it).
@@ -234,6 +431,8 @@ class GyrostatEnv(Environment):
         params: EnvParams | None = None,
         fault_configs: tuple[dict, ...] = (),
         redraw_faults: bool = False,
+        flight: FlightLayout | None = None,
+        sensors: tuple[str, ...] = (),
     ) -> None:
         self.n_wheels = int(n_wheels)
         self.n_substeps = int(n_substeps)
@@ -246,6 +445,10 @@ class GyrostatEnv(Environment):
         self.env_name = str(env_name)
         self.fault_configs = tuple(dict(c) for c in fault_configs)
         self.redraw_faults = bool(redraw_faults)
+        #: the flight conditions' static layout (None: the lab, the step and reset unchanged)
+        self.flight = flight
+        #: the sensor channels modeled (empty: the truth is observed)
+        self.sensors = tuple(sensors)
         self._params = params
 
     # static identity: equal layouts share jit caches
@@ -262,6 +465,8 @@ class GyrostatEnv(Environment):
             self.env_name,
             self.redraw_faults,
             _frozen(self.fault_configs) if self.redraw_faults else (),
+            self.flight,
+            self.sensors,
         )
 
     def __hash__(self) -> int:
@@ -427,21 +632,36 @@ class GyrostatEnv(Environment):
         p = params
         dtype = p.inertia_kg_m2.dtype
         t0 = state.time.astype(dtype) * p.control_dt_s
+        fl, flight = self.flight, state.flight
+        if fl is not None and fl.draw_plant:  # this episode's true plant (the allocation stays nominal)
+            pl = flight.plant
+            p = p.replace(
+                inertia_kg_m2=pl.inertia_kg_m2,
+                inertia_eff_inv=pl.inertia_eff_inv,
+                wheel_axes=pl.wheel_axes,
+                offset_torque_nm=pl.offset_torque_nm,
+            )
         commanded = self.commanded_torques(action, p)
-        delivered, fault_state = jfaults.apply(
-            state.faults,
-            state.fault_state,
-            key,
-            commanded,
-            t0,
-            jnp.broadcast_to(p.max_wheel_torque_nm, commanded.shape),
-        )
+        limits = jnp.broadcast_to(p.max_wheel_torque_nm, commanded.shape)
+        if fl is None:
+            delivered, fault_state = jfaults.apply(state.faults, state.fault_state, key, commanded, t0, limits)
+        else:  # ActuatorChain.deliver: delay, resolution, rate limit, faults, lag, gain, friction
+            act_p = p.flight.actuators
+            c, act = jact.command(fl.actuators, act_p, flight.actuators, commanded)
+            faulted, fault_state = jfaults.apply(state.faults, state.fault_state, key, c, t0, limits)
+            delivered, act = jact.output(fl.actuators, act_p, act, faulted, flight.gain, state.wheel_speed_rad_s)
+            flight = flight.replace(actuators=act)
         y = jnp.concatenate([state.attitude, state.rate_rad_s, state.wheel_speed_rad_s])
         y_new, cost, applied = self._rk4(y, delivered, state.target_attitude, p)
         time = state.time + 1
         t1 = time.astype(dtype) * p.control_dt_s
         obs, x, qe_w = self._observe(y_new, state.target_attitude, state.faults, t1, p)
         finite = jnp.all(jnp.isfinite(y_new)) & jnp.isfinite(cost)
+        sensor_state = state.sensors
+        if self.sensors:  # sampled at the step's end when the state is finite (the numba env's _measure)
+            y_m, measured_state = self._measure(jax.random.fold_in(key, _SENSOR_STREAM), p, state.sensors, y_new, t1)
+            obs = self._observe(y_m, state.target_attitude, state.faults, t1, p)[0]
+            sensor_state = jax.tree.map(lambda a, b: jnp.where(finite, a, b), measured_state, state.sensors)
         rate = jnp.max(jnp.abs(y_new[4:7]))
         tilt = _G.tilt_lane(y_new[0], y_new[1], y_new[2], y_new[3], p.tilt_sin, p.tilt_cos)
         terminated = jnp.logical_not(finite) | (rate > p.max_rate_rad_s) | tilt
@@ -456,6 +676,8 @@ class GyrostatEnv(Environment):
             target_attitude=state.target_attitude,
             faults=state.faults,
             fault_state=fault_state,
+            flight=flight,
+            sensors=sensor_state,
         )
         info = {
             "cost": cost,
@@ -500,6 +722,7 @@ class GyrostatEnv(Environment):
         faults = p.faults
         if self.redraw_faults:
             faults = self._draw_faults(k_realize, p.faults)
+        flight = None if self.flight is None else self._draw_flight(jax.random.fold_in(key, _FLIGHT_STREAM), p)
         state = EnvState(
             time=jnp.zeros((), dtype=jnp.int32),
             attitude=q0,
@@ -508,8 +731,86 @@ class GyrostatEnv(Environment):
             target_attitude=target,
             faults=faults,
             fault_state=jfaults.initial_state(k_fault, faults),
+            flight=flight,
         )
+        if self.sensors:  # the biases drawn and the first sample at t = 0
+            k_sensor = jax.random.fold_in(key, _SENSOR_STREAM)
+            k_bias, k_measure = jax.random.split(k_sensor)
+            y = jnp.concatenate([q0, rate, state.wheel_speed_rad_s])
+            start = SensorState(t_last=jnp.zeros((), dtype=dtype))
+            for i, (name, (a, b), _) in enumerate(_CHANNELS):
+                cp = getattr(p.sensors, name)
+                if cp is not None:
+                    cs = jsens.initial_state(jax.random.fold_in(k_bias, i), cp, y[a:b])
+                    start = start.replace(**{name: cs})
+            state = state.replace(sensors=self._measure(k_measure, p, start, y, jnp.zeros((), dtype=dtype))[1])
         return self.get_obs(state, p), state
+
+    def _measure(self, key: jax.Array, p: EnvParams, s: SensorState, y: jax.Array, t_s):
+        """The measured state row ``[q_m, ω_m, Ω_m]`` of the true row ``y`` at ``t_s`` and the
+        sensors' next state (a channel not modeled measures the truth)."""
+        parts = []
+        for i, (name, (a, b), attitude) in enumerate(_CHANNELS):
+            cp, cs = getattr(p.sensors, name), getattr(s, name)
+            if cp is None:
+                parts.append(y[a:b])
+                continue
+            m, cs = jsens.measure(jax.random.fold_in(key, i), cp, cs, y[a:b], t_s, s.t_last, attitude)
+            parts.append(m)
+            s = s.replace(**{name: cs})
+        gyro, star, tach = parts
+        return jnp.concatenate([star, gyro, tach]), s.replace(t_last=t_s)
+
+    def measured_row(self, state: EnvState) -> jax.Array:
+        """The sensors' last readings as a state row ``[q_m, ω_m, Ω_m]`` (the truth without sensors)."""
+        y = jnp.concatenate([state.attitude, state.rate_rad_s, state.wheel_speed_rad_s])
+        if not self.sensors:
+            return y
+        parts = []
+        for name, (a, b), _ in _CHANNELS:
+            cs = getattr(state.sensors, name)
+            parts.append(y[a:b] if cs is None else cs.last)
+        gyro, star, tach = parts
+        return jnp.concatenate([star, gyro, tach])
+
+    def _draw_flight(self, key: jax.Array, p: EnvParams) -> FlightState:
+        """An episode's flight state: the actuator chain at rest and, with the parameters
+        drawn, the true plant and the motors' gains within the flight tolerances, by the numba
+        env's laws (:meth:`ReactionWheelEnv._draw_flight_plant`; not its draws), or the
+        params' ``given_*`` draws."""
+        fl, fp = self.flight, p.flight
+        dtype = p.inertia_kg_m2.dtype
+        n = self.n_wheels
+        actuators = jact.initial_state(fl.actuators, n, dtype)
+        if not fl.draw_plant:
+            return FlightState(actuators=actuators)
+        # one uniform draw for every number (each draw compiles a threefry program): 7 for the
+        # inertia, 4N for the axes, 3 for the offset, N for the gains; a second key only for
+        # the inertia's rare redraws
+        k_draw, k_redraw = jax.random.split(key)
+        u = jax.random.uniform(k_draw, (10 + 5 * n,), dtype, -1.0, 1.0)
+        inertia = p.inertia_kg_m2
+        if fl.draw_inertia:
+            inertia = _draw_inertia(
+                k_redraw, u[:7], fp.nominal_moments, fp.nominal_principal_axes, fp.inertia_moment, fp.inertia_axis_deg
+            )
+        axes = _misaligned_axes(u[7 : 7 + 4 * n], p.wheel_axes, fp.misalignment_deg)
+        offset = p.offset_torque_nm
+        if fl.draw_offset:
+            offset = offset + fp.offset_tolerance_nm * u[7 + 4 * n : 10 + 4 * n]
+        eff_inv = _inv3(inertia - p.wheel_inertia_kg_m2 * axes @ axes.T)
+        given = fp.given
+        plant = EpisodePlant(
+            inertia_kg_m2=jnp.where(given, fp.given_inertia_kg_m2, inertia),
+            inertia_eff_inv=jnp.where(given, fp.given_inertia_eff_inv, eff_inv),
+            wheel_axes=jnp.where(given, fp.given_wheel_axes, axes),
+            offset_torque_nm=jnp.where(given, fp.given_offset_torque_nm, offset),
+        )
+        gain = None
+        if fl.actuators.gain:
+            gain = 1.0 + fp.gain_tolerance * u[10 + 4 * n :]
+            gain = jnp.where(given, fp.given_gain, gain)
+        return FlightState(actuators=actuators, plant=plant, gain=gain)
 
     def _draw_faults(self, key: jax.Array, like: jfaults.FaultParams) -> jfaults.FaultParams:
         """One episode's faults (:func:`attitude_envs.jax.faults.for_episode`)."""
@@ -517,7 +818,7 @@ class GyrostatEnv(Environment):
 
     def get_obs(self, state: EnvState, params: EnvParams) -> jax.Array:
         """The observation of ``state`` (the error state, wheel speeds, fault flags)."""
-        y = jnp.concatenate([state.attitude, state.rate_rad_s, state.wheel_speed_rad_s])
+        y = self.measured_row(state)
         t_s = state.time.astype(y.dtype) * params.control_dt_s
         return self._observe(y, state.target_attitude, state.faults, t_s, params)[0]
 
@@ -539,6 +840,14 @@ class GyrostatEnv(Environment):
         if n_faults is None:
             n_faults = 0 if self._params is None else self._params.faults.n_faults
         fp, fault_state = jfaults.from_numba_layer(realized, n_faults, key, dtype=dtype)
+        if self.sensors:
+            raise ValueError(
+                "state_from does not take an env with sensors: the numba sensor layer's samples and sample times "
+                "are not public (reset the JAX env instead)"
+            )
+        flight = None
+        if self.flight is not None:
+            flight = self._flight_state_from(env, time, dtype)
         return EnvState(
             time=jnp.asarray(time, dtype=jnp.int32),
             attitude=jnp.asarray(row[:4], dtype=dtype),
@@ -547,7 +856,79 @@ class GyrostatEnv(Environment):
             target_attitude=jnp.asarray(np.array(env.target_attitude), dtype=dtype),
             faults=_as_dtype(fp, dtype),
             fault_state=fault_state,
+            flight=flight,
         )
+
+    def _flight_state_from(self, env: Any, time: int, dtype) -> FlightState:
+        """The flight state of the numba env's current episode: its drawn true plant
+        (``drawn_parameters()`` and ``kernel_matrices``) and gains; the actuator chain at rest,
+        as after a reset (the numba chain's delay line and lag state are not public: a
+        ``ValueError`` for ``time > 0`` with a delay or actuator dynamics)."""
+        fl = self.flight
+        if time and (fl.actuators.delay_steps or fl.actuators.model):
+            raise ValueError(
+                "state_from takes a flight env with a delay or actuator dynamics only right after its reset "
+                f"(time=0, the actuator chain at rest), got time={time}"
+            )
+        actuators = jact.initial_state(fl.actuators, self.n_wheels, dtype)
+        if not fl.draw_plant:
+            return FlightState(actuators=actuators)
+        drawn = env.drawn_parameters()
+        mats = np.array(env.kernel_matrices, dtype=float)
+
+        def f(v):
+            return jnp.asarray(np.asarray(v, dtype=float), dtype=dtype)
+
+        plant = EpisodePlant(
+            inertia_kg_m2=f(mats[:9].reshape(3, 3)),
+            inertia_eff_inv=f(mats[9:].reshape(3, 3)),
+            wheel_axes=f(drawn["wheel_axes"]),
+            offset_torque_nm=f(drawn["offset_torque_nm"]),
+        )
+        gain = f(drawn["actuator_gain"]) if fl.actuators.gain else None
+        return FlightState(actuators=actuators, plant=plant, gain=gain)
+
+
+def with_drawn_parameters(params: EnvParams, drawn: dict) -> EnvParams:
+    """``params`` whose resets take the true plant and gains ``drawn`` (a numba flight
+    episode's ``env.unwrapped.drawn_parameters()``: ``inertia_kg_m2``, ``wheel_axes``,
+    ``offset_torque_nm``, ``actuator_gain`` where drawn) instead of drawing them: the JAX
+    episode of that numba episode's plant (``inertia_eff_inv`` computed with numpy as
+    :class:`~attitude_envs.plants.gyrostat.GyrostatParams` does, so bit for bit the numba
+    env's). ``ValueError`` for lab params or a missing entry."""
+    fp = params.flight
+    if fp is None:
+        raise ValueError("with_drawn_parameters takes the params of a flight env (conditions with parameter draws)")
+    dtype = params.inertia_kg_m2.dtype
+    missing = [k for k in ("inertia_kg_m2", "wheel_axes", "offset_torque_nm") if k not in drawn]
+    if missing:
+        raise ValueError(
+            f"drawn parameters lack {missing} (got {sorted(drawn)}): pass env.unwrapped.drawn_parameters()"
+        )
+    inertia = np.asarray(drawn["inertia_kg_m2"], dtype=float)
+    axes = np.asarray(drawn["wheel_axes"], dtype=float)
+    if axes.shape != tuple(params.wheel_axes.shape) or inertia.shape != (3, 3):
+        raise ValueError(
+            f"drawn inertia_kg_m2 {inertia.shape} and wheel_axes {axes.shape} must be (3, 3) and "
+            f"{tuple(params.wheel_axes.shape)}"
+        )
+    j_s = float(params.wheel_inertia_kg_m2)
+    eff_inv = np.linalg.inv(inertia - j_s * axes @ axes.T)
+    gain = np.asarray(drawn.get("actuator_gain", np.ones(axes.shape[1])), dtype=float)
+
+    def f(v):
+        return jnp.asarray(np.asarray(v, dtype=float), dtype=dtype)
+
+    return params.replace(
+        flight=fp.replace(
+            given=jnp.asarray(True),
+            given_inertia_kg_m2=f(inertia),
+            given_inertia_eff_inv=f(eff_inv),
+            given_wheel_axes=f(axes),
+            given_offset_torque_nm=f(drawn["offset_torque_nm"]),
+            given_gain=f(gain),
+        )
+    )
 
 
 def episode_params(numba_env: Any, params: EnvParams, n_faults: int | None = None) -> EnvParams:
@@ -587,8 +968,14 @@ def _check_modeled(env: Any, episode: bool = False) -> None:
     the JAX gyrostat does not model (with ``episode``: only what the current episode uses)."""
     if not isinstance(env, ReactionWheelEnv):
         raise ValueError(f"the JAX gyrostat takes a ReactionWheel or AirBearing env, got {type(env).__name__}")
-    if env.sensor_layer.enabled:
-        raise ValueError("sensors (and sensor faults) are not modeled by the JAX gyrostat: it observes the truth")
+    layer = env.sensor_layer
+    if layer.fault_configs or layer.realized:
+        raise ValueError("sensor faults are not modeled by the JAX gyrostat (its flight sensors' noise and bias are)")
+    if layer.enabled and env.conditions.sensors == 0:
+        raise ValueError(
+            "sensors are modeled by the JAX gyrostat only as flight conditions' sensors (conditions with 'sensors' "
+            "> 0); in the lab it observes the truth"
+        )
     dist = env.disturbance
     if dist is not None and dist.kind != "constant":
         raise ValueError(f"disturbance of kind {dist.kind!r} is not modeled by the JAX gyrostat (only 'constant')")
@@ -653,6 +1040,14 @@ def from_env(numba_env: Any) -> tuple[GyrostatEnv, EnvParams]:
     else:
         mode = START_AXIS_ANGLE
     euler_max = env.initial_euler_max_deg if isinstance(env, AirBearingEnv) else np.zeros(3)
+    flight_layout, flight_params = _flight_of(env, n, dtype)
+    sensor_config = env.sensor_layer.config if env.sensor_layer.enabled else {}
+    sensor_params = None
+    if sensor_config:
+        channels = {name: (3 if name != "tachometer" else n) for name, _, _ in _CHANNELS}
+        sensor_params = SensorParams(
+            **{name: jsens.params_of(c, channels[name], dtype) for name, c in sensor_config.items()}
+        )
     dist = env.disturbance
     identity = np.array([0.0, 0.0, 0.0, 1.0])
     body_frame = env.action_frame == "body"
@@ -687,6 +1082,8 @@ def from_env(numba_env: Any) -> tuple[GyrostatEnv, EnvParams]:
         target_angle_deg=f(law["target_angle_deg"]),
         disturbance_torque_nm=f(np.zeros(3) if dist is None else dist.torque_nm),
         faults=_as_dtype(jfaults.from_realized(layer.realized), dtype),
+        flight=flight_params,
+        sensors=sensor_params,
     )
     jenv = GyrostatEnv(
         n_wheels=n,
@@ -701,8 +1098,78 @@ def from_env(numba_env: Any) -> tuple[GyrostatEnv, EnvParams]:
         params=params,
         fault_configs=configs,
         redraw_faults=any(jfaults.draws_per_episode(c) for c in configs),
+        flight=flight_layout,
+        sensors=tuple(name for name, _, _ in _CHANNELS if name in sensor_config),
     )
     return jenv, params
 
 
-__all__ = ["EnvParams", "EnvState", "GyrostatEnv", "episode_params", "from_env", "max_steps", "with_inertia"]
+def _flight_of(env: Any, n: int, dtype) -> tuple[FlightLayout | None, FlightParams | None]:
+    """The static layout and the params of ``env``'s flight conditions (None, None in the
+    lab), from its resolved ``conditions`` and its flight table, as
+    :meth:`AttitudeEnv._init_layers` and :meth:`ReactionWheelEnv._flight_plant_tolerances`
+    build them."""
+    cond = env.conditions
+    if cond.is_lab:
+        return None, None
+    table = env.flight_table
+    plant = env.model.params
+    limits = np.broadcast_to(np.asarray(plant.max_wheel_torque_nm, dtype=float), (n,))
+    model = table.actuator_model(limits) if cond.actuators else None
+    scale = float(cond.parameters)
+    gain_tol = table.gain_tolerance_of(n) * scale if scale else np.zeros(n)
+    draw_plant = scale > 0
+    has_offset = "offset_torque_nm" in table.plant
+    if draw_plant and has_offset and env.drawn_parameters():
+        # the env's true offset torque is then this episode's draw, not the one draws are about
+        raise ValueError(
+            "build the JAX gyrostat of a flight env with parameter draws before the numba env's first reset "
+            "(attitude_envs.jax.make does): after it, the env's true plant is one episode's draw"
+        )
+    law = env.reset_distribution
+    tol = {k: table.plant_value(k) * scale for k in ("inertia_moment", "inertia_axis_deg", "wheel_misalignment_deg")}
+    offset_tol = table.plant_value("offset_torque_nm") * scale if has_offset else 0.0
+    layout = FlightLayout(
+        actuators=jact.layout_of(model, cond.delay_steps, bool(gain_tol.any())),
+        draw_plant=draw_plant,
+        draw_inertia=draw_plant and law["inertia_uncertainty"] is None,
+        draw_offset=draw_plant and has_offset,
+    )
+    moments, principal = np.linalg.eigh(plant.inertia_kg_m2)
+
+    def f(v):
+        return jnp.asarray(np.asarray(v, dtype=float), dtype=dtype)
+
+    params = FlightParams(
+        actuators=jact.params_of(model, n, env.control_dt_s, dtype),
+        inertia_moment=f(tol["inertia_moment"]),
+        inertia_axis_deg=f(tol["inertia_axis_deg"]),
+        misalignment_deg=f(tol["wheel_misalignment_deg"]),
+        offset_tolerance_nm=f(offset_tol),
+        gain_tolerance=f(gain_tol),
+        nominal_moments=f(moments),
+        nominal_principal_axes=f(principal),
+        given=jnp.asarray(False),
+        given_inertia_kg_m2=f(plant.inertia_kg_m2),
+        given_inertia_eff_inv=f(plant.inertia_eff_inv),
+        given_wheel_axes=f(plant.wheel_axes),
+        given_offset_torque_nm=f(env.true_offset_torque_nm),
+        given_gain=f(np.ones(n)),
+    )
+    return layout, params
+
+
+__all__ = [
+    "EnvParams",
+    "EnvState",
+    "EpisodePlant",
+    "FlightLayout",
+    "FlightParams",
+    "FlightState",
+    "GyrostatEnv",
+    "episode_params",
+    "from_env",
+    "max_steps",
+    "with_drawn_parameters",
+    "with_inertia",
+]

@@ -22,6 +22,9 @@ PLANT_MODULES = {
     "LinearSystem": "attitude_envs.jax.linear_system",
 }
 NAMESPACE = "attitude_envs"
+#: the plants whose JAX twin models flight conditions (:mod:`attitude_envs.conditions`): the
+#: delay, the actuator dynamics, the per-episode parameter draws and the flight sensors
+FLIGHT_PLANTS = ("ReactionWheel", "AirBearing")
 
 
 def full_id(env_id: str) -> str:
@@ -50,13 +53,15 @@ def numba_env(env_id: str, **kwargs: Any):
 
 def make(env_id: str, **kwargs: Any):
     """The JAX plant of ``env_id`` (``"AirBearing-v1"`` or ``"attitude_envs/AirBearing-v1"``)
-    and its default ``EnvParams``, configured by the numba env's keywords."""
+    and its default ``EnvParams``, configured by the numba env's keywords. Flight ``conditions`` only for the gyrostats
+    (:data:`FLIGHT_PLANTS`); a ``ValueError`` names the rest."""
     env = numba_env(env_id, **kwargs)
-    if not env.conditions.is_lab:
-        raise ValueError(
-            f"conditions={env.conditions.name!r} ({env.conditions.as_dict()}): the JAX plants model the lab "
-            "conditions only so far; use the numba env (gymnasium.make) for flight conditions"
-        )
     plant = full_id(env_id).split("/")[1].rsplit("-v", 1)[0]
+    if not env.conditions.is_lab:
+        if plant not in FLIGHT_PLANTS:
+            raise ValueError(
+                f"conditions={env.conditions.name!r} ({env.conditions.as_dict()}): the JAX {plant} models the lab "
+                "conditions only so far; use the numba env (gymnasium.make) for flight conditions"
+            )
     module = importlib.import_module(PLANT_MODULES[plant])
     return module.from_env(env)

@@ -1,0 +1,127 @@
+"""The suite's sensor models (:mod:`attitude_envs.sensors`) as arrays, for the JAX plants:
+white noise, a bias drawn at reset, its random walk, and a sample period with
+sample-and-hold between samples (a star tracker slower than the control loop), for vector
+channels (additive errors) and attitude channels (``q_m = q ⊗ exp(e)``, ``e`` a body rotation
+vector). Sensor faults are not modeled here.
+
+:meth:`attitude_envs.sensors.SensorSuite.measure`'s law, step for step: a channel samples at
+the observation times; one with a ``period_s`` repeats its last sample until
+``period_s · (1 − 10⁻⁹)`` has passed since its previous one (the first at reset); at a sample
+the bias walks by ``bias_walk_std · √Δt · N(0, 1)`` over the time since the channel's previous
+sample (since the previous observation without a period), then the noise is drawn. In
+float32 the sample test allows the rounding of the times (16 ulp of ``t``): a period that is a
+multiple of the control period samples on the numba env's (float64) steps. The draws
+come from JAX keys: the same law as the numba layer's numpy generator, not the same numbers.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+#: the relative margin of the sample-period test (:meth:`SensorSuite.measure`'s)
+_PERIOD_MARGIN = 1.0 - 1e-9
+
+
+@struct.dataclass
+class ChannelParams:
+    """One channel's model (one entry per axis): ``noise_std``, ``bias_walk_std`` (per √s),
+    ``initial_bias``, ``initial_bias_std``; ``period_s`` (0: a sample at every observation)."""
+
+    noise_std: jax.Array
+    bias_walk_std: jax.Array
+    initial_bias: jax.Array
+    initial_bias_std: jax.Array
+    period_s: jax.Array
+
+
+@struct.dataclass
+class ChannelState:
+    """One channel's runtime state: its ``bias``, ``last`` sample (the channel's size: 4 for an
+    attitude), the time of its last sample ``sampled`` (s) and ``has_sampled``."""
+
+    bias: jax.Array
+    last: jax.Array
+    sampled: jax.Array
+    has_sampled: jax.Array
+
+
+def params_of(config: dict, axes: int, dtype) -> ChannelParams:
+    """A channel's :class:`ChannelParams` from its validated ``SensorSuite.config`` entry."""
+
+    def f(key):
+        return jnp.asarray(np.broadcast_to(np.asarray(config[key], dtype=float), (axes,)), dtype=dtype)
+
+    return ChannelParams(
+        noise_std=f("noise_std"),
+        bias_walk_std=f("bias_walk_std"),
+        initial_bias=f("initial_bias"),
+        initial_bias_std=f("initial_bias_std"),
+        period_s=jnp.asarray(float(config["period_s"]), dtype=dtype),
+    )
+
+
+def _from_rotvec(v: jax.Array) -> jax.Array:
+    """:func:`attitude_envs.quaternion.from_rotvec` (its second-order series below 10⁻⁸ rad)."""
+    angle = jnp.sqrt(v @ v)
+    small = angle < 1e-8
+    safe = jnp.where(small, 1.0, angle)
+    series = jnp.concatenate([0.5 * v, (1.0 - angle * angle / 8.0)[None]])
+    series = series / jnp.sqrt(series @ series)
+    exact = jnp.concatenate([jnp.sin(0.5 * safe) / safe * v, jnp.cos(0.5 * safe)[None]])
+    return jnp.where(small, series, exact)
+
+
+def _multiply(p: jax.Array, q: jax.Array) -> jax.Array:
+    """The Hamilton product ``p ⊗ q`` of scalar-last quaternions (:func:`attitude_envs.quaternion.multiply`)."""
+    px, py, pz, pw = p
+    qx, qy, qz, qw = q
+    return jnp.stack(
+        [
+            pw * qx + px * qw + py * qz - pz * qy,
+            pw * qy - px * qz + py * qw + pz * qx,
+            pw * qz + px * qy - py * qx + pz * qw,
+            pw * qw - px * qx - py * qy - pz * qz,
+        ]
+    )
+
+
+def initial_state(key: jax.Array, p: ChannelParams, truth: jax.Array) -> ChannelState:
+    """A channel at reset, before its first sample: its bias drawn, no sample yet."""
+    bias = p.initial_bias + p.initial_bias_std * jax.random.normal(key, p.noise_std.shape, p.noise_std.dtype)
+    zero = jnp.zeros((), dtype=truth.dtype)
+    return ChannelState(bias=bias, last=truth, sampled=zero, has_sampled=jnp.asarray(False))
+
+
+def measure(
+    key: jax.Array, p: ChannelParams, s: ChannelState, truth: jax.Array, t_s, t_last, attitude: bool
+) -> tuple[jax.Array, ChannelState]:
+    """The channel's measurement of ``truth`` at ``t_s`` (s; ``t_last``: the previous
+    observation's time) and its next state."""
+    dtype = truth.dtype
+    periodic = p.period_s > 0
+    due = s.sampled + p.period_s * _PERIOD_MARGIN
+    eps = float(jnp.finfo(dtype).eps)
+    if eps > 1e-10:  # float32: times k·Δt carry rounding far above the margin (x64: the numba test as is)
+        due = due - 16.0 * eps * jnp.abs(t_s)
+    hold = periodic & s.has_sampled & (t_s < due)
+    dt = jnp.where(periodic, jnp.where(s.has_sampled, t_s - s.sampled, 0.0), jnp.maximum(0.0, t_s - t_last))
+    k_walk, k_noise = jax.random.split(key)
+    axes = p.noise_std.shape
+    walk = jax.random.normal(k_walk, axes, dtype)
+    noise = jax.random.normal(k_noise, axes, dtype)
+    bias = jnp.where(dt > 0, s.bias + p.bias_walk_std * jnp.sqrt(jnp.maximum(dt, 0.0)) * walk, s.bias)
+    err = bias + p.noise_std * noise
+    m = _multiply(truth, _from_rotvec(err)) if attitude else truth + err
+    sample = jnp.logical_not(hold)
+    return jnp.where(hold, s.last, m), ChannelState(
+        bias=jnp.where(hold, s.bias, bias),
+        last=jnp.where(hold, s.last, m),
+        sampled=jnp.where(periodic & sample, t_s, s.sampled),
+        has_sampled=s.has_sampled | (periodic & sample),
+    )
+
+
+__all__ = ["ChannelParams", "ChannelState", "initial_state", "measure", "params_of"]
