@@ -4,7 +4,8 @@ Every env id with a vector entry point (``-v0`` and ``-v1``: :mod:`attitude_envs
 trains on :class:`~experiments.training.sb3_vec_env.SB3VecEnv` (one compiled call steps all
 sub-envs, bitwise the single envs, no per-step deep copies of infos) under
 :class:`PicklableVecMonitor` (the episode statistics SB3 logs); kwargs the batched env does not
-support (sensors, ``fault_hint``) fall back to SB3's ``make_vec_env`` (one Monitor per env).
+support (sensors, ``fault_hint``, non-lab ``conditions``) fall back to SB3's ``make_vec_env``
+(one Monitor per env).
 """
 
 from __future__ import annotations
@@ -43,11 +44,18 @@ class PicklableVecFrameStack(_PicklableWrapper, VecFrameStack):
 
 
 def batched_supported(env_id: str, env: gym.Env) -> bool:
-    """True where ``env_id`` has a natively batched env that supports ``env``'s options."""
+    """True where ``env_id`` has a natively batched env that supports ``env``'s options.
+
+    The batched envs run the lab conditions only (:mod:`attitude_envs.conditions`; they refuse
+    any other), so an env under flight or custom conditions trains and evaluates on single envs
+    (SB3's ``make_vec_env``: one flight env per sub-env, each drawing its own plant per episode)."""
     base = env.unwrapped
     sensors = getattr(base, "sensor_layer", None)
+    conditions = getattr(base, "conditions", None)
     return gym.spec(env_id).vector_entry_point is not None and not (
-        (sensors is not None and sensors.enabled) or getattr(base, "fault_hint", False)
+        (sensors is not None and sensors.enabled)
+        or getattr(base, "fault_hint", False)
+        or (conditions is not None and not conditions.is_lab)
     )
 
 
