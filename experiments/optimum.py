@@ -17,7 +17,8 @@ repeated campaign cells are free.
 
 Under flight conditions (``conditions=`` in ``env_kwargs``) the oracle knows the drawn plant
 and gains and acts through the env's delay and actuator dynamics (how each stage enters the
-problem: :mod:`attitude_envs.symbolic.gyrostat`); for the wheels' Coulomb friction the first
+problem: the docstrings of :mod:`attitude_envs.symbolic.gyrostat`, ``.linear``, ``.slosh`` and
+``.magnetorquer``); for the wheels' Coulomb friction (the gyrostats', Magnetorquer's) the first
 solve's ``tanh`` relaxation is followed by re-solves with the signs fixed
 (:func:`_fix_friction_signs`), and J* is the cheapest replay among the passes. The cache key
 holds the resolved conditions (:func:`conditions_of`; lab keys are unchanged).
@@ -46,6 +47,7 @@ import gymnasium as gym
 import numpy as np
 
 import attitude_envs
+from attitude_envs import symbolic
 from attitude_envs.cache import cache_dir as suite_cache_dir
 from attitude_envs.files import atomic_write
 from attitude_envs.info import policy_view
@@ -343,8 +345,6 @@ def solve_problem(
     return actions, float(sol["f"]), str(stats.get("return_status")), int(stats.get("iter_count", -1)), solve_s
 
 
-#: envs whose wheel friction's Coulomb sign the solver fixes from a first solve
-_FRICTION_SIGN_ENVS = ("ReactionWheel-v0", "AirBearing-v0")
 #: re-solves with the signs fixed, at most (each from the last one's trajectory)
 FRICTION_SIGN_PASSES = 3
 
@@ -354,30 +354,50 @@ def _fix_friction_signs(env, problem, actions, seed, options, max_iter, tol, jit
     ``sign(Ω)`` as ``tanh(Ω/ε)`` (:data:`attitude_envs.symbolic.actuators.FRICTION_EPS_RAD_S`);
     this re-solves with ``sign(Ω_k)`` of the last trajectory fixed per step (then the problem
     is the env's wherever the optimum keeps those signs) until the signs repeat, at most
-    :data:`FRICTION_SIGN_PASSES` times. ``(passes, solve_s)``: each pass's ``(problem,
-    actions, j_nlp, status, iterations)`` (none when the episode has no Coulomb friction)
-    and their IPOPT time; the caller keeps the pass whose env replay is cheapest."""
-    if env_name(problem.env_id) not in _FRICTION_SIGN_ENVS:
-        return [], 0.0
-    from attitude_envs.symbolic import actuators, gyrostat
+    :data:`FRICTION_SIGN_PASSES` times, on every plant whose symbolic model fixes them
+    (:data:`attitude_envs.symbolic.FRICTION_SIGN_MODULES`: the gyrostats' wheels,
+    Magnetorquer's wheel with its −Ω convention).
 
-    n_w = env.unwrapped.model.params.wheel_axes.shape[1]
-    if not actuators.ChainSpec.from_env(env.unwrapped, n_w).has_friction:
+    Each pass holds the speeds a margin from zero on the side of their signs
+    (:func:`attitude_envs.symbolic.with_friction_signs`) at every step, unless that is
+    certainly infeasible — a state the commands cannot move (the first ``delay_steps``
+    states: the delay line delivers zeros) inside the margin, e.g. wheels at rest at the
+    start — or IPOPT fails on it; then only at the steps where the last trajectory already
+    clears the margin; and if that fails too, with the signs alone. Later passes keep the
+    level that solved. ``(passes, solve_s)``: each pass's ``(problem, actions, j_nlp, status,
+    iterations)`` (none when the episode has no Coulomb friction: the lab) and their IPOPT
+    time; the caller keeps the pass whose env replay is cheapest."""
+    if not symbolic.has_coulomb_friction(env):
         return [], 0.0  # the lab, and flight without the actuator dynamics: nothing relaxed
+    from attitude_envs.symbolic.actuators import ChainSpec
+
     passes, solve_total = [], 0.0
-    signs = np.sign(problem.rollout(actions)[0][:-1, 7 : 7 + n_w])
+    speeds = symbolic.friction_speeds(env, problem.rollout(actions)[0][:-1])
+    signs = np.sign(speeds)
+    delay = ChainSpec.from_env(env.unwrapped, 0).delay_steps
+    margin = symbolic.friction_sign_margin(env)
+    # x_1 … x_d do not depend on the commands (the delay line delivers zeros): a speed inside
+    # the margin there makes the margin at every step infeasible
+    fixed_start = np.abs(speeds[1 : 1 + delay]) * (signs[1 : 1 + delay] != 0)
+    level = 1 if np.any((fixed_start > 0) & (fixed_start < margin)) else 0  # 0: everywhere, 1: where clear, 2: none
     for _ in range(FRICTION_SIGN_PASSES):
-        env.reset(seed=seed, options=options)
-        fixed = gyrostat.with_friction_signs(env.unwrapped, signs)
-        if fixed is None:
-            break
-        a, j, status, it, s = solve_problem(fixed, actions, max_iter, tol, jit=jit)
-        solve_total += s
+        while level <= 2:
+            env.reset(seed=seed, options=options)
+            where = (True, np.abs(speeds) >= margin, False)[level]
+            fixed = symbolic.with_friction_signs(env, signs, where)
+            if fixed is None:
+                return passes, solve_total
+            a, j, status, it, s = solve_problem(fixed, actions, max_iter, tol, jit=jit)
+            solve_total += s
+            if status in SOLVED:
+                break
+            level += 1
         if status not in SOLVED:
             break
         actions = np.clip(a, fixed.a_lb, fixed.a_ub)
         passes.append((fixed, actions, j, status, it))
-        new = np.sign(fixed.rollout(actions)[0][:-1, 7 : 7 + n_w])
+        speeds = symbolic.friction_speeds(env, fixed.rollout(actions)[0][:-1])
+        new = np.sign(speeds)
         if np.array_equal(new, signs):
             break
         signs = new

@@ -288,6 +288,7 @@ class FuelSloshEnv(AttitudeEnv):
         self._obs_index = OBS_INDEX if self.observe_slosh else OBS_INDEX_NO_SLOSH
         self._work = np.empty(kernels.WORK_SIZE)
         self._constants = self._step_constants(self.model.params)
+        self._nominal_constants = self._constants
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
@@ -381,6 +382,13 @@ class FuelSloshEnv(AttitudeEnv):
         sub-step, cost weights; the same for every env built with the same keywords, except
         under flight conditions with ``parameters``: this episode's drawn true plant), read-only."""
         return self._constants
+
+    @property
+    def nominal_kernel_constants(self) -> np.ndarray:
+        """:attr:`kernel_constants` of the nominal plant ``model.params`` (what a model-based
+        controller may use; equal to :attr:`kernel_constants` unless flight conditions draw the
+        true plant), read-only."""
+        return self._nominal_constants
 
     def batch_termination(self, states: np.ndarray) -> np.ndarray:
         """The limits :meth:`step` terminates on (slosh angle, pitch rate, pitch angle) for

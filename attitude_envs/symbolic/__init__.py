@@ -19,13 +19,26 @@ loaded on first use (so builder modules import :class:`DiscreteProblem` from
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 from collections.abc import Callable
 from typing import Any
 
+import casadi
+import numpy as np
+
 from attitude_envs.symbolic.problem import DiscreteProblem
 
-__all__ = ["BUILDERS", "DiscreteProblem", "problem_for"]
+__all__ = [
+    "BUILDERS",
+    "FLIGHT_BUILDERS",
+    "DiscreteProblem",
+    "friction_sign_margin",
+    "friction_speeds",
+    "has_coulomb_friction",
+    "problem_for",
+    "with_friction_signs",
+]
 
 
 def _builder(module: str, function: str) -> Callable[[Any], DiscreteProblem]:
@@ -47,7 +60,87 @@ BUILDERS: dict[str, Callable[[Any], DiscreteProblem]] = {
     "Magnetorquer-v0": _builder("magnetorquer", "build_magnetorquer"),
 }
 #: the builders that model flight conditions (the drawn plant, the delay, the actuator chain)
-FLIGHT_BUILDERS = frozenset({"ReactionWheel-v0", "AirBearing-v0"})
+FLIGHT_BUILDERS = frozenset({"ReactionWheel-v0", "AirBearing-v0", "LinearSystem-v0", "FuelSlosh-v0", "Magnetorquer-v0"})
+#: the builders with wheel Coulomb friction under flight conditions: env name -> module whose
+#: ``with_friction_signs(env, signs)`` fixes the signs per step (:func:`with_friction_signs`)
+FRICTION_SIGN_MODULES = {"ReactionWheel-v0": "gyrostat", "AirBearing-v0": "gyrostat", "Magnetorquer-v0": "magnetorquer"}
+
+
+def _name(env: Any) -> str:
+    base = env.unwrapped
+    return getattr(base, "env_name", type(base).__name__)
+
+
+def has_coulomb_friction(env: Any) -> bool:
+    """Whether the episode of ``env`` (just reset) acts through an actuator chain with Coulomb
+    friction that its symbolic model can fix the signs of (False in the lab)."""
+    from attitude_envs.symbolic.actuators import ChainSpec
+
+    if _name(env) not in FRICTION_SIGN_MODULES:
+        return False
+    spec = ChainSpec.from_env(env.unwrapped, 0)
+    return spec.has_friction and bool(np.any(spec.coulomb != 0))
+
+
+def friction_speeds(env: Any, states: np.ndarray) -> np.ndarray:
+    """``(n, N)``: the speeds whose Coulomb sign the problem of ``env`` fixes per step
+    (:func:`with_friction_signs`), at each row of the symbolic ``states``: the gyrostats'
+    wheel speeds ``Ω``; Magnetorquer's ``[0, 0, 0, −Ω]`` (its chain's convention)."""
+    name, states = _name(env), np.atleast_2d(np.asarray(states, dtype=float))
+    if FRICTION_SIGN_MODULES.get(name) == "gyrostat":
+        n_w = env.unwrapped.model.params.wheel_axes.shape[1]
+        return states[:, 7 : 7 + n_w]
+    if name == "Magnetorquer-v0":
+        return importlib.import_module(f"{__name__}.magnetorquer").friction_speeds(env.unwrapped, states)
+    raise ValueError(f"{name} has no Coulomb friction signs to fix (those of {sorted(FRICTION_SIGN_MODULES)} do)")
+
+
+def friction_sign_margin(env: Any) -> float:
+    """The margin (rad/s) :func:`with_friction_signs` holds the speeds of ``env`` from zero by
+    (its module's ``FRICTION_SIGN_MARGIN_RAD_S``)."""
+    return float(importlib.import_module(f"{__name__}.{FRICTION_SIGN_MODULES[_name(env)]}").FRICTION_SIGN_MARGIN_RAD_S)
+
+
+def with_friction_signs(env: Any, signs: np.ndarray, margin_where: np.ndarray | bool = True) -> DiscreteProblem | None:
+    """The problem of the episode ``env`` (just reset) starts, with the Coulomb friction's
+    ``sign(speed)`` fixed per step to ``signs`` ((n_steps, N), e.g. the sign of
+    :func:`friction_speeds` of a first solve's trajectory) in place of the ``tanh``
+    relaxation: exact wherever the optimum keeps those signs. ``margin_where``: where the
+    speeds are held at least the module's ``FRICTION_SIGN_MARGIN_RAD_S`` from zero on the
+    side of their sign (path constraints on the state each step starts from; the last ``N``
+    rows of ``g``): True (default) at every step, False nowhere, or an (n_steps, N) bool
+    array (e.g. where the trajectory the signs came from already clears the margin). None
+    when the episode has no Coulomb friction."""
+    name = _name(env)
+    module = importlib.import_module(f"{__name__}.{FRICTION_SIGN_MODULES[name]}")
+    problem = module.with_friction_signs(env.unwrapped, signs)
+    if problem is None or margin_where is True:
+        return problem
+    n_steps, n = problem.n_steps, np.asarray(signs).reshape(problem.n_steps, -1).shape[1]
+    where = np.broadcast_to(np.asarray(margin_where, dtype=float), (n_steps, n))
+    note = f"; the fixed friction signs held with a margin |Omega| >= {module.FRICTION_SIGN_MARGIN_RAD_S:g} rad/s"
+    n_p = problem.params.shape[1]
+    xs, a, ps = casadi.SX.sym("x", problem.n_x), casadi.SX.sym("a", problem.n_u), casadi.SX.sym("p", n_p + n)
+    rows = problem.g(xs, ps[:n_p])
+    n_rows = rows.shape[0]
+    if not where.any():  # the signs alone: the margin rows dropped
+        p0 = casadi.SX.sym("p", n_p)
+        g = casadi.Function("g", [xs, p0], [problem.g(xs, p0)[: n_rows - n]], ["x", "p"], ["g"])
+        return dataclasses.replace(problem, g=g, notes=problem.notes.replace(note, ""))
+    # per step and speed: a flag after the signs in p switches its margin row on (1) or off (0)
+    flags = ps[n_p:]
+    g = casadi.Function(
+        "g", [xs, ps], [casadi.vertcat(rows[: n_rows - n], flags * rows[n_rows - n :])], ["x", "p"], ["g"]
+    )
+    x_next, cost = problem.step(xs, a, ps[:n_p])
+    step = casadi.Function("step", [xs, a, ps], [x_next, cost], ["x", "a", "p"], ["x_next", "cost"])
+    return dataclasses.replace(
+        problem,
+        step=step,
+        g=g,
+        params=np.column_stack([problem.params, where]),
+        notes=problem.notes.replace(note, note + " where the previous trajectory clears it"),
+    )
 
 
 def problem_for(env: Any, seed: int | None = None, options: dict | None = None) -> DiscreteProblem:

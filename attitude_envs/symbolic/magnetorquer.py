@@ -24,12 +24,45 @@ episode (two orbits, 12 038 s at 0.1 s: 120 380 steps) is too long for one NLP; 
 slew, ``episode_duration_s=1200`` (the reference's ``t_final_s``: 12 000 steps), or its first
 part (e.g. 200–600 s) for quick solves.
 
+Flight conditions (:mod:`attitude_envs.conditions`,
+:mod:`attitude_envs.presets.flight_magnetorquer`): the oracle knows the episode's draws and
+acts through the env's actuator chain (:func:`attitude_envs.symbolic.actuators.through_chain`,
+:class:`~attitude_envs.symbolic.actuators.ChainSpec` of the four actuators, dipoles then
+wheel); the chain's states follow ``[q, ω_bo, Ω]`` (zeros at the start) and the decision
+variables stay the normalized commands. Feature by feature:
+
+* **inertia** (exact): the drawn true inertia is in the env's ``episode_constants``, so in
+  the time contexts (``I``, ``I_eff⁻¹``) the step reads;
+* **delay** (exact): a queue of the last ``d`` commands, the plant receives the oldest
+  (zeros for the first ``d`` periods);
+* **resolution** (relaxed): the dipoles' 8-bit quantum and the wheel's minimum torque
+  (1.5 % of its limit) are not modelled, the oracle's command is continuous; the env
+  quantizes it, so the replay differs from the NLP's objective by the quantization's effect
+  (measured 0.2–1.5 % of J* on 100-step episodes);
+* **faults**: as in the lab, on the delayed command;
+* **wheel lag** (exact): its state; the period holds ``c + (y₀ − c) φ`` and
+  ``y⁺ = c + (y₀ − c) e^{−Δt/τ}`` with the env's own ``φ`` and decay (the dipoles have none);
+* **gains × duty** (exact): the drawn scale factors times the duty cycle (0.8 for the
+  dipoles: off while the magnetometer samples; 1 for the wheel);
+* **wheel friction** (at the period-start speed, against ``−Ω``: the wheel's output is the
+  torque on the body, so friction opposing its spin adds ``+coulomb·sign(Ω)``, the env's
+  convention): viscous exact; the Coulomb ``sign`` first relaxed to ``tanh(−Ω/ε)``
+  (ε = :data:`FRICTION_EPS_RAD_S`), then
+  fixed per step from the last solve (:func:`with_friction_signs`, with the margin rows
+  :func:`attitude_envs.symbolic.with_friction_signs` switches per step), so the fixed-sign
+  step is the env's to rounding wherever the optimum keeps those signs;
+* then the momentum limit and the plant exactly as in the lab; sensors play no part.
+
+J* is always the env's replay of the optimal commands (:mod:`experiments.optimum`), so a
+relaxation can cost optimality, never the number's honesty.
+
 Not represented (ValueError): a random-walk disturbance (drawn step by step from the env's
 generator), intermittent faults and a ``stuck`` fault without a value.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import casadi
@@ -126,25 +159,41 @@ def context_table(env, n_steps: int) -> np.ndarray:
     return out.reshape(n_steps, -1)
 
 
-def step_function(env) -> casadi.Function:
-    """The SX step ``(x (8), a (4), p (1 + (2·n_sub + 1)·N_FIELDS)) -> (x_next (8), cost (1))`` of
-    the unwrapped ``env``'s episode, ``p = [k, the step's time contexts]`` (a row of
-    :func:`step_parameters`)."""
+def step_function(env, chain: actuators.ChainSpec | None = None) -> casadi.Function:
+    """The SX step ``(x (8 + M), a (4), p (1 + (2·n_sub + 1)·N_FIELDS [+ 4])) -> (x_next, cost)``
+    of the unwrapped ``env``'s episode, ``p = [k, the step's time contexts]`` (a row of
+    :func:`step_parameters`); with a flight actuator ``chain`` its ``M`` states follow
+    ``[q, ω_bo, Ω]`` and, with ``chain.fixed_signs``, ``p`` ends with the four actuators'
+    Coulomb signs."""
     _check_supported(env)
     plant = _Plant(env)
     limits = np.asarray(env.model.params.limits, dtype=float)
-    return _build_step(plant, limits, float(env.control_dt_s), env.fault_layer.realized)
+    return _build_step(plant, limits, float(env.control_dt_s), env.fault_layer.realized, chain)
 
 
-def _build_step(plant: _Plant, limits: np.ndarray, control_dt_s: float, realized) -> casadi.Function:
+def _build_step(
+    plant: _Plant, limits: np.ndarray, control_dt_s: float, realized, chain: actuators.ChainSpec | None = None
+) -> casadi.Function:
     """The SX step of :func:`step_function` for ``plant`` (its ``h``, ``n_sub``), the actuator
-    ``limits``, the control period (s) and the realized actuator faults ``realized`` (the
-    fault layer's, or ``[]`` for a healthy model)."""
-    y = casadi.SX.sym("y", 8)
+    ``limits``, the control period (s), the realized actuator faults ``realized`` (the
+    fault layer's, or ``[]`` for a healthy model) and the flight actuator ``chain`` (None:
+    the lab's ideal actuators)."""
+    n_extra = 0 if chain is None else chain.n_state
+    n_sign = 4 if chain is not None and chain.fixed_signs else 0
+    y = casadi.SX.sym("y", 8 + n_extra)
     a = casadi.SX.sym("a", 4)
-    p = casadi.SX.sym("p", 1 + (2 * plant.n_sub + 1) * N_FIELDS)
+    p = casadi.SX.sym("p", 1 + (2 * plant.n_sub + 1) * N_FIELDS + n_sign)
     commanded = actuators.clip(a, -1.0, 1.0) * casadi.DM(limits)
-    cmd = actuators.delivered(commanded, p[0] * control_dt_s, realized, limits)
+    new_extra = []
+    if chain is None:
+        cmd = actuators.delivered(commanded, p[0] * control_dt_s, realized, limits)
+    else:  # the wheel's friction against −Ω: T_w is the torque on the body (the env's _friction_speeds)
+        speeds = [casadi.SX(0.0), casadi.SX(0.0), casadi.SX(0.0), -y[7]]
+        signs = [p[p.shape[0] - n_sign + i] for i in range(n_sign)] if n_sign else None
+        extra = [y[8 + i] for i in range(n_extra)]
+        cmd, new_extra = actuators.through_chain(
+            chain, commanded, p[0] * control_dt_s, realized, limits, extra, speeds, signs
+        )
     m = [cmd[0], cmd[1], cmd[2]]
     h = plant.h
     aug = [y[i] for i in range(8)] + [0.0]
@@ -161,7 +210,11 @@ def _build_step(plant: _Plant, limits: np.ndarray, control_dt_s: float, realized
         norm = casadi.sqrt(aug[0] * aug[0] + aug[1] * aug[1] + aug[2] * aug[2] + aug[3] * aug[3])
         aug = [aug[i] / norm for i in range(4)] + aug[4:]
     return casadi.Function(
-        "magnetorquer_step", [y, a, p], [casadi.vertcat(*aug[:8]), aug[8]], ["x", "a", "p"], ["x_next", "cost"]
+        "magnetorquer_step",
+        [y, a, p],
+        [casadi.vertcat(*aug[:8], *new_extra), aug[8]],
+        ["x", "a", "p"],
+        ["x_next", "cost"],
     )
 
 
@@ -174,28 +227,98 @@ def step_parameters(env, n_steps: int) -> np.ndarray:
 def build_magnetorquer(env) -> DiscreteProblem:
     """The :class:`DiscreteProblem` of the unwrapped Magnetorquer-v0 ``env`` right after its
     reset, over its ``episode_duration_s`` (see the module docstring for the horizon)."""
+    return _build(env)
+
+
+#: the margin (rad/s) by which the wheel keeps a fixed Coulomb sign (:func:`with_friction_signs`),
+#: as the gyrostats' (:data:`attitude_envs.symbolic.gyrostat.FRICTION_SIGN_MARGIN_RAD_S`)
+FRICTION_SIGN_MARGIN_RAD_S = 0.1
+
+
+def friction_speeds(env, states: np.ndarray) -> np.ndarray:
+    """``(n, 4)``: the speeds the actuator chain's friction acts against at each of the
+    ``states`` (rows ``[q, ω_bo, Ω, chain states…]``), the env's convention
+    (:meth:`~attitude_envs.envs.magnetorquer.MagnetorquerEnv._friction_speeds`): zeros for the
+    dipoles and −Ω for the wheel (its output is the torque on the body)."""
+    states = np.atleast_2d(np.asarray(states, dtype=float))
+    out = np.zeros((states.shape[0], 4))
+    out[:, 3] = -states[:, 7]
+    return out
+
+
+def with_friction_signs(env, signs) -> DiscreteProblem | None:
+    """The problem of the episode ``env`` (unwrapped, just reset) starts, with the Coulomb
+    signs fixed per step to ``signs`` ((n_steps, 4), ``sign`` of :func:`friction_speeds` of a
+    first solve's trajectory) in place of the ``tanh`` relaxation, and each speed held at
+    least :data:`FRICTION_SIGN_MARGIN_RAD_S` from zero on the side of its sign (the last 4
+    rows of ``g(x, p)``, zero where the sign is 0, e.g. the dipoles'): exact wherever the
+    optimum keeps those signs. None when the episode has no Coulomb friction.
+    :func:`attitude_envs.symbolic.with_friction_signs` drops or switches those rows per step."""
+    return _build(env, signs)
+
+
+#: the smoothing speed ε (rad/s) of the wheel's Coulomb sign in the first solve: the wheel turns
+#: slowly (tenths of rad/s in a slew's first seconds), so the gyrostats' ε
+#: (:data:`attitude_envs.symbolic.actuators.FRICTION_EPS_RAD_S`, 0.5) smooths too much: measured
+#: on 100-step flight episodes, seed 1's J* was 8.77e-6 with it against 7.21e-6 with 0.05
+FRICTION_EPS_RAD_S = 0.05
+
+
+def _chain(env) -> actuators.ChainSpec | None:
+    chain = actuators.ChainSpec.from_env(env, 4)
+    return None if chain.is_identity else dataclasses.replace(chain, friction_eps=FRICTION_EPS_RAD_S)
+
+
+def _build(env, friction_signs=None) -> DiscreteProblem | None:
     dt = float(env.control_dt_s)
     n_steps = int(math.ceil(env.episode_duration_s / dt - 1e-9))
-    step = step_function(env)
+    chain = _chain(env)
+    if friction_signs is not None:
+        if chain is None or not chain.has_friction or not np.any(chain.coulomb != 0):
+            return None
+        chain = dataclasses.replace(chain, fixed_signs=True)
+    n_extra = 0 if chain is None else chain.n_state
+    step = step_function(env, chain)
     params = step_parameters(env, n_steps)
-    xs = casadi.SX.sym("x", 8)
+    if friction_signs is not None:
+        params = np.column_stack([params, np.asarray(friction_signs, dtype=float).reshape(n_steps, 4)])
+    n_x = 8 + n_extra
+    xs = casadi.SX.sym("x", n_x)
     rate = float(env.max_rate_rad_s)
     rows = _PLANT.limit_rows(xs[4], xs[5], xs[6], rate)
     # the rows ordered as before (+ω_bo, then −ω_bo), so the NLP's constraint vector is unchanged
-    g = casadi.Function("magnetorquer_limits", [xs], [casadi.vertcat(*rows[0::2], *rows[1::2])], ["x"], ["g"])
+    rows = [*rows[0::2], *rows[1::2]]
     notes = [
         "orbit, field, reference, ΔJ(t) and disturbance precomputed per sub-step stage (params)",
         "tumble limit max|ω_bo| <= max_rate_rad_s as a state constraint",
     ]
     if math.isfinite(float(env.model.params.max_wheel_momentum_nms)):
         notes.append("wheel momentum limit as in the step (torque blocked at |h_w| >= h_max)")
+    if "inertia_kg_m2" in env.drawn_parameters():
+        notes.append("the drawn inertia exact (the env's episode constants, in the time contexts)")
+    if chain is not None:
+        notes += chain.notes()
+    if friction_signs is not None:  # s·v >= δ for each speed v = [0, 0, 0, −Ω] where s = ±1 (nothing where s = 0)
+        ps = casadi.SX.sym("p", params.shape[1])
+        margin = float(FRICTION_SIGN_MARGIN_RAD_S)
+        speeds = [0.0, 0.0, 0.0, -xs[7]]
+        for i in range(4):
+            s_i = ps[params.shape[1] - 4 + i]
+            rows.append(s_i * (margin * s_i - speeds[i]) / margin)
+        notes.append(f"the fixed friction signs held with a margin |Omega| >= {margin:g} rad/s")
+        g = casadi.Function("magnetorquer_limits", [xs, ps], [casadi.vertcat(*rows)], ["x", "p"], ["g"])
+    else:
+        g = casadi.Function("magnetorquer_limits", [xs], [casadi.vertcat(*rows)], ["x"], ["g"])
+    x0 = np.array(env.state_row, dtype=float)
+    if n_extra:  # the chain at rest: empty delay line, limiter and lag outputs zero
+        x0 = np.concatenate([x0, np.zeros(n_extra)])
     return DiscreteProblem(
         env_id=env.env_name,
-        n_x=8,
+        n_x=n_x,
         n_u=4,
         n_steps=n_steps,
         step=step,
-        x0=np.array(env.state_row, dtype=float),
+        x0=x0,
         a_lb=-np.ones(4),
         a_ub=np.ones(4),
         g=g,
