@@ -43,6 +43,9 @@ PLANTS = {
 }
 #: the levels of each axis, as (level, conditions); the parameter level is the relative inertia error
 PARAMETER_LEVELS = (0.0, 0.1, 0.25, 0.5)
+#: a whole run's wall time, min, from nothing (J* solves most of it; one process on a shared
+#: 2-core machine, 2026-11-28); a rerun reads every episode back from its record in seconds
+RUN_MINUTES = {"wheel": 13, "air-bearing": 43}
 DELAY_LEVELS = (0, 1, 2, 3)
 NOISE_LEVELS = (1.0, 3.0, 10.0)
 
@@ -256,8 +259,8 @@ J\* on the noise axis, {smallest["j_star"]:.3g}. There an agent's J/J\* reaches
 {worst["j"] / worst["j_star"]:.3g} ({worst["agent"]} at noise ×{worst["level"]:g}), because
 the sensor noise floor's cost does not shrink with the maneuver. ΣJ/ΣJ\* is the robust summary.
 
-Reproduce: `python -m benchmarks.robustness --plant {plant} --seeds {seeds}`. J\* takes most
-of the time. The run resumes from `robustness.episodes.jsonl`, which holds every episode's J
+Reproduce: `python -m benchmarks.robustness --plant {plant} --seeds {seeds}` (≈ {RUN_MINUTES[plant]} min on
+2 cores from nothing, most of it J\*). The run resumes from `robustness.episodes.jsonl`, which holds every episode's J
 and J\*. The data are in [`robustness.csv`](robustness.csv), with columns agent, axis, level,
 j_over_j_star, cvar10 and seeds.
 """

@@ -31,7 +31,14 @@ def test_every_policy_declares_the_envs_it_applies_to():
     for entry in POLICIES.values():
         envs = entry.envs
         assert envs is None or set(envs) <= {e.split("/")[1].split("-v")[0] for e in attitude_envs.ENV_IDS}
-    assert policies_for("attitude_envs/LinearSystem-v0") == ["zero", "mpc", "linear-lqr", "q-learning-lqr", "sb3"]
+    assert policies_for("attitude_envs/LinearSystem-v0") == [
+        "zero",
+        "mpc",
+        "linear-lqr",
+        "q-learning-lqr",
+        "linear-lqr+kf",
+        "sb3",
+    ]
     assert "slosh-fuzzy" in policies_for("attitude_envs/FuelSlosh-v0")
     assert "lqr" not in policies_for("attitude_envs/Magnetorquer-v0")
 
