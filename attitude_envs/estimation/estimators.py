@@ -145,6 +145,7 @@ class GyrostatMEKF:
         s = info["sensors"]
         self.filter.reset(s["star_tracker"], s["gyro"])
         self.star_gate.reset(s["star_tracker"])
+        self._reset_gates(s)
         self._t = float(info["time_s"])
         self.updates = 0
         return self._view(obs, info)
@@ -154,9 +155,16 @@ class GyrostatMEKF:
         if s is not None:
             star = s["star_tracker"] if self.star_gate.is_new(s["star_tracker"]) else None
             self.updates += star is not None
-            self.filter.step(s["gyro"], star, float(info["time_s"]) - self._t)
+            self.filter.step(s["gyro"], star, float(info["time_s"]) - self._t, **self._step_extras(s, info))
         self._t = float(info["time_s"])
         return self._view(obs, info)
+
+    def _reset_gates(self, sensors: dict) -> None:
+        """Reset the gates of the other sensors (none here)."""
+
+    def _step_extras(self, sensors: dict, info: dict[str, Any]) -> dict:
+        """More keywords of :meth:`AttitudeMEKF.step` at this step (none here)."""
+        return {}
 
     def _view(self, obs, info):
         f = self.filter
@@ -177,7 +185,7 @@ class GyrostatMEKF:
         return out, view
 
 
-class MagnetorquerMEKF:
+class MagnetorquerMEKF(GyrostatMEKF):
     """MEKF for Magnetorquer-v0: attitude relative to the orbital frame and gyro bias. The
     gyro measures the inertial rate ω_bi; the orbital frame turns at ``−ω0 e_y``
     (``info["orbit"]["rate_rad_s"]``) relative to inertial. Updates: the star tracker on
@@ -198,50 +206,28 @@ class MagnetorquerMEKF:
     name = "mekf"
 
     def __init__(self, env, filter_params: dict | None = None, use_magnetometer: bool = True) -> None:
-        layer = _sensor_layer(env, ("gyro", "star_tracker"), type(self).__name__)
-        base = env.unwrapped
-        self.model = base.model
-        self.filter = AttitudeMEKF(**_mekf_params(layer, filter_params))
-        self.star_gate = SampleGate(layer.parameters("star_tracker")["period_s"])
+        super().__init__(env, filter_params)
+        layer = env.unwrapped.sensor_layer
         mag = layer.parameters("magnetometer") if "magnetometer" in layer.channels else None
         self.magnetometer_std = None
         if use_magnetometer and mag is not None and "magnetometer" in layer.config:
             self.magnetometer_std = float(np.hypot(_scalar(mag["noise_std"]), _scalar(mag["initial_bias_std"])))
         self.mag_gate = SampleGate(0.0 if mag is None else mag["period_s"])
         self._wheel_inertia = float(self.model.params.wheel_inertia_kg_m2)
-        self._t = 0.0
-        self.updates = 0
 
     @staticmethod
     def _frame_rate(info) -> np.ndarray:
         return np.array([0.0, -float(info["orbit"]["rate_rad_s"]), 0.0])
 
-    def reset(self, obs: np.ndarray, info: dict[str, Any]):
-        s = info["sensors"]
-        self.filter.reset(s["star_tracker"], s["gyro"])
-        self.star_gate.reset(s["star_tracker"])
-        self.mag_gate.reset(s.get("magnetometer", np.full(3, np.nan)))
-        self._t = float(info["time_s"])
-        self.updates = 0
-        return self._view(obs, info)
+    def _reset_gates(self, sensors: dict) -> None:
+        self.mag_gate.reset(sensors.get("magnetometer", np.full(3, np.nan)))
 
-    def update(self, obs: np.ndarray, info: dict[str, Any]):
-        s = info.get("sensors")
-        if s is not None:
-            star = s["star_tracker"] if self.star_gate.is_new(s["star_tracker"]) else None
-            self.updates += star is not None
-            vectors = []
-            if self.magnetometer_std is not None and self.mag_gate.is_new(s["magnetometer"]):
-                vectors.append((s["magnetometer"], info["magnetic_field_orbital_t"], self.magnetometer_std))
-            self.filter.step(
-                s["gyro"],
-                star,
-                float(info["time_s"]) - self._t,
-                frame_rate_rad_s=self._frame_rate(info),
-                vectors=vectors,
-            )
-        self._t = float(info["time_s"])
-        return self._view(obs, info)
+    def _step_extras(self, sensors: dict, info: dict[str, Any]) -> dict:
+        """The orbital frame's rate and, on a new magnetometer sample, the field measurement."""
+        vectors = []
+        if self.magnetometer_std is not None and self.mag_gate.is_new(sensors["magnetometer"]):
+            vectors.append((sensors["magnetometer"], info["magnetic_field_orbital_t"], self.magnetometer_std))
+        return {"frame_rate_rad_s": self._frame_rate(info), "vectors": vectors}
 
     def _view(self, obs, info):
         f = self.filter
