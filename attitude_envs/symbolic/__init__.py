@@ -58,12 +58,22 @@ BUILDERS: dict[str, Callable[[Any], DiscreteProblem]] = {
     "AirBearing-v0": _builder("gyrostat", "build_air_bearing"),
     "FuelSlosh-v0": _builder("slosh", "build_fuel_slosh"),
     "Magnetorquer-v0": _builder("magnetorquer", "build_magnetorquer"),
+    "ConstrainedSlew-v0": _builder("constrained_slew", "build_constrained_slew"),
 }
 #: the builders that model flight conditions (the drawn plant, the delay, the actuator chain)
-FLIGHT_BUILDERS = frozenset({"ReactionWheel-v0", "AirBearing-v0", "LinearSystem-v0", "FuelSlosh-v0", "Magnetorquer-v0"})
+FLIGHT_BUILDERS = frozenset(
+    {"ReactionWheel-v0", "AirBearing-v0", "LinearSystem-v0", "FuelSlosh-v0", "Magnetorquer-v0", "ConstrainedSlew-v0"}
+)
 #: the builders with wheel Coulomb friction under flight conditions: env name -> module whose
 #: ``with_friction_signs(env, signs)`` fixes the signs per step (:func:`with_friction_signs`)
-FRICTION_SIGN_MODULES = {"ReactionWheel-v0": "gyrostat", "AirBearing-v0": "gyrostat", "Magnetorquer-v0": "magnetorquer"}
+FRICTION_SIGN_MODULES = {
+    "ReactionWheel-v0": "gyrostat",
+    "AirBearing-v0": "gyrostat",
+    "Magnetorquer-v0": "magnetorquer",
+    "ConstrainedSlew-v0": "constrained_slew",  # the gyrostat's signs, its own rows kept
+}
+#: the modules whose states are the gyrostat's ``[q, ω, Ω, …]``
+_GYROSTAT_STATE_MODULES = ("gyrostat", "constrained_slew")
 
 
 def _name(env: Any) -> str:
@@ -87,7 +97,7 @@ def friction_speeds(env: Any, states: np.ndarray) -> np.ndarray:
     (:func:`with_friction_signs`), at each row of the symbolic ``states``: the gyrostats'
     wheel speeds ``Ω``; Magnetorquer's ``[0, 0, 0, −Ω]`` (its chain's convention)."""
     name, states = _name(env), np.atleast_2d(np.asarray(states, dtype=float))
-    if FRICTION_SIGN_MODULES.get(name) == "gyrostat":
+    if FRICTION_SIGN_MODULES.get(name) in _GYROSTAT_STATE_MODULES:
         n_w = env.unwrapped.model.params.wheel_axes.shape[1]
         return states[:, 7 : 7 + n_w]
     if name == "Magnetorquer-v0":
