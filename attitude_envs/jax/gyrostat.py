@@ -72,6 +72,7 @@ from attitude_envs.envs.reaction_wheel import ReactionWheelEnv
 from attitude_envs.faults import ActuatorFaults
 from attitude_envs.jax import actuators as jact
 from attitude_envs.jax import faults as jfaults
+from attitude_envs.jax import quaternion as jq
 from attitude_envs.jax import sensors as jsens
 from attitude_envs.jax.cost import mode_code, termination_charge
 from attitude_envs.jax.environment import Environment
@@ -308,13 +309,6 @@ def _error_state(y, target, C, sc: int, n: int, include_h: bool, n_state: int):
     return tuple(W[11 + n : 11 + n + n_state]), qe_w
 
 
-def _from_axis_angle(axis: jax.Array, angle_rad) -> jax.Array:
-    """The rotation by ``angle_rad`` about ``axis`` (any length): with a standard normal
-    ``axis`` and a uniform angle, :func:`attitude_envs.quaternion.random_within_angle`'s law."""
-    half = 0.5 * angle_rad
-    return jnp.concatenate([jnp.sin(half) * axis / jnp.sqrt(axis @ axis), jnp.cos(half)[None]])
-
-
 def _from_euler_321_deg(euler_deg: jax.Array) -> jax.Array:
     """The quaternion of 3-2-1 Euler angles [roll, pitch, yaw], deg
     (:func:`attitude_envs.quaternion.from_euler_321_deg`)."""
@@ -384,7 +378,7 @@ def _draw_inertia(key: jax.Array, u: jax.Array, moments, principal_axes, moment_
 
     _, drawn, _ = jax.lax.while_loop(lambda c: jnp.logical_not(c[2]), redraw, (key, *draw(u[:3])))
     angle = jnp.radians(0.5 * (u[6] + 1.0) * axis_angle_deg)
-    rot = _to_matrix(_from_axis_angle(_normals(u[3:6]), angle)) @ principal_axes
+    rot = _to_matrix(jq.from_axis_angle(_normals(u[3:6]), angle)) @ principal_axes
     inertia = (rot * drawn) @ rot.T  # rot diag(drawn) rotᵀ
     return 0.5 * (inertia + inertia.T)
 
@@ -709,8 +703,8 @@ class GyrostatEnv(Environment):
         axes = (np.sqrt(2.0) * jax.lax.erf_inv(jnp.maximum(u[8:], lo))).reshape(2, 3)
         u = 0.5 * (u[:8] + 1.0)  # U(0, 1)
         # rotations about uniformly random axes by angles uniform in [0, max]
-        axis_angle = _from_axis_angle(axes[0], jnp.radians(u[0] * p.initial_angle_deg))
-        drawn_target = _from_axis_angle(axes[1], jnp.radians(u[1] * p.target_angle_deg))
+        axis_angle = jq.from_axis_angle(axes[0], jnp.radians(u[0] * p.initial_angle_deg))
+        drawn_target = jq.from_axis_angle(axes[1], jnp.radians(u[1] * p.target_angle_deg))
         euler = p.initial_euler_max_deg * (2.0 * u[2:5] - 1.0)  # AirBearing: 3-2-1 angles uniform in ±max
         q0 = jnp.select(
             [p.initial_mode == START_EULER, p.initial_mode == START_AXIS_ANGLE],

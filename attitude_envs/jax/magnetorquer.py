@@ -55,6 +55,7 @@ from flax import struct
 from attitude_envs.faults import ActuatorFaults
 from attitude_envs.jax import cost as jcost
 from attitude_envs.jax import faults as jfaults
+from attitude_envs.jax import quaternion as jq
 from attitude_envs.jax.environment import Environment
 from attitude_envs.jax.ops import JAX
 from attitude_envs.jax.spaces import Box
@@ -587,8 +588,8 @@ class MagnetorquerEnv(Environment):
         inertia, eff_inv = _draw_inertia(k_moments, u[8], g[3:], params)
         anomaly_deg = jnp.where(params.mean_anomaly_random, 360.0 * u[0], params.mean_anomaly_deg)
         q_d0 = params.reference[K.REF_HELD_START : K.REF_HELD_START + 4]
-        turn = _within_angle(g[:3], u[1] * params.initial_angle_deg)
-        q0 = jnp.where(params.regulation, _multiply(q_d0, turn), q_d0)
+        turn = jq.from_axis_angle(g[:3], jnp.deg2rad(u[1] * params.initial_angle_deg))
+        q0 = jnp.where(params.regulation, jq.multiply(q_d0, turn), q_d0)
         rate = (2.0 * u[2:5] - 1.0) * params.initial_rate_max_rad_s
         random_phase = params.disturbance_random_phase & (params.disturbance_code == K.DIST_SINUSOIDAL)
         disturbance = jnp.where(random_phase, (2 * math.pi) * u[5:8], params.disturbance_initial)
@@ -659,27 +660,6 @@ class MagnetorquerEnv(Environment):
 
 
 # ----------------------------------------------------------------------------- draws
-def _multiply(p, q):
-    """Hamilton product ``p ⊗ q`` of scalar-last quaternions."""
-    px, py, pz, pw = p[0], p[1], p[2], p[3]
-    qx, qy, qz, qw = q[0], q[1], q[2], q[3]
-    return jnp.stack(
-        [
-            pw * qx + px * qw + py * qz - pz * qy,
-            pw * qy - px * qz + py * qw + pz * qx,
-            pw * qz + px * qy - py * qx + pz * qw,
-            pw * qw - px * qx - py * qy - pz * qz,
-        ]
-    )
-
-
-def _within_angle(axis: jax.Array, angle_deg: jax.Array) -> jax.Array:
-    """The rotation by ``angle_deg`` about ``axis`` (any length): with ``axis ~ N(0, I)`` and
-    the angle uniform in [0, max], :func:`attitude_envs.quaternion.random_within_angle`'s law."""
-    half = 0.5 * jnp.deg2rad(angle_deg)
-    return jnp.concatenate([jnp.sin(half) * axis / jnp.sqrt(axis @ axis), jnp.cos(half)[None]])
-
-
 #: candidate moment draws per reset (the numba env redraws up to 1000 times)
 MOMENT_CANDIDATES = 32
 
@@ -701,7 +681,10 @@ def _draw_inertia(
         (d2 >= d0) & (d2 >= d1), d0 + d1 >= d2, jnp.where(d1 >= d0, d0 + d2 >= d1, d1 + d2 >= d0)
     )  # the two smaller moments sum to at least the largest
     moments = jnp.where(jnp.any(ok), drawn[jnp.argmax(ok)], params.principal_moments)
-    rot = orbital_to_body(_within_angle(axis, u_angle * params.axis_angle_deg)).T @ params.principal_axes
+    rot = (
+        orbital_to_body(jq.from_axis_angle(axis, jnp.deg2rad(u_angle * params.axis_angle_deg))).T
+        @ params.principal_axes
+    )
     inertia = rot @ jnp.diag(moments) @ rot.T
     inertia = 0.5 * (inertia + inertia.T)
     inertia_inv = _inverse3(inertia.at[1, 1].add(-params.wheel_inertia_kg_m2))

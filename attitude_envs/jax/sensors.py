@@ -21,6 +21,8 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
+from attitude_envs.jax import quaternion as jq
+
 #: the relative margin of the sample-period test (:meth:`SensorSuite.measure`'s)
 _PERIOD_MARGIN = 1.0 - 1e-9
 
@@ -63,31 +65,6 @@ def params_of(config: dict, axes: int, dtype) -> ChannelParams:
     )
 
 
-def _from_rotvec(v: jax.Array) -> jax.Array:
-    """:func:`attitude_envs.quaternion.from_rotvec` (its second-order series below 10⁻⁸ rad)."""
-    angle = jnp.sqrt(v @ v)
-    small = angle < 1e-8
-    safe = jnp.where(small, 1.0, angle)
-    series = jnp.concatenate([0.5 * v, (1.0 - angle * angle / 8.0)[None]])
-    series = series / jnp.sqrt(series @ series)
-    exact = jnp.concatenate([jnp.sin(0.5 * safe) / safe * v, jnp.cos(0.5 * safe)[None]])
-    return jnp.where(small, series, exact)
-
-
-def _multiply(p: jax.Array, q: jax.Array) -> jax.Array:
-    """The Hamilton product ``p ⊗ q`` of scalar-last quaternions (:func:`attitude_envs.quaternion.multiply`)."""
-    px, py, pz, pw = p
-    qx, qy, qz, qw = q
-    return jnp.stack(
-        [
-            pw * qx + px * qw + py * qz - pz * qy,
-            pw * qy - px * qz + py * qw + pz * qx,
-            pw * qz + px * qy - py * qx + pz * qw,
-            pw * qw - px * qx - py * qy - pz * qz,
-        ]
-    )
-
-
 def initial_state(key: jax.Array, p: ChannelParams, truth: jax.Array) -> ChannelState:
     """A channel at reset, before its first sample: its bias drawn, no sample yet."""
     bias = p.initial_bias + p.initial_bias_std * jax.random.normal(key, p.noise_std.shape, p.noise_std.dtype)
@@ -114,7 +91,7 @@ def measure(
     noise = jax.random.normal(k_noise, axes, dtype)
     bias = jnp.where(dt > 0, s.bias + p.bias_walk_std * jnp.sqrt(jnp.maximum(dt, 0.0)) * walk, s.bias)
     err = bias + p.noise_std * noise
-    m = _multiply(truth, _from_rotvec(err)) if attitude else truth + err
+    m = jq.multiply(truth, jq.from_rotvec(err)) if attitude else truth + err
     sample = jnp.logical_not(hold)
     return jnp.where(hold, s.last, m), ChannelState(
         bias=jnp.where(hold, s.bias, bias),
