@@ -320,6 +320,14 @@ class _InputKF:
         if np.all(np.isfinite(z)):
             self.kf.update(z)
 
+    def update(self, obs: np.ndarray, info: dict[str, Any]):
+        """One step: predict with the command that acts now (the delay's), update on a new
+        ``state`` sample; the controller's observation and info (the subclass's ``_view``)."""
+        sensors = info.get("sensors")
+        if sensors is not None:
+            self._advance(sensors["state"], info.get("commanded"))
+        return self._view(obs, info)
+
     def _advance(self, reading: np.ndarray, commanded: np.ndarray | None) -> None:
         self._inputs.append(np.zeros(self._m) if commanded is None else np.asarray(commanded, dtype=float))
         u = self._inputs.popleft()
@@ -361,12 +369,6 @@ class LinearKF(_InputKF):
     def reset(self, obs: np.ndarray, info: dict[str, Any]):
         z = np.asarray(info["sensors"]["state"], dtype=float)
         self._start(np.where(np.isfinite(z), z, 0.0), z, range(z.size))
-        return self._view(obs, info)
-
-    def update(self, obs: np.ndarray, info: dict[str, Any]):
-        sensors = info.get("sensors")
-        if sensors is not None:
-            self._advance(sensors["state"], info.get("commanded"))
         return self._view(obs, info)
 
     def _view(self, obs, info):
@@ -452,12 +454,6 @@ class SloshKF(_InputKF):
         x0 = np.zeros(self._n + self._m)
         x0[rows] = np.where(np.isfinite(z[rows]), z[rows], 0.0)
         self._start(x0, z, rows, entries=rows)
-        return self._view(obs, info)
-
-    def update(self, obs: np.ndarray, info: dict[str, Any]):
-        sensors = info.get("sensors")
-        if sensors is not None:
-            self._advance(sensors["state"], info.get("commanded"))
         return self._view(obs, info)
 
     def _view(self, obs, info):
