@@ -130,14 +130,12 @@ def _run_config(name: str):
     return ref, out, np.asarray(env.get_obs(state, params)), obs0
 
 
-@pytest.mark.parametrize("name", list(CONFIGS))
-def test_whole_episode_equals_numba_env_under_x64(name):
-    with jax.enable_x64(True):
-        ref, out, jax_obs0, obs0 = _run_config(name)
+def assert_same_episode(ref, out) -> int:
+    """The JAX rollout ``out`` is the numba episode ``ref`` in x64: states, costs and rewards
+    within 1e-12 relative, ends and times equal, observations equal to float32 rounding.
+    Returns the episode's length."""
     rows, obs, rewards, costs, terms, truncs, times = ref
     k = len(rows)
-    ending = CONFIGS[name][-1]
-    assert terms[-1] if ending == "terminated" else truncs[-1], f"the numba episode did not end {ending}"
     j_rows, j_obs, j_rewards, j_costs, j_terms, j_truncs, j_times = (v[:k] for v in out)
     assert j_rows.dtype == np.float64 and j_obs.dtype == np.float64
     assert _relative(j_rows, rows) <= 1e-12
@@ -148,6 +146,17 @@ def test_whole_episode_equals_numba_env_under_x64(name):
     np.testing.assert_array_equal(j_times, times)
     # the numba env's float32 observations: the same values to float32 rounding
     np.testing.assert_allclose(j_obs.astype(np.float32), obs, rtol=2.0**-23, atol=1e-12)
+    return k
+
+
+@pytest.mark.parametrize("name", list(CONFIGS))
+def test_whole_episode_equals_numba_env_under_x64(name):
+    with jax.enable_x64(True):
+        ref, out, jax_obs0, obs0 = _run_config(name)
+    terms, truncs = ref[4], ref[5]
+    ending = CONFIGS[name][-1]
+    assert terms[-1] if ending == "terminated" else truncs[-1], f"the numba episode did not end {ending}"
+    assert_same_episode(ref, out)
     np.testing.assert_allclose(jax_obs0.astype(np.float32), obs0, rtol=2.0**-23, atol=1e-12)
 
 
@@ -258,17 +267,8 @@ def test_faults_drawn_per_episode_follow_their_law_and_step_as_the_numba_env():
     for name in ("kind", "index", "value", "onset", "end"):
         np.testing.assert_array_equal(getattr(given, name), getattr(state.faults, name))
     # the episode with them: as the numba env's, past the outage's onset
-    rows, obs, rewards, costs, terms, truncs, times = ref
-    k = len(rows)
-    assert times[-1] > onset + 1.0
-    j_rows, j_obs, j_rewards, j_costs, j_terms, j_truncs, j_times = (v[:k] for v in out)
-    assert _relative(j_rows, rows) <= 1e-12
-    assert _relative(j_costs, costs) <= 1e-12
-    assert _relative(j_rewards, rewards) <= 1e-12
-    np.testing.assert_array_equal(j_terms, terms)
-    np.testing.assert_array_equal(j_truncs, truncs)
-    np.testing.assert_array_equal(j_times, times)
-    np.testing.assert_allclose(j_obs.astype(np.float32), obs, rtol=2.0**-23, atol=1e-12)
+    assert ref[6][-1] > onset + 1.0  # past the outage's onset
+    assert_same_episode(ref, out)
 
 
 @pytest.mark.parametrize(
