@@ -23,6 +23,14 @@ from typing import Any
 MAX_SEED = 2**31 - 1
 #: the most seeds one list may hold (episodes per cell)
 MAX_COUNT = 100_000
+#: Training envs draw their episodes from seeds in [TRAINING_SEED_BASE, MAX_SEED]: training seed
+#: ``s`` seeds sub-env ``i`` with ``TRAINING_SEED_BASE + s·TRAINING_SEED_STRIDE + i`` (mod the
+#: range), so no training episode starts where an evaluation episode (seeds 0, 1, …) or a
+#: validation episode (seeds 10000+) of the same env starts. Episode seeds at or above the base are
+#: accepted but share the training stream.
+TRAINING_SEED_BASE = 2**30
+#: the most sub-envs one training run may hold without overlapping the next training seed's
+TRAINING_SEED_STRIDE = 2**12
 SYNTAX = "a count N (seeds 0..N-1), a range A-B, or a comma list like 0,3,7-9"
 LIMITS = f"seeds distinct, in [0, {MAX_SEED}], at most {MAX_COUNT} of them"
 
@@ -93,6 +101,14 @@ def parse_seeds(value: Any, name: str = "seeds") -> list[int]:
     if len(set(seeds)) != len(seeds):
         raise _bad(name, value, "a seed appears twice")
     return seeds
+
+
+def training_env_seed(seed: int) -> int:
+    """The seed of sub-env 0 of training seed ``seed``'s training env (sub-env ``i`` takes this
+    ``+ i``, SB3's convention): in the training stream, disjoint from evaluation and validation
+    seeds (:data:`TRAINING_SEED_BASE`)."""
+    span = MAX_SEED + 1 - TRAINING_SEED_BASE
+    return TRAINING_SEED_BASE + (int(seed) * TRAINING_SEED_STRIDE) % (span - TRAINING_SEED_STRIDE)
 
 
 def seeds_arg(text: str) -> list[int]:

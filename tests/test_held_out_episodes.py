@@ -9,16 +9,16 @@ which the tests check first):
 
 * ``test_validation_episodes_are_not_evaluation_episodes``: the validation episodes that choose
   the best snapshot (``train``'s eval env, seeds ``eval_seed`` + i, 10000+) start nowhere a
-  campaign episode of the same env starts. On LinearSystem-v1 every seed plays the paper's x₀,
-  so there the validation episodes *are* the evaluated one: an expected failure until that cell
-  validates on the training distribution.
+  campaign episode of the same env starts. On LinearSystem-v1 every evaluation seed plays the
+  paper's x₀; its agents train and validate on random starts around it (the campaign's
+  ``train.env_kwargs``), so no validation episode is the evaluated one.
 * ``test_training_episodes_are_not_evaluation_episodes`` (SB3/SBX jobs): the first episode of
-  every training sub-env starts nowhere a campaign episode starts. It fails today, and is marked
-  so (strict: it flips when the seeding is fixed): ``make_training_env`` seeds sub-env i with
-  s + i (SB3's convention), so the first training episode of sub-env i *is* evaluation episode
-  s + i (with 8 envs and training seeds 0–2, evaluation seeds 0–9 of 0–19). The fused JAX trainer
-  draws its starts from ``jax.random.PRNGKey(seed)`` on the JAX plant, not from numpy seeds, and
-  is not covered here.
+  every training sub-env, seeded as SB3's model seeds it (``venv.seed(seed)``), starts nowhere a
+  campaign episode starts: ``make_training_env`` maps the training seed to the training stream
+  (seeds 2³⁰+, :func:`experiments.seeds.training_env_seed`). SB3's convention, sub-env i seeded
+  s + i, made the first training episode of sub-env i evaluation episode s + i. The fused JAX
+  trainer draws its starts from ``jax.random.PRNGKey(seed)`` on the JAX plant, not from numpy
+  seeds, and is not covered here.
 """
 
 from __future__ import annotations
@@ -117,18 +117,7 @@ def _validation_starts(plan) -> list[bytes]:
     return [_obs(env.reset(seed=s)[0]) for s in plan.eval_seeds]
 
 
-def _deterministic_mark(job_id: str):
-    if job_id.split(":")[0] in DETERMINISTIC:
-        return pytest.mark.xfail(
-            strict=True,
-            raises=AssertionError,
-            reason="every seed of this cell starts from the paper's x0: the validation episodes are the evaluated "
-            "episode until it validates on the training distribution",
-        )
-    return ()
-
-
-@pytest.mark.parametrize("job", [pytest.param(j, id=i, marks=_deterministic_mark(i)) for i, j in JOBS])
+@pytest.mark.parametrize("job", [pytest.param(j, id=i) for i, j in JOBS])
 def test_validation_episodes_are_not_evaluation_episodes(job, monkeypatch):
     plan = _plan(job, monkeypatch)
     assert plan.eval_seeds and min(plan.eval_seeds) >= 10_000
@@ -142,12 +131,6 @@ def test_validation_episodes_are_not_evaluation_episodes(job, monkeypatch):
 SB3_JOBS = [(i, j) for i, j in JOBS if not i.startswith(("magnetorquer:", "slosh:", "linear:"))]
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="make_training_env seeds sub-env i with s + i, so its first training episode is evaluation episode "
-    "s + i; changing the seeding changes the committed results and waits for a campaign rerun",
-)
 @pytest.mark.parametrize("job", [j for _, j in SB3_JOBS], ids=[i for i, _ in SB3_JOBS])
 def test_training_episodes_are_not_evaluation_episodes(job, monkeypatch):
     plan = _plan(job, monkeypatch)
@@ -159,6 +142,7 @@ def test_training_episodes_are_not_evaluation_episodes(job, monkeypatch):
     venv = make_training_env(
         plan.env_id, plan.env_kwargs, hp["n_envs"], plan.seed, batched_supported(plan.env_id, probe)
     )
+    venv.seed(plan.seed)  # as the model's seed= does (BaseAlgorithm.set_random_seed)
     first = venv.reset()  # the first episode of every sub-env, as SB3's learn() starts it
     evaluation = _evaluation_starts(job["campaign"], plan.env_id)
     assert len(evaluation) >= len(_seeds(job["campaign"]))
@@ -167,3 +151,34 @@ def test_training_episodes_are_not_evaluation_episodes(job, monkeypatch):
         f"the first training episodes of sub-envs seeded {shared} ({len(shared)} of {hp['n_envs']}) start where "
         f"campaign episodes of {plan.env_id} start"
     )
+
+
+def test_training_seeds_are_a_stream_of_their_own():
+    """Sub-env seeds of training seeds 0–999 with up to TRAINING_SEED_STRIDE sub-envs lie in
+    [TRAINING_SEED_BASE, MAX_SEED], and two training seeds' blocks never overlap."""
+    from experiments.seeds import MAX_SEED, TRAINING_SEED_BASE, TRAINING_SEED_STRIDE, training_env_seed
+
+    firsts = [training_env_seed(s) for s in range(1000)] + [training_env_seed(MAX_SEED)]
+    assert min(firsts) >= TRAINING_SEED_BASE and max(firsts) + TRAINING_SEED_STRIDE - 1 <= MAX_SEED
+    blocks = sorted(firsts[:1000])
+    assert all(b - a >= TRAINING_SEED_STRIDE for a, b in zip(blocks, blocks[1:], strict=False))
+
+
+def test_the_models_seed_keeps_the_training_stream():
+    """SB3 reseeds its env with the model's ``seed`` (``set_random_seed``): after the model is built
+    the first training episodes are still the training stream's, not seeds s + i."""
+    from stable_baselines3 import PPO
+
+    from experiments.seeds import training_env_seed
+
+    env_id, kwargs = "attitude_envs/AirBearing-v1", {"preset": "air-bearing-85kg"}
+    for batched in (True, False):
+        venv = make_training_env(env_id, kwargs, 4, 1, batched)
+        PPO("MlpPolicy", venv, seed=1, n_steps=8, batch_size=8, device="cpu")
+        first = venv.reset()
+        for i, obs in enumerate(first):
+            expected, _ = gym.make(env_id, **kwargs).reset(seed=training_env_seed(1) + i)
+            np.testing.assert_array_equal(obs, expected)
+            evaluated, _ = gym.make(env_id, **kwargs).reset(seed=1 + i)
+            assert not np.array_equal(obs, evaluated)
+        venv.close()

@@ -16,7 +16,12 @@ import attitude_envs  # noqa: F401,E402
 from attitude_envs.registration import VECTOR_ENTRY_POINTS  # noqa: E402
 from experiments.training.callbacks import episode_costs  # noqa: E402
 from experiments.training.training import load_trained, train  # noqa: E402
-from experiments.training.vec_envs import PicklableVecMonitor, make_eval_env, make_training_env  # noqa: E402
+from experiments.training.vec_envs import (  # noqa: E402
+    PicklableVecMonitor,
+    TrainingSeeds,
+    make_eval_env,
+    make_training_env,
+)
 
 RW, LS = "attitude_envs/ReactionWheel-v0", "attitude_envs/LinearSystem-v0"
 SHORT = {env_id: {"episode_duration_s": 5.0} for env_id in VECTOR_ENTRY_POINTS} | {
@@ -50,7 +55,9 @@ def test_train_runs_on_the_native_batched_env_of_every_env_id(tmp_path, env_id):
     from experiments.training.checkpoint import read_checkpoint
 
     model = read_checkpoint(tmp_path / "run" / "checkpoints" / "step_000000000500")[0]
-    monitor = model.get_env().venv
+    seeds = model.get_env().venv
+    assert isinstance(seeds, TrainingSeeds)
+    monitor = seeds.venv
     assert isinstance(monitor, PicklableVecMonitor) and type(monitor.venv).__name__ == "SB3VecEnv"
     assert model.ep_info_buffer and {"r", "l", "t"} <= set(model.ep_info_buffer[0])  # Monitor's statistics
 
@@ -108,7 +115,7 @@ def test_sensors_fall_back_to_single_envs(tmp_path):
     result = _train(tmp_path / "run", RW, env_kwargs=kwargs)
     assert result.timesteps == 500
     model = read_checkpoint(tmp_path / "run" / "checkpoints" / "step_000000000500")[0]
-    assert type(model.get_env().venv).__name__ == "DummyVecEnv"
+    assert type(model.get_env().venv.venv).__name__ == "DummyVecEnv"
 
 
 @pytest.mark.parametrize("env_id", sorted(VECTOR_ENTRY_POINTS))

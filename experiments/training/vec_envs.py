@@ -15,8 +15,9 @@ from typing import Any
 
 import gymnasium as gym
 from stable_baselines3.common.env_util import make_vec_env
-from stable_baselines3.common.vec_env import VecEnv, VecFrameStack, VecMonitor
+from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper, VecFrameStack, VecMonitor
 
+from experiments.seeds import TRAINING_SEED_STRIDE, training_env_seed
 from experiments.training.sb3_vec_env import SB3VecEnv
 
 
@@ -43,6 +44,22 @@ class PicklableVecFrameStack(_PicklableWrapper, VecFrameStack):
     """SB3's ``VecFrameStack`` (the Zoo's ``frame_stack``) that pickles."""
 
 
+class TrainingSeeds(_PicklableWrapper, VecEnvWrapper):
+    """Maps a training seed to the training stream: ``seed(s)`` seeds sub-env ``i`` with
+    ``training_env_seed(s) + i`` (:func:`experiments.seeds.training_env_seed`), so that the first
+    episode of a training sub-env is never an evaluation or validation episode. It sits under
+    every other wrapper, where SB3's ``set_random_seed`` (the model's ``seed=``) reaches it."""
+
+    def reset(self):
+        return self.venv.reset()
+
+    def step_wait(self):
+        return self.venv.step_wait()
+
+    def seed(self, seed: int | None = None):
+        return self.venv.seed(None if seed is None else training_env_seed(seed))
+
+
 def batched_supported(env_id: str, env: gym.Env) -> bool:
     """True where ``env_id`` has a natively batched env that supports ``env``'s options.
 
@@ -60,14 +77,18 @@ def batched_supported(env_id: str, env: gym.Env) -> bool:
 
 
 def make_training_env(env_id: str, env_kwargs: dict[str, Any], n_envs: int, seed: int, batched: bool) -> VecEnv:
-    """``n_envs`` envs seeded ``seed + i`` (SB3's convention) with episode statistics."""
+    """``n_envs`` envs with episode statistics, sub-env ``i`` seeded ``training_env_seed(seed) + i``
+    (:class:`TrainingSeeds`: the training stream, disjoint from every evaluation seed)."""
+    if not 1 <= int(n_envs) <= TRAINING_SEED_STRIDE:
+        raise ValueError(f"n_envs must be in [1, {TRAINING_SEED_STRIDE}], got {n_envs}")
     kwargs = {k: v for k, v in env_kwargs.items() if k != "render_mode"}
     if batched:
-        venv = SB3VecEnv(env_id, num_envs=int(n_envs), **kwargs)
-        venv.seed(int(seed))
-        return PicklableVecMonitor(venv)
-    # make_vec_env asks for render_mode="rgb_array", which envs without a renderer refuse
-    return make_vec_env(env_id, n_envs=n_envs, seed=seed, env_kwargs={"render_mode": None, **kwargs})
+        venv = PicklableVecMonitor(SB3VecEnv(env_id, num_envs=int(n_envs), **kwargs))
+    else:  # make_vec_env asks for render_mode="rgb_array", which envs without a renderer refuse
+        venv = make_vec_env(env_id, n_envs=n_envs, env_kwargs={"render_mode": None, **kwargs})
+    venv = TrainingSeeds(venv)
+    venv.seed(int(seed))
+    return venv
 
 
 def make_eval_env(env_id: str, env_kwargs: dict[str, Any], n_episodes: int, batched: bool):
