@@ -161,11 +161,45 @@ def report_markdown(
     figures: Mapping[str, str] | None = None,
     notes: Sequence[str] = (),
 ) -> str:
-    """The text of ``report.md``: ``metadata`` as a table, what the columns mean, where J* came
-    from, the leaderboards, ``notes`` (each once) and ``figures`` (caption → relative path)."""
+    """The text of ``report.md``, results first: the leaderboards, ``notes`` (each once) and
+    ``figures`` (caption → relative path), then what the columns mean and where J* came from,
+    and last the run record (``metadata`` as a table: what ran, where, from which code)."""
     notes = list(dict.fromkeys(notes))
     lines = [f"# Benchmark report: {metadata.get('campaign', '')}", ""]
-    lines += ["| | |", "|---|---|"]
+    lines += [
+        "The leaderboards and figures first; what their columns mean under "
+        "[Reading the leaderboards](#reading-the-leaderboards), what ran, where and from which code under "
+        "[Run record](#run-record).",
+        "",
+    ]
+    lines += ["## Leaderboards", "", leaderboard_markdown(boards, metadata.get("agent_notes"))]
+    if notes:
+        lines += ["## Notes", "", *[f"* {n}" for n in notes], ""]
+    if figures:
+        lines += ["## Figures", ""]
+        for caption, rel in figures.items():
+            lines.append(f"* [{caption}]({rel})" if rel.endswith(".mp4") else f"![{caption}]({rel})")
+        lines.append("")
+    lines += ["## Reading the leaderboards", ""]
+    lines += ["J = ∫(xᵀQx + uᵀRu) dt per episode (lower is better); CI: 95 % percentile bootstrap of the mean"]
+    lines += ['("deterministic": every episode of the cell gave the same J, so there is no interval);']
+    lines += ["IQM: interquartile mean; success: the env's criterion in the run record;"]
+    lines += ["ended early: episodes that terminated before the time limit (a limit crossed); the env charges their"]
+    lines += ["last step the terminal state's running cost over the rest of the horizon (termination_cost), and"]
+    lines += ["agents with such episodes rank after those without (by that fraction, then J);"]
+    lines += ["recovery: time from the fault onset until the error stays within the settling band;"]
+    lines += ["J / J*: mean J over mean J* of the same episodes (the cost above the optimum, as a factor), 95 % paired"]
+    lines += ["bootstrap CI; the per-episode ratios (and their median, in leaderboard.json) are in episodes.csv.", ""]
+    lines += _optimum_legend(rows)
+    lines += ["## Run record", "", *run_record(metadata), ""]
+    return "\n".join(lines)
+
+
+def run_record(metadata: Mapping[str, Any]) -> list[str]:
+    """``metadata`` as the lines of a two-column markdown table: the campaign, command, package and
+    git revision, seeds, executor, episodes, wall times (s), each trained agent's budget and task,
+    the given models, the success criteria and the definitions of envs, scenarios and faults."""
+    lines = ["| | |", "|---|---|"]
     for key in (
         "campaign",
         "source",
@@ -191,22 +225,4 @@ def report_markdown(
         lines.append(f"| success: {env} | {criterion} |")
     for what, definition in (metadata.get("definitions") or {}).items():
         lines.append(f"| {what} | {definition} |")
-    lines += ["", "J = ∫(xᵀQx + uᵀRu) dt per episode (lower is better); CI: 95 % percentile bootstrap of the mean"]
-    lines += ['("deterministic": every episode of the cell gave the same J, so there is no interval);']
-    lines += ["IQM: interquartile mean; success: the env's criterion above;"]
-    lines += ["ended early: episodes that terminated before the time limit (a limit crossed); the env charges their"]
-    lines += ["last step the terminal state's running cost over the rest of the horizon (termination_cost), and"]
-    lines += ["agents with such episodes rank after those without (by that fraction, then J);"]
-    lines += ["recovery: time from the fault onset until the error stays within the settling band;"]
-    lines += ["J / J*: mean J over mean J* of the same episodes (the cost above the optimum, as a factor), 95 % paired"]
-    lines += ["bootstrap CI; the per-episode ratios (and their median, in leaderboard.json) are in episodes.csv.", ""]
-    lines += _optimum_legend(rows)
-    lines += ["## Leaderboards", "", leaderboard_markdown(boards, metadata.get("agent_notes"))]
-    if notes:
-        lines += ["## Notes", "", *[f"* {n}" for n in notes], ""]
-    if figures:
-        lines += ["## Figures", ""]
-        for caption, rel in figures.items():
-            lines.append(f"* [{caption}]({rel})" if rel.endswith(".mp4") else f"![{caption}]({rel})")
-        lines.append("")
-    return "\n".join(lines)
+    return lines
