@@ -75,6 +75,9 @@ def test_config_all_runs_every_campaign_into_its_directory_with_an_index(tmp_pat
     index = (out / "index.md").read_text()
     assert "[tiny-ab/report.md](tiny-ab/report.md)" in index and "`attitude_envs/FuelSlosh-v0`" in index
     assert "| tiny-fs | e · default · none | slosh-pd: J " in index  # the best analytic controller per cell
+    # the result first: the best-per-cell table opens the page, the run record follows
+    assert index.splitlines()[2].startswith("| campaign | env · scenario · fault | best analytic")
+    assert index.index("## Run record") < index.index("[tiny-ab/report.md]")
     assert "== campaign" in capsys.readouterr().out
     with pytest.raises(ValueError, match="holds a single campaign's results; --config all needs its own directory"):
         cli._benchmark(cli.build_parser().parse_args(["benchmark", "--config", "all", "--out", str(out / "tiny-ab")]))

@@ -55,21 +55,24 @@ def write_campaign_report(result, video: bool | None = None, command: str | None
 
 
 def write_campaign_index(out_dir: str | Path, results: Sequence[tuple[str, Any]]) -> Path:
-    """``OUT/index.md`` of ``--config all``: per campaign its envs (id and kwargs), wall time
-    and report, and per leaderboard cell the best analytic controller and the best learned
-    agent (mean J and J/J*); the leaderboards themselves are in each campaign's report."""
+    """``OUT/index.md`` of ``--config all``: first, per leaderboard cell, the best analytic
+    controller and the best learned agent (mean J and J/J*); then the run record: per campaign its
+    envs (id and kwargs), wall time and report, and the package and git revision. The
+    leaderboards themselves are in each campaign's report."""
     out_dir = Path(out_dir)
-    lines = ["# All plant campaigns", "", f"Package {package_version()}, git {git_revision()}.", ""]
+    lines = ["# All plant campaigns", ""]
+    lines += ["| campaign | env · scenario · fault | best analytic | best learned |", "|---|---|---|---|"]
+    for name, result in results:
+        trained, drift = learned_agents(result.campaign), free_drift_agents(result.campaign)
+        for cell, board in leaderboards(result.rows, campaign_thresholds(result.campaign)).items():
+            analytic, learned = best_entry(board, False, trained, drift), best_entry(board, True, trained, drift)
+            lines.append(f"| {name} | {' · '.join(cell)} | {best_cell(analytic)} | {best_cell(learned)} |")
+    lines += ["", "## Run record", ""]
     lines += ["| campaign | env (id, kwargs) | episodes | wall time s (all runs) | report |", "|---|---|---:|---|---|"]
     for name, result in results:
         envs = "; ".join(env_label(e) for e in result.campaign.envs)
         lines.append(
             f"| {name} | {envs} | {len(result.rows)} | {all_runs_summary(result)} | [{name}/report.md]({name}/report.md) |"
         )
-    lines += ["", "| campaign | env · scenario · fault | best analytic | best learned |", "|---|---|---|---|"]
-    for name, result in results:
-        trained, drift = learned_agents(result.campaign), free_drift_agents(result.campaign)
-        for cell, board in leaderboards(result.rows, campaign_thresholds(result.campaign)).items():
-            analytic, learned = best_entry(board, False, trained, drift), best_entry(board, True, trained, drift)
-            lines.append(f"| {name} | {' · '.join(cell)} | {best_cell(analytic)} | {best_cell(learned)} |")
+    lines += ["", f"Package {package_version()}, git {git_revision()}."]
     return atomic_write(out_dir / "index.md", "\n".join(lines) + "\n")
