@@ -49,7 +49,8 @@ def _training_summary(result, agent) -> str:
     """A trained agent's budget (``config.json`` of each run) and the snapshot its episodes
     ran: ``best snapshot at N steps`` (per run, from ``best/best.json``; ``0 (the untrained
     policy)`` when training never beat it) or ``final snapshot``, with the validation J
-    (the run's own eval episodes, their count and first seed) of the best and of the final policy."""
+    (the run's own eval episodes, their count and first seed, and the training env's own kwargs
+    where the agent trains on other episodes than the cells') of the best and of the final policy."""
     budgets, best_steps, backends, validation, episodes = set(), [], set(), [], set()
     select = agent.train.get("select", "best")
     for run in _training_runs(result, agent):
@@ -75,7 +76,8 @@ def _training_summary(result, agent) -> str:
         n = ""
         if len(episodes) == 1 and None not in next(iter(episodes)):
             count, first = next(iter(episodes))
-            n = f" ({count} episodes, seeds {first}+)"
+            n = f" ({count} episodes, seeds {first}+"
+            n += f" of the training env {json.dumps(t['env_kwargs'])})" if t.get("env_kwargs") else ")"
         snapshot += f"; validation J{n} best/final per seed: {', '.join(validation)}"
     backend = "/".join(sorted(backends)) or t.get("backend", "sb3")
     return f"{t['algo']} ({backend}), {steps} steps × seeds {t.get('seeds', [0])}, evaluated: {snapshot}"
