@@ -143,9 +143,11 @@ class MPCPolicy:
         self._n_eq = self._n_y * (n_h + 1)
         if self._frame == "body":  # the env clips each wheel of the allocated demand at its limit
             constraints.append(casadi.vec(casadi.mtimes(casadi.DM(model.allocation), a)))
+        extra_p, extra_rows, extra_lb, extra_ub = self._path_constraints(y, a)
+        constraints.extend(extra_rows)
         nlp = {
             "x": casadi.vertcat(casadi.vec(a), casadi.vec(y)),
-            "p": casadi.vertcat(y0, target),
+            "p": casadi.vertcat(y0, target, extra_p),
             "f": objective,
             "g": casadi.vertcat(*constraints),
         }
@@ -162,8 +164,20 @@ class MPCPolicy:
         n_g = self._n_eq + (n * n_h if self._frame == "body" else 0)
         self._lbx = np.r_[-np.ones(n_a), np.full(self._n_y * (n_h + 1), -np.inf)]
         self._ubx = np.r_[np.ones(n_a), np.full(self._n_y * (n_h + 1), np.inf)]
-        self._lbg = np.r_[np.zeros(self._n_eq), -np.ones(n_g - self._n_eq)]
-        self._ubg = np.r_[np.zeros(self._n_eq), np.ones(n_g - self._n_eq)]
+        self._lbg = np.r_[np.zeros(self._n_eq), -np.ones(n_g - self._n_eq), extra_lb]
+        self._ubg = np.r_[np.zeros(self._n_eq), np.ones(n_g - self._n_eq), extra_ub]
+
+    def _path_constraints(self, y, a) -> tuple[Any, list, np.ndarray, np.ndarray]:
+        """Further rows of the NLP on the horizon's states ``y`` (n_y × (N+1), MX) and actions
+        ``a``: ``(p, rows, lb, ub)`` with ``p`` the MX parameters they use (appended to the NLP's
+        ``[y0, q_T]``; their values per step from :meth:`_parameter_values`), ``rows`` MX
+        column vectors (appended after the action-limit rows) and their bounds. None here; a
+        subclass adds state constraints (:mod:`baselines.mpc_constrained`)."""
+        return casadi.MX(0, 1), [], np.zeros(0), np.zeros(0)
+
+    def _parameter_values(self, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
+        """The values of :meth:`_path_constraints`' parameters for this step (none here)."""
+        return np.zeros(0)
 
     def _stage_dynamics(self, y, a, target):
         """``(y_next, costs)`` (MX) of the horizon's stages from their states ``y`` (n_y × N)
@@ -187,7 +201,7 @@ class MPCPolicy:
         t0 = time.perf_counter()
         sol = self._solver(
             x0=np.r_[a_guess.ravel(order="F"), y_guess.ravel(order="F")],
-            p=np.r_[y0, target],
+            p=np.r_[y0, target, self._parameter_values(obs, info)],
             lbx=self._lbx,
             ubx=self._ubx,
             lbg=self._lbg,
@@ -200,6 +214,9 @@ class MPCPolicy:
         y_opt = w[n_a:].reshape(self._n_y, -1, order="F")
         if self._solver.stats()["return_status"] not in SOLVED:
             self.failures += 1
+            held = self._failed_solve_action()
+            if held is not None:
+                return held
         if not np.all(np.isfinite(w)):
             self._guess = None
             return self._fallback_action(obs, info)
@@ -209,6 +226,11 @@ class MPCPolicy:
             np.column_stack([y_opt[:, 1:], y_opt[:, -1:]]),
         )
         return np.clip(a_opt[:, 0], -1.0, 1.0).astype(np.float32)
+
+    def _failed_solve_action(self) -> np.ndarray | None:
+        """The action of a step whose solve IPOPT did not finish, or None to use its iterate
+        (here: None)."""
+        return None
 
     def _fallback_action(self, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
         """The action when there is nothing to solve from or the solve diverged: the LQR's."""

@@ -15,6 +15,13 @@ mpc                 model-predictive control on each plant's nominal symbolic   
                     'attitude-envs[optimal]'``)
 mpc-ft              the gyrostat MPC with the IMM fault detector's actuator      fdi, horizon_steps, ...
                     model (``baselines.mpc_fault_tolerant``)
+mpc-constrained     the gyrostat MPC with ConstrainedSlew-v0's keep-out cones,   horizon_steps, ...
+                    body-rate and wheel-speed limits as path constraints
+                    (``baselines.mpc_constrained``; needs CasADi)
+eigenaxis           rate-limited eigenaxis slew (``baselines.cbf``;              rate_fraction, gains
+                    ConstrainedSlew-v0; blind to the cones)
+eigenaxis+cbf       that slew through a CBF safety-filter QP                     cone_gains, buffer_deg, ...
+                    (``baselines.cbf``; needs Clarabel)
 quaternion-lqr      quaternion LQR law of the feedback-linearization paper       Q, R, stiffness, saturation
 feedback-linearization  that paper's feedback linearization + LQR outer loop      Q, R, output, q4_min, ...
 linear-lqr          discrete LQR on a LinearSystem-v0 env's (A, B, Q, R)         —
@@ -91,6 +98,9 @@ POLICIES: dict[str, PolicyEntry] = {
         }
     ),
     "mpc-ft": PolicyEntry("baselines.mpc_fault_tolerant:FaultTolerantMPCPolicy", GYROSTATS),
+    "mpc-constrained": PolicyEntry("baselines.mpc_constrained:ConstrainedSlewMPCPolicy", ("ConstrainedSlew",)),
+    "eigenaxis": PolicyEntry("baselines.cbf:EigenaxisSlewPolicy", ("ConstrainedSlew",)),
+    "eigenaxis+cbf": PolicyEntry("baselines.cbf:CBFSafetyFilterPolicy", ("ConstrainedSlew",)),
     "quaternion-lqr": PolicyEntry("baselines.quaternion_lqr:QuaternionLQRPolicy", GYROSTATS),
     "feedback-linearization": PolicyEntry("baselines.feedback_linearization:FeedbackLinearizationPolicy", GYROSTATS),
     "linear-lqr": PolicyEntry("baselines.linear_lqr:LinearLQRPolicy", ("LinearSystem",)),

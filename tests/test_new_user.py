@@ -12,6 +12,7 @@ import gymnasium as gym
 import pytest
 
 import attitude_envs
+from attitude_envs.registration import CONSTRAINED_ENV_IDS
 from experiments import cli
 from experiments.policies import POLICIES, build_policy, check_policy_env, policies_for
 from experiments.seeds import parse_seeds
@@ -28,9 +29,10 @@ def _one_line_error(capsys, *names: str) -> str:
 
 
 def test_every_policy_declares_the_envs_it_applies_to():
+    names = {e.split("/")[1].split("-v")[0] for e in (*attitude_envs.ENV_IDS, *CONSTRAINED_ENV_IDS)}
     for entry in POLICIES.values():
         envs = entry.envs
-        assert envs is None or set(envs) <= {e.split("/")[1].split("-v")[0] for e in attitude_envs.ENV_IDS}
+        assert envs is None or set(envs) <= names
     assert policies_for("attitude_envs/LinearSystem-v0") == [
         "zero",
         "mpc",

@@ -42,6 +42,8 @@ __all__ = [
     "backoff",
     "FRICTION_SIGN_MARGIN_RAD_S",
     "build_constrained_slew",
+    "cone_row",
+    "limit_rows",
     "path_constraint",
     "with_friction_signs",
 ]
@@ -58,9 +60,10 @@ FLIGHT_BACKOFF = 1e-3
 FRICTION_SIGN_MARGIN_RAD_S = gyrostat.FRICTION_SIGN_MARGIN_RAD_S
 
 
-def _cos_angle(x, body_axis: np.ndarray, direction: np.ndarray):
+def _cos_angle(x, body_axis: np.ndarray, direction):
     """``d · (R(q) b)`` of the symbolic state ``x`` (q scalar last), the formula of
-    :func:`attitude_envs.quaternion.to_matrix`."""
+    :func:`attitude_envs.quaternion.to_matrix`; ``direction`` ``d`` numeric (3) or a symbolic
+    3-vector (a parameter of the NLP)."""
     qx, qy, qz, qw = x[0], x[1], x[2], x[3]
     rot = [
         [1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)],
@@ -68,8 +71,34 @@ def _cos_angle(x, body_axis: np.ndarray, direction: np.ndarray):
         [2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)],
     ]
     b = [float(v) for v in body_axis]
-    d = [float(v) for v in direction]
+    if isinstance(direction, (casadi.SX, casadi.MX)):
+        d = [direction[i] for i in range(3)]
+    else:  # plain floats: a numpy scalar times an SX would make a numpy object array
+        d = [float(v) for v in direction]
     return sum(d[i] * (rot[i][0] * b[0] + rot[i][1] * b[1] + rot[i][2] * b[2]) for i in range(3))
+
+
+def cone_row(x, body_axis: np.ndarray, direction, cos_half_angle, backoff: float = 0.0):
+    """One keep-out cone's row ``cos θ − cos α + backoff`` (``≤ 0``: outside the cone with the
+    back-off) of the symbolic state ``x`` (``[q, …]``, q scalar last): ``cos θ = d · (R(q) b)``
+    with ``b`` the (numeric) body boresight and ``d`` the inertial direction, numeric or a
+    symbolic 3-vector; ``cos_half_angle`` numeric or symbolic. An NLP whose cones change per
+    episode (:mod:`baselines.mpc_constrained`) passes ``d`` and ``cos α`` as parameters; an
+    unused slot with ``d = 0`` and ``cos α = 1`` is the constant ``backoff − 1``."""
+    return _cos_angle(x, body_axis, direction) - cos_half_angle + backoff
+
+
+def limit_rows(x, rate_limit_rad_s: float, speed_limit_rad_s: float, n_wheels: int, backoff: float = 0.0) -> list:
+    """The body-rate rows ``(±ω_k − L_ω) / L_ω + backoff`` (6: per axis and sign), then the
+    wheel-speed rows ``(±Ω_i − L_Ω) / L_Ω + backoff`` (2N: per wheel and sign) of the symbolic
+    state ``x = [q (4), ω (3), Ω (N), …]``, each ``≤ 0`` within its limit and the back-off."""
+    rate, speed = float(rate_limit_rad_s), float(speed_limit_rad_s)
+    rows = []
+    for k in range(3):
+        rows += [(x[4 + k] - rate) / rate + backoff, (-x[4 + k] - rate) / rate + backoff]
+    for i in range(n_wheels):
+        rows += [(x[7 + i] - speed) / speed + backoff, (-x[7 + i] - speed) / speed + backoff]
+    return rows
 
 
 def _n_wheels(env) -> int:
@@ -105,16 +134,10 @@ def backoff(env) -> float:
 
 def _rows(env, xs) -> list:
     """The appended rows (see the module), back-off included."""
-    n_w = _n_wheels(env)
     b = backoff(env)
-    rows = [_cos_angle(xs, c.body_axis, c.inertial_direction) - c.cos_half_angle + b for c in env.cones]
-    rate = float(env.body_rate_limit.limit_rad_s)
-    speed = float(env.wheel_speed_limit.limit_rad_s)
-    for k in range(3):
-        rows += [(xs[4 + k] - rate) / rate + b, (-xs[4 + k] - rate) / rate + b]
-    for i in range(n_w):
-        rows += [(xs[7 + i] - speed) / speed + b, (-xs[7 + i] - speed) / speed + b]
-    return rows
+    rows = [cone_row(xs, c.body_axis, c.inertial_direction, c.cos_half_angle, b) for c in env.cones]
+    limits = (env.body_rate_limit.limit_rad_s, env.wheel_speed_limit.limit_rad_s)
+    return rows + limit_rows(xs, *limits, _n_wheels(env), b)
 
 
 def _with_constraints(env, base: DiscreteProblem | None, fixed_signs: bool) -> DiscreteProblem | None:
