@@ -53,7 +53,7 @@ def _flight_episode(name: str):
     (given to the JAX reset): (numba outputs, JAX outputs, JAX env, reset state, state_from state)."""
     env_id, kwargs, seed, scale = CONFIGS[name]
     ne = numba_env(env_id, **kwargs)
-    env, params = gyrostat.from_env(ne)  # before the numba env's first reset
+    env, params = make(env_id, **kwargs)
     ne.reset(seed=seed)
     n_faults = N_FAULTS if kwargs.get("faults") else 0
     params = gyrostat.episode_params(ne, params, n_faults=n_faults)
@@ -290,7 +290,7 @@ def test_state_from_a_stepped_flight_env_refuses():
     """The numba chain's runtime state is not public: ``state_from`` takes a flight env with a
     delay or actuator dynamics only at its reset."""
     ne = numba_env("ReactionWheel-v1", conditions={"delay_steps": 1})
-    env, _ = gyrostat.from_env(ne)
+    env, _ = make("ReactionWheel-v1", conditions={"delay_steps": 1})
     ne.reset(seed=0)
     ne.step(np.zeros(4))
     with pytest.raises(ValueError, match="time=0"):

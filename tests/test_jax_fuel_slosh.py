@@ -45,6 +45,11 @@ def _campaign_faults() -> list[dict]:
     return faults
 
 
+def _pair(env_id: str, **kwargs):
+    """The numba env of ``env_id`` and the JAX plant and params ``make`` builds without it."""
+    return (numba_env(env_id, **kwargs), *make(env_id, **kwargs))
+
+
 def _wandering(rng: np.random.Generator, n: int, amplitude: float) -> np.ndarray:
     """Random actions whose sums stay bounded (differences of i.i.d. uniforms): they excite
     the slosh and pitch all episode without a random walk of Ω that would end it early."""
@@ -134,8 +139,7 @@ def _compare(ne, env, params, run, actions: np.ndarray, seed: int) -> dict:
 def v1_faults():
     """FuelSlosh-v1 with the campaign's thruster faults (from 50 s) and the fault flags."""
     with jax.enable_x64(True):
-        ne = numba_env("FuelSlosh-v1", faults=_campaign_faults(), fault_hint=True)
-        env, params = fuel_slosh.from_env(ne)
+        ne, env, params = _pair("FuelSlosh-v1", faults=_campaign_faults(), fault_hint=True)
         return ne, env, params, _rollout(env)
 
 
@@ -143,8 +147,7 @@ def v1_faults():
 def v0_env():
     """FuelSlosh-v0 (fixed start, ``termination_cost="hold"``), observing ``[v_z, θ, Ω, v_x]``."""
     with jax.enable_x64(True):
-        ne = numba_env("FuelSlosh-v0", observe_slosh=False)
-        env, params = fuel_slosh.from_env(ne)
+        ne, env, params = _pair("FuelSlosh-v0", observe_slosh=False)
         return ne, env, params, _rollout(env)
 
 
@@ -197,9 +200,10 @@ def test_v0_slosh_limit_hold_charge(v0_env):
     countering its pitch torque): charged ``(T − t)·xᵀQx``. Same static layout as the v0 env:
     its compiled rollout, other params (limits)."""
     _, env, _, run = v0_env
-    ne = numba_env("FuelSlosh-v0", observe_slosh=False, max_slosh_angle_deg=35.0, max_pitch_rate_rad_s=1.0)
     with jax.enable_x64(True):
-        env2, params = fuel_slosh.from_env(ne)
+        ne, env2, params = _pair(
+            "FuelSlosh-v0", observe_slosh=False, max_slosh_angle_deg=35.0, max_pitch_rate_rad_s=1.0
+        )
         assert (env2.n_substeps, env2.obs_index, env2.n_faults) == (env.n_substeps, env.obs_index, env.n_faults)
         actions = np.tile([-1.0, 0.5], (V0_STEPS, 1))
         res = _compare(ne, env, params, run, actions, seed=3)
@@ -214,8 +218,7 @@ def test_v0_slosh_limit_hold_charge(v0_env):
 @pytest.mark.parametrize(("duration", "dt"), [(0.7, 0.1), (0.3, 0.1), (1.0, 0.3)])
 def test_time_limit_matches_numba(duration, dt):
     """``max_steps_in_episode`` reproduces the numba env's test ``t >= T − 1e-9·Δt`` (s)."""
-    ne = numba_env("FuelSlosh-v0", episode_duration_s=duration, control_dt_s=dt)
-    _, params = fuel_slosh.from_env(ne)
+    ne, _, params = _pair("FuelSlosh-v0", episode_duration_s=duration, control_dt_s=dt)
     ne.reset(seed=0)
     steps = 1
     while not ne.step(np.zeros(2))[3]:
@@ -268,7 +271,8 @@ def test_vmap_over_keys_and_params(api_env):
     k0, k1, k2 = jax.random.split(jax.random.PRNGKey(2), 3)
     keys = jnp.stack([k0, k0, k1, k2])
     batch = jax.tree.map(lambda x: jnp.stack([x] * 4), params)
-    batch = batch.replace(thrust_n=jnp.array([2250.0, 1000.0, 2250.0, 1000.0], params.thrust_n.dtype))
+    thrust = jnp.array([2250.0, 1000.0, 2250.0, 1000.0], params.plant.thrust_n.dtype)
+    batch = batch.replace(plant=batch.plant.replace(thrust_n=thrust))
     obs, states = jax.vmap(env.reset)(keys, batch)
     assert obs.shape == (4, 8) and states.y.shape == (4, 10)
     # v1's random start: v_z, θ, ψ1, ψ2 within Table 4's magnitudes
@@ -309,3 +313,40 @@ def test_make_rejects_what_is_not_modeled():
         make("FuelSlosh-v0", faults=[sensor_fault])
     env, params = make("attitude_envs/FuelSlosh-v0")
     assert isinstance(env, fuel_slosh.FuelSloshEnv) and int(params.max_steps_in_episode) == 15000
+
+
+@pytest.mark.parametrize(
+    "env_id,kwargs",
+    [
+        ("FuelSlosh-v0", {}),
+        ("FuelSlosh-v1", {"faults": _campaign_faults(), "fault_hint": True}),
+        ("FuelSlosh-v0", {"preset": "navabi-fill-iii", "observe_slosh": False, "max_slosh_angle_deg": 35.0}),
+    ],
+)
+def test_standalone_params_are_the_numba_envs_numbers(env_id, kwargs):
+    """``make`` builds the params without a numba env: each leaf is the numba env's number,
+    exactly (x64); the static layout is the numba env's; the groups default to FuelSlosh-v0's."""
+    with jax.enable_x64(True):
+        ne, env, params = _pair(env_id, **kwargs)
+        p = ne.model.params
+        expected = [(getattr(params.plant, k), getattr(p, k)) for k in ("mass_kg", "slosh_mass_kg", "thrust_n", "d_m")]
+        expected += [
+            (params.plant.actuator_limits, ne.actuator_limits),
+            (params.timing.control_dt_s, ne.control_dt_s),
+            (params.timing.integrator_dt_s, ne.integrator_dt_s),
+            (params.cost.Q, ne.model.cost.Q),
+            (params.cost.R, ne.model.cost.R),
+            (params.cost.max_slosh_angle_rad, ne.max_slosh_angle_rad),
+            (params.cost.max_pitch_rate_rad_s, ne.max_pitch_rate_rad_s),
+            (params.cost.max_pitch_angle_rad, ne.max_pitch_angle_rad),
+            (params.cost.horizon_s, ne.episode_duration_s),
+            (params.start.initial_state, ne.initial_state),
+        ]
+        for got, want in expected:
+            assert got.dtype == jnp.float64
+            np.testing.assert_array_equal(got, want)
+        assert env.obs_index == tuple(ne.observation_index) and env.n_hint_flags == ne.n_hint_flags
+        np.testing.assert_array_equal(np.float32(env.observation_space(params).high), ne.observation_space.high)
+        default = fuel_slosh.EnvParams()
+        v0 = make("FuelSlosh-v0")[1]
+        assert jax.tree.all(jax.tree.map(np.array_equal, default, v0))

@@ -117,7 +117,7 @@ def _run_config(name: str):
     env_id, kwargs, seed, scale, bias, _ = CONFIGS[name]
     ne = numba_env(env_id, **kwargs)
     obs0, _ = ne.reset(seed=seed)
-    env, params = gyrostat.from_env(ne)
+    env, params = make(env_id, **kwargs)
     n_faults = N_FAULTS if kwargs.get("faults") else 0
     params = gyrostat.episode_params(ne, params, n_faults=n_faults)
     state = env.state_from(ne, n_faults=n_faults)
@@ -179,7 +179,7 @@ def test_gymnax_api_autoreset_and_vmap():
         assert bool(env.observation_space(params).contains(obs))
         action = env.action_space(params).sample(jax.random.PRNGKey(1))
         assert bool(env.action_space(params).contains(action))
-        inertia = np.asarray(params.inertia_kg_m2)
+        inertia = np.asarray(params.plant.inertia_kg_m2)
         inertias = jnp.asarray(np.stack([inertia] * (n // 2) + [2.0 * inertia] * (n // 2)))
         batch = jax.jit(jax.vmap(gyrostat.with_inertia, in_axes=(None, 0)))(params, inertias)
         keys = jax.random.split(jax.random.PRNGKey(2), n)
@@ -192,7 +192,7 @@ def test_gymnax_api_autoreset_and_vmap():
     assert (n_obs, env.num_actions, int(params.max_steps_in_episode)) == (6, 3, 40)
     assert obs.shape == (n_obs,) and obs.dtype == np.float64 and obs1.shape == (n, n_obs)
     assert int(state.time) == 0 and action.shape == (3,)
-    np.testing.assert_allclose(batch.inertia_eff_inv[0], params.inertia_eff_inv, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(batch.plant.inertia_eff_inv[0], params.plant.inertia_eff_inv, rtol=1e-12, atol=0)
     assert reward.shape == (n,) and info["cost"].shape == (n,)
     np.testing.assert_array_equal(reward, -info["cost"])
     assert not bool(terminated.any() | truncated.any()) and np.all(np.asarray(s1.time) == 1)
@@ -230,7 +230,7 @@ def test_faults_drawn_per_episode_follow_their_law_and_step_as_the_numba_env():
     n = 64
     with jax.enable_x64(True):
         ne = numba_env("AirBearing-v1", faults=RANDOM_OUTAGE)
-        env, params = gyrostat.from_env(ne)
+        env, params = make("AirBearing-v1", faults=RANDOM_OUTAGE)
         keys = jax.random.split(jax.random.PRNGKey(11), n)
         _, states = jax.jit(jax.vmap(env.reset_env, in_axes=(0, None)))(keys, params)
         # params padded to more entries: the drawn faults are padded to them (traced only)
@@ -254,7 +254,7 @@ def test_faults_drawn_per_episode_follow_their_law_and_step_as_the_numba_env():
         step_keys = jax.random.split(jax.random.PRNGKey(5), steps)
         out = [np.asarray(v) for v in _rollout(env, state, jnp.asarray(actions), step_keys, params)]
     assert env.redraw_faults and env.fault_configs == tuple(RANDOM_OUTAGE)
-    assert env != gyrostat.from_env(numba_env("AirBearing-v1"))[0]  # its own compiled reset
+    assert env != make("AirBearing-v1")[0]  # its own compiled reset
     # the law: one outage per episode, on a wheel in range, from an onset within [0, 10] s
     kind, idx, on = (np.asarray(a) for a in (states.faults.kind, states.faults.index, states.faults.onset))
     assert kind.shape == (n, 1) and np.all(kind == KIND_CODES["outage"])
@@ -291,8 +291,52 @@ def test_fixed_inertia_uncertainty_is_the_plants():
     """A fixed ``inertia_uncertainty`` is the true plant's inertia, in the params from the start."""
     with jax.enable_x64(True):
         true = np.diag([5.0, 4.5, 3.5])
-        ne = numba_env("ReactionWheel-v0", inertia_uncertainty={"kind": "fixed", "inertia_kg_m2": true})
-        _, params = gyrostat.from_env(ne)
+        uncertainty = {"kind": "fixed", "inertia_kg_m2": true}
+        ne = numba_env("ReactionWheel-v0", inertia_uncertainty=uncertainty)
+        _, params = make("ReactionWheel-v0", inertia_uncertainty=uncertainty)
         ne.reset(seed=0)
-    np.testing.assert_array_equal(params.inertia_kg_m2, true)
-    np.testing.assert_array_equal(params.inertia_eff_inv, np.asarray(ne.kernel_matrices[9:]).reshape(3, 3))
+    np.testing.assert_array_equal(params.plant.inertia_kg_m2, true)
+    np.testing.assert_array_equal(params.plant.inertia_eff_inv, np.asarray(ne.kernel_matrices[9:]).reshape(3, 3))
+
+
+@pytest.mark.parametrize(
+    ("env_id", "kwargs"),
+    [
+        ("ReactionWheel-v0", {}),
+        ("ReactionWheel-v0", {"preset": "pyramid-4wheel", "faults": TWO_WHEEL_FAILURE, "action_frame": "body"}),
+        ("AirBearing-v1", {"true_offset_torque_nm": [0.0, 0.001, 0.0]}),
+        ("ReactionWheel-v1", {"conditions": "flight"}),
+    ],
+)
+def test_standalone_params_are_the_numba_envs_numbers(env_id, kwargs):
+    """``make`` builds the params without a numba env: each leaf is the numba env's number,
+    exactly (x64); the groups default to ReactionWheel-v0's."""
+    with jax.enable_x64(True):
+        ne = numba_env(env_id, **kwargs)
+        env, params = make(env_id, **kwargs)
+        plant, law = ne.model.params, ne.reset_distribution
+        expected = [(getattr(params.plant, k), getattr(plant, k)) for k in ("wheel_axes", "max_wheel_torque_nm")]
+        expected += [
+            (params.plant.inertia_kg_m2, np.asarray(ne.kernel_matrices[:9]).reshape(3, 3)),
+            (params.plant.inertia_eff_inv, np.asarray(ne.kernel_matrices[9:]).reshape(3, 3)),
+            (params.plant.offset_torque_nm, ne.true_offset_torque_nm),
+            (params.timing.control_dt_s, ne.control_dt_s),
+            (params.timing.integrator_dt_s, ne.integrator_dt_s),
+            (params.timing.episode_duration_s, ne.episode_duration_s),
+            (params.cost.Q, ne.model.cost.Q),
+            (params.cost.R, ne.model.cost.R),
+            (params.cost.max_rate_rad_s, ne.max_rate_rad_s),
+            (params.start.initial_angle_deg, law["initial_angle_deg"]),
+            (params.start.target_angle_deg, law["target_angle_deg"]),
+            (params.start.initial_rate_max_rad_s, law["initial_rate_max_rad_s"]),
+        ]
+        for got, want in expected:
+            assert got.dtype == jnp.float64
+            np.testing.assert_array_equal(got, want)
+        assert env.n_substeps == ne.n_substeps and env.fault_configs == tuple(ne.fault_layer.configs)
+        assert (env.flight is None) == ne.conditions.is_lab
+        obs_high = np.asarray(env.observation_space(params).high, np.float32)
+        np.testing.assert_array_equal(obs_high, ne.observation_space.high)
+        default = gyrostat.EnvParams()
+        v0 = make("ReactionWheel-v0")[1]
+        assert jax.tree.all(jax.tree.map(np.array_equal, default, v0))

@@ -26,6 +26,11 @@ FAULTS = [
 ]
 
 
+def _pair(env_id: str, **kwargs):
+    """The numba env of ``env_id`` and the JAX plant and params ``make`` builds without it."""
+    return (numba_env(env_id, **kwargs), *make(env_id, **kwargs))
+
+
 def _rollout(env):
     """A jitted scan of ``env.step_env`` (no autoreset) over actions and keys: one compile."""
 
@@ -94,16 +99,14 @@ def test_v1_whole_episode_and_divergence_charge_match_numba():
     """LinearSystem-v1: an 80-decision episode (5 s exact holds of the 0.01 s model), then
     episodes with a divergence limit that the same program crosses (``"episode"`` charge)."""
     with jax.enable_x64(True):
-        ne = numba_env("LinearSystem-v1")
-        env, params = linear_system.from_env(ne)
+        ne, env, params = _pair("LinearSystem-v1")
         assert (env.decision_steps, int(params.max_steps_in_episode)) == (500, 80)
         actions = np.random.default_rng(1).uniform(-1.2, 1.2, (80, 3)).astype(np.float32)
         run = _rollout(env)
         end = _compare(ne, env, params, actions, seed=3, run=run)
         assert end["steps"] == 80 and end["truncated"]
         # the same statics with another divergence limit: a new EnvParams, the same program
-        ne_div = numba_env("LinearSystem-v1", divergence_threshold=1.0)
-        _, params_div = linear_system.from_env(ne_div)
+        ne_div, _, params_div = _pair("LinearSystem-v1", divergence_threshold=1.0)
         push = np.ones((80, 3), np.float32)
         end = _compare(ne_div, env, params_div, push, seed=4, run=run)
         assert end["terminated"] and 1 < end["steps"] < 80
@@ -111,8 +114,7 @@ def test_v1_whole_episode_and_divergence_charge_match_numba():
 
 def test_v1_actuator_faults_and_hint_match_numba():
     with jax.enable_x64(True):
-        ne = numba_env("LinearSystem-v1", faults=FAULTS, fault_hint=True)
-        env, params = linear_system.from_env(ne)
+        ne, env, params = _pair("LinearSystem-v1", faults=FAULTS, fault_hint=True)
         assert env.redraw_faults and env.n_faults == 5 and env.obs_size == 6 + 4
         actions = np.random.default_rng(2).uniform(-1, 1, (80, 3)).astype(np.float32)
         end = _compare(ne, env, params, actions, seed=5)
@@ -128,16 +130,14 @@ def test_v0_whole_episode_with_faults_and_hold_charge_match_numba():
         {"kind": "bias", "index": 0, "value": {"uniform": [0.5, 1.0]}, "onset_s": 0.2, "duration_s": 1.0},
     ]
     with jax.enable_x64(True):
-        ne = numba_env("LinearSystem-v0", faults=faults)
-        env, params = linear_system.from_env(ne)
+        ne, env, params = _pair("LinearSystem-v0", faults=faults)
         assert env.decision_steps == 1 and int(params.max_steps_in_episode) == 1000
         run = _rollout(env)
         actions = np.random.default_rng(6).uniform(-1, 1, (1000, 3)).astype(np.float32)
         end = _compare(ne, env, params, actions, seed=7, run=run)
         assert end["steps"] == 1000 and end["truncated"] and end["faulted"] > 300
 
-        ne_div = numba_env("LinearSystem-v0", faults=faults, divergence_threshold=0.7)
-        _, params_div = linear_system.from_env(ne_div)
+        ne_div, _, params_div = _pair("LinearSystem-v0", faults=faults, divergence_threshold=0.7)
         push = np.tile(np.float32([1.0, -1.0, 1.0]), (1000, 1))
         end = _compare(ne_div, env, params_div, push, seed=8, run=run)
         assert end["terminated"] and 10 < end["steps"] < 1000
@@ -147,15 +147,14 @@ def test_process_noise_fed_the_numba_draws_matches_and_keys_draw_the_same_law():
     """With process noise the k plant steps go one by one (``noisy_held_steps``): the JAX
     step fed the numba env's draws is the same trajectory; its own draws have the same law."""
     with jax.enable_x64(True):
-        ne = numba_env("LinearSystem-v0", process_noise_std=0.01, control_dt_s=0.05, episode_steps=100)
-        env, params = linear_system.from_env(ne)
+        ne, env, params = _pair("LinearSystem-v0", process_noise_std=0.01, control_dt_s=0.05, episode_steps=100)
         assert env.noisy and env.decision_steps == 5
         ne.reset(seed=9)
         draws = copy.deepcopy(ne.np_random)  # the env's own generator, replayed
         actions = np.random.default_rng(10).uniform(-1, 1, (20, 3)).astype(np.float32)
         noise = np.stack([0.01 * draws.normal(size=(5, 6)) for _ in actions])
         step = jax.jit(env.plant_step)
-        x, scale = jnp.asarray(ne.state), np.asarray(params.action_scale)
+        x, scale = jnp.asarray(ne.state), np.asarray(params.plant.action_scale)
         for a, w in zip(actions, noise, strict=True):
             _, reward, *_ = ne.step(a)
             x, cost = step(x, scale * a.astype(float), w, params)
@@ -166,7 +165,7 @@ def test_process_noise_fed_the_numba_draws_matches_and_keys_draw_the_same_law():
         zero = np.zeros(3)
         draw = jax.jit(lambda keys: jax.lax.map(lambda k: env.step_env(k, state, zero, params)[1].x, keys))
         x_next = draw(_keys(11, 4000))
-        A, A_k = np.asarray(params.A), np.asarray(params.A_k)
+        A, A_k = np.asarray(params.plant.A), np.asarray(params.hold.A_k)
         resid = np.asarray(x_next) - A_k @ np.asarray(state.x)
         cov = 0.01**2 * sum(np.linalg.matrix_power(A, i) @ np.linalg.matrix_power(A, i).T for i in range(5))
         np.testing.assert_allclose(resid.std(axis=0), np.sqrt(np.diag(cov)), rtol=0.06)
@@ -189,13 +188,13 @@ def test_gymnax_api_reset_step_autoreset_vmap_and_spaces():
     last = state2.replace(time=np.int32(int(params.max_steps_in_episode) - 1))
     obs3, state3, _, terminated, truncated, info = env.step(key, last, a, params)
     assert bool(truncated) and not bool(terminated) and int(state3.time) == 0
-    np.testing.assert_allclose(state3.x, params.x0_mean)  # v1's episodes start at the paper's state
-    np.testing.assert_allclose(obs3, params.x0_mean)
+    np.testing.assert_allclose(state3.x, params.start.x0_mean)  # v1's episodes start at the paper's state
+    np.testing.assert_allclose(obs3, params.start.x0_mean)
     expected = env.step(key, last.replace(time=np.int32(0)), a, params)[0]  # the same step, not the last
     np.testing.assert_allclose(info["final_observation"], expected, rtol=1e-6)
     assert not np.allclose(info["final_observation"], obs3)
     # a divergence terminates: autoreset too, the final observation is the diverged state
-    far = params.replace(divergence_threshold=np.float32(0.1))
+    far = params.replace(cost=params.cost.replace(divergence_threshold=np.float32(0.1)))
     _, state4, _, terminated, truncated, info = env.step(key, state, a, far)
     assert bool(terminated) and not bool(truncated) and int(state4.time) == 0
     assert np.abs(info["final_observation"]).max() > 0.1
@@ -210,8 +209,8 @@ def test_gymnax_api_reset_step_autoreset_vmap_and_spaces():
     # decision, so each autoresets and its new observation is a fresh draw of the numba env's
     # law x0 ~ N(x0_mean, diag(x0_std²)); the params alternate two action scales
     x0_std = np.float32([0.5, 2.0, 0.0, 1e-3, 1e-3, 1e-3])
-    wide = params.replace(x0_std=x0_std)
-    small = wide.replace(action_scale=np.asarray(params.action_scale) / 2)
+    wide = params.replace(start=params.start.replace(x0_std=x0_std))
+    small = wide.replace(plant=wide.plant.replace(action_scale=np.asarray(params.plant.action_scale) / 2))
     size = 4000
     batch = jax.tree.map(lambda u, v: np.stack([np.asarray(u), np.asarray(v)] * (size // 2)), wide, small)
     keys = _keys(0, size)
@@ -228,7 +227,7 @@ def test_gymnax_api_reset_step_autoreset_vmap_and_spaces():
     assert obs_b.shape == (size, 6) and rewards.shape == (size,) and bool(inside.all())
     assert bool(truncated.all()) and not terminated.any() and not np.asarray(states_b.time).any()
     x0 = np.asarray(obs_b, float)
-    np.testing.assert_allclose(x0.mean(0)[:3], np.asarray(params.x0_mean)[:3], atol=0.1)
+    np.testing.assert_allclose(x0.mean(0)[:3], np.asarray(params.start.x0_mean)[:3], atol=0.1)
     np.testing.assert_allclose(x0.std(0), x0_std, rtol=0.06, atol=1e-5)
     single = [env.step(keys[i], last, a, p)[2] for i, p in enumerate((wide, small))]
     np.testing.assert_allclose(rewards[:2], single, rtol=1e-6)
@@ -255,8 +254,7 @@ def test_faults_redrawn_per_episode_from_the_configs():
 def test_float32_fault_onset_switches_on_the_numba_step():
     """In float32 the product 20 · 0.01f rounds below 0.2f: the plant's decision time is
     the correctly rounded steps / 100, so a fault starting at 0.2 s acts from step 20 on."""
-    ne = numba_env("LinearSystem-v0", faults=[{"kind": "bias", "index": 0, "value": 0.5, "onset_s": 0.2}])
-    env, params = linear_system.from_env(ne)
+    ne, env, params = _pair("LinearSystem-v0", faults=[{"kind": "bias", "index": 0, "value": 0.5, "onset_s": 0.2}])
     ne.reset(seed=3)
     state, key = env.state_from(ne), _keys(3, 1)[0]
     step = jax.jit(env.step_env)
@@ -276,3 +274,46 @@ def test_float32_fault_onset_switches_on_the_numba_step():
 def test_make_names_what_is_not_modeled(kwargs, name):
     with pytest.raises(ValueError, match=name):
         make("LinearSystem-v0", **kwargs)
+
+
+@pytest.mark.parametrize(
+    "env_id,kwargs",
+    [
+        ("LinearSystem-v0", {}),
+        ("LinearSystem-v1", {"faults": FAULTS, "fault_hint": True}),
+        ("LinearSystem-v0", {"process_noise_std": 0.01, "control_dt_s": 0.05, "episode_steps": 100}),
+        ("LinearSystem-v0", {"A": [[1.0, 0.1], [0.0, 1.0]], "B": [[0.0], [0.1]], "x0_std": 0.5}),
+    ],
+)
+def test_standalone_params_are_the_numba_envs_numbers(env_id, kwargs):
+    """``make`` builds the params without a numba env: each leaf is the numba env's number,
+    exactly (x64); the observation bound is the numba env's; the groups default to
+    LinearSystem-v0's."""
+    with jax.enable_x64(True):
+        ne, env, params = _pair(env_id, **kwargs)
+        held, law = ne.decision_model, ne.reset_distribution
+        expected = [
+            (params.plant.A, ne.model.A),
+            (params.plant.B, ne.model.B),
+            (params.plant.dt_s, ne.model.dt_s),
+            (params.plant.action_scale, ne.action_scale),
+            (params.hold.A_k, held.A),
+            (params.hold.B_k, held.B),
+            (params.hold.Q_k, held.Q),
+            (params.hold.R_k, held.R),
+            (params.cost.Q, ne.cost.Q),
+            (params.cost.R, ne.cost.R),
+            (params.cost.divergence_threshold, ne.divergence_threshold),
+            (params.cost.horizon_steps, ne.episode_steps),
+            (params.start.x0_mean, law["x0_mean"]),
+            (params.start.x0_std, law["x0_std"]),
+            (params.disturbance.process_noise_std, ne.process_noise_std),
+            (params.max_steps_in_episode, ne.episode_steps // ne.decision_steps),
+        ]
+        for got, want in expected:
+            assert got.dtype in (jnp.float64, jnp.int32)
+            np.testing.assert_array_equal(got, want)
+        assert env.obs_bound == ne.observation_space.high[0] and env.n_faults == len(ne.fault_layer.configs)
+        default = linear_system.EnvParams()
+        v0 = make("LinearSystem-v0")[1]
+        assert jax.tree.all(jax.tree.map(np.array_equal, default, v0))

@@ -128,18 +128,7 @@ class AirBearingEnv(ReactionWheelEnv):
 
     def __init__(self, preset: str | None = None, initial_euler_max_deg=None, **kwargs: Any) -> None:
         super().__init__(preset, **kwargs)
-        if self.tilt_limit_deg is None:
-            raise ValueError("AirBearing-v0 needs tilt_limit_deg (the bearing's roll/pitch stop)")
-        if initial_euler_max_deg is None:
-            preset_value = presets.get(self.env_name, self.preset).values.get("initial_euler_max_deg")
-            initial_euler_max_deg = np.zeros(3) if preset_value is None else preset_value.value
-        euler_max = validation.finite_array("initial_euler_max_deg", initial_euler_max_deg, (3,))
-        if np.any(euler_max < 0) or np.any(euler_max[:2] >= self.tilt_limit_deg) or euler_max[2] > 180.0:
-            raise ValueError(
-                f"initial_euler_max_deg must be [roll, pitch] in [0, tilt_limit_deg) and yaw in [0, 180], "
-                f"got {euler_max.tolist()}"
-            )
-        self.initial_euler_max_deg = euler_max
+        self.initial_euler_max_deg = euler_max(self.env_name, self.preset, self.tilt_limit_deg, initial_euler_max_deg)
         self._random_start = self._initial_fixed is None
 
     def reset_episode(self, seed: int | None = None, options: dict[str, Any] | None = None) -> None:
@@ -163,3 +152,21 @@ class AirBearingEnv(ReactionWheelEnv):
         roll, pitch, yaw = euler_321_rad(self._y)
         info["truth"]["euler_321_deg"] = np.array([math.degrees(roll), math.degrees(pitch), math.degrees(yaw)])
         return info
+
+
+def euler_max(env_name: str, preset: str | None, tilt_limit_deg: float | None, initial_euler_max_deg) -> np.ndarray:
+    """The validated ``initial_euler_max_deg`` (deg, 3; None: ``preset``'s, else zeros) of an
+    air bearing with the roll/pitch stop ``tilt_limit_deg`` (required); the env and the JAX
+    plant (:mod:`attitude_envs.jax.gyrostat`) both take it from here."""
+    if tilt_limit_deg is None:
+        raise ValueError("AirBearing-v0 needs tilt_limit_deg (the bearing's roll/pitch stop)")
+    if initial_euler_max_deg is None:
+        preset_value = presets.get(env_name, preset).values.get("initial_euler_max_deg")
+        initial_euler_max_deg = np.zeros(3) if preset_value is None else preset_value.value
+    value = validation.finite_array("initial_euler_max_deg", initial_euler_max_deg, (3,))
+    if np.any(value < 0) or np.any(value[:2] >= tilt_limit_deg) or value[2] > 180.0:
+        raise ValueError(
+            f"initial_euler_max_deg must be [roll, pitch] in [0, tilt_limit_deg) and yaw in [0, 180], "
+            f"got {value.tolist()}"
+        )
+    return value

@@ -25,6 +25,7 @@ here and on each env (no private attribute of another object).
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import inspect
 from collections.abc import Mapping
@@ -65,6 +66,13 @@ def constructor_keywords(cls: type) -> frozenset[str]:
     return frozenset(names - {"self"})
 
 
+def keyword_defaults(cls: type) -> dict[str, Any]:
+    """The default of each keyword of ``cls.__init__`` (what ``cls(**kwargs)`` takes for a
+    keyword not passed)."""
+    params = inspect.signature(cls.__init__).parameters.values()
+    return {p.name: p.default for p in params if p.default is not inspect.Parameter.empty}
+
+
 def _checking_unknown_keywords(init):
     """``init`` that first rejects keyword arguments the env does not accept: a one-line
     ``ValueError`` naming the env id and the closest accepted name (also through plain
@@ -72,17 +80,23 @@ def _checking_unknown_keywords(init):
 
     @functools.wraps(init)
     def checked(self, *args: Any, **kwargs: Any) -> None:
-        accepted = constructor_keywords(type(self))
-        for key in kwargs:
-            if key not in accepted:
-                env_id = f"attitude_envs/{self.env_name}" if self.env_name else type(self).__name__
-                raise ValueError(
-                    f"bad keyword arguments for env {env_id!r}: it has no keyword argument {key!r}"
-                    f"{presets.suggest(key, accepted)} (accepted: {sorted(accepted)})"
-                )
+        check_keywords(type(self), kwargs)
         init(self, *args, **kwargs)
 
     return checked
+
+
+def check_keywords(cls: type, kwargs: Mapping[str, Any]) -> None:
+    """A one-line ``ValueError`` for the first of ``kwargs`` that ``cls(...)`` does not accept,
+    naming the env id and the closest accepted name."""
+    accepted = constructor_keywords(cls)
+    for key in kwargs:
+        if key not in accepted:
+            env_id = f"attitude_envs/{cls.env_name}" if cls.env_name else cls.__name__
+            raise ValueError(
+                f"bad keyword arguments for env {env_id!r}: it has no keyword argument {key!r}"
+                f"{presets.suggest(key, accepted)} (accepted: {sorted(accepted)})"
+            )
 
 
 # Why ``step`` may not simply go on (see :func:`_guarding_step`); None while an episode runs.
@@ -174,45 +188,23 @@ class AttitudeEnv(gym.Env):
         self.preset = preset
         return presets.resolve(self.env_name, preset, overrides, constructor_keywords(type(self)))
 
-    def _init_layers(
-        self,
-        *,
-        n_actuators: int,
-        actuator_limits,
-        channels: list[Channel],
-        faults: list[dict] | None,
-        sensors: dict | None,
-        fault_hint: bool,
-        disturbance: dict | None = None,
-        conditions=None,
-        control_dt_s: float | None = None,
-    ) -> None:
-        """Build the actuator-fault, sensor, disturbance and flight layers (validated here,
-        once). ``faults`` entries with ``"target": "sensor"`` go to the sensor layer.
-        ``conditions`` (:mod:`attitude_envs.conditions`) takes its flight values from
-        :func:`attitude_envs.presets.flight.table` of this env and preset; ``control_dt_s``
-        is the env's control period (s; needed by the delay and the actuator dynamics)."""
-        self.conditions = Conditions.from_config(conditions)
-        cond = self.conditions
-        table = None if cond.is_lab else self.flight_table
-        if table is not None and sensors is None and cond.sensors > 0:
-            sensors = table.sensor_config(cond.sensors)
-        self._fault_layer = ActuatorFaults(faults, n_actuators, actuator_limits, other_targets={"sensor"})
-        self._sensor_layer = SensorSuite(sensors, channels, faults)
-        self._actuator_chain = None
-        if cond.actuators or cond.delay_steps:
-            limits = np.broadcast_to(np.asarray(actuator_limits, dtype=float), (n_actuators,))
-            model = table.actuator_model(limits) if cond.actuators else None
-            self._actuator_chain = ActuatorChain(model, cond.delay_steps, control_dt_s)
+    def _init_layers(self, **kwargs: Any) -> None:
+        """Build and hold the env's layers: :func:`build_layers` of this env and preset."""
+        self._use_layers(build_layers(*self._flight_table_key(self.preset), **kwargs))
+
+    def _use_layers(self, layers: Layers) -> None:
+        """Hold ``layers`` (built by :func:`build_layers` for this env and preset)."""
+        self.conditions = layers.conditions
+        self._fault_layer = layers.fault_layer
+        self._sensor_layer = layers.sensor_layer
+        self._actuator_chain = layers.actuator_chain
         #: the relative scale-factor tolerance of each actuator drawn per episode (0: exact)
-        self._gain_tolerance = (
-            np.zeros(n_actuators) if cond.parameters == 0 else table.gain_tolerance_of(n_actuators) * cond.parameters
-        )
-        self._n_actuators = n_actuators
+        self._gain_tolerance = layers.gain_tolerance
+        self._n_actuators = layers.fault_layer.n
         #: this episode's drawn true parameters (empty in the lab; see :meth:`drawn_parameters`)
         self._drawn: dict[str, Any] = {}
-        self.fault_hint = validation.flag("fault_hint", fault_hint)
-        self._disturbance = None if disturbance is None else Disturbance(disturbance)
+        self.fault_hint = layers.fault_hint
+        self._disturbance = layers.disturbance
 
     @property
     def flight_table(self):
@@ -221,7 +213,13 @@ class AttitudeEnv(gym.Env):
         without one."""
         from attitude_envs.presets import flight
 
-        return flight.table(self.env_name, self.preset)
+        return flight.table(*self._flight_table_key(self.preset))
+
+    @classmethod
+    def _flight_table_key(cls, preset: str | None) -> tuple[str, str | None]:
+        """``(env name, preset)`` whose flight table (:mod:`attitude_envs.presets.flight`) the
+        env with ``preset`` takes: its own, unless an env shares another's plant."""
+        return cls.env_name, preset
 
     @property
     def fault_layer(self) -> ActuatorFaults:
@@ -421,3 +419,62 @@ class AttitudeEnv(gym.Env):
         if not self.conditions.is_lab:
             truth = dict(truth, drawn_parameters=self.drawn_parameters())
         return {TRUTH: truth, MEASURED: measured, "cost": cost, "time_s": time_s, **public}
+
+
+@dataclasses.dataclass(frozen=True)
+class Layers:
+    """An env's validated layers (:func:`build_layers`): its ``conditions``, actuator
+    ``fault_layer``, ``sensor_layer``, flight ``actuator_chain`` (None without a delay or
+    actuator dynamics), per-actuator ``gain_tolerance``, ``fault_hint`` and ``disturbance``."""
+
+    conditions: Conditions
+    fault_layer: ActuatorFaults
+    sensor_layer: SensorSuite
+    actuator_chain: ActuatorChain | None
+    gain_tolerance: np.ndarray
+    fault_hint: bool
+    disturbance: Disturbance | None
+
+
+def build_layers(
+    env_name: str,
+    preset: str | None,
+    *,
+    n_actuators: int,
+    actuator_limits,
+    channels: list[Channel],
+    faults: list[dict] | None,
+    sensors: dict | None,
+    fault_hint: bool,
+    disturbance: dict | None = None,
+    conditions=None,
+    control_dt_s: float | None = None,
+) -> Layers:
+    """The actuator-fault, sensor, disturbance and flight layers of env ``env_name`` with
+    ``preset`` (validated here, once). ``faults`` entries with ``"target": "sensor"`` go to
+    the sensor layer. ``conditions`` (:mod:`attitude_envs.conditions`) takes its flight values
+    from :func:`attitude_envs.presets.flight.table` of this env and preset; ``control_dt_s``
+    is the env's control period (s; needed by the delay and the actuator dynamics)."""
+    from attitude_envs.presets import flight
+
+    cond = Conditions.from_config(conditions)
+    table = None if cond.is_lab else flight.table(env_name, preset)
+    if table is not None and sensors is None and cond.sensors > 0:
+        sensors = table.sensor_config(cond.sensors)
+    fault_layer = ActuatorFaults(faults, n_actuators, actuator_limits, other_targets={"sensor"})
+    sensor_layer = SensorSuite(sensors, channels, faults)
+    chain = None
+    if cond.actuators or cond.delay_steps:
+        limits = np.broadcast_to(np.asarray(actuator_limits, dtype=float), (n_actuators,))
+        model = table.actuator_model(limits) if cond.actuators else None
+        chain = ActuatorChain(model, cond.delay_steps, control_dt_s)
+    gain = np.zeros(n_actuators) if cond.parameters == 0 else table.gain_tolerance_of(n_actuators) * cond.parameters
+    return Layers(
+        conditions=cond,
+        fault_layer=fault_layer,
+        sensor_layer=sensor_layer,
+        actuator_chain=chain,
+        gain_tolerance=gain,
+        fault_hint=validation.flag("fault_hint", fault_hint),
+        disturbance=None if disturbance is None else Disturbance(disturbance),
+    )

@@ -298,12 +298,10 @@ class ConstrainedSlewEnv(ReactionWheelEnv):
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
 
     # ------------------------------------------------------------------ public interface
-    @property
-    def flight_table(self):
+    @classmethod
+    def _flight_table_key(cls, preset: str | None) -> tuple[str, str | None]:
         """ReactionWheel-v0's flight table (the same plant and sensors)."""
-        from attitude_envs.presets import flight
-
-        return flight.table("ReactionWheel-v0", None)
+        return "ReactionWheel-v0", None
 
     @property
     def constraints(self) -> list[Constraint]:

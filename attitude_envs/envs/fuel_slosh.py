@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import warnings
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -14,7 +15,7 @@ from gymnasium import spaces
 from attitude_envs import presets, validation
 from attitude_envs.conditions import Conditions
 from attitude_envs.cost import QuadraticCost
-from attitude_envs.envs.base import AttitudeEnv
+from attitude_envs.envs.base import TERMINATION_COSTS, AttitudeEnv, constructor_keywords
 from attitude_envs.evaluation.success import FINAL_STATE_FRACTION
 from attitude_envs.integrators import substeps
 from attitude_envs.plants import slosh
@@ -219,39 +220,20 @@ class FuelSloshEnv(AttitudeEnv):
         conditions=None,
         render_mode: str | None = None,
     ) -> None:
-        if fill_preset is not None:
-            preset, fill_preset = _preset_of_fill(preset, fill_preset), None
-        cfg = self._configure(preset, locals())
-        missing = sorted(set(presets.get(ENV).values) - set(cfg))
-        if missing:
-            raise ValueError(f"{ENV} with preset=None needs {missing}; or pass a preset ({_preset_names()})")
-        params = cfg["params"]
-        if not isinstance(params, slosh.SloshParams):
-            raise ValueError(f"params must be a SloshParams, got {type(params).__name__}")
-        gimbal = validation.in_range("max_gimbal_deg", cfg["max_gimbal_deg"], 0.0, 90.0, open_low=True)
-        if render_mode is not None:
-            raise ValueError(f"render_mode must be None for {ENV}, got {render_mode!r}")
+        cfg = configure(locals())
+        self.preset = cfg.preset
         self.render_mode = None
-        self.control_dt_s = validation.positive("control_dt_s", cfg["control_dt_s"])
-        self.integrator_dt_s = validation.positive("integrator_dt_s", cfg["integrator_dt_s"])
-        self._substeps = substeps(self.control_dt_s, self.integrator_dt_s)
-        self.episode_duration_s = validation.positive("episode_duration_s", cfg["episode_duration_s"])
-        cost = QuadraticCost.build(cfg["Q"], cfg["R"], 7, 2)
-        self.model = FuelSloshModel(
-            params,
-            cost,
-            math.radians(gimbal),
-            validation.positive("max_moment_nm", cfg["max_moment_nm"]),
-            validation.in_range("design_v_x_m_s", cfg["design_v_x_m_s"]),
-            self.control_dt_s,
-        )
-        self._init_termination_cost(termination_cost, cost.Q, self.episode_duration_s)
-        self.observe_slosh = validation.flag("observe_slosh", observe_slosh)
-        self._initial = validation.finite_array("initial_state", cfg["initial_state"], (8,))
-        self.randomize_initial_state = validation.flag("randomize_initial_state", randomize_initial_state)
-        self.max_slosh_angle_rad = math.radians(validation.positive("max_slosh_angle_deg", cfg["max_slosh_angle_deg"]))
-        self.max_pitch_rate_rad_s = validation.positive("max_pitch_rate_rad_s", cfg["max_pitch_rate_rad_s"])
-        self.max_pitch_angle_rad = math.radians(validation.positive("max_pitch_angle_deg", cfg["max_pitch_angle_deg"]))
+        self.control_dt_s, self.integrator_dt_s = cfg.control_dt_s, cfg.integrator_dt_s
+        self._substeps = cfg.n_substeps
+        self.episode_duration_s = cfg.episode_duration_s
+        self.model = cfg.model
+        self._init_termination_cost(cfg.termination_cost, cfg.model.cost.Q, self.episode_duration_s)
+        self.observe_slosh = cfg.observe_slosh
+        self._initial = cfg.initial_state
+        self.randomize_initial_state = cfg.randomize_initial_state
+        self.max_slosh_angle_rad = cfg.max_slosh_angle_rad
+        self.max_pitch_rate_rad_s = cfg.max_pitch_rate_rad_s
+        self.max_pitch_angle_rad = cfg.max_pitch_angle_rad
         # Bounds: speeds stay below |v(0)| + a_x t ≤ 1e4 m/s on any sensible burn; angles and
         # rates within twice their termination limits; slosh rates within 50 rad/s.
         high = np.array([1e4, 2 * self.max_pitch_angle_rad, 2 * self.max_pitch_rate_rad_s])
@@ -259,7 +241,7 @@ class FuelSloshEnv(AttitudeEnv):
         high = np.concatenate([high, slosh_high, [1e4]]) if self.observe_slosh else np.append(high, 1e4)
         self._limits = _read_only(np.array([self.model.max_gimbal_rad, self.model.max_moment_nm]))
         obs_entries = np.arange(8) if self.observe_slosh else np.array([0, 1, 2, 7])
-        cond = Conditions.from_config(conditions)
+        cond = cfg.conditions
         #: observation entries the sensors do not measure (reported as 0): the slosh states
         #: under the flight sensors
         self._unmeasured = np.zeros(0, dtype=int)
@@ -524,3 +506,84 @@ def _preset_of_fill(preset: str | None, fill_preset: str) -> str:
     if preset not in (None, FuelSloshEnv.default_preset) and presets.get(ENV, preset).name != name:
         raise ValueError(f"pass preset or the deprecated fill_preset, not both (got {preset!r} and {fill_preset!r})")
     return name
+
+
+@dataclasses.dataclass(frozen=True)
+class FuelSloshConfig:
+    """The validated keywords of :class:`FuelSloshEnv` and what follows from them (the
+    nominal ``model``, the RK4 ``n_substeps`` per decision, the limits in rad);
+    ``faults``, ``sensors`` and ``fault_hint`` as given (the env's fault and sensor layers
+    validate them)."""
+
+    preset: str | None
+    model: FuelSloshModel
+    control_dt_s: float
+    integrator_dt_s: float
+    n_substeps: int
+    episode_duration_s: float
+    termination_cost: str
+    observe_slosh: bool
+    initial_state: np.ndarray
+    randomize_initial_state: bool
+    max_slosh_angle_rad: float
+    max_pitch_rate_rad_s: float
+    max_pitch_angle_rad: float
+    conditions: Conditions
+    faults: list[dict] | None
+    sensors: dict | None
+    fault_hint: bool
+
+
+def configure(given: Mapping[str, Any]) -> FuelSloshConfig:
+    """:class:`FuelSloshEnv`'s keywords ``given`` (every one: the constructor's ``locals()``)
+    resolved (preset, then the keywords given) and validated, with the same ``ValueError`` for
+    a bad one; the env and the JAX plant (:mod:`attitude_envs.jax.fuel_slosh`) are both built
+    from it."""
+    preset = given["preset"]
+    if given["fill_preset"] is not None:
+        preset = _preset_of_fill(preset, given["fill_preset"])
+    skip = ("self", "__class__", "preset", "render_mode", "fill_preset")
+    overrides = {k: v for k, v in given.items() if k not in skip}
+    cfg = presets.resolve(ENV, preset, overrides, constructor_keywords(FuelSloshEnv))
+    missing = sorted(set(presets.get(ENV).values) - set(cfg))
+    if missing:
+        raise ValueError(f"{ENV} with preset=None needs {missing}; or pass a preset ({_preset_names()})")
+    params = cfg["params"]
+    if not isinstance(params, slosh.SloshParams):
+        raise ValueError(f"params must be a SloshParams, got {type(params).__name__}")
+    gimbal = validation.in_range("max_gimbal_deg", cfg["max_gimbal_deg"], 0.0, 90.0, open_low=True)
+    if given["render_mode"] is not None:
+        raise ValueError(f"render_mode must be None for {ENV}, got {given['render_mode']!r}")
+    dt = validation.positive("control_dt_s", cfg["control_dt_s"])
+    h = validation.positive("integrator_dt_s", cfg["integrator_dt_s"])
+    n_sub = substeps(dt, h)
+    duration = validation.positive("episode_duration_s", cfg["episode_duration_s"])
+    cost = QuadraticCost.build(cfg["Q"], cfg["R"], 7, 2)
+    model = FuelSloshModel(
+        params,
+        cost,
+        math.radians(gimbal),
+        validation.positive("max_moment_nm", cfg["max_moment_nm"]),
+        validation.in_range("design_v_x_m_s", cfg["design_v_x_m_s"]),
+        dt,
+    )
+    mode = validation.choice("termination_cost", given["termination_cost"], TERMINATION_COSTS)
+    return FuelSloshConfig(
+        preset=preset,
+        model=model,
+        control_dt_s=dt,
+        integrator_dt_s=h,
+        n_substeps=n_sub,
+        episode_duration_s=duration,
+        termination_cost=mode,
+        observe_slosh=validation.flag("observe_slosh", given["observe_slosh"]),
+        initial_state=validation.finite_array("initial_state", cfg["initial_state"], (8,)),
+        randomize_initial_state=validation.flag("randomize_initial_state", given["randomize_initial_state"]),
+        max_slosh_angle_rad=math.radians(validation.positive("max_slosh_angle_deg", cfg["max_slosh_angle_deg"])),
+        max_pitch_rate_rad_s=validation.positive("max_pitch_rate_rad_s", cfg["max_pitch_rate_rad_s"]),
+        max_pitch_angle_rad=math.radians(validation.positive("max_pitch_angle_deg", cfg["max_pitch_angle_deg"])),
+        conditions=Conditions.from_config(given["conditions"]),
+        faults=given["faults"],
+        sensors=given["sensors"],
+        fault_hint=given["fault_hint"],
+    )

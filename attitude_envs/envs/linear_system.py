@@ -3,15 +3,17 @@ against the Riccati solution."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from gymnasium import spaces
 
-from attitude_envs import validation
+from attitude_envs import presets, validation
 from attitude_envs.conditions import Conditions
 from attitude_envs.cost import QuadraticCost
-from attitude_envs.envs.base import AttitudeEnv
+from attitude_envs.envs.base import TERMINATION_COSTS, AttitudeEnv, constructor_keywords
 from attitude_envs.evaluation.success import FINAL_STATE_FRACTION
 from attitude_envs.linearization import LinearModel
 from attitude_envs.plants import linear_hold, linear_kernels
@@ -203,59 +205,26 @@ class LinearSystemEnv(AttitudeEnv):
         conditions=None,
         render_mode: str | None = None,
     ) -> None:
-        if preset is DEFAULT_PRESET:  # a user's own system takes no preset values
-            preset = None if (A is not None or B is not None) else self.default_preset
-        cfg = self._configure(preset, locals())
-        for key in ("A", "B"):
-            if key not in cfg:
-                raise ValueError(f"{key} is required when preset is None")
-        a_mat = validation.finite_array("A", cfg["A"])
-        if a_mat.ndim != 2 or a_mat.shape[0] != a_mat.shape[1] or a_mat.shape[0] == 0:
-            raise ValueError(f"A must be a square n x n matrix, got shape {a_mat.shape}")
-        n = a_mat.shape[0]
-        b_mat = validation.finite_array("B", cfg["B"])
-        if b_mat.ndim != 2 or b_mat.shape[0] != n or b_mat.shape[1] == 0:
-            raise ValueError(f"B must be an n x m matrix with n = {n}, got shape {b_mat.shape}")
-        m = b_mat.shape[1]
-        cost = QuadraticCost.build(cfg.get("Q", np.eye(n)), cfg.get("R", np.eye(m)), n, m)
-        dt = validation.positive("dt_s", cfg.get("dt_s", 1.0))
-        self.model = LinearModel(a_mat, b_mat, cost.Q, cost.R, np.zeros((n, m)), dt)
-        #: the stage cost (Q, R) of the reward
-        self.cost = cost
-        self._x0_mean = validation.finite_array("x0_mean", cfg.get("x0_mean", np.zeros(n)), (n,))
-        std = validation.finite_array("x0_std", cfg.get("x0_std", 1.0))
-        self._x0_std = (
-            np.broadcast_to(std, (n,)).copy() if std.ndim == 0 else validation.finite_array("x0_std", std, (n,))
-        )
-        if np.any(self._x0_std < 0):
-            raise ValueError(f"x0_std must be >= 0, got {self._x0_std.tolist()}")
+        cfg = configure(locals())
+        self.preset = cfg.preset
+        self.model, self.cost, self.decision_model = cfg.model, cfg.cost, cfg.decision_model
+        self._x0_mean, self._x0_std = cfg.x0_mean, cfg.x0_std
         #: standard deviation of the process noise w per state entry
-        self.process_noise_std = validation.nonnegative("process_noise_std", process_noise_std)
-        scale = validation.finite_array("action_scale", cfg.get("action_scale", 1.0))
+        self.process_noise_std = cfg.process_noise_std
         #: physical input of a unit action, per input (m)
-        self.action_scale = np.broadcast_to(scale, (m,)).copy() if scale.ndim == 0 else scale
-        if self.action_scale.shape != (m,) or np.any(self.action_scale <= 0):
-            raise ValueError(f"action_scale must be > 0, a scalar or length {m}, got {scale.tolist()}")
+        self.action_scale = cfg.action_scale
         #: the decision period (s), k = ``decision_steps`` plant steps of ``dt_s``
-        self.control_dt_s = dt if cfg.get("control_dt_s") is None else decision_period(cfg["control_dt_s"], dt)
+        self.control_dt_s = cfg.control_dt_s
         #: plant steps per env step, k = control_dt_s / dt_s (the input is held over them)
-        self.decision_steps = round(self.control_dt_s / dt)
-        #: the model of the decision period (input held over k plant steps; ``model`` when k = 1)
-        self.decision_model = linear_hold.hold_model(self.model, self.decision_steps)
-        self.episode_steps = validation.integer("episode_steps", episode_steps, 1)
-        if self.episode_steps % self.decision_steps:
-            raise ValueError(
-                f"episode_steps must be a multiple of the plant steps per decision k = control_dt_s / dt_s = "
-                f"{self.control_dt_s:g} / {dt:g} = {self.decision_steps}, got episode_steps={self.episode_steps}"
-            )
-        self.divergence_threshold = validation.positive("divergence_threshold", divergence_threshold)
-        self._init_termination_cost(termination_cost, cost.Q, self.episode_steps)
-        if render_mode is not None:
-            raise ValueError(f"render_mode must be None for {ENV}, got {render_mode!r}")
+        self.decision_steps = cfg.decision_steps
+        self.episode_steps = cfg.episode_steps
+        self.divergence_threshold = cfg.divergence_threshold
+        self._init_termination_cost(cfg.termination_cost, cfg.cost.Q, self.episode_steps)
         self.render_mode = None
-        cond = Conditions.from_config(conditions)
-        if sensors is None and cond.sensors > 0:  # the flight sensors, scaled to this plant's state
-            sensors = {"state": state_sensor_config(self.state_scale, cond.sensors)}
+        n, m = cfg.model.n, cfg.model.m
+        sensors = cfg.sensors
+        if sensors is None and cfg.conditions.sensors > 0:  # the flight sensors, scaled to this plant's state
+            sensors = {"state": state_sensor_config(self.state_scale, cfg.conditions.sensors)}
         self._init_layers(
             n_actuators=m,
             actuator_limits=self.action_scale,
@@ -263,24 +232,10 @@ class LinearSystemEnv(AttitudeEnv):
             faults=faults,
             sensors=sensors,
             fault_hint=fault_hint,
-            conditions=cond,
+            conditions=cfg.conditions,
             control_dt_s=self.control_dt_s,
         )
-        # |x⁺|∞ <= ‖A‖∞ |x|∞ + ‖B‖∞ |u|∞ (+ noise, 10σ margin) while |x|∞ <= divergence_threshold;
-        # over k held steps A_k = Aᵏ, B_k and the noise Σ_{i<k} Aⁱ w_{k−1−i}.
-        held = self.decision_model
-        noise_gain = 1.0
-        if self.decision_steps > 1 and self.process_noise_std > 0:
-            noise_gain, power = 0.0, np.eye(n)
-            for _ in range(self.decision_steps):  # construction only: Σ_{i<k} ‖Aⁱ‖∞
-                noise_gain += float(np.linalg.norm(power, np.inf))
-                power = a_mat @ power
-        bound = (
-            self.divergence_threshold * max(1.0, np.linalg.norm(held.A, np.inf))
-            + np.linalg.norm(held.B, np.inf) * float(np.max(self.action_scale))
-            + 10.0 * self.process_noise_std * noise_gain
-        )
-        low, high = self._hint_bounds(np.full(n, -bound), np.full(n, bound))
+        low, high = self._hint_bounds(np.full(n, -cfg.obs_bound), np.full(n, cfg.obs_bound))
         self.observation_space = spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(m,), dtype=np.float32)
         self._x = self._x0_mean.copy()
@@ -407,3 +362,113 @@ def decision_period(control_dt_s: float, dt_s: float) -> float:
             f"{2 * dt_s:g}, {3 * dt_s:g}, ...), got {control_dt_s!r}"
         )
     return value
+
+
+@dataclass(frozen=True)
+class LinearSystemConfig:
+    """The validated keywords of :class:`LinearSystemEnv` and what follows from them (the
+    plant step ``model``, its stage ``cost``, the decision period's ``decision_model``, the
+    observation bound ``obs_bound``); ``faults``, ``sensors`` and ``fault_hint`` as given
+    (the env's fault and sensor layers validate them)."""
+
+    preset: str | None
+    model: LinearModel
+    cost: QuadraticCost
+    x0_mean: np.ndarray
+    x0_std: np.ndarray
+    process_noise_std: float
+    action_scale: np.ndarray
+    control_dt_s: float
+    decision_steps: int
+    decision_model: LinearModel
+    episode_steps: int
+    divergence_threshold: float
+    termination_cost: str
+    conditions: Conditions
+    faults: list[dict] | None
+    sensors: dict | None
+    fault_hint: bool
+    obs_bound: float
+
+
+def configure(given: Mapping[str, Any]) -> LinearSystemConfig:
+    """:class:`LinearSystemEnv`'s keywords ``given`` (every one: the constructor's
+    ``locals()``) resolved (preset, then the keywords given) and validated, with the same
+    ``ValueError`` for a bad one; the env and the JAX plant (:mod:`attitude_envs.jax.linear_system`)
+    are both built from it."""
+    preset = given["preset"]
+    if preset is DEFAULT_PRESET:  # a user's own system takes no preset values
+        own = given["A"] is not None or given["B"] is not None
+        preset = None if own else LinearSystemEnv.default_preset
+    overrides = {k: v for k, v in given.items() if k not in ("self", "__class__", "preset", "render_mode")}
+    cfg = presets.resolve(ENV, preset, overrides, constructor_keywords(LinearSystemEnv))
+    for key in ("A", "B"):
+        if key not in cfg:
+            raise ValueError(f"{key} is required when preset is None")
+    a_mat = validation.finite_array("A", cfg["A"])
+    if a_mat.ndim != 2 or a_mat.shape[0] != a_mat.shape[1] or a_mat.shape[0] == 0:
+        raise ValueError(f"A must be a square n x n matrix, got shape {a_mat.shape}")
+    n = a_mat.shape[0]
+    b_mat = validation.finite_array("B", cfg["B"])
+    if b_mat.ndim != 2 or b_mat.shape[0] != n or b_mat.shape[1] == 0:
+        raise ValueError(f"B must be an n x m matrix with n = {n}, got shape {b_mat.shape}")
+    m = b_mat.shape[1]
+    cost = QuadraticCost.build(cfg.get("Q", np.eye(n)), cfg.get("R", np.eye(m)), n, m)
+    dt = validation.positive("dt_s", cfg.get("dt_s", 1.0))
+    model = LinearModel(a_mat, b_mat, cost.Q, cost.R, np.zeros((n, m)), dt)
+    x0_mean = validation.finite_array("x0_mean", cfg.get("x0_mean", np.zeros(n)), (n,))
+    std = validation.finite_array("x0_std", cfg.get("x0_std", 1.0))
+    x0_std = np.broadcast_to(std, (n,)).copy() if std.ndim == 0 else validation.finite_array("x0_std", std, (n,))
+    if np.any(x0_std < 0):
+        raise ValueError(f"x0_std must be >= 0, got {x0_std.tolist()}")
+    noise_std = validation.nonnegative("process_noise_std", given["process_noise_std"])
+    scale = validation.finite_array("action_scale", cfg.get("action_scale", 1.0))
+    action_scale = np.broadcast_to(scale, (m,)).copy() if scale.ndim == 0 else scale
+    if action_scale.shape != (m,) or np.any(action_scale <= 0):
+        raise ValueError(f"action_scale must be > 0, a scalar or length {m}, got {scale.tolist()}")
+    period = dt if cfg.get("control_dt_s") is None else decision_period(cfg["control_dt_s"], dt)
+    k = round(period / dt)
+    held = linear_hold.hold_model(model, k)
+    steps = validation.integer("episode_steps", given["episode_steps"], 1)
+    if steps % k:
+        raise ValueError(
+            f"episode_steps must be a multiple of the plant steps per decision k = control_dt_s / dt_s = "
+            f"{period:g} / {dt:g} = {k}, got episode_steps={steps}"
+        )
+    threshold = validation.positive("divergence_threshold", given["divergence_threshold"])
+    mode = validation.choice("termination_cost", given["termination_cost"], TERMINATION_COSTS)
+    if given["render_mode"] is not None:
+        raise ValueError(f"render_mode must be None for {ENV}, got {given['render_mode']!r}")
+    # |x⁺|∞ <= ‖A‖∞ |x|∞ + ‖B‖∞ |u|∞ (+ noise, 10σ margin) while |x|∞ <= divergence_threshold;
+    # over k held steps A_k = Aᵏ, B_k and the noise Σ_{i<k} Aⁱ w_{k−1−i}.
+    noise_gain = 1.0
+    if k > 1 and noise_std > 0:
+        noise_gain, power = 0.0, np.eye(n)
+        for _ in range(k):  # construction only: Σ_{i<k} ‖Aⁱ‖∞
+            noise_gain += float(np.linalg.norm(power, np.inf))
+            power = a_mat @ power
+    bound = (
+        threshold * max(1.0, np.linalg.norm(held.A, np.inf))
+        + np.linalg.norm(held.B, np.inf) * float(np.max(action_scale))
+        + 10.0 * noise_std * noise_gain
+    )
+    return LinearSystemConfig(
+        preset=preset,
+        model=model,
+        cost=cost,
+        x0_mean=x0_mean,
+        x0_std=x0_std,
+        process_noise_std=noise_std,
+        action_scale=action_scale,
+        control_dt_s=period,
+        decision_steps=k,
+        decision_model=held,
+        episode_steps=steps,
+        divergence_threshold=threshold,
+        termination_cost=mode,
+        conditions=Conditions.from_config(given["conditions"]),
+        faults=given["faults"],
+        sensors=given["sensors"],
+        fault_hint=given["fault_hint"],
+        obs_bound=bound,
+    )

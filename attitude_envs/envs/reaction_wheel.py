@@ -4,20 +4,23 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Mapping
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from attitude_envs import quaternion, validation
+from attitude_envs import presets, quaternion, validation
+from attitude_envs.conditions import Conditions
 from attitude_envs.cost import QuadraticCost
-from attitude_envs.envs.base import AttitudeEnv
+from attitude_envs.envs.base import TERMINATION_COSTS, AttitudeEnv, Layers, build_layers, constructor_keywords
 from attitude_envs.evaluation.success import FINAL_ERROR_DEG
 from attitude_envs.integrators import substeps
 from attitude_envs.plants import gyrostat
 from attitude_envs.plants import gyrostat_kernels as kernels
 from attitude_envs.plants.gyrostat_model import ReactionWheelModel
+from attitude_envs.presets import flight
 from attitude_envs.sensors import Channel
 from attitude_envs.uncertainty import InertiaUncertainty
 
@@ -290,86 +293,29 @@ class ReactionWheelEnv(AttitudeEnv):
         conditions=None,
         render_mode: str | None = None,
     ) -> None:
-        cfg = _DEFAULTS | self._configure(self.default_preset if preset is None else preset, locals())
-        missing = [k for k in _REQUIRED if cfg.get(k) is None]
-        if missing:
-            raise ValueError(f"{self.env_name} preset {self.preset!r} sets no {missing[0]!r}; pass {missing[0]}=...")
-        for key in ("control_dt_s", "integrator_dt_s"):  # checked before _divides reads them
-            cfg[key] = validation.positive(key, cfg[key])
-        if (
-            control_dt_s is not None
-            and integrator_dt_s is None
-            and not _divides(cfg["control_dt_s"], cfg["integrator_dt_s"])
-        ):
-            cfg["integrator_dt_s"] = cfg["control_dt_s"]  # the preset's sub-step does not fit: one sub-step
-
-        params = gyrostat.GyrostatParams(
-            cfg["inertia_kg_m2"],
-            cfg["wheel_axes"],
-            cfg["wheel_inertia_kg_m2"],
-            cfg["max_wheel_torque_nm"],
-            cfg["max_wheel_speed_rad_s"],
-            cfg.get("offset_torque_nm"),
-        )
-        self.control_dt_s = validation.positive("control_dt_s", cfg["control_dt_s"])
-        self.integrator_dt_s = validation.positive("integrator_dt_s", cfg["integrator_dt_s"])
-        self._substeps = substeps(self.control_dt_s, self.integrator_dt_s)
-        self.episode_duration_s = validation.positive("episode_duration_s", cfg["episode_duration_s"])
-        cost_in = validation.choice("cost_input", cfg["cost_input"], {"body", "wheel"})
-        wmw = validation.nonnegative("wheel_momentum_weight", cfg["wheel_momentum_weight"])
-        n_w = params.n_wheels
-        include_h = wmw > 0
-        n_x = 6 + (n_w if include_h else 0)
-        m_c = 3 if cost_in == "body" else n_w
-        q_mat = validation.psd_matrix("Q", cfg["Q"], 6) if not include_h else None
-        if include_h:
-            q6 = validation.psd_matrix("Q", cfg["Q"], 6)
-            q_mat = np.zeros((n_x, n_x))
-            q_mat[:6, :6] = q6
-            q_mat[6:, 6:] = wmw * np.eye(n_w)
-        cost = QuadraticCost(q_mat, validation.psd_matrix("R", cfg["R"], m_c, definite=True))
-        self.model = ReactionWheelModel(params, cost, cost_in, include_h, self.control_dt_s)
-
-        self._target_fixed = _optional_quaternion("target_attitude", cfg.get("target_attitude"))
-        self._initial_fixed = _optional_quaternion("initial_attitude", cfg.get("initial_attitude"))
-        self._target_angle = validation.in_range("target_angle_deg", cfg["target_angle_deg"], 0.0, 180.0)
-        self._initial_angle = validation.in_range("initial_angle_deg", cfg["initial_angle_deg"], 0.0, 180.0)
-        rate = cfg.get("initial_rate_rad_s")
-        self._rate_fixed = None if rate is None else validation.finite_array("initial_rate_rad_s", rate, (3,))
-        self._rate_max = validation.nonnegative("initial_rate_max_rad_s", cfg["initial_rate_max_rad_s"])
-        tilt = cfg.get("tilt_limit_deg")  # None: no stop
-        if tilt is not None:
-            tilt = validation.in_range("tilt_limit_deg", tilt, 0.0, 90.0, open_low=True, open_high=True)
+        cfg = configure(type(self), preset, locals())
+        self.preset = cfg.preset
+        params = cfg.model.params
+        self.control_dt_s, self.integrator_dt_s = cfg.control_dt_s, cfg.integrator_dt_s
+        self._substeps = cfg.n_substeps
+        self.episode_duration_s = cfg.episode_duration_s
+        self.model = cfg.model
+        cost, n_w, include_h = cfg.model.cost, params.n_wheels, cfg.model.include_wheel_momentum
+        n_x = cost.Q.shape[0]
+        self._target_fixed, self._initial_fixed = cfg.target_attitude, cfg.initial_attitude
+        self._target_angle, self._initial_angle = cfg.target_angle_deg, cfg.initial_angle_deg
+        self._rate_fixed, self._rate_max = cfg.initial_rate_rad_s, cfg.initial_rate_max_rad_s
         #: roll/pitch stop (deg) that ends the episode, or None
-        self.tilt_limit_deg = tilt
-        self._tilt_limit_rad = np.inf if tilt is None else math.radians(self.tilt_limit_deg)
-        self._uncertainty = InertiaUncertainty.from_config(cfg.get("inertia_uncertainty"))
-        channels = [
-            Channel("gyro", 3, units="rad/s"),
-            Channel("star_tracker", 4, "attitude", "rad"),
-            Channel("tachometer", n_w, units="rad/s"),
-        ]
-        self._init_layers(
-            n_actuators=n_w,
-            actuator_limits=params.max_wheel_torque_nm,
-            channels=channels,
-            faults=cfg.get("faults"),
-            sensors=cfg.get("sensors"),
-            fault_hint=cfg["fault_hint"],
-            disturbance=cfg.get("disturbance"),
-            conditions=cfg.get("conditions"),
-            control_dt_s=self.control_dt_s,
-        )
-        self._flight_plant = self._flight_plant_tolerances()
-        self._init_termination_cost(cfg["termination_cost"], cost.Q, self.episode_duration_s)
+        self.tilt_limit_deg = cfg.tilt_limit_deg
+        self._tilt_limit_rad = np.inf if cfg.tilt_limit_deg is None else math.radians(cfg.tilt_limit_deg)
+        self._uncertainty = cfg.inertia_uncertainty
+        self._use_layers(cfg.layers)
+        self._flight_plant = cfg.flight_tolerances
+        self._init_termination_cost(cfg.termination_cost, cost.Q, self.episode_duration_s)
         self._meas: dict[str, np.ndarray] = {}
-        self.max_rate_rad_s = validation.positive("max_rate_rad_s", cfg["max_rate_rad_s"])
-        self.observe_wheel_speeds = validation.flag("observe_wheel_speeds", cfg["observe_wheel_speeds"])
-        if self.observe_wheel_speeds and not np.isfinite(params.max_wheel_speed_rad_s):
-            raise ValueError("observe_wheel_speeds needs a finite max_wheel_speed_rad_s to normalize by")
-        if render_mode is not None:
-            validation.choice("render_mode", render_mode, set(self.metadata["render_modes"]))
-        self.render_mode = render_mode
+        self.max_rate_rad_s = cfg.max_rate_rad_s
+        self.observe_wheel_speeds = cfg.observe_wheel_speeds
+        self.render_mode = cfg.render_mode
 
         # Observation bounds: |q_e,vec| <= 1; rates within 2 × max_rate_rad_s (the episode
         # terminates beyond max_rate_rad_s); wheel momentum within 1.5 × J_s Ω_max.
@@ -382,17 +328,13 @@ class ReactionWheelEnv(AttitudeEnv):
             obs_high = np.concatenate([obs_high, np.full(n_w, 1.5)])
         obs_low, obs_high = self._hint_bounds(-obs_high, obs_high)
         self.observation_space = spaces.Box(obs_low.astype(np.float32), obs_high.astype(np.float32), dtype=np.float32)
-        self.action_frame = validation.choice("action_frame", cfg["action_frame"], {"wheel", "body"})
+        self.action_frame = cfg.action_frame
         # body frame: a normalized body-torque demand, allocated like the analytic baselines do
         # (minimum-norm u = −A⁺T, then each wheel clipped at its limit)
         self._action_map = self.model.allocation * params.max_wheel_torque_nm if self.action_frame == "body" else None
         self.action_space = spaces.Box(-1.0, 1.0, shape=(3 if self._action_map is not None else n_w,), dtype=np.float32)
-
-        true_offset = cfg.get("true_offset_torque_nm")
-        if true_offset is not None:
-            true_offset = validation.finite_array("true_offset_torque_nm", true_offset, (3,))
         # the true plant: the nominal one but for the offset torque (and a drawn inertia, at reset)
-        self._true_params = params if true_offset is None else dataclasses.replace(params, offset_torque_nm=true_offset)
+        self._true_params = cfg.true_params
         self._plant = self._true_params
         # State, target and outputs as one-column struct-of-arrays views for the compiled
         # step (the batched env's kernel with one lane; updated in place).
@@ -556,28 +498,6 @@ class ReactionWheelEnv(AttitudeEnv):
         self._step_count[0] = 0
         # the sensor layer spawns its own generator: rng's stream is unchanged
         self._reset_layers(rng, options, flight_rng)
-
-    def _flight_plant_tolerances(self) -> dict[str, float] | None:
-        """The flight conditions' plant tolerances times ``conditions["parameters"]``
-        (None when no parameter is drawn): inertia moments (relative) and principal axes
-        (deg), wheel misalignment (deg) and, on an air bearing, the offset torque (N·m per
-        axis)."""
-        scale = self.conditions.parameters
-        if scale == 0:
-            return None
-        table = self.flight_table
-        tol = {
-            k: table.plant_value(k) * scale for k in ("inertia_moment", "inertia_axis_deg", "wheel_misalignment_deg")
-        }
-        if tol["inertia_moment"] >= 0.9:
-            raise ValueError(
-                f"conditions['parameters'] = {scale:g} scales the inertia tolerance to "
-                f"{tol['inertia_moment']:.0%}; it must stay below 90 % (parameters < "
-                f"{0.9 / table.plant_value('inertia_moment'):.3g})"
-            )
-        if "offset_torque_nm" in table.plant:
-            tol["offset_torque_nm"] = table.plant_value("offset_torque_nm") * scale
-        return tol
 
     def _draw_flight_plant(self, rng: np.random.Generator) -> None:
         """This episode's true plant within the flight tolerances (from the flight generator):
@@ -823,3 +743,173 @@ def _divides(control_dt_s: float, integrator_dt_s: float) -> bool:
 
 def _optional_quaternion(name: str, value) -> np.ndarray | None:
     return None if value is None else validation.unit_quaternion(name, value)
+
+
+@dataclasses.dataclass(frozen=True)
+class GyrostatConfig:
+    """The validated keywords of a :class:`ReactionWheelEnv` (or an
+    :class:`~attitude_envs.envs.air_bearing.AirBearingEnv` but its ``initial_euler_max_deg``)
+    and what follows from them: the nominal ``model``, the RK4 ``n_substeps``, the start and
+    target laws, the env's ``layers`` (:func:`~attitude_envs.envs.base.build_layers`), the
+    flight conditions' plant ``flight_tolerances`` (None: none drawn) and the ``true_params``
+    (the nominal plant with ``true_offset_torque_nm``)."""
+
+    preset: str | None
+    model: ReactionWheelModel
+    control_dt_s: float
+    integrator_dt_s: float
+    n_substeps: int
+    episode_duration_s: float
+    target_attitude: np.ndarray | None
+    initial_attitude: np.ndarray | None
+    target_angle_deg: float
+    initial_angle_deg: float
+    initial_rate_rad_s: np.ndarray | None
+    initial_rate_max_rad_s: float
+    tilt_limit_deg: float | None
+    inertia_uncertainty: InertiaUncertainty | None
+    layers: Layers
+    flight_tolerances: dict[str, float] | None
+    termination_cost: str
+    max_rate_rad_s: float
+    observe_wheel_speeds: bool
+    render_mode: str | None
+    action_frame: str
+    true_params: gyrostat.GyrostatParams
+
+
+def configure(cls: type[ReactionWheelEnv], preset: str | None, given: Mapping[str, Any]) -> GyrostatConfig:
+    """The keywords ``given`` (the constructor's ``locals()``, or the keywords passed; absent
+    ones None) of env class ``cls`` resolved (``preset``, None: the class's default, then every
+    keyword that is not None over the env's defaults) and validated, with the same
+    ``ValueError`` for a bad one; the env and the JAX plant (:mod:`attitude_envs.jax.gyrostat`)
+    are both built from it."""
+    preset = cls.default_preset if preset is None else preset
+    skip = ("self", "__class__", "preset", "render_mode")
+    overrides = {k: v for k, v in given.items() if k not in skip}
+    cfg = _DEFAULTS | presets.resolve(cls.env_name, preset, overrides, constructor_keywords(cls))
+    missing = [k for k in _REQUIRED if cfg.get(k) is None]
+    if missing:
+        raise ValueError(f"{cls.env_name} preset {preset!r} sets no {missing[0]!r}; pass {missing[0]}=...")
+    for key in ("control_dt_s", "integrator_dt_s"):  # checked before _divides reads them
+        cfg[key] = validation.positive(key, cfg[key])
+    if (
+        given.get("control_dt_s") is not None
+        and given.get("integrator_dt_s") is None
+        and not _divides(cfg["control_dt_s"], cfg["integrator_dt_s"])
+    ):
+        cfg["integrator_dt_s"] = cfg["control_dt_s"]  # the preset's sub-step does not fit: one sub-step
+
+    params = gyrostat.GyrostatParams(
+        cfg["inertia_kg_m2"],
+        cfg["wheel_axes"],
+        cfg["wheel_inertia_kg_m2"],
+        cfg["max_wheel_torque_nm"],
+        cfg["max_wheel_speed_rad_s"],
+        cfg.get("offset_torque_nm"),
+    )
+    control_dt = validation.positive("control_dt_s", cfg["control_dt_s"])
+    integrator_dt = validation.positive("integrator_dt_s", cfg["integrator_dt_s"])
+    n_sub = substeps(control_dt, integrator_dt)
+    duration = validation.positive("episode_duration_s", cfg["episode_duration_s"])
+    cost_in = validation.choice("cost_input", cfg["cost_input"], {"body", "wheel"})
+    wmw = validation.nonnegative("wheel_momentum_weight", cfg["wheel_momentum_weight"])
+    n_w = params.n_wheels
+    include_h = wmw > 0
+    n_x = 6 + (n_w if include_h else 0)
+    m_c = 3 if cost_in == "body" else n_w
+    q_mat = validation.psd_matrix("Q", cfg["Q"], 6) if not include_h else None
+    if include_h:
+        q6 = validation.psd_matrix("Q", cfg["Q"], 6)
+        q_mat = np.zeros((n_x, n_x))
+        q_mat[:6, :6] = q6
+        q_mat[6:, 6:] = wmw * np.eye(n_w)
+    cost = QuadraticCost(q_mat, validation.psd_matrix("R", cfg["R"], m_c, definite=True))
+    model = ReactionWheelModel(params, cost, cost_in, include_h, control_dt)
+
+    target = _optional_quaternion("target_attitude", cfg.get("target_attitude"))
+    initial = _optional_quaternion("initial_attitude", cfg.get("initial_attitude"))
+    target_angle = validation.in_range("target_angle_deg", cfg["target_angle_deg"], 0.0, 180.0)
+    initial_angle = validation.in_range("initial_angle_deg", cfg["initial_angle_deg"], 0.0, 180.0)
+    rate = cfg.get("initial_rate_rad_s")
+    rate = None if rate is None else validation.finite_array("initial_rate_rad_s", rate, (3,))
+    rate_max = validation.nonnegative("initial_rate_max_rad_s", cfg["initial_rate_max_rad_s"])
+    tilt = cfg.get("tilt_limit_deg")  # None: no stop
+    if tilt is not None:
+        tilt = validation.in_range("tilt_limit_deg", tilt, 0.0, 90.0, open_low=True, open_high=True)
+    uncertainty = InertiaUncertainty.from_config(cfg.get("inertia_uncertainty"))
+    channels = [
+        Channel("gyro", 3, units="rad/s"),
+        Channel("star_tracker", 4, "attitude", "rad"),
+        Channel("tachometer", n_w, units="rad/s"),
+    ]
+    layers = build_layers(
+        *cls._flight_table_key(preset),
+        n_actuators=n_w,
+        actuator_limits=params.max_wheel_torque_nm,
+        channels=channels,
+        faults=cfg.get("faults"),
+        sensors=cfg.get("sensors"),
+        fault_hint=cfg["fault_hint"],
+        disturbance=cfg.get("disturbance"),
+        conditions=cfg.get("conditions"),
+        control_dt_s=control_dt,
+    )
+    tolerances = _flight_tolerances(layers.conditions, *cls._flight_table_key(preset))
+    mode = validation.choice("termination_cost", cfg["termination_cost"], TERMINATION_COSTS)
+    max_rate = validation.positive("max_rate_rad_s", cfg["max_rate_rad_s"])
+    observe_speeds = validation.flag("observe_wheel_speeds", cfg["observe_wheel_speeds"])
+    if observe_speeds and not np.isfinite(params.max_wheel_speed_rad_s):
+        raise ValueError("observe_wheel_speeds needs a finite max_wheel_speed_rad_s to normalize by")
+    render_mode = given.get("render_mode")
+    if render_mode is not None:
+        validation.choice("render_mode", render_mode, set(cls.metadata["render_modes"]))
+    frame = validation.choice("action_frame", cfg["action_frame"], {"wheel", "body"})
+    true_offset = cfg.get("true_offset_torque_nm")
+    if true_offset is not None:
+        true_offset = validation.finite_array("true_offset_torque_nm", true_offset, (3,))
+    return GyrostatConfig(
+        preset=preset,
+        model=model,
+        control_dt_s=control_dt,
+        integrator_dt_s=integrator_dt,
+        n_substeps=n_sub,
+        episode_duration_s=duration,
+        target_attitude=target,
+        initial_attitude=initial,
+        target_angle_deg=target_angle,
+        initial_angle_deg=initial_angle,
+        initial_rate_rad_s=rate,
+        initial_rate_max_rad_s=rate_max,
+        tilt_limit_deg=tilt,
+        inertia_uncertainty=uncertainty,
+        layers=layers,
+        flight_tolerances=tolerances,
+        termination_cost=mode,
+        max_rate_rad_s=max_rate,
+        observe_wheel_speeds=observe_speeds,
+        render_mode=render_mode,
+        action_frame=frame,
+        true_params=params if true_offset is None else dataclasses.replace(params, offset_torque_nm=true_offset),
+    )
+
+
+def _flight_tolerances(conditions: Conditions, env_name: str, preset: str | None) -> dict[str, float] | None:
+    """The flight conditions' plant tolerances times ``conditions["parameters"]``
+    (None when no parameter is drawn): inertia moments (relative) and principal axes
+    (deg), wheel misalignment (deg) and, on an air bearing, the offset torque (N·m per
+    axis), from :func:`attitude_envs.presets.flight.table` of ``env_name`` and ``preset``."""
+    scale = conditions.parameters
+    if scale == 0:
+        return None
+    table = flight.table(env_name, preset)
+    tol = {k: table.plant_value(k) * scale for k in ("inertia_moment", "inertia_axis_deg", "wheel_misalignment_deg")}
+    if tol["inertia_moment"] >= 0.9:
+        raise ValueError(
+            f"conditions['parameters'] = {scale:g} scales the inertia tolerance to "
+            f"{tol['inertia_moment']:.0%}; it must stay below 90 % (parameters < "
+            f"{0.9 / table.plant_value('inertia_moment'):.3g})"
+        )
+    if "offset_torque_nm" in table.plant:
+        tol["offset_torque_nm"] = table.plant_value("offset_torque_nm") * scale
+    return tol

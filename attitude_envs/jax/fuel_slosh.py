@@ -29,13 +29,14 @@ rad/s; :mod:`attitude_envs.plants.slosh`); reduced (error) state
 Modeled: every keyword of the numba env (``preset``/``params``, limits, periods, ``Q``,
 ``R``, ``observe_slosh``, ``initial_state``, ``randomize_initial_state``, the termination
 limits and ``termination_cost``, actuator ``faults`` with per-episode draws, ``fault_hint``)
-except ``sensors`` and sensor-target faults, for which :func:`from_env` raises a
+except ``sensors`` and sensor-target faults, for which :func:`from_keywords` raises a
 ``ValueError`` naming them. ``design_v_x_m_s`` only sets the nominal linear model
 (``numba_env.model``), not the step.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any
 
@@ -44,11 +45,13 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
+from attitude_envs.envs.base import check_keywords, keyword_defaults
+from attitude_envs.envs.fuel_slosh import OBS_INDEX, OBS_INDEX_NO_SLOSH, FuelSloshConfig, configure
 from attitude_envs.envs.fuel_slosh import FuelSloshEnv as NumbaFuelSloshEnv
-from attitude_envs.integrators import substeps
 from attitude_envs.jax import cost as jcost
 from attitude_envs.jax import faults as jfaults
 from attitude_envs.jax.environment import Environment
+from attitude_envs.jax.make import lab_layers
 from attitude_envs.jax.ops import JAX
 from attitude_envs.jax.spaces import Box
 from attitude_envs.plants import slosh
@@ -77,32 +80,26 @@ class EnvState:
     fault_state: jfaults.FaultState
 
 
-@struct.dataclass
-class EnvParams:
-    """Every number of the plant and the task (a pytree: ``jax.vmap`` over it randomizes
-    plants, faults and tasks).
+@functools.cache
+def _default_config() -> FuelSloshConfig:
+    """The default preset's configuration (FuelSlosh-v0's), the groups' defaults."""
+    return configure(keyword_defaults(NumbaFuelSloshEnv))
 
-    * the plant (Navabi & Davoodi, Table 3; :class:`attitude_envs.plants.slosh.SloshParams`):
-      ``mass_kg``, ``inertia_kg_m2`` (vehicle), ``fuel_mass_kg``, ``fuel_inertia_kg_m2``
-      (rigid fuel), ``slosh_mass_kg`` (2), ``slosh_inertia_kg_m2`` (2), ``hinge_m`` (2,
-      a_i), ``length_m`` (2, l_i), ``fuel_offset_m`` (a0), ``b_m``, ``d_m`` (m),
-      ``thrust_n`` (N), ``damping_kg_m2_s`` (2, ε_i);
-    * ``actuator_limits`` (2): ``[max gimbal (rad), max moment (N·m)]``, the scale of a unit
-      action and the actuators' own limits;
-    * ``control_dt_s`` (s, the decision period), ``integrator_dt_s`` (s, the RK4 sub-step;
-      the env's static ``n_substeps`` times it must be ``control_dt_s``);
-    * ``Q`` (7×7) on ``x``, ``R`` (2×2) on ``[a_z, Ω̇]`` (the paper's eqs. 30–31 by default);
-    * ``max_slosh_angle_rad``, ``max_pitch_rate_rad_s``, ``max_pitch_angle_rad``: the
-      termination limits on |ψ_i|, |Ω|, |θ|;
-    * ``termination_mode`` (:func:`attitude_envs.jax.cost.mode_code`), ``horizon_s`` (s, the
-      charge's horizon T: ``episode_duration_s``);
-    * the start: ``initial_state`` (8, ``[v_x, v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2]`` m/s, rad, rad/s),
-      ``initial_random`` (8, bool) and ``initial_half_width`` (8): entry k is drawn
-      ``U(−w_k, w_k)`` where ``initial_random[k]``, else fixed;
-    * ``faults``: the actuator faults of every episode (an env with ``redraw_faults`` draws
-      each episode's from its fault configs instead, as the numba env does);
-    * ``max_steps_in_episode``: the time limit in decisions.
-    """
+
+def _default(group: str) -> Any:
+    """A field whose default is ``group`` of the default preset's params (arrays made when
+    a params object is, in the dtype then in force)."""
+    return struct.field(default_factory=lambda: getattr(params_of(_default_config()), group))
+
+
+@struct.dataclass
+class PlantParams:
+    """The plant (Navabi & Davoodi, Table 3; :class:`attitude_envs.plants.slosh.SloshParams`):
+    ``mass_kg``, ``inertia_kg_m2`` (vehicle), ``fuel_mass_kg``, ``fuel_inertia_kg_m2`` (rigid
+    fuel), ``slosh_mass_kg`` (2), ``slosh_inertia_kg_m2`` (2), ``hinge_m`` (2, a_i),
+    ``length_m`` (2, l_i), ``fuel_offset_m`` (a0), ``b_m``, ``d_m`` (m), ``thrust_n`` (N),
+    ``damping_kg_m2_s`` (2, ε_i); and ``actuator_limits`` (2): ``[max gimbal (rad), max
+    moment (N·m)]``, the scale of a unit action and the actuators' own limits."""
 
     mass_kg: jax.Array
     inertia_kg_m2: jax.Array
@@ -118,8 +115,25 @@ class EnvParams:
     thrust_n: jax.Array
     damping_kg_m2_s: jax.Array
     actuator_limits: jax.Array
+
+
+@struct.dataclass
+class TimingParams:
+    """``control_dt_s`` (s, the decision period) and ``integrator_dt_s`` (s, the RK4 sub-step;
+    the env's static ``n_substeps`` times it must be ``control_dt_s``)."""
+
     control_dt_s: jax.Array
     integrator_dt_s: jax.Array
+
+
+@struct.dataclass
+class CostParams:
+    """``Q`` (7×7) on ``x``, ``R`` (2×2) on ``[a_z, Ω̇]`` (the paper's eqs. 30–31 by default);
+    the termination limits ``max_slosh_angle_rad``, ``max_pitch_rate_rad_s``,
+    ``max_pitch_angle_rad`` on |ψ_i|, |Ω|, |θ|; ``termination_mode``
+    (:func:`attitude_envs.jax.cost.mode_code`) and ``horizon_s`` (s, the charge's horizon T:
+    ``episode_duration_s``)."""
+
     Q: jax.Array
     R: jax.Array
     max_slosh_angle_rad: jax.Array
@@ -127,11 +141,34 @@ class EnvParams:
     max_pitch_angle_rad: jax.Array
     termination_mode: jax.Array
     horizon_s: jax.Array
+
+
+@struct.dataclass
+class StartParams:
+    """The start: ``initial_state`` (8, ``[v_x, v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2]`` m/s, rad,
+    rad/s), ``initial_random`` (8, bool) and ``initial_half_width`` (8): entry k is drawn
+    ``U(−w_k, w_k)`` where ``initial_random[k]``, else fixed."""
+
     initial_state: jax.Array
     initial_random: jax.Array
     initial_half_width: jax.Array
-    faults: jfaults.FaultParams
-    max_steps_in_episode: jax.Array
+
+
+@struct.dataclass
+class EnvParams:
+    """Every number of the plant and the task (a pytree: ``jax.vmap`` over it randomizes
+    plants, faults and tasks), in groups that default to the default preset's
+    (FuelSlosh-v0's): ``plant``, ``timing``, ``cost`` (with the limits and the termination
+    charge), ``start``, ``faults`` (the actuator faults of every episode; an env with
+    ``redraw_faults`` draws each episode's from its fault configs instead, as the numba env
+    does) and ``max_steps_in_episode`` (the time limit in decisions)."""
+
+    plant: PlantParams = _default("plant")
+    timing: TimingParams = _default("timing")
+    cost: CostParams = _default("cost")
+    start: StartParams = _default("start")
+    faults: jfaults.FaultParams = struct.field(default_factory=jfaults.no_faults)
+    max_steps_in_episode: jax.Array = _default("max_steps_in_episode")
 
 
 def _take(v: jax.Array, index: tuple[int, ...]) -> jax.Array:
@@ -143,7 +180,7 @@ def _take(v: jax.Array, index: tuple[int, ...]) -> jax.Array:
 def plant_constants(params: EnvParams) -> jax.Array:
     """The packed constants (:mod:`attitude_envs.plants.slosh_definition`, ``P_*``) of the
     physical parameters, as :class:`~attitude_envs.plants.slosh.SloshParams` derives them."""
-    return jnp.stack(_PLANT.packed_constants(params))
+    return jnp.stack(_PLANT.packed_constants(params.plant))
 
 
 def derivative(pk: jax.Array, y: jax.Array, sin_d: jax.Array, cos_d: jax.Array, moment: jax.Array) -> jax.Array:
@@ -163,15 +200,15 @@ def control_step(
     y: jax.Array, inputs: jax.Array, params: EnvParams, n_substeps: int
 ) -> tuple[jax.Array, jax.Array, jax.Array]:
     """Advance the full state ``y`` over ``n_substeps`` classical RK4 sub-steps of
-    ``params.integrator_dt_s`` s with ``inputs = [δ (rad), M_c (N·m)]`` held
+    ``params.timing.integrator_dt_s`` s with ``inputs = [δ (rad), M_c (N·m)]`` held
     (:func:`attitude_envs.plants.slosh_kernels.control_step`): ``(y⁺, cost, new_inputs)``,
     the step cost ∫(xᵀQx + u_cᵀRu_c) dt and the step means of ``[a_z, Ω̇]`` (m/s², rad/s²)."""
     pk = plant_constants(params)
-    h = params.integrator_dt_s
+    h = params.timing.integrator_dt_s
     sin_d, cos_d, moment = jnp.sin(inputs[0]), jnp.cos(inputs[0]), inputs[1]
 
     def f(a):
-        return _augmented(pk, a, sin_d, cos_d, moment, params.Q, params.R)
+        return _augmented(pk, a, sin_d, cos_d, moment, params.cost.Q, params.cost.R)
 
     # classical RK4, its four stages as a loop (one copy of the derivative in the compiled
     # program: half the compile time of the unrolled stages): stage i evaluates at
@@ -192,7 +229,7 @@ def control_step(
 
     aug = jnp.concatenate([y, jnp.zeros(3, y.dtype)])
     aug = jax.lax.fori_loop(0, n_substeps, substep, aug)
-    return aug[:10], aug[10], aug[11:13] / params.control_dt_s
+    return aug[:10], aug[10], aug[11:13] / params.timing.control_dt_s
 
 
 class FuelSloshEnv(Environment):
@@ -257,9 +294,9 @@ class FuelSloshEnv(Environment):
         clipping, after clipping and faults), ``new_inputs`` (step-mean ``[a_z m/s², Ω̇
         rad/s²]``)."""
         dtype = state.y.dtype
-        t_s = state.time * params.control_dt_s
+        t_s = state.time * params.timing.control_dt_s
         a = jnp.asarray(action, dtype)
-        limits = params.actuator_limits
+        limits = params.plant.actuator_limits
         commanded = a * limits
         applied = jnp.clip(a, -1.0, 1.0) * limits
         if self.n_faults:
@@ -268,13 +305,14 @@ class FuelSloshEnv(Environment):
             fault_state = state.fault_state
         y, cost, new_inputs = control_step(state.y, applied, params, self.n_substeps)
         time = state.time + 1
-        t_next = time * params.control_dt_s
+        t_next = time * params.timing.control_dt_s
         finite = jnp.isfinite(cost) & jnp.all(jnp.isfinite(y)) & jnp.all(jnp.isfinite(new_inputs))
-        rows = _PLANT.limit_rows(y, params.max_slosh_angle_rad, params.max_pitch_rate_rad_s, params.max_pitch_angle_rad)
+        c = params.cost
+        rows = _PLANT.limit_rows(y, c.max_slosh_angle_rad, c.max_pitch_rate_rad_s, c.max_pitch_angle_rad)
         crossed = jnp.any(jnp.stack(rows) > 0.0)
         terminated = ~finite | crossed
         x = _take(y, _REDUCED)
-        charge = jcost.termination_charge(params.termination_mode, x, params.Q, params.horizon_s, t_next)
+        charge = jcost.termination_charge(c.termination_mode, x, c.Q, c.horizon_s, t_next)
         cost = jnp.where(terminated & finite, cost + charge, cost)
         obs = self._observe(y, state.faults, t_next)
         obs = jnp.where(finite, obs, jnp.zeros_like(obs))
@@ -294,10 +332,11 @@ class FuelSloshEnv(Environment):
         faults (``params.faults``, or drawn from the fault configs with ``redraw_faults``)
         and their initial runtime state."""
         key_init, key_faults, key_state = jax.random.split(key, 3)
-        dtype = params.initial_state.dtype
-        w = params.initial_half_width
+        start = params.start
+        dtype = start.initial_state.dtype
+        w = start.initial_half_width
         drawn = jax.random.uniform(key_init, (8,), dtype, minval=-w, maxval=w)
-        init = jnp.where(params.initial_random, drawn, params.initial_state)
+        init = jnp.where(start.initial_random, drawn, start.initial_state)
         entries = [jnp.zeros((), dtype)] * slosh.N_STATE
         for j, i in enumerate(INITIAL_ORDER):
             entries[i] = init[j]
@@ -321,7 +360,7 @@ class FuelSloshEnv(Environment):
     def observation_space(self, params: EnvParams | None = None) -> Box:
         """The numba env's bounds: speeds ±1e4 m/s, θ and Ω within twice their termination
         limits, ψ_i within twice theirs, ψ̇_i ±50 rad/s; the hint flags in [0, 1]."""
-        p = self.default_params if params is None else params
+        p = (self.default_params if params is None else params).cost
         bound = {
             slosh.IVZ: 1e4,
             slosh.IVX: 1e4,
@@ -365,72 +404,61 @@ def episode_steps(episode_duration_s: float, control_dt_s: float) -> int:
     return n
 
 
-def from_env(numba_env: Any) -> tuple[FuelSloshEnv, EnvParams]:
-    """The JAX plant and its ``EnvParams`` of a numba
-    :class:`~attitude_envs.envs.fuel_slosh.FuelSloshEnv` (unwrapped, as built). A
-    ``ValueError`` names what the JAX plant does not model (``sensors``, sensor faults)."""
-    if not isinstance(numba_env, NumbaFuelSloshEnv):
-        raise ValueError(
-            f"FuelSlosh JAX plant: from_env needs an unwrapped FuelSloshEnv, got {type(numba_env).__name__}"
-        )
-    sensors = numba_env.sensor_layer
-    if sensors.config:
-        raise ValueError("FuelSlosh JAX plant: keyword 'sensors' is not modeled (the state is observed exactly)")
-    if sensors.fault_configs:
-        raise ValueError("FuelSlosh JAX plant: 'faults' with target 'sensor' are not modeled (actuator faults only)")
-    p = numba_env.model.params
-    configs = tuple(dict(c) for c in numba_env.fault_layer.configs)
-    # one compiled draw (eager, its many small ops would each compile); with random fields
-    # this is only the default: each episode draws its own (``redraw_faults``)
-    faults = jax.jit(lambda key: jfaults.realize(key, list(configs), N_ACTUATORS))(jax.random.PRNGKey(0))
-    n_sub = substeps(numba_env.control_dt_s, numba_env.integrator_dt_s)
-    randomize = bool(numba_env.randomize_initial_state)
+def params_of(cfg: FuelSloshConfig, fault_configs: tuple[dict, ...] = ()) -> EnvParams:
+    """The ``EnvParams`` of a validated configuration (:func:`attitude_envs.envs.fuel_slosh.configure`)
+    with the validated actuator ``fault_configs``, drawn once with ``PRNGKey(0)`` (with random
+    fields only a default: each episode draws its own, ``redraw_faults``)."""
+    p = cfg.model.params
+    # one compiled draw (eager, its many small ops would each compile)
+    faults = jax.jit(lambda key: jfaults.realize(key, list(fault_configs), N_ACTUATORS))(jax.random.PRNGKey(0))
     initial_random = np.zeros(8, bool)
-    if randomize:
+    if cfg.randomize_initial_state:
         initial_random[list(RANDOM_START)] = True
     half_width = np.where(initial_random, np.abs(PAPER_INITIAL_STATE), 0.0)
 
     def f(v: Any) -> jax.Array:
         return jnp.asarray(np.asarray(v, dtype=float))
 
-    params = EnvParams(
-        mass_kg=f(p.mass_kg),
-        inertia_kg_m2=f(p.inertia_kg_m2),
-        fuel_mass_kg=f(p.fuel_mass_kg),
-        fuel_inertia_kg_m2=f(p.fuel_inertia_kg_m2),
-        slosh_mass_kg=f(p.slosh_mass_kg),
-        slosh_inertia_kg_m2=f(p.slosh_inertia_kg_m2),
-        hinge_m=f(p.hinge_m),
-        length_m=f(p.length_m),
-        fuel_offset_m=f(p.fuel_offset_m),
-        b_m=f(p.b_m),
-        d_m=f(p.d_m),
-        thrust_n=f(p.thrust_n),
-        damping_kg_m2_s=f(p.damping_kg_m2_s),
-        actuator_limits=f(numba_env.actuator_limits),
-        control_dt_s=f(numba_env.control_dt_s),
-        integrator_dt_s=f(numba_env.integrator_dt_s),
-        Q=f(numba_env.model.cost.Q),
-        R=f(numba_env.model.cost.R),
-        max_slosh_angle_rad=f(numba_env.max_slosh_angle_rad),
-        max_pitch_rate_rad_s=f(numba_env.max_pitch_rate_rad_s),
-        max_pitch_angle_rad=f(numba_env.max_pitch_angle_rad),
-        termination_mode=jnp.asarray(jcost.mode_code(numba_env.termination_cost), jnp.int32),
-        horizon_s=f(numba_env.episode_duration_s),
-        initial_state=f(numba_env.initial_state),
-        initial_random=jnp.asarray(initial_random),
-        initial_half_width=f(half_width),
-        faults=faults,
-        max_steps_in_episode=jnp.asarray(
-            episode_steps(numba_env.episode_duration_s, numba_env.control_dt_s), jnp.int32
+    physical = {field: f(getattr(p, field)) for field in PlantParams.__dataclass_fields__ if field != "actuator_limits"}
+    return EnvParams(
+        plant=PlantParams(**physical, actuator_limits=f([cfg.model.max_gimbal_rad, cfg.model.max_moment_nm])),
+        timing=TimingParams(control_dt_s=f(cfg.control_dt_s), integrator_dt_s=f(cfg.integrator_dt_s)),
+        cost=CostParams(
+            Q=f(cfg.model.cost.Q),
+            R=f(cfg.model.cost.R),
+            max_slosh_angle_rad=f(cfg.max_slosh_angle_rad),
+            max_pitch_rate_rad_s=f(cfg.max_pitch_rate_rad_s),
+            max_pitch_angle_rad=f(cfg.max_pitch_angle_rad),
+            termination_mode=jnp.asarray(jcost.mode_code(cfg.termination_cost), jnp.int32),
+            horizon_s=f(cfg.episode_duration_s),
         ),
+        start=StartParams(
+            initial_state=f(cfg.initial_state),
+            initial_random=jnp.asarray(initial_random),
+            initial_half_width=f(half_width),
+        ),
+        faults=faults,
+        max_steps_in_episode=jnp.asarray(episode_steps(cfg.episode_duration_s, cfg.control_dt_s), jnp.int32),
     )
+
+
+def from_keywords(plant: str, kwargs: dict[str, Any]) -> tuple[FuelSloshEnv, EnvParams]:
+    """The JAX ``plant`` and its ``EnvParams`` for the numba env's keywords ``kwargs``, validated
+    as the numba env validates them (no numba env is built). A ``ValueError`` names what the
+    JAX plant does not model (``sensors``, sensor faults, flight conditions)."""
+    check_keywords(NumbaFuelSloshEnv, kwargs)
+    cfg = configure({**keyword_defaults(NumbaFuelSloshEnv), **kwargs})
+    obs_index = OBS_INDEX if cfg.observe_slosh else OBS_INDEX_NO_SLOSH
+    limits = np.array([cfg.model.max_gimbal_rad, cfg.model.max_moment_nm])
+    layer = lab_layers(plant, cfg, limits, len(obs_index))
+    configs = tuple(dict(c) for c in layer.configs)
+    params = params_of(cfg, configs)
     env = FuelSloshEnv(
-        n_sub,
+        cfg.n_substeps,
         params,
-        obs_index=tuple(int(i) for i in numba_env.observation_index),
-        fault_hint=numba_env.fault_hint,
-        n_hint_flags=numba_env.n_hint_flags,
+        obs_index=tuple(int(i) for i in obs_index),
+        fault_hint=cfg.fault_hint,
+        n_hint_flags=layer.n + 1,
         fault_configs=configs,
         redraw_faults=any(jfaults.draws_per_episode(c) for c in configs),
     )

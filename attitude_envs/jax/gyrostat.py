@@ -49,7 +49,7 @@ equality tests). The lab's compiled step is unchanged (``flight`` None in the en
 and state). Per-episode plants in the state cost speed: each env's RK4 reads its own matrices.
 
 Modeled: every keyword of ReactionWheel-v0/-v1 and AirBearing-v0/-v1 but these, for which
-:func:`from_env` (and :func:`attitude_envs.jax.make`) raises a one-line ``ValueError``
+:func:`from_keywords` (and :func:`attitude_envs.jax.make`) raises a one-line ``ValueError``
 naming them: a ``sensors`` keyword in the lab (sensors only as flight conditions' sensors,
 which an explicit ``sensors`` dict may replace), sensor faults; a ``disturbance`` other than ``"constant"``
 (sinusoidal, random walk); ``inertia_uncertainty`` of kind ``"random"`` (``"fixed"`` is
@@ -58,6 +58,7 @@ modeled; vmap over :func:`with_inertia` instead); ``render_mode``.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -67,8 +68,9 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from attitude_envs.envs.air_bearing import AirBearingEnv
-from attitude_envs.envs.reaction_wheel import ReactionWheelEnv
+from attitude_envs.envs.air_bearing import AirBearingEnv, euler_max
+from attitude_envs.envs.base import check_keywords
+from attitude_envs.envs.reaction_wheel import GyrostatConfig, ReactionWheelEnv, configure
 from attitude_envs.faults import ActuatorFaults
 from attitude_envs.jax import actuators as jact
 from attitude_envs.jax import faults as jfaults
@@ -206,31 +208,27 @@ class EnvState:
     sensors: SensorState | None = None
 
 
+@functools.cache
+def _default_config() -> GyrostatConfig:
+    """The default preset's configuration (ReactionWheel-v0's), the groups' defaults."""
+    return configure(ReactionWheelEnv, None, {})
+
+
+def _default(group: str) -> Any:
+    """A field whose default is ``group`` of the default preset's params (arrays made when
+    a params object is, in the dtype then in force)."""
+    return struct.field(default_factory=lambda: getattr(_params_of(_default_config(), ReactionWheelEnv), group))
+
+
 @struct.dataclass
-class EnvParams:
-    """Every number of a gyrostat task (SI units; arrays, so ``jax.vmap`` randomizes them).
+class PlantParams:
+    """The plant (SI): ``inertia_kg_m2`` (3×3, whole spacecraft, wheels' spin inertia
+    included) and its ``inertia_eff_inv`` ``(I − J_s A Aᵀ)⁻¹`` (keep them consistent:
+    :func:`with_inertia`), ``wheel_axes`` (3×N unit columns), ``wheel_inertia_kg_m2`` (J_s),
+    ``max_wheel_torque_nm``, ``max_wheel_speed_rad_s`` (inf: none), ``offset_torque_nm`` (3,
+    the true plant's ``m g r_s``), ``action_map`` (N×3: the body-frame allocation ``−A⁺``
+    times the torque limit)."""
 
-    Plant: ``inertia_kg_m2`` (3×3, whole spacecraft, wheels' spin inertia included) and its
-    ``inertia_eff_inv`` ``(I − J_s A Aᵀ)⁻¹`` (keep them consistent: :func:`with_inertia`),
-    ``wheel_axes`` (3×N unit columns), ``wheel_inertia_kg_m2`` (J_s), ``max_wheel_torque_nm``,
-    ``max_wheel_speed_rad_s`` (inf: none), ``offset_torque_nm`` (3, the true plant's
-    ``m g r_s``), ``action_map`` (N×3: the body-frame allocation ``−A⁺`` times the torque
-    limit). Steps: ``control_dt_s``, ``integrator_dt_s`` (their ratio is the env's static
-    ``n_substeps``), ``episode_duration_s``, ``max_steps_in_episode`` (decisions).
-    Cost: ``Q``, ``R``, ``termination_mode`` (:func:`attitude_envs.jax.cost.mode_code`).
-    Limits: ``max_rate_rad_s`` (tumbling), ``tilt_sin``, ``tilt_cos`` (sine and cosine of
-    the roll/pitch stop; 2 and −2: none). Start: ``initial_mode`` (:data:`START_FIXED`
-    ``initial_attitude``, :data:`START_AXIS_ANGLE` within ``initial_angle_deg`` of identity,
-    :data:`START_EULER` 3-2-1 angles uniform in ± ``initial_euler_max_deg``), rate
-    ``initial_rate_rad_s`` when ``rate_fixed`` else uniform in ± ``initial_rate_max_rad_s``,
-    target ``target_attitude`` when ``target_fixed`` else within ``target_angle_deg``.
-    ``disturbance_torque_nm`` (3, N·m, body axes): the constant external torque (zeros:
-    none). ``faults``: the realized actuator faults of every episode (on the motor torques,
-    N·m; padded with kind 0 to a common length when params of several fault sets are
-    stacked); an env with ``redraw_faults`` draws each episode's from its fault configs
-    instead (padded to this length), as the numba env does."""
-
-    max_steps_in_episode: jax.Array
     inertia_kg_m2: jax.Array
     inertia_eff_inv: jax.Array
     wheel_axes: jax.Array
@@ -239,15 +237,40 @@ class EnvParams:
     max_wheel_speed_rad_s: jax.Array
     offset_torque_nm: jax.Array
     action_map: jax.Array
+
+
+@struct.dataclass
+class TimingParams:
+    """``control_dt_s``, ``integrator_dt_s`` (their ratio is the env's static ``n_substeps``),
+    ``episode_duration_s`` (s)."""
+
     control_dt_s: jax.Array
     integrator_dt_s: jax.Array
     episode_duration_s: jax.Array
+
+
+@struct.dataclass
+class CostParams:
+    """``Q``, ``R``, ``termination_mode`` (:func:`attitude_envs.jax.cost.mode_code`) and the
+    limits: ``max_rate_rad_s`` (tumbling), ``tilt_sin``, ``tilt_cos`` (sine and cosine of the
+    roll/pitch stop; 2 and −2: none)."""
+
     Q: jax.Array
     R: jax.Array
     termination_mode: jax.Array
     max_rate_rad_s: jax.Array
     tilt_sin: jax.Array
     tilt_cos: jax.Array
+
+
+@struct.dataclass
+class StartParams:
+    """An episode's start and target: ``initial_mode`` (:data:`START_FIXED`
+    ``initial_attitude``, :data:`START_AXIS_ANGLE` within ``initial_angle_deg`` of identity,
+    :data:`START_EULER` 3-2-1 angles uniform in ± ``initial_euler_max_deg``), rate
+    ``initial_rate_rad_s`` when ``rate_fixed`` else uniform in ± ``initial_rate_max_rad_s``,
+    target ``target_attitude`` when ``target_fixed`` else within ``target_angle_deg``."""
+
     initial_mode: jax.Array
     initial_attitude: jax.Array
     initial_angle_deg: jax.Array
@@ -258,8 +281,34 @@ class EnvParams:
     target_fixed: jax.Array
     target_attitude: jax.Array
     target_angle_deg: jax.Array
-    disturbance_torque_nm: jax.Array
-    faults: jfaults.FaultParams
+
+
+@struct.dataclass
+class DisturbanceParams:
+    """``torque_nm`` (3, N·m, body axes): the constant external torque (zeros: none)."""
+
+    torque_nm: jax.Array
+
+
+@struct.dataclass
+class EnvParams:
+    """Every number of a gyrostat task (SI units; arrays, so ``jax.vmap`` randomizes them),
+    in groups that default to the default preset's (ReactionWheel-v0's): ``plant``,
+    ``timing``, ``cost`` (with the limits and the termination charge), ``start``,
+    ``disturbance``, ``faults`` (the realized actuator faults of every episode, on the motor
+    torques, N·m; padded with kind 0 to a common length when params of several fault sets
+    are stacked; an env with ``redraw_faults`` draws each episode's from its fault configs
+    instead, padded to this length, as the numba env does), ``flight`` (the flight
+    conditions' per-episode draws and actuator chain, None in the lab), ``sensors`` (None:
+    the truth is observed) and ``max_steps_in_episode`` (decisions)."""
+
+    plant: PlantParams = _default("plant")
+    timing: TimingParams = _default("timing")
+    cost: CostParams = _default("cost")
+    start: StartParams = _default("start")
+    disturbance: DisturbanceParams = _default("disturbance")
+    faults: jfaults.FaultParams = struct.field(default_factory=jfaults.no_faults)
+    max_steps_in_episode: jax.Array = _default("max_steps_in_episode")
     flight: FlightParams | None = None
     sensors: SensorParams | None = None
 
@@ -267,10 +316,10 @@ class EnvParams:
 def with_inertia(params: EnvParams, inertia_kg_m2: jax.Array) -> EnvParams:
     """``params`` on a body of inertia ``inertia_kg_m2`` (3×3, kg·m², wheels' spin inertia
     included), with ``inertia_eff_inv`` recomputed (traceable: ``jax.vmap`` it over inertias)."""
-    inertia = jnp.asarray(inertia_kg_m2, dtype=params.inertia_kg_m2.dtype)
-    a = params.wheel_axes
-    eff = inertia - params.wheel_inertia_kg_m2 * a @ a.T
-    return params.replace(inertia_kg_m2=inertia, inertia_eff_inv=jnp.linalg.inv(eff))
+    inertia = jnp.asarray(inertia_kg_m2, dtype=params.plant.inertia_kg_m2.dtype)
+    a = params.plant.wheel_axes
+    eff = inertia - params.plant.wheel_inertia_kg_m2 * a @ a.T
+    return params.replace(plant=params.plant.replace(inertia_kg_m2=inertia, inertia_eff_inv=jnp.linalg.inv(eff)))
 
 
 # ---------------------------------------------------------------------------- the kernel's math
@@ -285,17 +334,31 @@ def with_inertia(params: EnvParams, inertia_kg_m2: jax.Array) -> EnvParams:
 def _constants(p: EnvParams, n: int, n_state: int, m_cost: int) -> tuple[list, int, int, int, int]:
     """The definition's flat constants ``C`` (the kernel's :func:`pack_constants` layout, as a
     list of scalars: wheel axes, Q, R, the scalars) and the offsets ``(ax, cq, cr, sc)``."""
-    A, Q, R = p.wheel_axes, p.Q, p.R
+    A, Q, R = p.plant.wheel_axes, p.cost.Q, p.cost.R
     cq = 3 * n
     cr = cq + n_state * n_state
     sc = cr + m_cost * m_cost
-    po = p.offset_torque_nm
+    po = p.plant.offset_torque_nm
     C = (
         [A[k, i] for k in range(3) for i in range(n)]
         + [Q[i, j] for i in range(n_state) for j in range(n_state)]
         + [R[i, j] for i in range(m_cost) for j in range(m_cost)]
-        + [p.wheel_inertia_kg_m2, p.max_wheel_torque_nm, p.max_wheel_speed_rad_s, p.integrator_dt_s]
-        + [po[0], po[1], po[2], p.max_rate_rad_s, p.control_dt_s, p.episode_duration_s, p.tilt_sin, p.tilt_cos]
+        + [
+            p.plant.wheel_inertia_kg_m2,
+            p.plant.max_wheel_torque_nm,
+            p.plant.max_wheel_speed_rad_s,
+            p.timing.integrator_dt_s,
+        ]
+        + [
+            po[0],
+            po[1],
+            po[2],
+            p.cost.max_rate_rad_s,
+            p.timing.control_dt_s,
+            p.timing.episode_duration_s,
+            p.cost.tilt_sin,
+            p.cost.tilt_cos,
+        ]
     )
     return C, 0, cq, cr, sc
 
@@ -408,7 +471,7 @@ class GyrostatEnv(Environment):
     fault dicts; ``redraw_faults``: ``reset_env`` draws each episode's faults from them).
     Envs with equal static attributes are equal (they share compiled code; the fault
     configs count only with ``redraw_faults``, so envs of different fixed faults share it).
-    Build one with :func:`from_env` or :func:`attitude_envs.jax.make`."""
+    Build one with :func:`attitude_envs.jax.make`."""
 
     def __init__(
         self,
@@ -486,7 +549,7 @@ class GyrostatEnv(Environment):
     @property
     def default_params(self) -> EnvParams:
         if self._params is None:
-            raise ValueError("this GyrostatEnv has no default params: build it with from_env or attitude_envs.jax.make")
+            raise ValueError("this GyrostatEnv has no default params: build it with attitude_envs.jax.make")
         return self._params
 
     @property
@@ -511,10 +574,10 @@ class GyrostatEnv(Environment):
         """The numba env's bounds: ``|q_e,vec| ≤ 1``, rates within 2 × ``max_rate_rad_s``,
         wheel momentum within 1.5 J_s Ω_max, ``|Ω/Ω_max| ≤ 1.5``, flags in [0, 1]."""
         p = self.default_params if params is None else params
-        rate = 2.0 * float(p.max_rate_rad_s)
+        rate = 2.0 * float(p.cost.max_rate_rad_s)
         high = [np.ones(3), np.full(3, rate)]
         if self.include_wheel_momentum:
-            h = 1.5 * float(p.wheel_inertia_kg_m2) * float(p.max_wheel_speed_rad_s)
+            h = 1.5 * float(p.plant.wheel_inertia_kg_m2) * float(p.plant.max_wheel_speed_rad_s)
             high.append(np.full(self.n_wheels, h if np.isfinite(h) else 1e6))
         if self.observe_wheel_speeds:
             high.append(np.full(self.n_wheels, 1.5))
@@ -529,12 +592,12 @@ class GyrostatEnv(Environment):
     def commanded_torques(self, action: jax.Array, params: EnvParams) -> jax.Array:
         """Motor torques (N·m) of an action (:meth:`ReactionWheelEnv.commanded_torques`):
         clipped to [-1, 1] and scaled, or allocated in the body frame and clipped per wheel."""
-        dtype = params.inertia_kg_m2.dtype
+        dtype = params.plant.inertia_kg_m2.dtype
         a = jnp.minimum(jnp.maximum(jnp.asarray(action, dtype=dtype), -1.0), 1.0)
-        limit = params.max_wheel_torque_nm
+        limit = params.plant.max_wheel_torque_nm
         if not self.body_action_frame:
             return a * limit
-        m = params.action_map
+        m = params.plant.action_map
         torque = a[0:1] * m[:, 0] + a[1:2] * m[:, 1] + a[2:3] * m[:, 2]
         return jnp.minimum(jnp.maximum(torque, -limit), limit)
 
@@ -542,15 +605,15 @@ class GyrostatEnv(Environment):
         """``n_substeps`` RK4 sub-steps of ``y = [q, ω, Ω]`` with the motor command ``cmd``
         (N·m) held, the stage cost against ``target``; returns the new ``y``, the integrated
         stage cost and the mean motor torque delivered (N·m) (the kernel's sub-step loop)."""
-        n, h = self.n_wheels, p.integrator_dt_s
+        n, h = self.n_wheels, p.timing.integrator_dt_s
         n_sub, n_state = self.n_substeps, self.n_state
         m_cost = 3 if self.body_cost_input else n
         C, ax, cq, cr, sc = _constants(p, n, n_state, m_cost)
         cmd_s = [cmd[i] for i in range(n)]
         tgt = [target[i] for i in range(4)]
-        ext = [p.disturbance_torque_nm[i] for i in range(3)]
-        mat = [p.inertia_kg_m2[i, j] for i in range(3) for j in range(3)]
-        mat += [p.inertia_eff_inv[i, j] for i in range(3) for j in range(3)]
+        ext = [p.disturbance.torque_nm[i] for i in range(3)]
+        mat = [p.plant.inertia_kg_m2[i, j] for i in range(3) for j in range(3)]
+        mat += [p.plant.inertia_eff_inv[i, j] for i in range(3) for j in range(3)]
         # rows of the definition's scratch list (one lane: B = 1, e = 0)
         Y, U, UJ = 0, 7 + n, 7 + 2 * n
         EXT = UJ + n
@@ -609,12 +672,18 @@ class GyrostatEnv(Environment):
         y_s, target_s = tuple(y[i] for i in range(7 + self.n_wheels)), tuple(target[i] for i in range(4))
         # the error state reads only J_s of the constants: a C of that one scalar (offset 0)
         x, qe_w = _error_state(
-            y_s, target_s, [params.wheel_inertia_kg_m2], 0, self.n_wheels, self.include_wheel_momentum, self.n_state
+            y_s,
+            target_s,
+            [params.plant.wheel_inertia_kg_m2],
+            0,
+            self.n_wheels,
+            self.include_wheel_momentum,
+            self.n_state,
         )
         x = jnp.stack(x)
         parts = [x]
         if self.observe_wheel_speeds:
-            parts.append(y[7:] / params.max_wheel_speed_rad_s)
+            parts.append(y[7:] / params.plant.max_wheel_speed_rad_s)
         if self.fault_hint:
             flags = jfaults.active_flags(faults, t_s, self.n_wheels).astype(y.dtype)
             parts += [flags, jnp.zeros(_N_SENSOR_CHANNELS, dtype=y.dtype)]
@@ -624,19 +693,20 @@ class GyrostatEnv(Environment):
         """One decision (``control_dt_s``) without autoreset:
         ``(obs, state, reward, terminated, info)``."""
         p = params
-        dtype = p.inertia_kg_m2.dtype
-        t0 = state.time.astype(dtype) * p.control_dt_s
+        dtype = p.plant.inertia_kg_m2.dtype
+        t0 = state.time.astype(dtype) * p.timing.control_dt_s
         fl, flight = self.flight, state.flight
         if fl is not None and fl.draw_plant:  # this episode's true plant (the allocation stays nominal)
             pl = flight.plant
-            p = p.replace(
+            plant = p.plant.replace(
                 inertia_kg_m2=pl.inertia_kg_m2,
                 inertia_eff_inv=pl.inertia_eff_inv,
                 wheel_axes=pl.wheel_axes,
                 offset_torque_nm=pl.offset_torque_nm,
             )
+            p = p.replace(plant=plant)
         commanded = self.commanded_torques(action, p)
-        limits = jnp.broadcast_to(p.max_wheel_torque_nm, commanded.shape)
+        limits = jnp.broadcast_to(p.plant.max_wheel_torque_nm, commanded.shape)
         if fl is None:
             delivered, fault_state = jfaults.apply(state.faults, state.fault_state, key, commanded, t0, limits)
         else:  # ActuatorChain.deliver: delay, resolution, rate limit, faults, lag, gain, friction
@@ -648,7 +718,7 @@ class GyrostatEnv(Environment):
         y = jnp.concatenate([state.attitude, state.rate_rad_s, state.wheel_speed_rad_s])
         y_new, cost, applied = self._rk4(y, delivered, state.target_attitude, p)
         time = state.time + 1
-        t1 = time.astype(dtype) * p.control_dt_s
+        t1 = time.astype(dtype) * p.timing.control_dt_s
         obs, x, qe_w = self._observe(y_new, state.target_attitude, state.faults, t1, p)
         finite = jnp.all(jnp.isfinite(y_new)) & jnp.isfinite(cost)
         sensor_state = state.sensors
@@ -657,9 +727,9 @@ class GyrostatEnv(Environment):
             obs = self._observe(y_m, state.target_attitude, state.faults, t1, p)[0]
             sensor_state = jax.tree.map(lambda a, b: jnp.where(finite, a, b), measured_state, state.sensors)
         rate = jnp.max(jnp.abs(y_new[4:7]))
-        tilt = _G.tilt_lane(y_new[0], y_new[1], y_new[2], y_new[3], p.tilt_sin, p.tilt_cos)
-        terminated = jnp.logical_not(finite) | (rate > p.max_rate_rad_s) | tilt
-        charge = termination_charge(p.termination_mode, x, p.Q, p.episode_duration_s, t1)
+        tilt = _G.tilt_lane(y_new[0], y_new[1], y_new[2], y_new[3], p.cost.tilt_sin, p.cost.tilt_cos)
+        terminated = jnp.logical_not(finite) | (rate > p.cost.max_rate_rad_s) | tilt
+        charge = termination_charge(p.cost.termination_mode, x, p.cost.Q, p.timing.episode_duration_s, t1)
         cost = cost + jnp.where(terminated & finite, charge, 0.0)
         obs = jnp.where(finite, obs, jnp.zeros_like(obs))
         new_state = EnvState(
@@ -690,7 +760,7 @@ class GyrostatEnv(Environment):
         or drawn from the fault configs with ``redraw_faults``) and their runtime state at
         its start. ``(obs, state)``."""
         p = params
-        dtype = p.inertia_kg_m2.dtype
+        dtype = p.plant.inertia_kg_m2.dtype
         # one uniform draw for everything (each draw compiles a threefry program); the two
         # standard normal axes from 6 of them, as jax.random.normal makes its normals. A
         # third key only when the faults are drawn (the other draws stay as they were)
@@ -703,16 +773,18 @@ class GyrostatEnv(Environment):
         axes = (np.sqrt(2.0) * jax.lax.erf_inv(jnp.maximum(u[8:], lo))).reshape(2, 3)
         u = 0.5 * (u[:8] + 1.0)  # U(0, 1)
         # rotations about uniformly random axes by angles uniform in [0, max]
-        axis_angle = jq.from_axis_angle(axes[0], jnp.radians(u[0] * p.initial_angle_deg))
-        drawn_target = jq.from_axis_angle(axes[1], jnp.radians(u[1] * p.target_angle_deg))
-        euler = p.initial_euler_max_deg * (2.0 * u[2:5] - 1.0)  # AirBearing: 3-2-1 angles uniform in ±max
+        axis_angle = jq.from_axis_angle(axes[0], jnp.radians(u[0] * p.start.initial_angle_deg))
+        drawn_target = jq.from_axis_angle(axes[1], jnp.radians(u[1] * p.start.target_angle_deg))
+        euler = p.start.initial_euler_max_deg * (2.0 * u[2:5] - 1.0)  # AirBearing: 3-2-1 angles uniform in ±max
         q0 = jnp.select(
-            [p.initial_mode == START_EULER, p.initial_mode == START_AXIS_ANGLE],
+            [p.start.initial_mode == START_EULER, p.start.initial_mode == START_AXIS_ANGLE],
             [_from_euler_321_deg(euler), axis_angle],
-            p.initial_attitude,
+            p.start.initial_attitude,
         )
-        target = jnp.where(p.target_fixed, p.target_attitude, drawn_target)
-        rate = jnp.where(p.rate_fixed, p.initial_rate_rad_s, p.initial_rate_max_rad_s * (2.0 * u[5:8] - 1.0))
+        target = jnp.where(p.start.target_fixed, p.start.target_attitude, drawn_target)
+        rate = jnp.where(
+            p.start.rate_fixed, p.start.initial_rate_rad_s, p.start.initial_rate_max_rad_s * (2.0 * u[5:8] - 1.0)
+        )
         faults = p.faults
         if self.redraw_faults:
             faults = self._draw_faults(k_realize, p.faults)
@@ -773,7 +845,7 @@ class GyrostatEnv(Environment):
         env's laws (:meth:`ReactionWheelEnv._draw_flight_plant`; not its draws), or the
         params' ``given_*`` draws."""
         fl, fp = self.flight, p.flight
-        dtype = p.inertia_kg_m2.dtype
+        dtype = p.plant.inertia_kg_m2.dtype
         n = self.n_wheels
         actuators = jact.initial_state(fl.actuators, n, dtype)
         if not fl.draw_plant:
@@ -783,16 +855,16 @@ class GyrostatEnv(Environment):
         # the inertia's rare redraws
         k_draw, k_redraw = jax.random.split(key)
         u = jax.random.uniform(k_draw, (10 + 5 * n,), dtype, -1.0, 1.0)
-        inertia = p.inertia_kg_m2
+        inertia = p.plant.inertia_kg_m2
         if fl.draw_inertia:
             inertia = _draw_inertia(
                 k_redraw, u[:7], fp.nominal_moments, fp.nominal_principal_axes, fp.inertia_moment, fp.inertia_axis_deg
             )
-        axes = _misaligned_axes(u[7 : 7 + 4 * n], p.wheel_axes, fp.misalignment_deg)
-        offset = p.offset_torque_nm
+        axes = _misaligned_axes(u[7 : 7 + 4 * n], p.plant.wheel_axes, fp.misalignment_deg)
+        offset = p.plant.offset_torque_nm
         if fl.draw_offset:
             offset = offset + fp.offset_tolerance_nm * u[7 + 4 * n : 10 + 4 * n]
-        eff_inv = _inv3(inertia - p.wheel_inertia_kg_m2 * axes @ axes.T)
+        eff_inv = _inv3(inertia - p.plant.wheel_inertia_kg_m2 * axes @ axes.T)
         given = fp.given
         plant = EpisodePlant(
             inertia_kg_m2=jnp.where(given, fp.given_inertia_kg_m2, inertia),
@@ -813,7 +885,7 @@ class GyrostatEnv(Environment):
     def get_obs(self, state: EnvState, params: EnvParams) -> jax.Array:
         """The observation of ``state`` (the error state, wheel speeds, fault flags)."""
         y = self.measured_row(state)
-        t_s = state.time.astype(y.dtype) * params.control_dt_s
+        t_s = state.time.astype(y.dtype) * params.timing.control_dt_s
         return self._observe(y, state.target_attitude, state.faults, t_s, params)[0]
 
     # ------------------------------------------------------------------ from the numba env
@@ -827,7 +899,9 @@ class GyrostatEnv(Environment):
         (the numba layer draws it at their first step). ``n_faults``: the fault entries of the
         params it will step under (default: the env's default params', or more if realized)."""
         env = getattr(numba_env, "unwrapped", numba_env)
-        _check_modeled(env, episode=True)
+        if not isinstance(env, ReactionWheelEnv):
+            raise ValueError(f"the JAX gyrostat takes a ReactionWheel or AirBearing env, got {type(env).__name__}")
+        _check_layers(env.sensor_layer, env.conditions, env.disturbance)
         dtype = jnp.result_type(float)
         row = np.array(env.state_row, dtype=float)
         realized = env.fault_layer.realized
@@ -893,7 +967,7 @@ def with_drawn_parameters(params: EnvParams, drawn: dict) -> EnvParams:
     fp = params.flight
     if fp is None:
         raise ValueError("with_drawn_parameters takes the params of a flight env (conditions with parameter draws)")
-    dtype = params.inertia_kg_m2.dtype
+    dtype = params.plant.inertia_kg_m2.dtype
     missing = [k for k in ("inertia_kg_m2", "wheel_axes", "offset_torque_nm") if k not in drawn]
     if missing:
         raise ValueError(
@@ -901,12 +975,12 @@ def with_drawn_parameters(params: EnvParams, drawn: dict) -> EnvParams:
         )
     inertia = np.asarray(drawn["inertia_kg_m2"], dtype=float)
     axes = np.asarray(drawn["wheel_axes"], dtype=float)
-    if axes.shape != tuple(params.wheel_axes.shape) or inertia.shape != (3, 3):
+    if axes.shape != tuple(params.plant.wheel_axes.shape) or inertia.shape != (3, 3):
         raise ValueError(
             f"drawn inertia_kg_m2 {inertia.shape} and wheel_axes {axes.shape} must be (3, 3) and "
-            f"{tuple(params.wheel_axes.shape)}"
+            f"{tuple(params.plant.wheel_axes.shape)}"
         )
-    j_s = float(params.wheel_inertia_kg_m2)
+    j_s = float(params.plant.wheel_inertia_kg_m2)
     eff_inv = np.linalg.inv(inertia - j_s * axes @ axes.T)
     gain = np.asarray(drawn.get("actuator_gain", np.ones(axes.shape[1])), dtype=float)
 
@@ -934,13 +1008,13 @@ def episode_params(numba_env: Any, params: EnvParams, n_faults: int | None = Non
     env = getattr(numba_env, "unwrapped", numba_env)
     realized = env.fault_layer.realized
     n = params.faults.n_faults if n_faults is None else n_faults
-    dtype = params.inertia_kg_m2.dtype
+    dtype = params.plant.inertia_kg_m2.dtype
     mats = np.array(env.kernel_matrices, dtype=float)
-    return params.replace(
-        faults=_as_dtype(jfaults.from_realized(realized, max(n, len(realized))), dtype),
+    plant = params.plant.replace(
         inertia_kg_m2=jnp.asarray(mats[:9].reshape(3, 3), dtype=dtype),
         inertia_eff_inv=jnp.asarray(mats[9:].reshape(3, 3), dtype=dtype),
     )
+    return params.replace(faults=_as_dtype(jfaults.from_realized(realized, max(n, len(realized))), dtype), plant=plant)
 
 
 def _as_dtype(fp: jfaults.FaultParams, dtype) -> jfaults.FaultParams:
@@ -957,33 +1031,21 @@ def _frozen(value: Any) -> Any:
     return value.item() if isinstance(value, np.generic) else value
 
 
-def _check_modeled(env: Any, episode: bool = False) -> None:
-    """A one-line ``ValueError`` naming the first keyword or configuration of ``env`` that
-    the JAX gyrostat does not model (with ``episode``: only what the current episode uses)."""
-    if not isinstance(env, ReactionWheelEnv):
-        raise ValueError(f"the JAX gyrostat takes a ReactionWheel or AirBearing env, got {type(env).__name__}")
-    layer = env.sensor_layer
-    if layer.fault_configs or layer.realized:
+def _check_layers(sensor_layer: Any, conditions: Any, disturbance: Any) -> None:
+    """A one-line ``ValueError`` naming the first of an env's layers' configuration that the
+    JAX gyrostat does not model: sensor faults, sensors in the lab, a disturbance other than
+    constant."""
+    if sensor_layer.fault_configs or sensor_layer.realized:
         raise ValueError("sensor faults are not modeled by the JAX gyrostat (its flight sensors' noise and bias are)")
-    if layer.enabled and env.conditions.sensors == 0:
+    if sensor_layer.enabled and conditions.sensors == 0:
         raise ValueError(
             "sensors are modeled by the JAX gyrostat only as flight conditions' sensors (conditions with 'sensors' "
             "> 0); in the lab it observes the truth"
         )
-    dist = env.disturbance
-    if dist is not None and dist.kind != "constant":
-        raise ValueError(f"disturbance of kind {dist.kind!r} is not modeled by the JAX gyrostat (only 'constant')")
-    if episode:
-        return
-    law = env.reset_distribution
-    unc = law["inertia_uncertainty"]
-    if unc is not None and unc.kind != "fixed":
+    if disturbance is not None and disturbance.kind != "constant":
         raise ValueError(
-            f"inertia_uncertainty of kind {unc.kind!r} is not modeled by the JAX gyrostat "
-            "(vmap over params with attitude_envs.jax.gyrostat.with_inertia instead)"
+            f"disturbance of kind {disturbance.kind!r} is not modeled by the JAX gyrostat (only 'constant')"
         )
-    if env.render_mode is not None:
-        raise ValueError(f"render_mode={env.render_mode!r} is not modeled by the JAX gyrostat (it does not render)")
 
 
 def max_steps(control_dt_s: float, episode_duration_s: float) -> int:
@@ -998,162 +1060,187 @@ def max_steps(control_dt_s: float, episode_duration_s: float) -> int:
     return k
 
 
-def from_env(numba_env: Any) -> tuple[GyrostatEnv, EnvParams]:
-    """The JAX gyrostat of a numba ReactionWheel or AirBearing env (its keywords as built)
-    and its ``EnvParams``; a one-line ``ValueError`` names any configuration not modeled."""
-    env = getattr(numba_env, "unwrapped", numba_env)
-    _check_modeled(env)
-    model = env.model
-    plant = model.params
-    law = env.reset_distribution
-    unc = law["inertia_uncertainty"]
+def _params_of(cfg: GyrostatConfig, cls: type[ReactionWheelEnv], euler_max_deg: Any = None) -> EnvParams:
+    """The ``EnvParams`` of a validated configuration (:func:`attitude_envs.envs.reaction_wheel.configure`)
+    of env class ``cls`` (``euler_max_deg``: an AirBearing's validated ``initial_euler_max_deg``)."""
+    plant, model, layers = cfg.model.params, cfg.model, cfg.layers
+    unc = cfg.inertia_uncertainty
     inertia = plant.inertia_kg_m2 if unc is None else unc.inertia_kg_m2
     inertia_eff_inv = plant.inertia_eff_inv if unc is None else plant.with_inertia(unc.inertia_kg_m2).inertia_eff_inv
-    n = plant.n_wheels
-    configs = tuple(dict(c) for c in env.fault_layer.configs)
     # the default faults: the numba layer's draw with a fixed generator (no JAX program to
     # compile; realize's layout). With random fields only a default: each episode draws its
     # own (``redraw_faults``)
-    layer = ActuatorFaults(list(configs), n, plant.max_wheel_torque_nm)
-    layer.reset(np.random.default_rng(0))
+    faults = ActuatorFaults(list(layers.fault_layer.configs), plant.n_wheels, plant.max_wheel_torque_nm)
+    faults.reset(np.random.default_rng(0))
     dtype = jnp.result_type(float)
 
     def f(v):
         return jnp.asarray(np.asarray(v, dtype=float), dtype=dtype)
 
-    tilt = env.tilt_limit_deg
+    tilt = cfg.tilt_limit_deg
     if tilt is None:
         tilt_sin, tilt_cos = 2.0, -2.0  # never: |sin θ| ≤ 1, cos φ ≥ −1 (pack_constants)
     else:
         rad = math.radians(tilt)
         tilt_sin, tilt_cos = float(np.sin(rad)), float(np.cos(rad))
-    if law["initial_attitude"] is not None:
+    if cfg.initial_attitude is not None:
         mode = START_FIXED
-    elif isinstance(env, AirBearingEnv):
+    elif issubclass(cls, AirBearingEnv):
         mode = START_EULER
     else:
         mode = START_AXIS_ANGLE
-    euler_max = env.initial_euler_max_deg if isinstance(env, AirBearingEnv) else np.zeros(3)
-    flight_layout, flight_params = _flight_of(env, n, dtype)
-    sensor_config = env.sensor_layer.config if env.sensor_layer.enabled else {}
+    sensor_config = layers.sensor_layer.config if layers.sensor_layer.enabled else {}
     sensor_params = None
     if sensor_config:
-        channels = {name: (3 if name != "tachometer" else n) for name, _, _ in _CHANNELS}
+        channels = {name: (3 if name != "tachometer" else plant.n_wheels) for name, _, _ in _CHANNELS}
         sensor_params = SensorParams(
             **{name: jsens.params_of(c, channels[name], dtype) for name, c in sensor_config.items()}
         )
-    dist = env.disturbance
     identity = np.array([0.0, 0.0, 0.0, 1.0])
-    body_frame = env.action_frame == "body"
-    params = EnvParams(
-        max_steps_in_episode=jnp.asarray(max_steps(env.control_dt_s, env.episode_duration_s), dtype=jnp.int32),
-        inertia_kg_m2=f(inertia),
-        inertia_eff_inv=f(inertia_eff_inv),
-        wheel_axes=f(plant.wheel_axes),
-        wheel_inertia_kg_m2=f(plant.wheel_inertia_kg_m2),
-        max_wheel_torque_nm=f(plant.max_wheel_torque_nm),
-        max_wheel_speed_rad_s=f(plant.max_wheel_speed_rad_s),
-        offset_torque_nm=f(env.true_offset_torque_nm),
-        action_map=f(model.allocation * plant.max_wheel_torque_nm),
-        control_dt_s=f(env.control_dt_s),
-        integrator_dt_s=f(env.integrator_dt_s),
-        episode_duration_s=f(env.episode_duration_s),
-        Q=f(model.cost.Q),
-        R=f(model.cost.R),
-        termination_mode=jnp.asarray(mode_code(env.termination_cost), dtype=jnp.int32),
-        max_rate_rad_s=f(env.max_rate_rad_s),
-        tilt_sin=f(tilt_sin),
-        tilt_cos=f(tilt_cos),
-        initial_mode=jnp.asarray(mode, dtype=jnp.int32),
-        initial_attitude=f(identity if law["initial_attitude"] is None else law["initial_attitude"]),
-        initial_angle_deg=f(law["initial_angle_deg"]),
-        initial_euler_max_deg=f(euler_max),
-        rate_fixed=jnp.asarray(law["initial_rate_rad_s"] is not None),
-        initial_rate_rad_s=f(np.zeros(3) if law["initial_rate_rad_s"] is None else law["initial_rate_rad_s"]),
-        initial_rate_max_rad_s=f(law["initial_rate_max_rad_s"]),
-        target_fixed=jnp.asarray(law["target_attitude"] is not None),
-        target_attitude=f(identity if law["target_attitude"] is None else law["target_attitude"]),
-        target_angle_deg=f(law["target_angle_deg"]),
-        disturbance_torque_nm=f(np.zeros(3) if dist is None else dist.torque_nm),
-        faults=_as_dtype(jfaults.from_realized(layer.realized), dtype),
-        flight=flight_params,
+    rate, target = cfg.initial_rate_rad_s, cfg.target_attitude
+    return EnvParams(
+        plant=PlantParams(
+            inertia_kg_m2=f(inertia),
+            inertia_eff_inv=f(inertia_eff_inv),
+            wheel_axes=f(plant.wheel_axes),
+            wheel_inertia_kg_m2=f(plant.wheel_inertia_kg_m2),
+            max_wheel_torque_nm=f(plant.max_wheel_torque_nm),
+            max_wheel_speed_rad_s=f(plant.max_wheel_speed_rad_s),
+            offset_torque_nm=f(cfg.true_params.offset_torque_nm),
+            action_map=f(model.allocation * plant.max_wheel_torque_nm),
+        ),
+        timing=TimingParams(
+            control_dt_s=f(cfg.control_dt_s),
+            integrator_dt_s=f(cfg.integrator_dt_s),
+            episode_duration_s=f(cfg.episode_duration_s),
+        ),
+        cost=CostParams(
+            Q=f(model.cost.Q),
+            R=f(model.cost.R),
+            termination_mode=jnp.asarray(mode_code(cfg.termination_cost), dtype=jnp.int32),
+            max_rate_rad_s=f(cfg.max_rate_rad_s),
+            tilt_sin=f(tilt_sin),
+            tilt_cos=f(tilt_cos),
+        ),
+        start=StartParams(
+            initial_mode=jnp.asarray(mode, dtype=jnp.int32),
+            initial_attitude=f(identity if cfg.initial_attitude is None else cfg.initial_attitude),
+            initial_angle_deg=f(cfg.initial_angle_deg),
+            initial_euler_max_deg=f(np.zeros(3) if euler_max_deg is None else euler_max_deg),
+            rate_fixed=jnp.asarray(rate is not None),
+            initial_rate_rad_s=f(np.zeros(3) if rate is None else rate),
+            initial_rate_max_rad_s=f(cfg.initial_rate_max_rad_s),
+            target_fixed=jnp.asarray(target is not None),
+            target_attitude=f(identity if target is None else target),
+            target_angle_deg=f(cfg.target_angle_deg),
+        ),
+        disturbance=DisturbanceParams(
+            torque_nm=f(np.zeros(3) if layers.disturbance is None else layers.disturbance.torque_nm)
+        ),
+        faults=_as_dtype(jfaults.from_realized(faults.realized), dtype),
+        max_steps_in_episode=jnp.asarray(max_steps(cfg.control_dt_s, cfg.episode_duration_s), dtype=jnp.int32),
+        flight=_flight_params(cfg, dtype),
         sensors=sensor_params,
     )
+
+
+def from_keywords(plant: str, kwargs: dict[str, Any]) -> tuple[GyrostatEnv, EnvParams]:
+    """The JAX gyrostat ``plant`` ("ReactionWheel" or "AirBearing") and its ``EnvParams`` for the
+    numba env's keywords ``kwargs``, validated as the numba env validates them (no numba env
+    is built); a one-line ``ValueError`` names any configuration not modeled."""
+    cls = AirBearingEnv if plant == "AirBearing" else ReactionWheelEnv
+    check_keywords(cls, kwargs)
+    given = dict(kwargs)
+    euler = given.pop("initial_euler_max_deg", None)  # AirBearing's own keyword
+    cfg = configure(cls, given.get("preset"), given)
+    if cls is AirBearingEnv:
+        euler = euler_max(cls.env_name, cfg.preset, cfg.tilt_limit_deg, euler)
+    layers = cfg.layers
+    _check_layers(layers.sensor_layer, layers.conditions, layers.disturbance)
+    unc = cfg.inertia_uncertainty
+    if unc is not None and unc.kind != "fixed":
+        raise ValueError(
+            f"inertia_uncertainty of kind {unc.kind!r} is not modeled by the JAX gyrostat "
+            "(vmap over params with attitude_envs.jax.gyrostat.with_inertia instead)"
+        )
+    if cfg.render_mode is not None:
+        raise ValueError(f"render_mode={cfg.render_mode!r} is not modeled by the JAX gyrostat (it does not render)")
+    params = _params_of(cfg, cls, euler)
+    configs = tuple(dict(c) for c in layers.fault_layer.configs)
+    sensor_config = layers.sensor_layer.config if layers.sensor_layer.enabled else {}
     jenv = GyrostatEnv(
-        n_wheels=n,
-        n_substeps=env.n_substeps,
-        include_wheel_momentum=model.include_wheel_momentum,
-        body_cost_input=model.cost_input == "body",
-        observe_wheel_speeds=env.observe_wheel_speeds,
-        body_action_frame=body_frame,
-        fault_hint=env.fault_hint,
-        has_tilt_stop=tilt is not None,
-        env_name=env.env_name.rsplit("-v", 1)[0],
+        n_wheels=cfg.model.params.n_wheels,
+        n_substeps=cfg.n_substeps,
+        include_wheel_momentum=cfg.model.include_wheel_momentum,
+        body_cost_input=cfg.model.cost_input == "body",
+        observe_wheel_speeds=cfg.observe_wheel_speeds,
+        body_action_frame=cfg.action_frame == "body",
+        fault_hint=layers.fault_hint,
+        has_tilt_stop=cfg.tilt_limit_deg is not None,
+        env_name=plant,
         params=params,
         fault_configs=configs,
         redraw_faults=any(jfaults.draws_per_episode(c) for c in configs),
-        flight=flight_layout,
+        flight=_flight_layout(cfg),
         sensors=tuple(name for name, _, _ in _CHANNELS if name in sensor_config),
     )
     return jenv, params
 
 
-def _flight_of(env: Any, n: int, dtype) -> tuple[FlightLayout | None, FlightParams | None]:
-    """The static layout and the params of ``env``'s flight conditions (None, None in the
-    lab), from its resolved ``conditions`` and its flight table, as
-    :meth:`AttitudeEnv._init_layers` and :meth:`ReactionWheelEnv._flight_plant_tolerances`
-    build them."""
-    cond = env.conditions
-    if cond.is_lab:
-        return None, None
-    table = env.flight_table
-    plant = env.model.params
-    limits = np.broadcast_to(np.asarray(plant.max_wheel_torque_nm, dtype=float), (n,))
-    model = table.actuator_model(limits) if cond.actuators else None
-    scale = float(cond.parameters)
-    gain_tol = table.gain_tolerance_of(n) * scale if scale else np.zeros(n)
-    draw_plant = scale > 0
-    has_offset = "offset_torque_nm" in table.plant
-    if draw_plant and has_offset and env.drawn_parameters():
-        # the env's true offset torque is then this episode's draw, not the one draws are about
-        raise ValueError(
-            "build the JAX gyrostat of a flight env with parameter draws before the numba env's first reset "
-            "(attitude_envs.jax.make does): after it, the env's true plant is one episode's draw"
-        )
-    law = env.reset_distribution
-    tol = {k: table.plant_value(k) * scale for k in ("inertia_moment", "inertia_axis_deg", "wheel_misalignment_deg")}
-    offset_tol = table.plant_value("offset_torque_nm") * scale if has_offset else 0.0
-    layout = FlightLayout(
-        actuators=jact.layout_of(model, cond.delay_steps, bool(gain_tol.any())),
+def _flight_layout(cfg: GyrostatConfig) -> FlightLayout | None:
+    """The static layout of ``cfg``'s flight conditions (None in the lab), as
+    :func:`attitude_envs.envs.base.build_layers` builds the actuator chain."""
+    layers = cfg.layers
+    if layers.conditions.is_lab:
+        return None
+    chain, tol = layers.actuator_chain, cfg.flight_tolerances
+    draw_plant = tol is not None
+    return FlightLayout(
+        actuators=jact.layout_of(
+            None if chain is None else chain.model, layers.conditions.delay_steps, bool(layers.gain_tolerance.any())
+        ),
         draw_plant=draw_plant,
-        draw_inertia=draw_plant and law["inertia_uncertainty"] is None,
-        draw_offset=draw_plant and has_offset,
+        draw_inertia=draw_plant and cfg.inertia_uncertainty is None,
+        draw_offset=draw_plant and "offset_torque_nm" in tol,
     )
+
+
+def _flight_params(cfg: GyrostatConfig, dtype) -> FlightParams | None:
+    """The params of ``cfg``'s flight conditions (None in the lab): its plant tolerances
+    (``flight_tolerances``) and the actuator chain's."""
+    layers = cfg.layers
+    if layers.conditions.is_lab:
+        return None
+    plant = cfg.model.params
+    n = plant.n_wheels
+    chain = layers.actuator_chain
+    tol = cfg.flight_tolerances or {}  # none drawn: every tolerance 0
     moments, principal = np.linalg.eigh(plant.inertia_kg_m2)
 
     def f(v):
         return jnp.asarray(np.asarray(v, dtype=float), dtype=dtype)
 
-    params = FlightParams(
-        actuators=jact.params_of(model, n, env.control_dt_s, dtype),
-        inertia_moment=f(tol["inertia_moment"]),
-        inertia_axis_deg=f(tol["inertia_axis_deg"]),
-        misalignment_deg=f(tol["wheel_misalignment_deg"]),
-        offset_tolerance_nm=f(offset_tol),
-        gain_tolerance=f(gain_tol),
+    return FlightParams(
+        actuators=jact.params_of(None if chain is None else chain.model, n, cfg.control_dt_s, dtype),
+        inertia_moment=f(tol.get("inertia_moment", 0.0)),
+        inertia_axis_deg=f(tol.get("inertia_axis_deg", 0.0)),
+        misalignment_deg=f(tol.get("wheel_misalignment_deg", 0.0)),
+        offset_tolerance_nm=f(tol.get("offset_torque_nm", 0.0)),
+        gain_tolerance=f(layers.gain_tolerance),
         nominal_moments=f(moments),
         nominal_principal_axes=f(principal),
         given=jnp.asarray(False),
         given_inertia_kg_m2=f(plant.inertia_kg_m2),
         given_inertia_eff_inv=f(plant.inertia_eff_inv),
         given_wheel_axes=f(plant.wheel_axes),
-        given_offset_torque_nm=f(env.true_offset_torque_nm),
+        given_offset_torque_nm=f(cfg.true_params.offset_torque_nm),
         given_gain=f(np.ones(n)),
     )
-    return layout, params
 
 
 __all__ = [
+    "CostParams",
+    "DisturbanceParams",
     "EnvParams",
     "EnvState",
     "EpisodePlant",
@@ -1161,8 +1248,11 @@ __all__ = [
     "FlightParams",
     "FlightState",
     "GyrostatEnv",
+    "PlantParams",
+    "StartParams",
+    "TimingParams",
     "episode_params",
-    "from_env",
+    "from_keywords",
     "max_steps",
     "with_drawn_parameters",
     "with_inertia",

@@ -23,6 +23,7 @@ Modeled: every keyword of the numba env except ``sensors`` and sensor-target fau
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import jax
@@ -30,10 +31,14 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
+from attitude_envs.envs.base import check_keywords, keyword_defaults
+from attitude_envs.envs.linear_system import LinearSystemConfig, configure
+from attitude_envs.envs.linear_system import LinearSystemEnv as NumbaLinearSystemEnv
 from attitude_envs.faults import RealizedFault
 from attitude_envs.jax import cost as jcost
 from attitude_envs.jax import faults as jfaults
 from attitude_envs.jax.environment import Environment
+from attitude_envs.jax.make import lab_layers
 from attitude_envs.jax.spaces import Box
 
 
@@ -49,44 +54,88 @@ class EnvState:
     fault_state: jfaults.FaultState
 
 
-@struct.dataclass
-class EnvParams:
-    """Every number of the plant (a pytree: ``jax.vmap`` over it randomizes plants).
+@functools.cache
+def _default_config() -> LinearSystemConfig:
+    """The default preset's configuration (LinearSystem-v0's), the groups' defaults."""
+    return configure(keyword_defaults(NumbaLinearSystemEnv))
 
-    * ``A`` (n×n), ``B`` (n×m), ``Q`` (n×n), ``R`` (m×m): the plant step of ``dt_s`` s and its
-      stage cost ``xᵀQx + uᵀRu`` (per plant step; ``Q`` also weighs the termination charge);
-    * ``A_k``, ``B_k``, ``Q_k``, ``R_k``, ``N_k`` (n×m): the decision step (input held over
-      k plant steps) and its exact cost ``xᵀQ_k x + 2xᵀN_k u + uᵀR_k u``;
-    * ``dt_s`` (s), ``action_scale`` (m; physical input of a unit action, also the actuator
-      limits), ``x0_mean``, ``x0_std`` (n; ``x0 ~ N(x0_mean, diag(x0_std²))``),
-      ``process_noise_std`` (σ of ``w`` per entry and plant step; read only by an env built
-      with ``noisy=True``), ``divergence_threshold`` (limit on ‖x‖∞);
-    * ``termination_mode`` (:func:`attitude_envs.jax.cost.mode_code`) and ``horizon_steps``
-      (the episode's plant steps, the charge's horizon T);
-    * ``faults``: the actuator faults of every episode (an env with ``redraw_faults`` draws
-      each episode's from its fault configs instead, as the numba env does);
-    * ``max_steps_in_episode``: the time limit in decisions (``episode_steps / k``).
-    """
+
+def _default(group: str) -> Any:
+    """A field whose default is ``group`` of the default preset's params (arrays made when
+    a params object is, in the dtype then in force)."""
+    return struct.field(default_factory=lambda: getattr(params_of(_default_config()), group))
+
+
+@struct.dataclass
+class PlantParams:
+    """The plant step of ``dt_s`` s, ``x⁺ = A x + B u`` (``A`` n×n, ``B`` n×m), and
+    ``action_scale`` (m; the physical input of a unit action, also the actuator limits)."""
 
     A: jax.Array
     B: jax.Array
-    Q: jax.Array
-    R: jax.Array
+    dt_s: jax.Array
+    action_scale: jax.Array
+
+
+@struct.dataclass
+class HoldParams:
+    """The decision step (the input held over k plant steps): ``x⁺ = A_k x + B_k u`` and its
+    exact cost ``xᵀQ_k x + 2xᵀN_k u + uᵀR_k u`` (``N_k`` n×m)."""
+
     A_k: jax.Array
     B_k: jax.Array
     Q_k: jax.Array
     R_k: jax.Array
     N_k: jax.Array
-    dt_s: jax.Array
-    action_scale: jax.Array
-    x0_mean: jax.Array
-    x0_std: jax.Array
-    process_noise_std: jax.Array
+
+
+@struct.dataclass
+class CostParams:
+    """The stage cost ``xᵀQx + uᵀRu`` per plant step (``Q`` also weighs the termination
+    charge), the limit ``divergence_threshold`` on ‖x‖∞, ``termination_mode``
+    (:func:`attitude_envs.jax.cost.mode_code`) and ``horizon_steps`` (the episode's plant
+    steps, the charge's horizon T)."""
+
+    Q: jax.Array
+    R: jax.Array
     divergence_threshold: jax.Array
     termination_mode: jax.Array
     horizon_steps: jax.Array
-    faults: jfaults.FaultParams
-    max_steps_in_episode: jax.Array
+
+
+@struct.dataclass
+class StartParams:
+    """The start ``x0 ~ N(x0_mean, diag(x0_std²))`` (n each)."""
+
+    x0_mean: jax.Array
+    x0_std: jax.Array
+
+
+@struct.dataclass
+class DisturbanceParams:
+    """``process_noise_std``: σ of ``w`` per entry and plant step (read only by an env built
+    with ``noisy=True``)."""
+
+    process_noise_std: jax.Array
+
+
+@struct.dataclass
+class EnvParams:
+    """Every number of the plant (a pytree: ``jax.vmap`` over it randomizes plants), in
+    groups that default to the default preset's (LinearSystem-v0's): ``plant``, ``hold``
+    (the decision step), ``cost`` (with the limit and the termination charge), ``start``,
+    ``disturbance`` (process noise), ``faults`` (the actuator faults of every episode; an
+    env with ``redraw_faults`` draws each episode's from its fault configs instead, as the
+    numba env does) and ``max_steps_in_episode`` (the time limit in decisions,
+    ``episode_steps / k``)."""
+
+    plant: PlantParams = _default("plant")
+    hold: HoldParams = _default("hold")
+    cost: CostParams = _default("cost")
+    start: StartParams = _default("start")
+    disturbance: DisturbanceParams = _default("disturbance")
+    faults: jfaults.FaultParams = struct.field(default_factory=jfaults.no_faults)
+    max_steps_in_episode: jax.Array = _default("max_steps_in_episode")
 
 
 class LinearSystemEnv(Environment):
@@ -140,14 +189,14 @@ class LinearSystemEnv(Environment):
         steps one by one, ``noise[j]`` (n, already scaled by σ) added after step j
         (``noisy_held_steps``), cost the sum of their stage costs."""
         if noise is None:
-            x_next = params.A_k @ x + params.B_k @ u
-            cost = x @ params.Q_k @ x + u @ params.R_k @ u + 2.0 * (x @ (params.N_k @ u))
+            x_next = params.hold.A_k @ x + params.hold.B_k @ u
+            cost = x @ params.hold.Q_k @ x + u @ params.hold.R_k @ u + 2.0 * (x @ (params.hold.N_k @ u))
             return x_next, cost
-        drive = params.B @ u
-        stage_u = u @ params.R @ u
+        drive = params.plant.B @ u
+        stage_u = u @ params.cost.R @ u
 
         def one(cur, w):
-            return params.A @ cur + drive + w, cur @ params.Q @ cur + stage_u
+            return params.plant.A @ cur + drive + w, cur @ params.cost.Q @ cur + stage_u
 
         x_next, stages = jax.lax.scan(one, x, noise)
         return x_next, jnp.sum(stages)
@@ -168,25 +217,26 @@ class LinearSystemEnv(Environment):
         key_noise, key_fault = jax.random.split(key) if self.noisy and self.n_faults else (key, key)
         k = self.decision_steps
         steps = state.time * k
-        t_s = _seconds(steps, params.dt_s, dtype)
+        t_s = _seconds(steps, params.plant.dt_s, dtype)
         a = jnp.clip(jnp.asarray(action, dtype), -1.0, 1.0)
-        commanded = params.action_scale * a
+        commanded = params.plant.action_scale * a
         if self.n_faults:
             u, fault_state = jfaults.apply(
-                state.faults, state.fault_state, key_fault, commanded, t_s, params.action_scale
+                state.faults, state.fault_state, key_fault, commanded, t_s, params.plant.action_scale
             )
         else:
             u, fault_state = commanded, state.fault_state
         noise = None
         if self.noisy:
-            noise = params.process_noise_std * jax.random.normal(key_noise, (k, self.n), dtype)
+            noise = params.disturbance.process_noise_std * jax.random.normal(key_noise, (k, self.n), dtype)
         x_next, cost = self.plant_step(state.x, u, noise, params)
         steps_next = steps + k
         elapsed = steps_next.astype(dtype)
-        t_next = _seconds(steps_next, params.dt_s, dtype)
+        t_next = _seconds(steps_next, params.plant.dt_s, dtype)
         finite = jnp.all(jnp.isfinite(x_next))
-        terminated = jnp.logical_or(~finite, jnp.max(jnp.abs(x_next)) > params.divergence_threshold)
-        charge = jcost.termination_charge(params.termination_mode, x_next, params.Q, params.horizon_steps, elapsed)
+        terminated = jnp.logical_or(~finite, jnp.max(jnp.abs(x_next)) > params.cost.divergence_threshold)
+        c = params.cost
+        charge = jcost.termination_charge(c.termination_mode, x_next, c.Q, c.horizon_steps, elapsed)
         cost = cost + jnp.where(terminated & finite, charge, 0.0)
         obs = self._observe(x_next, state.faults, t_next)
         obs = jnp.where(finite, obs, jnp.zeros_like(obs))
@@ -199,8 +249,9 @@ class LinearSystemEnv(Environment):
         (``params.faults``, or drawn from the fault configs with ``redraw_faults``) and
         their initial runtime state."""
         key_x, key_faults, key_state = jax.random.split(key, 3) if self.n_faults else (key, key, key)
-        dtype = params.x0_mean.dtype
-        x0 = params.x0_mean + params.x0_std * jax.random.normal(key_x, (self.n,), dtype)
+        start = params.start
+        dtype = start.x0_mean.dtype
+        x0 = start.x0_mean + start.x0_std * jax.random.normal(key_x, (self.n,), dtype)
         faults = params.faults
         if self.redraw_faults:
             faults = jfaults.for_episode(key_faults, self.fault_configs, self.m, params.faults)
@@ -285,54 +336,57 @@ def _nominal_faults(configs: tuple[dict, ...], n_actuators: int) -> jfaults.Faul
     return jfaults.from_realized(realized)
 
 
-def from_env(numba_env: Any) -> tuple[LinearSystemEnv, EnvParams]:
-    """The JAX plant and its ``EnvParams`` of a numba
-    :class:`~attitude_envs.envs.linear_system.LinearSystemEnv` (unwrapped, as built).
-    A ``ValueError`` names what the JAX plant does not model (``sensors``, sensor faults)."""
-    sensors = numba_env.sensor_layer
-    if sensors.config:
-        raise ValueError("LinearSystem JAX plant: keyword 'sensors' is not modeled (the state is observed exactly)")
-    if sensors.fault_configs:
-        raise ValueError("LinearSystem JAX plant: 'faults' with target 'sensor' are not modeled (actuator faults only)")
-    model, held = numba_env.model, numba_env.decision_model
-    n, m, k = model.n, model.m, int(numba_env.decision_steps)
-    configs = tuple(dict(c) for c in numba_env.fault_layer.configs)
-    faults = _nominal_faults(configs, m)
-    N_k = np.zeros((n, m)) if held.N is None else np.asarray(held.N, float)
+def params_of(cfg: LinearSystemConfig, fault_configs: tuple[dict, ...] = ()) -> EnvParams:
+    """The ``EnvParams`` of a validated configuration (:func:`attitude_envs.envs.linear_system.configure`)
+    with the validated actuator ``fault_configs`` as :func:`_nominal_faults` lays them out."""
+    model, held = cfg.model, cfg.decision_model
+    n, m = model.n, model.m
 
     def f(v: Any) -> jax.Array:
         return jnp.asarray(np.asarray(v, dtype=float))
 
-    params = EnvParams(
-        A=f(model.A),
-        B=f(model.B),
-        Q=f(numba_env.cost.Q),
-        R=f(numba_env.cost.R),
-        A_k=f(held.A),
-        B_k=f(held.B),
-        Q_k=f(held.Q),
-        R_k=f(held.R),
-        N_k=f(N_k),
-        dt_s=f(model.dt_s),
-        action_scale=f(numba_env.action_scale),
-        x0_mean=f(numba_env.reset_distribution["x0_mean"]),
-        x0_std=f(numba_env.reset_distribution["x0_std"]),
-        process_noise_std=f(numba_env.process_noise_std),
-        divergence_threshold=f(numba_env.divergence_threshold),
-        termination_mode=jnp.asarray(jcost.mode_code(numba_env.termination_cost), jnp.int32),
-        horizon_steps=f(numba_env.episode_steps),
-        faults=faults,
-        max_steps_in_episode=jnp.asarray(numba_env.episode_steps // k, jnp.int32),
+    return EnvParams(
+        plant=PlantParams(A=f(model.A), B=f(model.B), dt_s=f(model.dt_s), action_scale=f(cfg.action_scale)),
+        hold=HoldParams(
+            A_k=f(held.A),
+            B_k=f(held.B),
+            Q_k=f(held.Q),
+            R_k=f(held.R),
+            N_k=f(np.zeros((n, m)) if held.N is None else held.N),
+        ),
+        cost=CostParams(
+            Q=f(cfg.cost.Q),
+            R=f(cfg.cost.R),
+            divergence_threshold=f(cfg.divergence_threshold),
+            termination_mode=jnp.asarray(jcost.mode_code(cfg.termination_cost), jnp.int32),
+            horizon_steps=f(cfg.episode_steps),
+        ),
+        start=StartParams(x0_mean=f(cfg.x0_mean), x0_std=f(cfg.x0_std)),
+        disturbance=DisturbanceParams(process_noise_std=f(cfg.process_noise_std)),
+        faults=_nominal_faults(fault_configs, m),
+        max_steps_in_episode=jnp.asarray(cfg.episode_steps // cfg.decision_steps, jnp.int32),
     )
+
+
+def from_keywords(plant: str, kwargs: dict[str, Any]) -> tuple[LinearSystemEnv, EnvParams]:
+    """The JAX ``plant`` and its ``EnvParams`` for the numba env's keywords ``kwargs``, validated
+    as the numba env validates them (no numba env is built). A ``ValueError`` names what the
+    JAX plant does not model (``sensors``, sensor faults, flight conditions)."""
+    check_keywords(NumbaLinearSystemEnv, kwargs)
+    cfg = configure({**keyword_defaults(NumbaLinearSystemEnv), **kwargs})
+    n, m, k = cfg.model.n, cfg.model.m, cfg.decision_steps
+    layer = lab_layers(plant, cfg, cfg.action_scale, n)
+    configs = tuple(dict(c) for c in layer.configs)
+    params = params_of(cfg, configs)
     env = LinearSystemEnv(
         n,
         m,
         k,
         params,
-        noisy=numba_env.process_noise_std > 0,
-        fault_hint=numba_env.fault_hint,
+        noisy=cfg.process_noise_std > 0,
+        fault_hint=cfg.fault_hint,
         fault_configs=configs,
         redraw_faults=any(jfaults.draws_per_episode(c) for c in configs),
-        obs_bound=float(numba_env.observation_space.high[0]),
+        obs_bound=float(np.float32(cfg.obs_bound)),
     )
     return env, params

@@ -1,8 +1,10 @@
 """``attitude_envs.jax.make(env_id, **kwargs) -> (env, env_params)``.
 
-The keywords are the numba env's: ``make`` builds the numba env with them (so the same
-validation, presets and derived parameters serve both) and reads the JAX plant's static
-layout and ``EnvParams`` from it. A keyword the JAX plant does not model yet raises a
+The keywords are the numba env's, with the id's registered defaults under them. A plant
+module with ``from_keywords`` validates them with the numba env's own configuration code
+(its presets, checks and derived parameters) and builds the JAX plant without a numba env;
+for the others ``make`` builds the numba env and reads the JAX plant's static layout and
+``EnvParams`` from it (``from_env``). A keyword the JAX plant does not model yet raises a
 ``ValueError`` naming it.
 """
 
@@ -12,8 +14,16 @@ import importlib
 from typing import Any
 
 import gymnasium as gym
+import numpy as np
 
-#: the plant module implementing each env name (``from_env(numba_env) -> (env, params)``)
+from attitude_envs import validation
+from attitude_envs.conditions import Conditions
+from attitude_envs.faults import ActuatorFaults
+from attitude_envs.registration import task_defaults
+from attitude_envs.sensors import Channel, SensorSuite
+
+#: the plant module implementing each env name (``from_keywords(plant, kwargs)`` or
+#: ``from_env(numba_env)``, each ``-> (env, params)``)
 PLANT_MODULES = {
     "ReactionWheel": "attitude_envs.jax.gyrostat",
     "AirBearing": "attitude_envs.jax.gyrostat",
@@ -51,17 +61,41 @@ def numba_env(env_id: str, **kwargs: Any):
     return gym.make(full_id(env_id), disable_env_checker=True, **kwargs).unwrapped
 
 
+def lab_only(plant: str, conditions: Conditions) -> None:
+    """A ``ValueError`` unless ``conditions`` are the lab's: the JAX ``plant`` models no other."""
+    if not conditions.is_lab:
+        raise ValueError(
+            f"conditions={conditions.name!r} ({conditions.as_dict()}): the JAX {plant} models the lab "
+            "conditions only so far; use the numba env (gymnasium.make) for flight conditions"
+        )
+
+
+def lab_layers(plant: str, cfg: Any, limits: np.ndarray, n_states: int) -> ActuatorFaults:
+    """The actuator fault layer of a lab plant with one ``state`` sensor channel of
+    ``n_states`` entries, ``cfg``'s ``faults``, ``sensors`` and ``fault_hint`` validated as the
+    numba env's layers validate them; a ``ValueError`` for flight conditions, ``sensors`` or
+    sensor faults, which the JAX ``plant`` does not model."""
+    layer = ActuatorFaults(cfg.faults, len(limits), limits, other_targets={"sensor"})
+    sensors = SensorSuite(cfg.sensors, [Channel("state", n_states)], cfg.faults)
+    validation.flag("fault_hint", cfg.fault_hint)
+    lab_only(plant, cfg.conditions)
+    if sensors.config:
+        raise ValueError(f"{plant} JAX plant: keyword 'sensors' is not modeled (the state is observed exactly)")
+    if sensors.fault_configs:
+        raise ValueError(f"{plant} JAX plant: 'faults' with target 'sensor' are not modeled (actuator faults only)")
+    return layer
+
+
 def make(env_id: str, **kwargs: Any):
     """The JAX plant of ``env_id`` (``"AirBearing-v1"`` or ``"attitude_envs/AirBearing-v1"``)
     and its default ``EnvParams``, configured by the numba env's keywords. Flight ``conditions`` only for the gyrostats
     (:data:`FLIGHT_PLANTS`); a ``ValueError`` names the rest."""
-    env = numba_env(env_id, **kwargs)
-    plant = full_id(env_id).split("/")[1].rsplit("-v", 1)[0]
-    if not env.conditions.is_lab:
-        if plant not in FLIGHT_PLANTS:
-            raise ValueError(
-                f"conditions={env.conditions.name!r} ({env.conditions.as_dict()}): the JAX {plant} models the lab "
-                "conditions only so far; use the numba env (gymnasium.make) for flight conditions"
-            )
+    full = full_id(env_id)
+    plant = full.split("/")[1].rsplit("-v", 1)[0]
     module = importlib.import_module(PLANT_MODULES[plant])
+    if hasattr(module, "from_keywords"):
+        return module.from_keywords(plant, {**task_defaults(full), **kwargs})
+    env = numba_env(env_id, **kwargs)
+    if plant not in FLIGHT_PLANTS:
+        lab_only(plant, env.conditions)
     return module.from_env(env)
