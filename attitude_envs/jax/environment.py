@@ -50,7 +50,8 @@ Every env reports ``info["cost"]``, the running cost J accrued over the step (th
 
 from __future__ import annotations
 
-from functools import partial
+from collections.abc import Callable
+from functools import cache, partial
 from typing import Any
 
 import jax
@@ -164,3 +165,15 @@ class Environment:
 
     def observation_space(self, params: Any = None):
         raise NotImplementedError
+
+
+def preset_defaults(config: Callable[[], Any], params_of: Callable[[Any], Any]) -> Callable[[str], Any]:
+    """``field(group)``: a params field whose default is ``group`` of ``params_of(config())``,
+    the default preset's params. ``config`` (called once, cached) is the numba env's validated
+    configuration; the arrays are made when a params object is, in the dtype then in force."""
+    config = cache(config)
+
+    def field(group: str) -> Any:
+        return struct.field(default_factory=lambda: getattr(params_of(config()), group))
+
+    return field

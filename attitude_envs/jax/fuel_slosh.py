@@ -36,7 +36,6 @@ except ``sensors`` and sensor-target faults, for which :func:`from_keywords` rai
 
 from __future__ import annotations
 
-import functools
 import math
 from typing import Any
 
@@ -50,7 +49,7 @@ from attitude_envs.envs.fuel_slosh import OBS_INDEX, OBS_INDEX_NO_SLOSH, FuelSlo
 from attitude_envs.envs.fuel_slosh import FuelSloshEnv as NumbaFuelSloshEnv
 from attitude_envs.jax import cost as jcost
 from attitude_envs.jax import faults as jfaults
-from attitude_envs.jax.environment import Environment
+from attitude_envs.jax.environment import Environment, preset_defaults
 from attitude_envs.jax.make import lab_layers
 from attitude_envs.jax.ops import JAX
 from attitude_envs.jax.spaces import Box
@@ -80,16 +79,8 @@ class EnvState:
     fault_state: jfaults.FaultState
 
 
-@functools.cache
-def _default_config() -> FuelSloshConfig:
-    """The default preset's configuration (FuelSlosh-v0's), the groups' defaults."""
-    return configure(keyword_defaults(NumbaFuelSloshEnv))
-
-
-def _default(group: str) -> Any:
-    """A field whose default is ``group`` of the default preset's params (arrays made when
-    a params object is, in the dtype then in force)."""
-    return struct.field(default_factory=lambda: getattr(params_of(_default_config()), group))
+#: a params field whose default is that group of the default preset's params
+_default = preset_defaults(lambda: configure(keyword_defaults(NumbaFuelSloshEnv)), lambda cfg: params_of(cfg))
 
 
 @struct.dataclass

@@ -58,7 +58,6 @@ modeled; vmap over :func:`with_inertia` instead); ``render_mode``.
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -77,7 +76,7 @@ from attitude_envs.jax import faults as jfaults
 from attitude_envs.jax import quaternion as jq
 from attitude_envs.jax import sensors as jsens
 from attitude_envs.jax.cost import mode_code, termination_charge
-from attitude_envs.jax.environment import Environment
+from attitude_envs.jax.environment import Environment, preset_defaults
 from attitude_envs.jax.ops import JAX
 from attitude_envs.jax.spaces import Box
 from attitude_envs.plants.gyrostat_definition import define
@@ -208,16 +207,8 @@ class EnvState:
     sensors: SensorState | None = None
 
 
-@functools.cache
-def _default_config() -> GyrostatConfig:
-    """The default preset's configuration (ReactionWheel-v0's), the groups' defaults."""
-    return configure(ReactionWheelEnv, None, {})
-
-
-def _default(group: str) -> Any:
-    """A field whose default is ``group`` of the default preset's params (arrays made when
-    a params object is, in the dtype then in force)."""
-    return struct.field(default_factory=lambda: getattr(_params_of(_default_config(), ReactionWheelEnv), group))
+#: a params field whose default is that group of the default preset's params
+_default = preset_defaults(lambda: configure(ReactionWheelEnv, None, {}), lambda cfg: _params_of(cfg, ReactionWheelEnv))
 
 
 @struct.dataclass

@@ -23,7 +23,6 @@ Modeled: every keyword of the numba env except ``sensors`` and sensor-target fau
 
 from __future__ import annotations
 
-import functools
 from typing import Any
 
 import jax
@@ -37,7 +36,7 @@ from attitude_envs.envs.linear_system import LinearSystemEnv as NumbaLinearSyste
 from attitude_envs.faults import RealizedFault
 from attitude_envs.jax import cost as jcost
 from attitude_envs.jax import faults as jfaults
-from attitude_envs.jax.environment import Environment
+from attitude_envs.jax.environment import Environment, preset_defaults
 from attitude_envs.jax.make import lab_layers
 from attitude_envs.jax.spaces import Box
 
@@ -54,16 +53,8 @@ class EnvState:
     fault_state: jfaults.FaultState
 
 
-@functools.cache
-def _default_config() -> LinearSystemConfig:
-    """The default preset's configuration (LinearSystem-v0's), the groups' defaults."""
-    return configure(keyword_defaults(NumbaLinearSystemEnv))
-
-
-def _default(group: str) -> Any:
-    """A field whose default is ``group`` of the default preset's params (arrays made when
-    a params object is, in the dtype then in force)."""
-    return struct.field(default_factory=lambda: getattr(params_of(_default_config()), group))
+#: a params field whose default is that group of the default preset's params
+_default = preset_defaults(lambda: configure(keyword_defaults(NumbaLinearSystemEnv)), lambda cfg: params_of(cfg))
 
 
 @struct.dataclass
