@@ -115,7 +115,7 @@ def test_leaderboard_table(campaigns):
     assert first[3] == "lqr" and first[5] == "ppo (2 training seeds × 6 episodes)"
     assert first[4].startswith("1.1") and "[" in first[4] and "[" in first[6]
     assert body[1].startswith("|  |")  # the plant named once
-    assert "| zero" not in table and "Best: the first of its kind" in table
+    assert "| zero" not in table and "Best: the first of its kind" in ov.LEADERBOARD_LEGEND
 
 
 def test_paste_between_markers():
@@ -176,3 +176,13 @@ def test_aggregates_with_rliable(campaigns, tmp_path):
     assert "P(best learned > best analytic) = 0.000" in ov.aggregates_table(agg)
     png = ov.plot_profiles(agg, tmp_path / "profiles.png")
     assert png.is_file() and png.stat().st_size > 0
+    # the result first: the table and both figures, then what the columns mean, then the aggregates
+    text = ov.overview_markdown(cells, agg, "figures")
+    order = [
+        text.index("| plant | env · scenario · fault"),
+        text.index("overview-ratios.png"),
+        text.index("overview-profiles.png"),
+        text.index("J* success: the share"),
+        text.index("IQM of J* / J [95 % CI]"),
+    ]
+    assert order == sorted(order)
