@@ -16,11 +16,11 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from attitude_envs import validation
 from attitude_envs.conditions import Conditions
+from attitude_envs.envs.base import build_layers
 from attitude_envs.faults import ActuatorFaults
 from attitude_envs.registration import task_defaults
-from attitude_envs.sensors import Channel, SensorSuite
+from attitude_envs.sensors import Channel
 
 #: the plant module implementing each env name (``from_keywords(plant, kwargs)`` or
 #: ``from_env(numba_env)``, each ``-> (env, params)``)
@@ -72,18 +72,25 @@ def lab_only(plant: str, conditions: Conditions) -> None:
 
 def lab_layers(plant: str, cfg: Any, limits: np.ndarray, n_states: int) -> ActuatorFaults:
     """The actuator fault layer of a lab plant with one ``state`` sensor channel of
-    ``n_states`` entries, ``cfg``'s ``faults``, ``sensors`` and ``fault_hint`` validated as the
-    numba env's layers validate them; a ``ValueError`` for flight conditions, ``sensors`` or
-    sensor faults, which the JAX ``plant`` does not model."""
-    layer = ActuatorFaults(cfg.faults, len(limits), limits, other_targets={"sensor"})
-    sensors = SensorSuite(cfg.sensors, [Channel("state", n_states)], cfg.faults)
-    validation.flag("fault_hint", cfg.fault_hint)
+    ``n_states`` entries: ``cfg``'s ``faults``, ``sensors`` and ``fault_hint`` validated by the
+    numba envs' own :func:`~attitude_envs.envs.base.build_layers`; a ``ValueError`` for flight
+    conditions, ``sensors`` or sensor faults, which the JAX ``plant`` does not model."""
+    layers = build_layers(
+        plant,
+        None,
+        n_actuators=len(limits),
+        actuator_limits=limits,
+        channels=[Channel("state", n_states)],
+        faults=cfg.faults,
+        sensors=cfg.sensors,
+        fault_hint=cfg.fault_hint,
+    )
     lab_only(plant, cfg.conditions)
-    if sensors.config:
+    if layers.sensor_layer.config:
         raise ValueError(f"{plant} JAX plant: keyword 'sensors' is not modeled (the state is observed exactly)")
-    if sensors.fault_configs:
+    if layers.sensor_layer.fault_configs:
         raise ValueError(f"{plant} JAX plant: 'faults' with target 'sensor' are not modeled (actuator faults only)")
-    return layer
+    return layers.fault_layer
 
 
 def make(env_id: str, **kwargs: Any):
