@@ -48,7 +48,9 @@ from attitude_envs.symbolic import problem_for
 from attitude_envs.symbolic.gyrostat import build_reaction_wheel
 from benchmarks.results_file import write_results
 from experiments import optimum
+from experiments.jsonable import json_ready
 from experiments.policies import build_policy
+from experiments.seeds import SYNTAX, seeds_arg
 
 ENV = "ConstrainedSlew-v0"
 #: the baselines evaluated against J* (registry names)
@@ -60,21 +62,6 @@ LOAD_NOTE = (
     "timings taken on a 2-core machine shared with a long benchmark run (niced): "
     "wall times are upper bounds, not an idle machine's"
 )
-
-
-def parse_seeds(text: str) -> list[int]:
-    """``"0-19"`` or ``"0,3,5"`` (or a mix, ``"0-3,7"``) → the seeds, in order."""
-    seeds: list[int] = []
-    for part in text.split(","):
-        part = part.strip()
-        if "-" in part:
-            low, high = (int(v) for v in part.split("-", 1))
-            seeds.extend(range(low, high + 1))
-        elif part:
-            seeds.append(int(part))
-    if not seeds or any(s < 0 for s in seeds):
-        raise ValueError(f"--seeds must name seeds >= 0 (e.g. 0-19 or 0,3,5), got {text!r}")
-    return seeds
 
 
 def rollout(env, policy, seed: int, options: dict | None = None) -> dict[str, Any]:
@@ -258,18 +245,9 @@ def _save(path: Path, data: dict[str, Any], argv: Sequence[str] | None) -> None:
 
 
 def _json(value: Any) -> Any:
-    """``value`` with non-finite floats as None and numpy scalars as Python's (strict JSON)."""
-    if isinstance(value, dict):
-        return {str(k): _json(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json(v) for v in value]
-    if isinstance(value, (np.floating, float)):
-        return _finite(float(value))
-    if isinstance(value, (np.integer,)):
-        return int(value)
-    if isinstance(value, np.bool_):
-        return bool(value)
-    return value
+    """``value`` as strict JSON: :func:`~experiments.jsonable.json_ready` with non-finite floats
+    as None."""
+    return json_ready(value, lambda v: _finite(v) if isinstance(v, float) else v)
 
 
 def run(
@@ -311,15 +289,20 @@ def run(
     return data
 
 
-def main(argv: list[str] | None = None) -> dict[str, Any]:
+def build_parser() -> argparse.ArgumentParser:
+    """The script's options; ``--seeds`` in the suite's seed syntax (:mod:`experiments.seeds`)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--part", choices=("optimum", "baselines"), required=True)
-    parser.add_argument("--seeds", default="0-19", help="seeds: 0-19 or 0,3,5 (default 0-19)")
+    parser.add_argument("--seeds", type=seeds_arg, default="0-19", help=f"seeds: {SYNTAX} (default 0-19)")
     parser.add_argument("--policies", default=",".join(BASELINES), help="baselines part: registry names")
     parser.add_argument("--out", default=str(DEFAULT_OUT))
-    args = parser.parse_args(argv)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> dict[str, Any]:
+    args = build_parser().parse_args(argv)
     policies = [p for p in args.policies.split(",") if p]
-    return run(args.part, parse_seeds(args.seeds), Path(args.out), policies, argv)
+    return run(args.part, args.seeds, Path(args.out), policies, argv)
 
 
 if __name__ == "__main__":

@@ -10,7 +10,8 @@ import numpy as np
 
 def json_ready(value: Any, leaf: Callable[[Any], Any] | None = None) -> Any:
     """``value`` with mappings as dicts (keys as str), tuples and lists as lists, numpy arrays
-    and scalars as lists and numbers; every other leaf as ``leaf(leaf_value)`` (default: itself)."""
+    and scalars as lists and numbers; every leaf (numpy scalars as Python's) as
+    ``leaf(leaf_value)`` (default: itself)."""
     if isinstance(value, Mapping):
         return {str(k): json_ready(v, leaf) for k, v in value.items()}
     if isinstance(value, list | tuple):
@@ -18,7 +19,7 @@ def json_ready(value: Any, leaf: Callable[[Any], Any] | None = None) -> Any:
     if isinstance(value, np.ndarray):
         return json_ready(value.tolist(), leaf)
     if isinstance(value, np.generic):
-        return value.item()
+        return json_ready(value.item(), leaf)
     return value if leaf is None else leaf(value)
 
 

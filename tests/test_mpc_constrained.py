@@ -123,7 +123,7 @@ def test_the_script_resumes_skipping_the_seeds_it_holds(tmp_path):
 
     quiet = {"argv": [], "solve": solve, "evaluate": evaluate, "log": lambda _: None}
     bench.run("optimum", [0, 1], out, **quiet)
-    bench.run("optimum", bench.parse_seeds("0-2"), out, **quiet)
+    bench.run("optimum", [0, 1, 2], out, **quiet)
     assert calls == [0, 1, 2]
     calls.clear()
     bench.run("baselines", [0, 1], out, policies=["eigenaxis"], **quiet)
@@ -135,6 +135,7 @@ def test_the_script_resumes_skipping_the_seeds_it_holds(tmp_path):
     assert s["optimum"]["solved"] == 3 and s["optimum"]["sum_J_star"] == 33.0
     assert s["eigenaxis"]["sum_J_over_sum_J_star"] == pytest.approx(2.0)
     assert s["eigenaxis"]["violating_episodes"] == 1 and s["eigenaxis"]["violation_steps"] == 1
-    assert bench.parse_seeds("0-3,7") == [0, 1, 2, 3, 7]
-    with pytest.raises(ValueError, match="--seeds"):
-        bench.parse_seeds("")
+    assert bench.build_parser().parse_args(["--part", "optimum", "--seeds", "0-3,7"]).seeds == [0, 1, 2, 3, 7]
+    assert bench.build_parser().parse_args(["--part", "optimum"]).seeds == list(range(20))
+    with pytest.raises(SystemExit):
+        bench.build_parser().parse_args(["--part", "optimum", "--seeds", ""])
