@@ -33,6 +33,8 @@ import numpy as np
 
 import attitude_envs  # noqa: F401
 from attitude_envs.conditions import Conditions
+from attitude_envs.evaluation.rollout import rollout
+from attitude_envs.files import atomic_write
 from attitude_envs.presets import flight
 from experiments import optimum
 
@@ -70,18 +72,6 @@ def agents() -> dict[str, Callable]:
     # the LQR designed for the env's command delay (a known design value), through the MEKF
     found["lqr-delay+mekf"] = lambda env: lqr_mekf(env, delay_steps="env", name="lqr-delay+mekf")
     return found
-
-
-def episode_cost(env, policy, seed: int) -> float:
-    """J of one episode of ``policy`` (the sum of the step costs)."""
-    obs, info = env.reset(seed=seed)
-    policy.reset(seed)
-    total, done = 0.0, False
-    while not done:
-        obs, reward, terminated, truncated, info = env.step(policy.act(obs, info))
-        total -= reward
-        done = terminated or truncated
-    return total
 
 
 def j_star(env_id: str, conditions: dict, seed: int, env_kwargs: dict | None = None) -> float:
@@ -126,7 +116,7 @@ def run(
                 for seed in range(seeds):
                     key = (name, axis, level, seed)
                     if key not in done:
-                        j = episode_cost(env, policy, seed)
+                        j = float(rollout(env, policy, seed=seed)["J"])  # the policy sees no ground truth
                         done[key] = {
                             "agent": name,
                             "axis": axis,
@@ -156,10 +146,14 @@ def run(
                     f"CVaR0.1 {row['cvar10']:.4f}",
                     flush=True,
                 )
-    with out.open("w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
+
+    def write_csv(path: Path) -> None:
+        with path.open("w", newline="") as f:
+            writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+            writer.writeheader()
+            writer.writerows(rows)
+
+    atomic_write(out, write_csv)
     return rows
 
 
