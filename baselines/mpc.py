@@ -38,6 +38,7 @@ env at a time. Requires CasADi (``pip install 'attitude-envs[optimal]'``).
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
@@ -75,6 +76,12 @@ def model_step(env) -> casadi.Function:
     ``smooth=True``, ``(y (7+N), a (n_u), t, q_T (4)) -> (y_next, cost)``; ``a`` is not
     clipped (the NLP bounds it) and ``t`` is unused (the nominal model is time-invariant)."""
     return step_function(model_parameters(env), smooth=True)
+
+
+def shifted(a: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A plan's actions ``a`` (n_u × N) and states ``y`` (n_y × (N+1)) shifted by one step, the
+    last entry repeated: the next step's warm start."""
+    return np.column_stack([a[:, 1:], a[:, -1:]]), np.column_stack([y[:, 1:], y[:, -1:]])
 
 
 class MPCPolicy:
@@ -220,11 +227,7 @@ class MPCPolicy:
         if not np.all(np.isfinite(w)):
             self._guess = None
             return self._fallback_action(obs, info)
-        # warm start of the next step: the solution shifted by one step, its last entry repeated
-        self._guess = (
-            np.column_stack([a_opt[:, 1:], a_opt[:, -1:]]),
-            np.column_stack([y_opt[:, 1:], y_opt[:, -1:]]),
-        )
+        self._guess = shifted(a_opt, y_opt)  # warm start of the next step
         return np.clip(a_opt[:, 0], -1.0, 1.0).astype(np.float32)
 
     def _failed_solve_action(self) -> np.ndarray | None:
@@ -243,14 +246,25 @@ class MPCPolicy:
             y_guess = y_guess.copy()
             y_guess[:, 0] = y0
             return a_guess, y_guess
+        start = np.asarray(obs, dtype=float)
+
+        def lqr(k: int, y: np.ndarray) -> np.ndarray:
+            x = start if k == 0 else self._model.error_state(y[:4], y[4:7], y[7:], target)
+            return self._lqr.act(x, info)
+
+        return self._rollout_guess(y0, target, lqr)
+
+    def _rollout_guess(
+        self, y0: np.ndarray, target: np.ndarray, act: Callable[[int, np.ndarray], np.ndarray]
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """A first guess: ``act(k, y_k)`` (normalized actions) rolled out on the nominal model
+        from ``y0`` over the horizon."""
         n_h = self.horizon_steps
         a_guess = np.zeros((self._n_u, n_h))
         y_guess = np.zeros((self._n_y, n_h + 1))
         y_guess[:, 0] = y0
-        x = np.asarray(obs, dtype=float)
         for k in range(n_h):
-            a_guess[:, k] = self._lqr.act(x, info)
+            a_guess[:, k] = act(k, y_guess[:, k])
             y_next, _ = self.model_step(y_guess[:, k], a_guess[:, k], 0.0, target)
             y_guess[:, k + 1] = np.asarray(y_next).ravel()
-            x = self._model.error_state(y_guess[:4, k + 1], y_guess[4:7, k + 1], y_guess[7:, k + 1], target)
         return a_guess, y_guess

@@ -43,7 +43,7 @@ from attitude_envs.envs.constrained_slew import CONE_FEATURES, CONE_KINDS, MAX_C
 from attitude_envs.symbolic import constrained_slew as cs
 from baselines.cbf import EigenaxisSlewPolicy
 from baselines.measured import MeasuredState
-from baselines.mpc import MPCPolicy
+from baselines.mpc import MPCPolicy, shifted
 
 try:
     import casadi
@@ -170,10 +170,7 @@ class ConstrainedSlewMPCPolicy(MPCPolicy):
         """The last solved plan's next action (the guess is that plan, shifted); the guess
         shifted once more."""
         a_plan, y_plan = self._guess
-        self._guess = (
-            np.column_stack([a_plan[:, 1:], a_plan[:, -1:]]),
-            np.column_stack([y_plan[:, 1:], y_plan[:, -1:]]),
-        )
+        self._guess = shifted(a_plan, y_plan)
         self._plan_left -= 1
         return np.clip(a_plan[:, 0], -1.0, 1.0).astype(np.float32)
 
@@ -190,14 +187,9 @@ class ConstrainedSlewMPCPolicy(MPCPolicy):
         nominal model."""
         if self._guess is not None:
             return super()._initial_guess(y0, target, obs, info)
-        n_h = self.horizon_steps
-        a_guess = np.zeros((self._n_u, n_h))
-        y_guess = np.zeros((self._n_y, n_h + 1))
-        y_guess[:, 0] = y0
-        for k in range(n_h):
-            y = y_guess[:, k]
+
+        def slew(k: int, y: np.ndarray) -> np.ndarray:
             state = MeasuredState(attitude=y[:4], rate_rad_s=y[4:7], wheel_speed_rad_s=y[7:], target_attitude=target)
-            a_guess[:, k] = self._slew.action(self._slew.body_torque_nm(state))
-            y_next, _ = self.model_step(y, a_guess[:, k], 0.0, target)
-            y_guess[:, k + 1] = np.asarray(y_next).ravel()
-        return a_guess, y_guess
+            return self._slew.action(self._slew.body_torque_nm(state))
+
+        return self._rollout_guess(y0, target, slew)

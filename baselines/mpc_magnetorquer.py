@@ -76,8 +76,8 @@ try:
 except ImportError as exc:  # casadi is an optional extra
     raise ImportError("the magnetorquer MPC needs CasADi: pip install 'attitude-envs[optimal]'") from exc
 
-#: IPOPT's return statuses that mean a (locally) optimal point was found
-SOLVED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+from baselines.mpc import SOLVED, shifted  # noqa: E402  (after the CasADi check: its message names this MPC)
+
 _QUIET = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": 0}
 _N_Y, _N_U = 8, 4
 
@@ -262,11 +262,7 @@ class MagnetorquerMPCPolicy:
             a_opt = w[: self._n_a].reshape(_N_U, -1, order="F")
             y_opt = w[self._n_a :].reshape(_N_Y, -1, order="F")
             action = np.clip(a_opt[:, 0], -1.0, 1.0)
-            # warm start of the next step: the solution shifted by one step, its last entry repeated
-            self._guess = (
-                np.column_stack([a_opt[:, 1:], a_opt[:, -1:]]),
-                np.column_stack([y_opt[:, 1:], y_opt[:, -1:]]),
-            )
+            self._guess = shifted(a_opt, y_opt)  # warm start of the next step
         action = action.astype(np.float32)
         self._last = (y0, action.astype(float), pars[:, 0].copy())
         self.history["time_s"].append(t)

@@ -80,6 +80,7 @@ except ImportError as exc:  # casadi is an optional extra
 
 from attitude_envs.symbolic.slosh import nominal_step_function
 from baselines.compiled_nlp import compiled_nlpsol
+from baselines.mpc import shifted
 
 _QUIET = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": 0}
 _QUIET_SQP = {
@@ -368,10 +369,7 @@ class SloshMPCPolicy:
             a_opt = w[: self._n_a].reshape(2, -1, order="F")
             if self.initial_guess == "shifted":  # the next step's start: shifted by one step, last entry repeated
                 y_opt = w[self._n_a :].reshape(slosh.N_STATE, -1, order="F")
-                self._guess = (
-                    np.column_stack([a_opt[:, 1:], a_opt[:, -1:]]),
-                    np.column_stack([y_opt[:, 1:], y_opt[:, -1:]]),
-                )
+                self._guess = shifted(a_opt, y_opt)
             action = np.clip(a_opt[:, 0] / theta, -1.0, 1.0).astype(np.float32)
         self._last = (y0, np.clip(np.asarray(action, dtype=float), -1.0, 1.0))
         return action
