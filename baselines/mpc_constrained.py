@@ -99,10 +99,13 @@ class ConstrainedSlewMPCPolicy(MPCPolicy):
         self.boresights = [np.asarray(base.boresights[kind[1]], dtype=float) for kind in CONE_KINDS]
         self.rate_limit_rad_s = float(base.body_rate_limit.limit_rad_s)
         self.wheel_speed_limit_rad_s = float(base.wheel_speed_limit.limit_rad_s)
-        self.backoff = float(cs.backoff(base) if backoff is None else backoff)
+        self.backoff = cs.backoff(base) if backoff is None else validation.nonnegative("backoff", backoff)
         #: env steps per solve: the plan's actions are played open loop in between
         self.replan_steps = validation.integer("replan_steps", replan_steps, 1)
-        options = {"ipopt.constr_viol_tol": float(constr_viol_tol), **(solver_options or {})}
+        options = {
+            "ipopt.constr_viol_tol": validation.positive("constr_viol_tol", constr_viol_tol),
+            **(solver_options or {}),
+        }
         self._slew = EigenaxisSlewPolicy(env)
         super().__init__(env, horizon_steps, max_iter, tol, options, name or "mpc-constrained", model_substeps)
         #: the steps that played the last solved plan's next action (a solve not finished)

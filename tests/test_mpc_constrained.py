@@ -49,6 +49,19 @@ def test_the_registry_names_resolve(env, mpc):
         check_policy_env("mpc-constrained", "attitude_envs/ReactionWheel-v0")
 
 
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"backoff": -1e-6}, r"backoff must be in \[0, inf\)"),
+        ({"constr_viol_tol": 0.0}, r"constr_viol_tol must be in \(0, inf\)"),
+        ({"replan_steps": 0}, "replan_steps must be an integer >= 1"),
+    ],
+)
+def test_bad_settings_are_refused_by_name(env, kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        ConstrainedSlewMPCPolicy(env, **kwargs)
+
+
 def test_the_cone_parameters_and_rows_are_the_episodes(env, mpc):
     """The observation's cones, turned inertial by the measured attitude, are the env's; the
     MPC's rows with them are J*'s rows (the same back-off)."""
