@@ -49,6 +49,11 @@ def error_angle_rad(q: np.ndarray, q_target: np.ndarray) -> float:
     return float(2.0 * np.arccos(min(1.0, abs(qe[3]))))
 
 
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a × b`` for 3-vectors without ``np.cross``'s overhead (hot paths: per-step controllers)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
 def skew(v: np.ndarray) -> np.ndarray:
     """Cross-product matrix: ``skew(a) @ b == a × b``."""
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])

@@ -25,6 +25,15 @@ boresights from the env's constants; the state from ``info["measured"]``.
 Known limit of a CBF filter on a nominal command that ignores the cones: when the eigenaxis
 path runs straight through a cone's centre the filtered slew can stall on the cone's boundary
 (a deadlock, not a violation).
+
+The same filter shields any policy (a *shield* in the sense of Alshiekh et al., 2018: it sits
+between the agent and the env and changes only commands that would break a barrier condition):
+:class:`Shielded` filters a policy's body-torque action at evaluation, :class:`CBFShield` is the
+Gymnasium wrapper that filters a learner's actions while it trains (the Zoo's ``env_wrapper:
+baselines.cbf.CBFShield``). Both call :meth:`CBFSafetyFilterPolicy.filter_action`, so a
+shielded agent plays exactly as it was trained; a run trained behind :class:`CBFShield` is
+evaluated behind :class:`Shielded` by the ``sb3`` policy without being told
+(:meth:`CBFShield.wrap_policy`).
 """
 
 from __future__ import annotations
@@ -32,13 +41,16 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
 from attitude_envs import quaternion, validation
 from attitude_envs.envs.constrained_slew import CONE_FEATURES, CONE_KINDS, MAX_CONES
+from attitude_envs.info import policy_view
+from attitude_envs.quaternion import cross
 from baselines.measured import MeasuredState
 
-__all__ = ["CBFSafetyFilterPolicy", "EigenaxisSlewPolicy"]
+__all__ = ["CBFSafetyFilterPolicy", "CBFShield", "EigenaxisSlewPolicy", "Shielded"]
 
 
 class EigenaxisSlewPolicy:
@@ -97,7 +109,7 @@ class EigenaxisSlewPolicy:
             w_cmd = -min(self.max_rate_rad_s, self.attitude_gain * theta) * qe[:3] / s
         else:
             w_cmd = np.zeros(3)
-        return self.inertia_eff @ (self.rate_gain * (w_cmd - w)) + np.cross(w, self.momentum(state))
+        return self.inertia_eff @ (self.rate_gain * (w_cmd - w)) + cross(w, self.momentum(state))
 
     def action(self, body_torque_nm: np.ndarray) -> np.ndarray:
         """The env's action for a body torque: scaled down as a whole (its direction kept)
@@ -143,6 +155,10 @@ class CBFSafetyFilterPolicy(EigenaxisSlewPolicy):
 
         self._clarabel, self._sparse = clarabel, scipy.sparse
         base = env.unwrapped
+        if self.action_frame != "body":
+            raise ValueError(
+                f"the CBF filter acts on body-torque actions: build the env with action_frame='body', got {self.action_frame!r}"
+            )
         self.boresights = [np.asarray(base.boresights[kind[1]], dtype=float) for kind in CONE_KINDS]
         self.gamma1, self.gamma2 = (validation.positive("cone_gains", g) for g in cone_gains)
         self.limit_gain = validation.positive("limit_gain", limit_gain)
@@ -165,7 +181,7 @@ class CBFSafetyFilterPolicy(EigenaxisSlewPolicy):
         """``(G, r)``: the barrier conditions as ``G T ≤ r`` (before the slack)."""
         w = state.rate_rad_s
         h_total = self.momentum(state)
-        drift = -self.inertia_eff_inv @ np.cross(w, h_total)  # ω̇ = I_eff⁻¹ T + drift
+        drift = -self.inertia_eff_inv @ cross(w, h_total)  # ω̇ = I_eff⁻¹ T + drift
         rows, rhs = [], []
         cones = np.asarray(obs, dtype=float)[-CONE_FEATURES * MAX_CONES :].reshape(MAX_CONES, CONE_FEATURES)
         g1, g2 = self.gamma1, self.gamma2
@@ -174,11 +190,11 @@ class CBFSafetyFilterPolicy(EigenaxisSlewPolicy):
                 continue
             s_b = slot[:3] / np.linalg.norm(slot[:3])
             cos_keep = math.cos(min(math.acos(min(1.0, slot[3])) + self.buffer_rad, 0.5 * math.pi))
-            c = np.cross(b, s_b)
+            c = cross(b, s_b)
             h = cos_keep - float(b @ s_b)  # safe: h ≥ 0
             h_dot = -float(w @ c)
             # ḧ = −c·ω̇ − ω·(b × (s_B × ω))
-            rest = -float(c @ drift) - float(w @ np.cross(b, np.cross(s_b, w)))
+            rest = -float(c @ drift) - float(w @ cross(b, cross(s_b, w)))
             # −c·I_eff⁻¹ T + rest + (γ₁+γ₂) ḣ + γ₁γ₂ h ≥ 0
             rows.append(c @ self.inertia_eff_inv)
             rhs.append(rest + (g1 + g2) * h_dot + g1 * g2 * h)
@@ -196,13 +212,33 @@ class CBFSafetyFilterPolicy(EigenaxisSlewPolicy):
                 rhs.append(k * (self.wheel_limit - sign * speed) - sign * wheel_drift[i])
         return np.array(rows), np.array(rhs)
 
-    def filtered_torque_nm(self, obs: np.ndarray, state: MeasuredState) -> np.ndarray:
-        """The body torque closest to the nominal slew's that keeps the barrier conditions
-        (with the slack) and the torque limit."""
-        nominal = self.body_torque_nm(state)
+    def __getstate__(self) -> dict[str, Any]:  # a training env behind CBFShield is pickled with its checkpoint
+        state = self.__dict__.copy()
+        for key in ("_clarabel", "_sparse", "_settings"):
+            state.pop(key)
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        import clarabel
+        import scipy.sparse
+
+        self.__dict__.update(state)
+        self._clarabel, self._sparse = clarabel, scipy.sparse
+        self._settings = clarabel.DefaultSettings()
+        self._settings.verbose = False
+
+    def filtered_torque_nm(
+        self, obs: np.ndarray, state: MeasuredState, nominal: np.ndarray | None = None
+    ) -> np.ndarray:
+        """The body torque closest to ``nominal`` (N·m; default: the eigenaxis slew's) that keeps
+        the barrier conditions (with the slack) and the torque limit."""
+        if nominal is None:
+            nominal = self.body_torque_nm(state)
         g, r = self.barrier_rows(obs, state)
         n_b = len(r)
         m = self.allocation
+        if np.all(g @ nominal <= r) and np.all(np.abs(m @ nominal) <= self.max_torque_nm):
+            return nominal  # the nominal command is feasible: it is the program's solution, no solve needed
         # variables [T (3), δ]; constraints A x + s = b, s in the nonnegative cone
         a = np.vstack(
             [
@@ -233,3 +269,66 @@ class CBFSafetyFilterPolicy(EigenaxisSlewPolicy):
     def act(self, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
         state = MeasuredState.from_info(info)
         return self.action(self.filtered_torque_nm(obs, state))
+
+    def filter_action(self, action: np.ndarray, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
+        """Any policy's action (a body-torque demand in [-1, 1]³, ``T = a · max_wheel_torque_nm``)
+        through the filter: the env's action for the filtered torque. ``obs`` and ``info`` are
+        what the policy saw for it."""
+        a = np.clip(np.asarray(action, dtype=float).reshape(3), -1.0, 1.0)
+        state = MeasuredState.from_info(info)
+        return self.action(self.filtered_torque_nm(obs, state, nominal=a * self.max_torque_nm))
+
+
+class Shielded:
+    """``policy`` (``reset(seed)``, ``act(obs, info)``) behind the CBF filter of
+    :class:`CBFSafetyFilterPolicy` built on ``env`` with ``filter_params`` (its keywords). The
+    policy's action is taken as the nominal body-torque demand and filtered every step; its
+    name gains ``+cbf``. ``filter.filtered_steps`` counts the steps it changed."""
+
+    def __init__(self, policy, env, **filter_params: Any) -> None:
+        self.policy = policy
+        self.filter = CBFSafetyFilterPolicy(env, **filter_params)
+        self.name = f"{getattr(policy, 'name', type(policy).__name__)}+cbf"
+
+    def reset(self, seed: int | None = None) -> None:
+        self.policy.reset(seed)
+        self.filter.reset(seed)
+
+    def act(self, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
+        return self.filter.filter_action(self.policy.act(obs, info), obs, info)
+
+
+class CBFShield(gym.Wrapper, gym.utils.RecordConstructorArgs):
+    """A learner's env behind the CBF filter (``filter_params``: :class:`CBFSafetyFilterPolicy`'s
+    keywords): each action is filtered with the observation and the
+    :func:`~attitude_envs.info.policy_view` of the info that preceded it, exactly as
+    :class:`Shielded` filters at evaluation. ``info["shield_changed"]``: whether the filter
+    changed this step's action. The reward and the cost are the env's for the filtered action.
+    """
+
+    def __init__(self, env: gym.Env, **filter_params: Any) -> None:
+        gym.utils.RecordConstructorArgs.__init__(self, **filter_params)
+        gym.Wrapper.__init__(self, env)
+        self.filter = CBFSafetyFilterPolicy(env, **filter_params)
+        self._last: tuple[np.ndarray, dict[str, Any]] | None = None
+
+    @staticmethod
+    def wrap_policy(policy, env, **filter_params: Any) -> Shielded:
+        """The evaluation-side twin of this wrapper: ``policy`` behind the same filter."""
+        return Shielded(policy, env, **filter_params)
+
+    def reset(self, **kwargs: Any):
+        obs, info = self.env.reset(**kwargs)
+        self.filter.reset()
+        self._last = (obs, policy_view(info))
+        return obs, info
+
+    def step(self, action: Any):
+        if self._last is None:
+            raise RuntimeError("CBFShield: call reset() before step()")
+        before = self.filter.filtered_steps
+        filtered = self.filter.filter_action(action, *self._last)
+        obs, reward, terminated, truncated, info = self.env.step(filtered)
+        info["shield_changed"] = self.filter.filtered_steps > before
+        self._last = (obs, policy_view(info))
+        return obs, reward, terminated, truncated, info

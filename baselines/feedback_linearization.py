@@ -36,6 +36,7 @@ import numpy as np
 
 from attitude_envs import quaternion, validation
 from attitude_envs.linearization import LinearModel
+from attitude_envs.quaternion import cross
 from baselines.allocation import WheelAllocator
 from baselines.measured import MeasuredState
 from baselines.quaternion_lqr import QuaternionLQRPolicy
@@ -56,11 +57,6 @@ def outer_loop_gain(Q=PAPER_OUTER_Q, R=PAPER_OUTER_R) -> np.ndarray:
     A[:3, 3:] = np.eye(3)
     B = np.vstack([np.zeros((3, 3)), np.eye(3)])
     return LinearModel(A, B, q_mat, r_mat).lqr_gain()
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``a × b`` for 3-vectors (``np.cross`` is slow on tiny arrays: hot path)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 def q_double_prime(q: np.ndarray) -> np.ndarray:
@@ -135,8 +131,8 @@ class FeedbackLinearizationPolicy:
         qv_dot = 0.5 * qpp @ w
         q4_dot = -0.5 * float(q[:3] @ w)
         h = self._inertia @ w + self._wheel_momentum @ state.wheel_speed_rad_s
-        w_dot_drift = self._inertia_eff_inv @ -_cross(w, h)
-        D = 0.5 * (q4_dot * w + _cross(qv_dot, w)) + 0.5 * qpp @ w_dot_drift  # eq. 25
+        w_dot_drift = self._inertia_eff_inv @ -cross(w, h)
+        D = 0.5 * (q4_dot * w + cross(qv_dot, w)) + 0.5 * qpp @ w_dot_drift  # eq. 25
         E = 0.5 * qpp @ self._inertia_eff_inv  # eq. 26
         v = -self.gain @ np.concatenate([q[:3] - y_d, qv_dot])  # eq. 33
         return np.linalg.solve(E, v - D)  # eq. 28

@@ -27,7 +27,8 @@ import numpy as np
 
 from attitude_envs import quaternion, validation
 from attitude_envs.info import MEASURED
-from attitude_envs.plants.magnetorquer import E_Y, cross, orbital_to_body
+from attitude_envs.plants.magnetorquer import E_Y, orbital_to_body
+from attitude_envs.quaternion import cross
 
 ALLOCATIONS = ("paper", "xz", "exact")
 

@@ -34,7 +34,8 @@ amnftsmc, mnftsmc,  Sadigh et al. 2022's sliding-mode controllers               
 ftsmc-standin       (Magnetorquer-v0)
 bdot                B-dot detumbling (Magnetorquer-v0)                           gain_nms
 q-learning-lqr      ``agents.QLearningLQR`` (model-free; learns at build time)   constructor kwargs; ``learn``
-sb3                 a saved Stable-Baselines3 model (``model: PATH``)            deterministic
+sb3                 a saved Stable-Baselines3 model (``model: PATH``); behind    deterministic, shield,
+                    the CBF safety filter with ``shield: cbf``                   shield_params
 lqr+mekf,           the controller acting through its estimator                  the controller's, and
 amnftsmc+mekf,      (``baselines.estimated``; the env needs sensors, e.g.        estimator_params
 slosh-lqr+kf,       ``conditions: flight``): the MEKF on the gyrostats and the
@@ -53,9 +54,13 @@ import importlib
 from dataclasses import dataclass
 from typing import Any
 
+from experiments.training.hyperparams import import_dotted
 from experiments.training.policy import SB3Policy
 
 GYROSTATS = ("ReactionWheel", "AirBearing")
+
+#: the safety filters an ``sb3`` policy can play behind (``params: {shield: NAME, shield_params: {...}}``)
+SHIELDS = {"cbf": "baselines.cbf:Shielded"}
 
 
 @dataclass(frozen=True)
@@ -178,7 +183,23 @@ def build_policy(spec: dict[str, Any], env, name: str | None = None):
         if "model" not in spec:
             raise ValueError("policy 'sb3' needs model: PATH (a saved model .zip or its run directory)")
         predictor = import_target(POLICIES[kind].target_for(None))(spec["model"], env)
-        return SB3Policy(predictor, deterministic=bool(params.get("deterministic", True)), name=label)
+        policy = SB3Policy(predictor, deterministic=bool(params.get("deterministic", True)), name=label)
+        # a model trained behind an action filter (baselines.cbf.CBFShield) plays behind its twin
+        for path, kwargs in import_target("experiments.training.training:trained_env_wrappers")(spec["model"]):
+            wrap_policy = getattr(import_dotted(path), "wrap_policy", None)
+            if wrap_policy is not None:
+                if params.get("shield") is not None:
+                    raise ValueError(
+                        f"model {spec['model']!r} was trained behind {path} and plays behind it: drop shield"
+                    )
+                policy = wrap_policy(policy, env, **kwargs)
+        shield = params.get("shield")
+        if shield is not None:  # a shield at deployment only
+            if shield not in SHIELDS:
+                raise ValueError(f"params.shield must be one of {sorted(SHIELDS)} (or absent), got {shield!r}")
+            policy = import_target(SHIELDS[shield])(policy, env, **dict(params.get("shield_params") or {}))
+        policy.name = label
+        return policy
     env_id = env.spec.id if getattr(env, "spec", None) is not None else None
     if env_id is None and not isinstance(POLICIES[kind].target, str):
         env_id = f"attitude_envs/{env.unwrapped.env_name}"

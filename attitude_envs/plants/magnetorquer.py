@@ -79,11 +79,6 @@ class MagnetorquerParams:
         return np.array([d, d, d, self.max_wheel_torque_nm])
 
 
-def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``a × b`` for 3-vectors without ``np.cross``'s overhead."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
-
-
 def orbital_to_body(q: np.ndarray) -> np.ndarray:
     """``R`` of the paper's eq. (4): maps orbital-frame vectors to body axes (scalar-last q)."""
     x, y, z, w = q

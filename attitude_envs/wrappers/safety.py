@@ -6,10 +6,15 @@ with the step's constraint cost after the reward. :class:`SafetyGymnasiumWrapper
 that reports its cost in ``info`` (ConstrainedSlew-v0's ``info["constraint_cost"]``: 1.0 on a
 step that violates a constraint, Safety-Gymnasium's indicator convention) that signature.
 ``reset`` is Gymnasium's, unchanged.
+
+:class:`ConstraintPenalty` folds that cost into the reward instead, ``r − penalty · cost``: the
+shaped reward of a learner trained with a fixed violation penalty, and, with ``penalty`` set
+between rollouts by a dual-ascent update, the Lagrangian reward of PPO-Lagrangian.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import gymnasium as gym
@@ -41,3 +46,55 @@ class SafetyGymnasiumWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
                 f"(keys: {sorted(info)}); wrap an env with a constraint cost (ConstrainedSlew-v0) or pass cost_key"
             )
         return obs, reward, float(info[self.cost_key]), terminated, truncated, info
+
+
+class ConstraintPenalty(gym.Wrapper, gym.utils.RecordConstructorArgs):
+    """The reward less ``penalty`` times the step's constraint cost: ``r − penalty · info[cost_key]``
+    (default ``"constraint_cost"``: ConstrainedSlew-v0's 1.0 per violating step, so ``penalty``
+    is in the reward's units per violating step). ``info`` gains ``"constraint_penalty"``, the
+    amount taken off. ``info["cost"]`` and the score J are untouched: the penalty changes what a
+    learner is trained on, not what it is scored on.
+
+    ``penalty`` (≥ 0, finite) is an attribute a trainer may set between steps (a
+    Lagrange multiplier: :class:`experiments.training.lagrangian.LagrangeMultiplier` sets it
+    on every sub-env of a vector env through :meth:`set_penalty`).
+    """
+
+    def __init__(self, env: gym.Env, penalty: float = 0.0, cost_key: str = "constraint_cost") -> None:
+        if not isinstance(cost_key, str) or not cost_key:
+            raise ValueError(f"cost_key must be a non-empty string (an info key), got {cost_key!r}")
+        gym.utils.RecordConstructorArgs.__init__(self, penalty=penalty, cost_key=cost_key)
+        gym.Wrapper.__init__(self, env)
+        self.cost_key = cost_key
+        self.penalty = penalty
+
+    @property
+    def penalty(self) -> float:
+        """The reward taken off per unit of constraint cost (≥ 0)."""
+        return self._penalty
+
+    @penalty.setter
+    def penalty(self, value: float) -> None:
+        try:
+            value = float(value)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"penalty must be a finite number >= 0, got {value!r}") from exc
+        if not (math.isfinite(value) and value >= 0.0):
+            raise ValueError(f"penalty must be a finite number >= 0, got {value!r}")
+        self._penalty = value
+
+    def set_penalty(self, value: float) -> None:
+        """Set :attr:`penalty` (a vector env's ``env_method("set_penalty", value)`` reaches it
+        through any wrappers stacked on this one)."""
+        self.penalty = value
+
+    def step(self, action: Any):
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        if self.cost_key not in info:
+            raise KeyError(
+                f"ConstraintPenalty: the env's info has no {self.cost_key!r} "
+                f"(keys: {sorted(info)}); wrap an env with a constraint cost (ConstrainedSlew-v0) or pass cost_key"
+            )
+        charge = self._penalty * float(info[self.cost_key])
+        info["constraint_penalty"] = charge
+        return obs, float(reward) - charge, terminated, truncated, info

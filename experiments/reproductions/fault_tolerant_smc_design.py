@@ -55,7 +55,8 @@ import gymnasium as gym
 import numpy as np
 
 import attitude_envs  # noqa: F401  (registers the env ids)
-from attitude_envs.plants.magnetorquer import E_Y, cross, inertial_rate, orbital_to_body
+from attitude_envs.plants.magnetorquer import E_Y, inertial_rate, orbital_to_body
+from attitude_envs.quaternion import cross
 from baselines.sliding_mode import SlidingModeGains
 
 #: Disturbance scale (× eq. 39) under which an independent prototype of the paper's setup

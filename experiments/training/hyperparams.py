@@ -21,6 +21,7 @@ Command-line overrides use the Zoo's ``key:value`` syntax (value parsed as YAML)
 from __future__ import annotations
 
 import ast
+import importlib
 import math
 import re
 from importlib import resources
@@ -34,10 +35,20 @@ from attitude_envs import validation
 from experiments.training.algorithm import Algorithm, check_algorithm
 
 # Keys the Zoo reads itself (not passed to the algorithm's constructor).
-ZOO_KEYS = ("n_timesteps", "policy", "normalize", "n_envs", "noise_type", "noise_std", "frame_stack", "env_wrapper")
+ZOO_KEYS = (
+    "n_timesteps",
+    "policy",
+    "normalize",
+    "n_envs",
+    "noise_type",
+    "noise_std",
+    "frame_stack",
+    "env_wrapper",
+    "callback",
+)
 # ``backend`` (sb3 | sbx) is this project's addition: rl_zoo3 would pass it to the algorithm's
 # constructor (a TypeError there), so remove it from an entry before using the entry with rl_zoo3.
-_UNSUPPORTED = ("env_wrapper", "callback", "vec_env_wrapper")
+_UNSUPPORTED = ("vec_env_wrapper",)
 
 
 def hyperparams_path(algo: str | Algorithm) -> Path:
@@ -154,6 +165,8 @@ def load_hyperparams(
             raise ValueError(
                 f"hyperparameter {key!r} is not supported here (accepted Zoo keys: {[k for k in ZOO_KEYS if k not in _UNSUPPORTED]})"
             )
+    zoo_objects("env_wrapper", entry.get("env_wrapper"))  # their form, before anything trains
+    zoo_objects("callback", entry.get("callback"))
     check_hyperparams(entry)
     return entry
 
@@ -223,14 +236,53 @@ def _schedule(name: str, value: Any) -> Any:
     return value
 
 
+def zoo_objects(name: str, value: Any) -> list[tuple[str, dict[str, Any]]]:
+    """The Zoo's ``env_wrapper`` or ``callback`` entry as ``[(dotted path, keyword arguments)]``:
+    ``None``, a path ``"package.module.Class"``, a mapping ``{path: {kwargs}}`` of one path, or a
+    list of those (applied in order, innermost first). Only the form is checked here; the path is
+    imported where the object is built (:func:`import_dotted`)."""
+    if value is None or value == []:
+        return []
+    items = value if isinstance(value, list) else [value]
+    out = []
+    for item in items:
+        if isinstance(item, str) and "." in item:
+            out.append((item, {}))
+        elif isinstance(item, dict) and len(item) == 1:
+            ((path, kwargs),) = item.items()
+            if not (isinstance(path, str) and "." in path and (kwargs is None or isinstance(kwargs, dict))):
+                raise ValueError(
+                    f"{name} entries map 'package.module.Class' to a dict of keyword arguments, got {item!r}"
+                )
+            out.append((path, dict(kwargs or {})))
+        else:
+            raise ValueError(
+                f"{name} must be 'package.module.Class', {{'package.module.Class': {{kwargs}}}} or a list of them, got {item!r}"
+            )
+    return out
+
+
+def import_dotted(path: str) -> Any:
+    """The object a dotted path ``"package.module.Name"`` names (the Zoo's ``env_wrapper`` and
+    ``callback`` syntax); ``ValueError`` naming the path when it does not import."""
+    module, _, attr = path.rpartition(".")
+    try:
+        return getattr(importlib.import_module(module), attr)
+    except (ImportError, AttributeError, ValueError) as exc:
+        raise ValueError(f"{path!r} cannot be imported ({exc})") from exc
+
+
 def split_hyperparams(entry: dict[str, Any], n_actions: int, algorithm: Algorithm | None = None) -> dict[str, Any]:
-    """Zoo entry → ``{"n_timesteps", "n_envs", "normalize" (dict | None), "frame_stack", "policy", "kwargs"}``.
+    """Zoo entry → ``{"n_timesteps", "n_envs", "normalize" (dict | None), "frame_stack", "policy",
+    "env_wrapper", "callback", "kwargs"}``.
 
     ``kwargs`` go to the algorithm's constructor (schedules, ``policy_kwargs`` and action
     noise built; with ``algorithm``, ``policy_kwargs`` adapted to its backend, whose name the
     entry's ``backend`` key gave it); ``normalize`` holds VecNormalize arguments when
     observation/reward normalization is on; ``frame_stack`` (≥ 1, default 1): how many of the
-    latest (normalized) observations the policy sees, as the Zoo's ``VecFrameStack``.
+    latest (normalized) observations the policy sees, as the Zoo's ``VecFrameStack``;
+    ``env_wrapper`` and ``callback``: :func:`zoo_objects` of the Zoo's keys (Gymnasium wrappers of
+    every training and evaluation env; SB3 callbacks of the run).
     """
     entry = dict(entry)
     n_timesteps = int(float(entry.pop("n_timesteps", 100_000)))
@@ -244,6 +296,8 @@ def split_hyperparams(entry: dict[str, Any], n_actions: int, algorithm: Algorith
     if isinstance(frame_stack, bool) or not isinstance(frame_stack, int) or frame_stack < 1:
         raise ValueError(f"frame_stack must be an integer >= 1 (observations stacked), got {frame_stack!r}")
     entry.pop("backend", None)  # parsed into ``algorithm``
+    env_wrapper = zoo_objects("env_wrapper", entry.pop("env_wrapper", None))
+    callback = zoo_objects("callback", entry.pop("callback", None))
     normalize = parse_python_literal("normalize", entry.pop("normalize", False))
     if normalize is True:
         normalize = {"norm_obs": True, "norm_reward": True}
@@ -275,6 +329,8 @@ def split_hyperparams(entry: dict[str, Any], n_actions: int, algorithm: Algorith
         "n_envs": n_envs,
         "normalize": normalize,
         "frame_stack": frame_stack,
+        "env_wrapper": env_wrapper,
+        "callback": callback,
         "policy": policy,
         "kwargs": entry,
     }

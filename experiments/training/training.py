@@ -20,6 +20,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import torch
+from stable_baselines3.common.callbacks import CallbackList
 from stable_baselines3.common.utils import set_random_seed
 from stable_baselines3.common.vec_env import VecNormalize
 
@@ -29,7 +30,7 @@ from experiments.training.algorithm import Algorithm
 from experiments.training.callbacks import NormalizedPredictor, evaluate_cost, read_json
 from experiments.training.checkpoint import BudgetSchedule, RunClock, read_checkpoint, restore_rng, write_checkpoint
 from experiments.training.discount import warn_if_uncovered
-from experiments.training.hyperparams import load_hyperparams, split_hyperparams
+from experiments.training.hyperparams import import_dotted, load_hyperparams, split_hyperparams, zoo_objects
 from experiments.training.progress import ProgressCallback
 from experiments.training.run_dir import RunDir, RunPlan, TrainResult, run_budget
 from experiments.training.vec_envs import PicklableVecFrameStack, batched_supported, make_eval_env, make_training_env
@@ -124,7 +125,14 @@ def train(
     # validates the env kwargs before anything is written; warns when γ is past what a limit charge covers
     n_actions, batched = _probe(env_id, env_kwargs, gamma=entry.get("gamma", 0.99))
     _, eval_batched = _probe(env_id, eval_kwargs)
+    if algorithm.backend == "jax" and (entry.get("env_wrapper") or entry.get("callback")):
+        raise ValueError(
+            "the jax backend (the fused trainer) takes no env_wrapper or callback: its envs are JAX twins; "
+            "train with backend sb3 or sbx"
+        )
     hp = None if algorithm.backend == "jax" else split_hyperparams(entry, n_actions, algorithm)
+    if hp is not None and hp["env_wrapper"]:  # per-env Gymnasium wrappers: single envs
+        batched = eval_batched = False
     default = entry.get("n_timesteps", 1_000_000) if hp is None else hp["n_timesteps"]
     total, horizon = run_budget(total_timesteps, default, schedule_timesteps)
     plan = RunPlan(
@@ -199,14 +207,18 @@ def _train_sb3(
     total = plan.total
     already_complete = int(model.num_timesteps) >= total
 
-    eval_env = make_eval_env(plan.env_id, plan.eval_kwargs, plan.eval_episodes, eval_batched)
+    eval_env = make_eval_env(plan.env_id, plan.eval_kwargs, plan.eval_episodes, eval_batched, hp["env_wrapper"])
     seeds = plan.eval_seeds
+    # the Zoo's callbacks, built once per run (their state, if any, is the env's: checkpointed with it)
+    callbacks = [import_dotted(path)(**kwargs) for path, kwargs in hp["callback"]]
     callback = None
     label = progress if isinstance(progress, str) else f"train {algo} {plan.env_id.split('/')[-1]}"
     if progress and resumed_from is not None and not already_complete:
         print(f"{label}: resuming at {resumed_from} steps ({checkpoint['path']})", file=sys.stderr, flush=True)
     if progress and not progress_bar and not already_complete:
-        callback = ProgressCallback(total, label, bar=None if progress is True else False)
+        callbacks.append(ProgressCallback(total, label, bar=None if progress is True else False))
+    if callbacks:
+        callback = callbacks[0] if len(callbacks) == 1 else CallbackList(callbacks)
     if progress and resumed_from is None:
         hint = " (--params n_steps:N or train_freq:N sets the rollout)"
         plan.note_whole_rollouts(plan.algorithm.rollout_steps(hp["kwargs"], hp["n_envs"]), hp["n_envs"], hint)
@@ -248,8 +260,9 @@ def _train_sb3(
             if new_best:  # after the pointer: a resume from an older checkpoint never sees a newer best
                 run_dir.save_best(run["best"], model)
     finally:
-        if callback is not None:
-            callback.close()
+        for cb in callbacks:
+            if isinstance(cb, ProgressCallback):
+                cb.close()
     wall = time.perf_counter() - start
     steps = int(model.num_timesteps)
     segment = (
@@ -279,7 +292,7 @@ def _new_model(plan: RunPlan, hp: dict[str, Any], clock: RunClock, out_dir: Path
     for key in ("learning_rate", "clip_range", "clip_range_vf"):
         if callable(kwargs.get(key)):
             kwargs[key] = BudgetSchedule(kwargs[key], clock)  # progress over the whole run, not one segment
-    venv = make_training_env(plan.env_id, plan.env_kwargs, hp["n_envs"], plan.seed, batched)
+    venv = make_training_env(plan.env_id, plan.env_kwargs, hp["n_envs"], plan.seed, batched, hp["env_wrapper"])
     if hp["normalize"] is not None:
         venv = VecNormalize(venv, gamma=float(plan.entry.get("gamma", 0.99)), **hp["normalize"])
     if hp["frame_stack"] > 1:  # after normalization, as the Zoo stacks
@@ -303,12 +316,7 @@ def load_trained(model_path: str | Path, env: gym.Env | None = None):
     predictor with ``predict(obs, ...)``. With ``env``, checks that it is the env the model was
     trained on (the env id in its run's ``config.json``) and that the observation and action
     spaces match the model's (``ValueError`` naming both otherwise)."""
-    model_path = Path(model_path)
-    if model_path.is_dir():
-        inside = [model_path / "model.zip", model_path / "final" / "model.zip"]
-        model_path = next((p for p in inside if p.is_file()), inside[0])
-    if not model_path.is_file():
-        raise ValueError(f"model file {str(model_path)!r} does not exist")
+    model_path = _model_file(model_path)
     saved = _run_config(model_path)
     algorithm = _algo_of(model_path, saved)
     frame_stack = int(((saved or {}).get("hyperparams") or {}).get("frame_stack") or 1)
@@ -376,6 +384,26 @@ _POLICY_MODULES = {
     "stable_baselines3.common.policies": "ppo",  # PPO and A2C share the actor-critic policy
     "agents.fused_ppo": "ppo",  # the jax backend's model file (agents.fused_ppo.export)
 }
+
+
+def _model_file(model_path: str | Path) -> Path:
+    """The model file a path names: the file, or ``model.zip`` / ``final/model.zip`` inside a
+    run directory; ``ValueError`` when there is none."""
+    model_path = Path(model_path)
+    if model_path.is_dir():
+        inside = [model_path / "model.zip", model_path / "final" / "model.zip"]
+        model_path = next((p for p in inside if p.is_file()), inside[0])
+    if not model_path.is_file():
+        raise ValueError(f"model file {str(model_path)!r} does not exist")
+    return model_path
+
+
+def trained_env_wrappers(model_path: str | Path) -> list[tuple[str, dict[str, Any]]]:
+    """The Zoo ``env_wrapper`` list a saved model was trained behind (its run's ``config.json``;
+    ``[]`` without one): a player applies those that change what the env receives (a safety
+    shield's ``wrap_policy``) so that the model plays as it was trained."""
+    saved = _run_config(_model_file(model_path))
+    return zoo_objects("env_wrapper", ((saved or {}).get("hyperparams") or {}).get("env_wrapper"))
 
 
 def _run_config(model_path: Path) -> dict[str, Any] | None:

@@ -11,6 +11,7 @@ support (sensors, ``fault_hint``, non-lab ``conditions``) fall back to SB3's ``m
 from __future__ import annotations
 
 import inspect
+from collections.abc import Sequence
 from typing import Any
 
 import gymnasium as gym
@@ -18,6 +19,7 @@ from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper, VecFrameStack, VecMonitor
 
 from experiments.seeds import TRAINING_SEED_STRIDE, training_env_seed
+from experiments.training.hyperparams import import_dotted
 from experiments.training.sb3_vec_env import SB3VecEnv
 
 
@@ -76,25 +78,58 @@ def batched_supported(env_id: str, env: gym.Env) -> bool:
     )
 
 
-def make_training_env(env_id: str, env_kwargs: dict[str, Any], n_envs: int, seed: int, batched: bool) -> VecEnv:
+Wrappers = Sequence[tuple[str, dict[str, Any]]]
+
+
+class ZooWrappers:
+    """The Zoo's ``env_wrapper`` list (``[(dotted path, kwargs)]``,
+    :func:`experiments.training.hyperparams.zoo_objects`) as one callable ``env → wrapped env``,
+    applied in order (the first innermost). It pickles (the classes are imported on use)."""
+
+    def __init__(self, wrappers: Wrappers) -> None:
+        self.wrappers = [(str(path), dict(kwargs)) for path, kwargs in wrappers]
+        for path, _ in self.wrappers:
+            import_dotted(path)  # a bad path fails here, before any env is built
+
+    def __call__(self, env: gym.Env) -> gym.Env:
+        for path, kwargs in self.wrappers:
+            env = import_dotted(path)(env, **kwargs)
+        return env
+
+
+def make_training_env(
+    env_id: str, env_kwargs: dict[str, Any], n_envs: int, seed: int, batched: bool, wrappers: Wrappers = ()
+) -> VecEnv:
     """``n_envs`` envs with episode statistics, sub-env ``i`` seeded ``training_env_seed(seed) + i``
-    (:class:`TrainingSeeds`: the training stream, disjoint from every evaluation seed)."""
+    (:class:`TrainingSeeds`: the training stream, disjoint from every evaluation seed), each
+    wrapped by the Zoo's ``env_wrapper`` list ``wrappers`` (single envs only: the batched env
+    has no per-env wrappers)."""
     if not 1 <= int(n_envs) <= TRAINING_SEED_STRIDE:
         raise ValueError(f"n_envs must be in [1, {TRAINING_SEED_STRIDE}], got {n_envs}")
+    if batched and wrappers:
+        raise ValueError("env_wrapper needs single envs: pass batched=False")
     kwargs = {k: v for k, v in env_kwargs.items() if k != "render_mode"}
     if batched:
         venv = PicklableVecMonitor(SB3VecEnv(env_id, num_envs=int(n_envs), **kwargs))
     else:  # make_vec_env asks for render_mode="rgb_array", which envs without a renderer refuse
-        venv = make_vec_env(env_id, n_envs=n_envs, env_kwargs={"render_mode": None, **kwargs})
+        wrapper_class = ZooWrappers(wrappers) if wrappers else None
+        venv = make_vec_env(
+            env_id, n_envs=n_envs, env_kwargs={"render_mode": None, **kwargs}, wrapper_class=wrapper_class
+        )
     venv = TrainingSeeds(venv)
     venv.seed(int(seed))
     return venv
 
 
-def make_eval_env(env_id: str, env_kwargs: dict[str, Any], n_episodes: int, batched: bool):
+def make_eval_env(env_id: str, env_kwargs: dict[str, Any], n_episodes: int, batched: bool, wrappers: Wrappers = ()):
     """The evaluation env: one batched env with a sub-env per episode (next-step autoreset, so
-    a sub-env whose episode ended is simply ignored), or a single env episodes run one by one."""
+    a sub-env whose episode ended is simply ignored), or a single env episodes run one by one
+    (wrapped by ``wrappers``, the Zoo's ``env_wrapper`` list, as the training envs are)."""
+    if batched and wrappers:
+        raise ValueError("env_wrapper needs single envs: pass batched=False")
     kwargs = {k: v for k, v in env_kwargs.items() if k != "render_mode"}
+    if wrappers:
+        return ZooWrappers(wrappers)(gym.make(env_id, **kwargs))
     if batched:
         return gym.make_vec(
             env_id,
