@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -45,6 +45,7 @@ __all__ = [
     "Constraint",
     "KeepOutCone",
     "WheelSpeedLimit",
+    "episode_summary",
     "split_state",
 ]
 
@@ -129,17 +130,24 @@ class KeepOutCone(Constraint):
         self.cos_half_angle = math.cos(math.radians(a))
         self.name = str(name)
 
-    def cos_angle(self, state: Any) -> float:
-        """``cos θ = s · R(q) b``, the cosine of the angle between the axis and the direction."""
-        q = split_state(state)[0]
-        return float(self.inertial_direction @ (quaternion.to_matrix(q) @ self.body_axis))
+    def cos_angle(self, state: Any, rotation: np.ndarray | None = None) -> float:
+        """``cos θ = s · R(q) b``, the cosine of the angle between the axis and the direction
+        (``rotation``: ``R(q)`` when the caller has it already)."""
+        if rotation is None:
+            rotation = quaternion.to_matrix(split_state(state)[0])
+        return float(self.inertial_direction @ (rotation @ self.body_axis))
 
     def value(self, state: Any, u: np.ndarray | None = None) -> float:
         return self.cos_angle(state) - self.cos_half_angle
 
     def angle_deg(self, state: Any) -> float:
         """θ, the angle between the body axis (in inertial axes) and the direction, deg in [0, 180]."""
-        return math.degrees(math.acos(min(1.0, max(-1.0, self.cos_angle(state)))))
+        return self.angle_deg_of(self.cos_angle(state))
+
+    @staticmethod
+    def angle_deg_of(cos_angle: float) -> float:
+        """θ in degrees, [0, 180], from its cosine (clipped to [−1, 1])."""
+        return math.degrees(math.acos(min(1.0, max(-1.0, cos_angle))))
 
     def margin_deg(self, state: Any) -> float:
         """``θ − α`` in degrees: positive outside the cone, negative inside."""
@@ -190,3 +198,19 @@ class BodyRateLimit(Constraint):
 
     def value(self, state: Any, u: np.ndarray | None = None) -> float:
         return float(np.abs(split_state(state)[1]).max()) - self.limit_rad_s
+
+
+def episode_summary(infos: Sequence[Mapping[str, Any]]) -> dict[str, float]:
+    """An episode's constraint outcome from its infos (the reset's first, then every step's) where
+    the env reports constraints (``info["violations"]``, ConstrainedSlew-v0's; else ``{}``):
+    ``violations`` (the steps that violated any constraint), ``violations_<name>`` per constraint,
+    and ``min_margin_deg``, the least keep-out cone margin over the episode's decision times (deg,
+    negative inside a cone; NaN without cones)."""
+    if not infos or "violations" not in infos[-1]:
+        return {}
+    last = infos[-1]
+    margins = [m for info in infos for m in info.get("constraint_margins_deg", {}).values()]
+    out = {"violations": int(last["violations"])}
+    out |= {f"violations_{name}": int(n) for name, n in last.get("violations_by_constraint", {}).items()}
+    out["min_margin_deg"] = float(min(margins)) if margins else float("nan")
+    return out

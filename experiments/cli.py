@@ -40,7 +40,7 @@ from baselines.base import ZeroPolicy
 from baselines.lqr import LQRPolicy
 from experiments import optimum_table, pid_tuning
 from experiments.campaign import (
-    PLANT_CAMPAIGNS,
+    ALL_CAMPAIGNS,
     PRESETS,
     SELECT,
     episode_jobs,
@@ -405,7 +405,7 @@ def learning_task_cell(env_id: str, kwargs: dict, faults: dict, scenarios: list 
     user = {k: v for k, v in kwargs.items() if k != "faults"}
     user_faults = json_ready(kwargs.get("faults") or [])
     if faults == {"none": []}:
-        for name in PLANT_CAMPAIGNS:
+        for name in ALL_CAMPAIGNS:
             for cell in load_campaign(name).envs:
                 played = {k: v for k, v in cell.kwargs.items() if k not in task}
                 if cell.id != v0 or not _same_task(env_id, played, user):
@@ -441,7 +441,7 @@ def _benchmark(args: argparse.Namespace) -> int:
     from experiments.report.writing import write_campaign_index, write_campaign_report  # see _evaluate
 
     check_out_dir(args.out)
-    names = PLANT_CAMPAIGNS if args.config == "all" else (args.config,)
+    names = ALL_CAMPAIGNS if args.config == "all" else (args.config,)
     outs = [Path(args.out) / Path(name).stem for name in names] if args.config == "all" else [Path(args.out)]
     for out in outs:
         check_out_dir(out)
@@ -817,7 +817,7 @@ def build_parser() -> argparse.ArgumentParser:
     bm.add_argument(
         "--config",
         default="quick",
-        help=f"{', '.join(PRESETS)}, all (the five plant campaigns, each in OUT/<name>) or a campaign YAML path",
+        help=f"{', '.join(PRESETS)}, all (the five plant campaigns and the slew task, each in OUT/<name>) or a campaign YAML path",
     )
     bm.add_argument(
         "--backend",

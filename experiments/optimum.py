@@ -49,6 +49,7 @@ import numpy as np
 import attitude_envs
 from attitude_envs import symbolic
 from attitude_envs.cache import cache_dir as suite_cache_dir
+from attitude_envs.constraints import episode_summary
 from attitude_envs.files import atomic_write
 from attitude_envs.info import policy_view
 from attitude_envs.symbolic import BUILDERS, DiscreteProblem, problem_for
@@ -74,6 +75,8 @@ BASELINES: dict[str, list[tuple[str, dict]]] = {
     "AirBearing-v0": [("lqr", {"discretization": "zoh"}), ("lqr", {"discretization": "continuous"}), ("pid", {})],
     "FuelSlosh-v0": [("slosh-lqr", {}), ("slosh-pd", {})],
     "Magnetorquer-v0": [("amnftsmc", {})],
+    # the CBF-filtered eigenaxis slew: a feasible start around the keep-out cones
+    "ConstrainedSlew-v0": [("eigenaxis+cbf", {})],
 }
 #: IPOPT's return statuses that mean a (locally) optimal point was found
 SOLVED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
@@ -187,17 +190,23 @@ class Replay(NamedTuple):
 def replay_measured(env, actions: np.ndarray, seed: int | None, options: dict | None) -> Replay:
     """The open-loop ``actions`` through the real env from ``reset(seed=, options=)``: J,
     whether it terminated, and ``env.unwrapped.success_metric.measurements(first, last)``
-    (first: the reset's info, last: the last step's; the reset's twice without actions)."""
+    (first: the reset's info, last: the last step's; the reset's twice without actions), with
+    the constraint outcome (:func:`attitude_envs.constraints.episode_summary`) where the env
+    has constraints."""
     _, first = env.reset(seed=seed, options=options)
     last = first
     metric = env.unwrapped.success_metric
-    total = 0.0
+    constrained = [first] if "violations" in first else None
+    total, terminated = 0.0, False
     for a in actions:
         _, _, terminated, truncated, last = env.step(np.asarray(a, dtype=float))
         total += float(last["cost"])
+        if constrained is not None:
+            constrained.append(last)
         if terminated or truncated:
-            return Replay(total, bool(terminated), _floats(metric.measurements(first, last)))
-    return Replay(total, False, _floats(metric.measurements(first, last)))
+            break
+    measured = metric.measurements(first, last) | episode_summary(constrained or [])
+    return Replay(total, bool(terminated), _floats(measured))
 
 
 def _floats(measurements: dict[str, Any]) -> dict[str, float]:

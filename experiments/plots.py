@@ -152,6 +152,63 @@ def plot_metric_bars(
     return save_figure(fig, path)
 
 
+def plot_boresight_paths(
+    paths: Mapping[str, np.ndarray],
+    cones: Sequence[tuple[np.ndarray, float, str]],
+    path: str | Path,
+    title: str = "",
+) -> Path:
+    """A boresight's inertial direction over an episode, one line per agent (``paths``: name →
+    ``(n, 3)`` unit vectors), around keep-out cones (``cones``: inertial unit axis, half-angle in
+    deg, label), on a Lambert azimuthal equal-area map of the sphere centred between the path's
+    start and end (angles from the centre keep their proportions; the antipode is the rim)."""
+    first = next(iter(paths.values()))
+    centre = first[0] + first[-1]
+    centre = centre / np.linalg.norm(centre) if np.linalg.norm(centre) > 1e-9 else first[0]
+    helper = np.eye(3)[int(np.argmin(np.abs(centre)))]
+    east = np.cross(helper, centre)
+    east /= np.linalg.norm(east)
+    north = np.cross(centre, east)
+
+    def project(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        v = np.atleast_2d(v)
+        c = np.clip(v @ centre, -1.0, 1.0)
+        k = np.sqrt(2.0 / np.maximum(1.0 + c, 1e-12))
+        return k * (v @ east), k * (v @ north)
+
+    fig, ax = plt.subplots(figsize=(6.4, 6.0))
+    rim = np.linspace(0.0, 2.0 * np.pi, 361)
+    ax.plot(2.0 * np.cos(rim), 2.0 * np.sin(rim), color="0.7", lw=0.8)
+    for axis, half_angle_deg, label in cones:
+        axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+        a = np.eye(3)[int(np.argmin(np.abs(axis)))]
+        u = np.cross(axis, a)
+        u /= np.linalg.norm(u)
+        w = np.cross(axis, u)
+        alpha = np.radians(half_angle_deg)
+        ring = np.cos(alpha) * axis + np.sin(alpha) * (np.outer(np.cos(rim), u) + np.outer(np.sin(rim), w))
+        x, y = project(ring)
+        ax.fill(x, y, color="tab:red", alpha=0.25, lw=0)
+        ax.plot(x, y, color="tab:red", lw=1.0)
+        cx, cy = project(axis)
+        ax.annotate(label, (cx[0], cy[0]), fontsize=8, ha="center", color="darkred")
+    for name, v in paths.items():
+        x, y = project(np.asarray(v, dtype=float))
+        ax.plot(x, y, lw=1.6, label=name)
+    x, y = project(first[[0, -1]])
+    ax.plot(x[0], y[0], "ko", ms=5, label="start")
+    ax.plot(x[1], y[1], "k*", ms=9, label="end (first agent)")
+    ax.set_aspect("equal")
+    ax.set_xlim(-2.05, 2.05)
+    ax.set_ylim(-2.05, 2.05)
+    ax.set_xticks([])
+    ax.set_yticks([])
+    ax.legend(fontsize=8, loc="lower left")
+    ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
 def _finish_grid(fig, axes, path: str | Path, title: str) -> Path:
     """Grid lines on every panel, the title, tight layout; saved at ``path``."""
     for ax in axes.flat:

@@ -130,7 +130,7 @@ def test_campaign_validation_names_the_problem():
         load_campaign({**SMALL, "seeds": [-1]})
     with pytest.raises(ValueError, match="unknown keys"):
         load_campaign({**SMALL, "agent": []})
-    with pytest.raises(ValueError, match="needs model: PATH or train"):
+    with pytest.raises(ValueError, match="needs model: PATH, train"):
         load_campaign({**SMALL, "agents": [{"name": "x", "policy": "sb3"}]})
     with pytest.raises(ValueError, match=r"train.select must be one of \['best', 'final'\], got 'worst'"):
         load_campaign(

@@ -132,7 +132,7 @@ def test_train_progress_bar_works_with_the_sb3_extra(tmp_path, capsys):
         ),
         (
             ["benchmark", "--config", "medium", "--out", "X"],
-            "--config must be one of ['quick', 'full', 'wheel', 'air-bearing', 'magnetorquer', 'slosh', 'linear'] or a YAML",
+            "--config must be one of ['quick', 'full', 'wheel', 'air-bearing', 'magnetorquer', 'slosh', 'linear', 'slew'] or a YAML",
         ),
         (["train", "--algo", "ppo", "--env-kwargs", "{a: [", "--out", "X"], "--env-kwargs is malformed YAML"),
         (["train", "--algo", "ppo", "--params", "gamma=0.9", "--out", "X"], "override must look like key:value"),

@@ -39,8 +39,8 @@ from experiments.training.algorithm import Algorithm
 from experiments.training.hyperparams import split_hyperparams
 from experiments.training.vec_envs import batched_supported, make_eval_env, make_training_env
 
-#: the plant campaigns of ``--config all``, the full campaign and the quick one
-PLANT_CAMPAIGNS = ("wheel", "air-bearing", "magnetorquer", "slosh", "linear", "full", "quick")
+#: the campaigns of ``--config all``, the full campaign and the quick one
+PLANT_CAMPAIGNS = ("wheel", "air-bearing", "magnetorquer", "slosh", "linear", "slew", "full", "quick")
 #: campaigns whose cell starts every seed from the same state (the paper's x₀)
 DETERMINISTIC = {"linear"}
 NOWHERE = Path("/nonexistent")

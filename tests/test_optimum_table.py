@@ -71,7 +71,10 @@ def test_shipped_table_covers_every_shipped_cell():
     missing = [s["labels"][0] for s in specs if s["hash"] not in table]
     assert not missing, missing
     assert set(table) == {s["hash"] for s in specs}
-    assert {s["key"]["env_id"] for s in specs} == {name.split("/")[-1] for name in attitude_envs.ENV_IDS}
+    from attitude_envs.registration import CONSTRAINED_ENV_IDS
+
+    ids = {name.split("/")[-1] for name in (*attitude_envs.ENV_IDS, *CONSTRAINED_ENV_IDS)}
+    assert {s["key"]["env_id"] for s in specs} == ids
 
 
 def test_shipped_entries_are_reproduced_by_the_solver(tmp_path, monkeypatch):

@@ -65,7 +65,7 @@ def test_config_all_runs_every_campaign_into_its_directory_with_an_index(tmp_pat
         path = tmp_path / f"{name}.yml"
         path.write_text(TINY.format(name=name, id=env_id, kwargs=kwargs, agent=agent))
         configs.append(str(path))
-    monkeypatch.setattr(cli, "PLANT_CAMPAIGNS", tuple(configs))
+    monkeypatch.setattr(cli, "ALL_CAMPAIGNS", tuple(configs))
     out = tmp_path / "all"
     assert cli.main(["benchmark", "--config", "all", "--out", str(out), "--jobs", "1", "--no-video"]) == 0
     for name in ("tiny-ab", "tiny-fs"):
@@ -93,7 +93,7 @@ def test_config_all_checks_every_campaign_before_running_any(tmp_path, monkeypat
     )
     (tmp_path / "all" / "bad").mkdir(parents=True)
     (tmp_path / "all" / "bad" / "campaign.json").write_text('{"name": "other", "fingerprint": "x"}')
-    monkeypatch.setattr(cli, "PLANT_CAMPAIGNS", (str(good), str(bad)))
+    monkeypatch.setattr(cli, "ALL_CAMPAIGNS", (str(good), str(bad)))
     with pytest.raises(ValueError, match="holds results of a different campaign definition"):
         cli._benchmark(cli.build_parser().parse_args(["benchmark", "--config", "all", "--out", str(tmp_path / "all")]))
     assert not (tmp_path / "all" / "good").exists()  # nothing ran

@@ -318,8 +318,21 @@ class ConstrainedSlewEnv(ReactionWheelEnv):
 
     def constraint_values(self) -> dict[str, float]:
         """Name → ``g`` of each constraint at the current true state (``g > 0``: violated)."""
+        return self._constraint_state()[0]
+
+    def _constraint_state(self) -> tuple[dict[str, float], dict[str, float]]:
+        """``(name → g, cone name → margin θ − α in deg)`` at the current true state, the
+        rotation ``R(q)`` computed once for every cone (this runs every step)."""
         y = self.state_row
-        return {c.name: float(c.value(y)) for c in self.constraints}
+        rotation = quaternion.to_matrix(y[:4])
+        values, margins = {}, {}
+        for cone in self.cones:
+            cos = cone.cos_angle(y, rotation)
+            values[cone.name] = cos - cone.cos_half_angle
+            margins[cone.name] = KeepOutCone.angle_deg_of(cos) - cone.half_angle_deg
+        for limit in (self.wheel_speed_limit, self.body_rate_limit):
+            values[limit.name] = float(limit.value(y))
+        return values, margins
 
     def cone_features(self) -> np.ndarray:
         """The observation's cone block (``3 × 5``, see the class docstring) at the true state."""
@@ -424,8 +437,7 @@ class ConstrainedSlewEnv(ReactionWheelEnv):
 
     def _info(self, applied: np.ndarray, commanded: np.ndarray, cost: float) -> dict:
         info = super()._info(applied, commanded, cost)
-        values = self.constraint_values()
-        y = self.state_row
+        values, margins = self._constraint_state()
         if self._count_next_info:  # a step's info: count its violations once
             self._count_next_info = False
             violated = [name for name, g in values.items() if g > 0.0]
@@ -434,7 +446,7 @@ class ConstrainedSlewEnv(ReactionWheelEnv):
             self._last_constraint_cost = 1.0 if violated else 0.0
             self._violations += int(bool(violated))
         info["constraints"] = values
-        info["constraint_margins_deg"] = {c.name: c.margin_deg(y) for c in self.cones}
+        info["constraint_margins_deg"] = margins
         info["constraint_cost"] = self._last_constraint_cost
         info["violations"] = self._violations
         info["violations_by_constraint"] = dict(self._violations_by)

@@ -130,8 +130,14 @@ FINAL_STATE_FRACTION = SuccessMetric(
 METRICS: dict[str, SuccessMetric] = {m.name: m for m in (FINAL_ERROR_DEG, FINAL_STATE_FRACTION)}
 
 
+#: the prefixes of the constraint outcome beside a success metric's measurements
+#: (:func:`attitude_envs.constraints.episode_summary`)
+CONSTRAINT_KEYS = ("violations", "min_margin_deg")
+
+
 def metric_of(names: Iterable[str]) -> SuccessMetric | None:
-    """The metric of :data:`METRICS` whose :meth:`~SuccessMetric.measurements` have exactly
-    the keys ``names`` (e.g. ``{"final_error_deg"}``), or None when none has."""
-    have = set(names)
+    """The metric of :data:`METRICS` whose :meth:`~SuccessMetric.measurements` are the keys
+    ``names`` (e.g. ``{"final_error_deg"}``), besides the constraint outcome an env with
+    constraints adds (:data:`CONSTRAINT_KEYS`), or None when none is."""
+    have = {n for n in names if not n.startswith(CONSTRAINT_KEYS)}
     return next((m for m in METRICS.values() if set(m.measurement_names()) == have), None)

@@ -59,6 +59,7 @@ from experiments.campaign.executors import LocalExecutor, RayExecutor, executor_
 from experiments.campaign.jobs import KEY_COLUMNS, episode_jobs, key_of, training_jobs
 from experiments.campaign.run import available, prepare_campaign, probe_models, run_campaign
 from experiments.campaign.spec import (
+    ALL_CAMPAIGNS,
     PLANT_CAMPAIGNS,
     PRESETS,
     SELECT,
@@ -72,6 +73,7 @@ from experiments.campaign.store import RUN_STATUSES, CampaignResult, ResultStore
 
 __all__ = [
     "KEY_COLUMNS",
+    "ALL_CAMPAIGNS",
     "PLANT_CAMPAIGNS",
     "PRESETS",
     "RUN_STATUSES",

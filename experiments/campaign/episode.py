@@ -5,6 +5,9 @@ Every env says how it is measured (:mod:`attitude_envs.evaluation.success`): env
 :func:`~attitude_envs.evaluation.metrics.episode_metrics` plus the recovery time after the
 earliest fault onset; the others J, the step count and the true state norms. Success: J finite,
 the episode not terminated, and the env's ``success_metric`` met at the campaign's threshold.
+An env with constraints (its info has ``violations``: ConstrainedSlew-v0) adds
+:func:`attitude_envs.constraints.episode_summary`: the violating steps, those per constraint and the
+least cone margin.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ import gymnasium as gym
 import numpy as np
 
 import attitude_envs  # noqa: F401  (registers the env ids, also in pool and Ray workers)
+from attitude_envs.constraints import episode_summary
 from attitude_envs.evaluation.metrics import episode_metrics, settling_time_s
 from attitude_envs.evaluation.success import SuccessMetric, true_state_norm
 from attitude_envs.evaluation.trace import episode_trace, play
@@ -119,6 +123,7 @@ def _wheel_metrics(env, policy, job: dict[str, Any]) -> dict[str, Any]:
     metric: SuccessMetric = env.unwrapped.success_metric
     first, last = infos[0], infos[-1]
     m |= metric.measurements(first, last)
+    m |= episode_summary(infos)
     met = metric.succeeded(first, last, _threshold(job, metric))
     m["success"] = bool(np.isfinite(m["J"]) and not trace.terminated and met)
     onsets = fault_onsets_s(first)
@@ -139,17 +144,20 @@ def _generic_metrics(env, policy, job: dict[str, Any]) -> dict[str, Any]:
     obs, info = env.reset(seed=job["key"]["seed"], options=copy.deepcopy(job["options"]) or None)
     policy.reset(job["key"]["seed"])
     first = info
+    constrained = [info] if "violations" in info else None
     total, steps, terminated, truncated = 0.0, 0, False, False
     while not (terminated or truncated):
         obs, _, terminated, truncated, info = env.step(policy.act(obs, policy_view(info)))
         total += float(info["cost"])
         steps += 1
+        if constrained is not None:
+            constrained.append(info)
     metric: SuccessMetric = env.unwrapped.success_metric
     met = metric.succeeded(first, info, _threshold(job, metric))
     m = {"J": total, "steps": steps, "terminated": bool(terminated), **metric.measurements(first, info)}
     m |= {"initial_state_norm": true_state_norm(first), "final_state_norm": true_state_norm(info)}
     m |= {"success": bool(np.isfinite(total) and not terminated and met), "recovery_time_s": float("nan")}
-    return m
+    return m | episode_summary(constrained or [])
 
 
 def success_criterion(env_id: str, env_kwargs: dict[str, Any], campaign: Campaign) -> str:

@@ -76,12 +76,13 @@ def episode_jobs(campaign: Campaign, out_dir: Path, skip_agents: Iterable[str] =
                     if agent.name in skip:
                         continue
                     play_id, play_kwargs = play_env(agent, env.id, kwargs)
-                    train_seeds = agent.train["seeds"] if agent.train else [None]
+                    source = campaign.trained_by(agent)  # itself, or the agent whose models it plays
+                    train_seeds = source.train["seeds"] if source is not None else [None]
                     for tseed in train_seeds:
                         spec = dict(agent.spec)
                         if tseed is not None:
-                            run_dir = train_dir(out_dir, env.name, agent.name, tseed)
-                            spec["model"] = str(trained_model(run_dir, agent.train.get("select", "best")))
+                            run_dir = train_dir(out_dir, env.name, source.name, tseed)
+                            spec["model"] = str(trained_model(run_dir, source.train.get("select", "best")))
                         for seed in campaign.seeds:
                             key = {
                                 "env": env.name,

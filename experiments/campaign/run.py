@@ -67,7 +67,7 @@ def probe_models(campaign: Campaign, skipped: dict[str, str]) -> None:
         for agent in campaign.agents_for(env):
             if agent.name not in skipped and (agent.env_id is not None or agent.env_kwargs):
                 check_same_episodes(campaign, env, agent)
-            if agent.name in skipped or agent.spec["policy"] != "sb3" or agent.train is not None:
+            if agent.name in skipped or agent.spec["policy"] != "sb3" or campaign.trained_by(agent) is not None:
                 continue
             play_id, play_kwargs = play_env(agent, env.id, env.kwargs)
             instance = gym.make(play_id, **play_kwargs)

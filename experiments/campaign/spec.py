@@ -29,14 +29,17 @@ from experiments.seeds import parse_seeds
 from experiments.training.algorithm import Algorithm
 from experiments.training.hyperparams import load_hyperparams, read_yaml
 
-PLANT_CAMPAIGNS = ("wheel", "air-bearing", "magnetorquer", "slosh", "linear")  # `--config all`, in this order
-PRESETS = ("quick", "full", *PLANT_CAMPAIGNS)
+PLANT_CAMPAIGNS = ("wheel", "air-bearing", "magnetorquer", "slosh", "linear")  # one per plant, in this order
+TASK_CAMPAIGNS = ("slew",)  # tasks on a plant beyond its paper's: the constrained slews of ConstrainedSlew-v0
+ALL_CAMPAIGNS = (*PLANT_CAMPAIGNS, *TASK_CAMPAIGNS)  # `--config all`, in this order
+PRESETS = ("quick", "full", *ALL_CAMPAIGNS)
 SELECT = ("best", "final")  # which snapshot of a trained agent is evaluated
 
 TOP_KEYS = ("name", "description", "seeds", "envs", "agents", "metrics", "success_error_deg")
-TOP_KEYS += ("success_state_fraction", "video", "optimum")
+TOP_KEYS += ("success_state_fraction", "video", "optimum", "layers")
 ENV_KEYS = ("name", "id", "kwargs", "scenarios", "faults")
 AGENT_KEYS = ("name", "policy", "params", "model", "learn", "envs", "optional", "train", "note", "env_id", "env_kwargs")
+AGENT_KEYS += ("models_of",)
 TRAIN_KEYS = ("algo", "backend", "timesteps", "seeds", "select", "env_kwargs", "overrides", "hyperparams_file")
 TRAIN_KEYS += ("checkpoint_freq", "eval_freq", "eval_episodes")
 
@@ -73,7 +76,11 @@ class AgentSpec:
     an ``AirBearing-v0`` cell) and task keywords (``control_dt_s``, ``termination_cost``, …:
     ``task_keywords`` of the env class). The episodes, the running cost and J* stay the
     cell's, so J / J* compares agents that decide at different periods on the same yardstick
-    (J* is solved at the cell's period)."""
+    (J* is solved at the cell's period).
+
+    ``models_of`` (SB3 agents): the name of an earlier agent whose trained models this one plays,
+    one per training seed, with its own ``params`` (``shield: cbf`` puts them behind the CBF
+    safety filter at deployment): a second row of the same training, no training of its own."""
 
     name: str
     spec: dict[str, Any]
@@ -83,6 +90,7 @@ class AgentSpec:
     note: str | None = None
     env_id: str | None = None
     env_kwargs: dict[str, Any] = field(default_factory=dict)
+    models_of: str | None = None
 
 
 def task_keywords(env_id: str) -> frozenset[str]:
@@ -118,9 +126,18 @@ class Campaign:
     fingerprint: str = ""
     optimum_solve: bool = True  # solve J* on demand for episodes outside the shipped table (casadi)
     optimum_table: str | None = None  # a J* table in place of the shipped one (tests, private cells)
+    #: the report's "what each layer costs" pairs: ``{"name", "without", "with"}`` (agent names)
+    layers: list[dict[str, str]] = field(default_factory=list)
 
     def agents_for(self, env: EnvSpec) -> list[AgentSpec]:
         return [a for a in self.agents if a.envs is None or env.name in a.envs]
+
+    def trained_by(self, agent: AgentSpec) -> AgentSpec | None:
+        """The agent whose training ``agent`` plays: itself when it trains, the agent it names
+        in ``models_of``, else None."""
+        if agent.models_of is not None:
+            return next(a for a in self.agents if a.name == agent.models_of)
+        return agent if agent.train is not None else None
 
     def success_threshold(self, metric: SuccessMetric) -> float:
         """The threshold this campaign sets for ``metric`` (:data:`SUCCESS_KEYS`), else the metric's default."""
@@ -274,11 +291,21 @@ def _agent(i: int, a: Any, envs: list[EnvSpec]) -> AgentSpec:
                 raise ValueError(f"agents[{i}] ({name}) on env {env.name!r}: {exc}") from None
     agent_env_id, agent_env_kwargs = _agent_task(i, name, a, [e for e in envs if only is None or e.name in only])
     train = a.get("train")
-    if train is not None:
+    models_of = a.get("models_of")
+    if models_of is not None:
+        _require(
+            a["policy"] == "sb3" and train is None and "model" not in a and isinstance(models_of, str),
+            f"agents[{i}] ({name}).models_of names the agent whose trained models it plays (policy sb3, "
+            f"no train or model of its own), got {models_of!r}",
+        )
+    elif train is not None:
         _require(a["policy"] == "sb3", f"agents[{i}] ({name}): train is only for policy sb3")
         train = _train(f"agents[{i}].train", train, [e for e in envs if only is None or e.name in only], agent_env_id)
     elif a["policy"] == "sb3":
-        _require("model" in a, f"agents[{i}] ({name}): policy sb3 needs model: PATH or train: {{algo: ...}}")
+        _require(
+            "model" in a,
+            f"agents[{i}] ({name}): policy sb3 needs model: PATH, train: {{algo: ...}} or models_of: AGENT",
+        )
     if "model" in a:
         _require(isinstance(a["model"], str), f"agents[{i}].model must be a path, got {a['model']!r}")
     for key in ("params", "learn"):
@@ -291,8 +318,25 @@ def _agent(i: int, a: Any, envs: list[EnvSpec]) -> AgentSpec:
         f"agents[{i}].note must be one line of text (shown beside the agent in the report), got {note!r}",
     )
     spec = {k: v for k, v in a.items() if k not in ("envs", "optional", "train", "note", "env_id", "env_kwargs")}
+    spec.pop("models_of", None)
     note = note.strip() if note is not None else None
-    return AgentSpec(name, spec, only, optional, train, note, agent_env_id, agent_env_kwargs)
+    return AgentSpec(name, spec, only, optional, train, note, agent_env_id, agent_env_kwargs, models_of)
+
+
+def _check_models_of(agents: list[AgentSpec]) -> None:
+    """Each ``models_of`` names an earlier trained agent that plays the same envs and task."""
+    for i, a in enumerate(agents):
+        if a.models_of is None:
+            continue
+        source = next((b for b in agents[:i] if b.name == a.models_of), None)
+        _require(
+            source is not None and source.train is not None,
+            f"agents[{i}] ({a.name}).models_of must name an earlier agent with train, got {a.models_of!r}",
+        )
+        _require(
+            (source.envs, source.env_id, source.env_kwargs) == (a.envs, a.env_id, a.env_kwargs),
+            f"agents[{i}] ({a.name}) plays the models of {source.name}: give it the same envs, env_id and env_kwargs",
+        )
 
 
 def _agent_task(i: int, name: str, a: dict[str, Any], envs: list[EnvSpec]) -> tuple[str | None, dict[str, Any]]:
@@ -323,8 +367,9 @@ def _agent_task(i: int, name: str, a: dict[str, Any], envs: list[EnvSpec]) -> tu
 
 
 def _fingerprint(data: dict[str, Any]) -> str:
-    """The campaign's identity (its results never mix with another's); notes are left out:
-    they change the report, not the results."""
+    """The campaign's identity (its results never mix with another's); notes and layers are left
+    out: they change the report, not the results."""
+    data = {k: v for k, v in data.items() if k != "layers"}
     agents = data.get("agents")
     if isinstance(agents, list):
         data = {
@@ -371,6 +416,7 @@ def load_campaign(config: str | Path | dict, backend: str | None = None) -> Camp
     agents = [_agent(i, a, envs) for i, a in enumerate(agents_data)]
     _require(bool(agents), "campaign needs at least one entry under agents")
     _require(len({a.name for a in agents}) == len(agents), "agent names must be distinct")
+    _check_models_of(agents)
     metrics = _metrics(data.get("metrics"))
     error_deg = _number("success_error_deg", data.get("success_error_deg", 2.0), 0.0, 180.0, open_low=True)
     fraction = _number("success_state_fraction", data.get("success_state_fraction", 0.1), 0.0, 1.0, open_low=True)
@@ -382,6 +428,7 @@ def load_campaign(config: str | Path | dict, backend: str | None = None) -> Camp
         f"optimum must be a mapping with keys solve (true/false), table (a J* table path), got {opt!r}",
     )
     _require(isinstance(opt.get("solve", True), bool), f"optimum.solve must be true or false, got {opt.get('solve')!r}")
+    layers = _layers(data.get("layers"), [a.name for a in agents])
     return Campaign(
         name=name,
         seeds=seeds,
@@ -395,4 +442,24 @@ def load_campaign(config: str | Path | dict, backend: str | None = None) -> Camp
         optimum_table=str(opt["table"]) if opt.get("table") is not None else None,
         source=source,
         fingerprint=_fingerprint(data),
+        layers=layers,
     )
+
+
+def _layers(value: Any, agents: list[str]) -> list[dict[str, str]]:
+    """The checked ``layers``: a list of ``{name: text, without: AGENT, with: AGENT}``, each pair
+    two of the campaign's agents that differ by one layer (a safety filter, a penalty): the
+    report shows what the layer costs in J and what it changes in the violations."""
+    value = value or []
+    _require(isinstance(value, list), f"layers must be a list of {{name, without, with}}, got {value!r}")
+    for i, layer in enumerate(value):
+        _require(
+            isinstance(layer, dict) and set(layer) == {"name", "without", "with"},
+            f"layers[{i}] must be a mapping with exactly name, without, with, got {layer!r}",
+        )
+        for key in ("without", "with"):
+            _require(
+                layer[key] in agents,
+                f"layers[{i}].{key} must name an agent of the campaign {agents}, got {layer[key]!r}",
+            )
+    return [dict(layer) for layer in value]

@@ -12,6 +12,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium.wrappers import RecordVideo
 
+from attitude_envs import quaternion
 from attitude_envs.evaluation.trace import record_episode, record_state_trace
 from attitude_envs.info import policy_view
 from experiments.campaign.jobs import episode_jobs
@@ -104,6 +105,68 @@ def _example_traces(result, env_spec, scenario: dict, fault: str, agents: Sequen
     return traces
 
 
+def _boresight_figure(result, env_spec, cell: tuple[str, str, str], board, out_dir: Path) -> str | None:
+    """The star tracker boresight's path on the sphere around the keep-out cones, for every agent
+    of a constrained ``cell`` (free drift left out; trained agents' first training seed), on the
+    cell's first seed on which some agent enters a cone, else violates another constraint, else
+    on its first seed. Returns
+    the figure's path relative to ``out_dir``, None for an env without cones."""
+    from attitude_envs.envs.constrained_slew import CONE_KINDS
+
+    env_name, scenario, fault = cell
+    rows = [r for r in result.rows if (r["env"], r["scenario"], r["fault"]) == cell]
+    if not rows or not any("violations" in r for r in rows):
+        return None
+    seeds = sorted({int(r["seed"]) for r in rows})
+    inside = sorted({int(r["seed"]) for r in rows if float(r.get("min_margin_deg", "nan") or "nan") < 0.0})
+    violated = sorted({int(r["seed"]) for r in rows if float(r.get("violations") or 0) > 0})
+    seed = (inside or violated or seeds)[0]
+    drift = free_drift_agents(result.campaign)
+    agents = [e["agent"] for e in board if not is_oracle(e) and e["agent"] not in drift]
+    jobs = episode_jobs(result.campaign, result.out_dir, skip_agents=result.skipped_agents)
+    paths, cones = {}, []
+    for agent in agents:
+        job = next(
+            (
+                j
+                for j in jobs
+                if (j["key"]["env"], j["key"]["scenario"], j["key"]["fault"], j["key"]["agent"]) == cell + (agent,)
+                and int(j["key"]["seed"]) == seed
+            ),
+            None,
+        )
+        if job is None:
+            continue
+        env = gym.make(job["env_id"], **job["env_kwargs"])
+        try:
+            base = env.unwrapped
+            boresight = base.boresights[CONE_KINDS[0][1]]
+            policy = build_policy(job["policy"], env, name=agent)
+            obs, info = env.reset(seed=seed, options=copy.deepcopy(job["options"]) or None)
+            policy.reset(seed)
+            track = [quaternion.to_matrix(base.state_row[:4]) @ boresight]
+            done = False
+            while not done:
+                obs, _, terminated, truncated, info = env.step(policy.act(obs, policy_view(info)))
+                track.append(quaternion.to_matrix(base.state_row[:4]) @ boresight)
+                done = terminated or truncated
+            paths[f"{agent} ({int(info['violations'])} violating steps)"] = np.array(track)
+            if not cones:
+                cones = [
+                    (c.inertial_direction, c.half_angle_deg, c.name)
+                    for c in base.cones
+                    if np.allclose(c.body_axis, boresight)
+                ]
+        finally:
+            env.close()
+    if not paths:
+        return None
+    name = f"figures/boresight-{env_name}-{scenario}-{fault}.png"
+    title = f"{env_name} · {scenario} · {fault} · seed {seed}: star tracker boresight around its keep-out cones"
+    _plots().plot_boresight_paths(paths, cones, out_dir / name, title=title)
+    return name
+
+
 def _record_video(result, env_spec, agent: str, path_dir: Path) -> Path | None:
     """An episode of ``agent`` through gymnasium's ``RecordVideo`` (None when moviepy is missing)."""
     try:
@@ -172,6 +235,12 @@ def campaign_figures(
                 )
                 label = f"{env_spec.name}: time histories, best analytic vs best learned ({scenario['name']}, {fault})"
                 figures[label] = name
+                cell = (env_spec.name, scenario["name"], fault)
+                boresight = _boresight_figure(result, env_spec, cell, board, out_dir)
+                if boresight is not None:
+                    figures[f"{env_spec.name}: the star tracker's boresight around the keep-out cones ({fault})"] = (
+                        boresight
+                    )
         if is_rw:
             if video:
                 path = _record_video(result, env_spec, best, out_dir / "videos")

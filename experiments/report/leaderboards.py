@@ -13,6 +13,7 @@ from experiments.campaign.store import J_STAR_PREFIX
 from experiments.report.statistics import (
     as_flag,
     bootstrap_ci,
+    constraint_stats,
     finite_mean,
     iqm,
     is_deterministic,
@@ -63,6 +64,7 @@ def leaderboards(
                 "terminated_rate": float(np.mean([as_flag(r.get("terminated")) for r in rs])),
                 "recovery_time_s": finite_mean([r.get("recovery_time_s") for r in rs]),
                 **ratio_stats(rs),
+                **constraint_stats(rs),
             }
             for m in PAPER_METRICS:
                 if any(m in r for r in rs):
@@ -147,9 +149,12 @@ def oracle_entry(
         "J_over_J_star_ci_low": float("nan"),
         "J_over_J_star_ci_high": float("nan"),
         "J_over_J_star_median": 1.0 if finite else float("nan"),
+        "J_over_J_star_cvar10": 1.0 if finite else float("nan"),
         "J_over_J_star_deterministic": bool(finite),
         "J_over_J_star_episodes": len(finite),
     }
+    if like is not None and "violating_rate" in like:  # J*'s own replays (its measurements)
+        entry |= constraint_stats(episodes, J_STAR_PREFIX)
     for m in PAPER_METRICS:
         if like is not None and m in like:
             entry[m] = float("nan")

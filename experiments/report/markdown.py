@@ -55,6 +55,8 @@ def leaderboard_markdown(
     parts = []
     for (env, scenario, fault), board in boards.items():
         extra = [m for m in PAPER_METRICS if m in board[0]]
+        constrained = "violating_rate" in board[0]
+        constraint_head = ["violating episodes", "violation steps", "least margin [deg]", "CVaR₀.₁ J/J*"]
         head = [
             "rank",
             "agent",
@@ -66,6 +68,7 @@ def leaderboard_markdown(
             "success",
             "ended early",
             "recovery [s]",
+            *(constraint_head if constrained else []),
             *extra,
         ]
         lines = [f"### {env} · {scenario} · fault: {fault}", "", "| " + " | ".join(head) + " |"]
@@ -86,11 +89,50 @@ def leaderboard_markdown(
                 _rate_cell(e, "success_rate", "success_known", "J* success"),
                 _rate_cell(e, "terminated_rate", "terminated_known", "J* ended early"),
                 fmt(e["recovery_time_s"]),
+                *(_constraint_cells(e) if constrained else []),
                 *[fmt(e.get(m, float("nan"))) for m in extra],
             ]
             lines.append("| " + " | ".join(cells) + " |")
         parts.append("\n".join(lines))
     return "\n\n".join(parts) + "\n"
+
+
+def _constraint_cells(e: Mapping[str, Any]) -> list[str]:
+    """A constrained cell's columns: the share of episodes with a violation, the mean violating
+    steps per episode, the least cone margin (deg) and the CVaR₀.₁ of the per-episode J/J*."""
+    rate = e.get("violating_rate", float("nan"))
+    return [
+        f"{100 * rate:.0f} %" if np.isfinite(rate) else "—",
+        fmt(float(e.get("violation_steps", float("nan")))),
+        fmt(float(e.get("min_margin_deg", float("nan")))),
+        ratio_text(float(e.get("J_over_J_star_cvar10", float("nan")))),
+    ]
+
+
+def layers_markdown(
+    boards: Mapping[tuple[str, str, str], list[dict[str, Any]]], layers: Sequence[Mapping[str, str]]
+) -> str:
+    """Per cell, one row per layer (``{"name", "without", "with"}``: two agents that differ by
+    it): each side's J / J* and violating episodes, and the layer's cost in J, ``ΣJ_with / ΣJ_without − 1``
+    (the J means over the same episodes)."""
+    lines = []
+    for (env, scenario, fault), board in boards.items():
+        by_agent = {e["agent"]: e for e in board}
+        rows = [layer for layer in layers if layer["without"] in by_agent and layer["with"] in by_agent]
+        if not rows:
+            continue
+        lines += [f"### {env} · {scenario} · fault: {fault}", ""]
+        lines += ["| layer | without | J / J* | violating episodes | with | J / J* | violating episodes | cost in J |"]
+        lines += ["|---|---|---|---|---|---|---|---|"]
+        for layer in rows:
+            a, b = by_agent[layer["without"]], by_agent[layer["with"]]
+            cost = b["J_mean"] / a["J_mean"] - 1.0 if a["J_mean"] > 0 else float("nan")
+            cells = [layer["name"], a["agent"], ratio_text(a.get("J_over_J_star", float("nan")))]
+            cells += [_constraint_cells(a)[0], b["agent"], ratio_text(b.get("J_over_J_star", float("nan")))]
+            cells += [_constraint_cells(b)[0], f"{100 * cost:+.1f} %" if np.isfinite(cost) else "—"]
+            lines.append("| " + " | ".join(cells) + " |")
+        lines.append("")
+    return "\n".join(lines) + "\n"
 
 
 def _rate_cell(e: Mapping[str, Any], rate: str, known: str, what: str) -> str:
@@ -173,6 +215,8 @@ def report_markdown(
         "",
     ]
     lines += ["## Leaderboards", "", leaderboard_markdown(boards, metadata.get("agent_notes"))]
+    if metadata.get("layers"):
+        lines += ["## What each layer costs", "", layers_markdown(boards, metadata["layers"])]
     if notes:
         lines += ["## Notes", "", *[f"* {n}" for n in notes], ""]
     if figures:
@@ -190,6 +234,12 @@ def report_markdown(
     lines += ["recovery: time from the fault onset until the error stays within the settling band;"]
     lines += ["J / J*: mean J over mean J* of the same episodes (the cost above the optimum, as a factor), 95 % paired"]
     lines += ["bootstrap CI; the per-episode ratios (and their median, in leaderboard.json) are in episodes.csv.", ""]
+    if any("violations" in r for r in rows):
+        lines += ["Constraints (each g ≤ 0, checked at every decision time): violating episodes is the failure rate,"]
+        lines += ["the share of episodes with at least one step that violates a constraint; violation steps the mean"]
+        lines += ["number of such steps per episode; least margin the smallest keep-out cone margin θ − α over every"]
+        lines += ["step of every episode (deg, negative inside a cone); CVaR₀.₁ J/J* the mean of the worst tenth of"]
+        lines += ["the per-episode ratios J / J*. J*'s line gives its own replays' constraint outcome.", ""]
     lines += _optimum_legend(rows)
     lines += ["## Run record", "", *run_record(metadata), ""]
     return "\n".join(lines)

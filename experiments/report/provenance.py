@@ -178,10 +178,17 @@ def campaign_metadata(result, command: str | None = None) -> dict[str, Any]:
     success criteria and thresholds, the definitions of envs, scenarios, faults and agent tasks."""
     budget = {a.name: _training_summary(result, a) for a in result.campaign.agents if a.train is not None}
     tasks = {a.name: _training_task(result, a) for a in result.campaign.agents if a.train is not None}
+    for a in result.campaign.agents:
+        if a.models_of is not None:
+            budget[a.name] = (
+                f"the models {a.models_of} trained (its budget), played with params {json.dumps(a.spec.get('params') or {})}"
+            )
     models = {
         a.name: f"{a.spec['model']} ({snapshot_description(a.spec['model'])})"
         for a in result.campaign.agents
-        if a.train is None and a.spec.get("policy") == "sb3" and a.name not in result.skipped_agents
+        if result.campaign.trained_by(a) is None
+        and a.spec.get("policy") == "sb3"
+        and a.name not in result.skipped_agents
     }
     criteria = {e.name: success_criterion(e.id, e.kwargs, result.campaign) for e in result.campaign.envs}
     definitions = {}
@@ -220,4 +227,6 @@ def campaign_metadata(result, command: str | None = None) -> dict[str, Any]:
     }
     if result.campaign.agent_notes:
         metadata["agent_notes"] = result.campaign.agent_notes
+    if result.campaign.layers:
+        metadata["layers"] = result.campaign.layers
     return metadata

@@ -1,5 +1,6 @@
 """Statistics of a leaderboard cell: the percentile bootstrap CI of the mean, the IQM, whether
-every episode gave the same value, and J / J* as a ratio of means with a paired bootstrap CI.
+every episode gave the same value, J / J* as a ratio of means with a paired bootstrap CI and the
+CVaR of the per-episode ratios, and the constraint outcome of a cell with constraints.
 
 The bootstraps are :func:`scipy.stats.bootstrap`'s (percentile method, :data:`N_BOOT`
 resamples, a generator seeded with :data:`SEED`: the same rows give the same interval on every
@@ -57,6 +58,45 @@ def iqm(values: Sequence[float]) -> float:
     return float(stats.trim_mean(x, 0.25)) if len(x) else float("nan")
 
 
+def cvar(values: Sequence[float], alpha: float = 0.1) -> float:
+    """Conditional value at risk of a cost: the mean of the worst (largest) ``alpha`` share of
+    the finite ``values``, ``⌈alpha · n⌉`` of them (Rockafellar & Uryasev's CVaR at level
+    ``1 − alpha``; safe-control-gym reports it beside the mean); NaN for no finite value."""
+    if not 0.0 < alpha <= 1.0:
+        raise ValueError(f"alpha must be in (0, 1], got {alpha!r}")
+    x = np.sort(np.asarray([v for v in values if np.isfinite(v)], dtype=float))
+    if len(x) == 0:
+        return float("nan")
+    return float(x[-int(np.ceil(alpha * len(x))) :].mean())
+
+
+def constraint_stats(rows: Sequence[Mapping[str, Any]], prefix: str = "") -> dict[str, float]:
+    """The constraint outcome of a cell where its rows carry ``<prefix>violations``
+    (:func:`attitude_envs.constraints.episode_summary`; ``{}`` otherwise): ``violating_rate``
+    (the share of episodes with any violating step: the failure rate), ``violation_steps`` (the
+    mean violating steps per episode) and ``min_margin_deg`` (the least keep-out cone margin over
+    every episode, deg); each NaN unless known for every episode. ``prefix`` ``"j_star_"`` reads
+    J*'s own replays."""
+    if not any(f"{prefix}violations" in r for r in rows):
+        return {}
+    v = np.asarray([_number(r.get(f"{prefix}violations")) for r in rows])
+    m = np.asarray([_number(r.get(f"{prefix}min_margin_deg")) for r in rows])
+    known = bool(np.all(np.isfinite(v)))
+    return {
+        "violating_rate": float(np.mean(v > 0)) if known else float("nan"),
+        "violation_steps": float(np.mean(v)) if known else float("nan"),
+        "min_margin_deg": float(np.min(m)) if len(m) and np.all(np.isfinite(m)) else float("nan"),
+    }
+
+
+def _number(value: Any) -> float:
+    """A row's number (CSV rows carry strings; None and ``""`` are NaN)."""
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return float("nan")
+
+
 def finite_mean(values: Sequence[Any]) -> float:
     """Mean of the finite values (None and NaN skipped); NaN when there is none."""
     x = np.asarray([float(v) for v in values if v is not None and np.isfinite(float(v))], dtype=float)
@@ -85,8 +125,8 @@ def ratio_stats(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     """J / J* of a cell as a ratio of means: Σ J / Σ J* over the episodes that have a J*, with a
     95 % paired percentile bootstrap CI (:func:`scipy.stats.bootstrap`, ``paired=True``: episodes
     resampled with their J and J* together), the median of
-    the per-episode ratios, whether every episode gave the same ratio, and how many episodes had
-    a J*. A mean of per-episode ratios would be dominated by episodes that start near the
+    the per-episode ratios and their CVaR₀.₁ (:func:`cvar`: the mean of the worst tenth),
+    whether every episode gave the same ratio, and how many episodes had a J*. A mean of per-episode ratios would be dominated by episodes that start near the
     target, where J* is close to zero and any controller's ratio is huge."""
     pairs = [
         (float(r["J"]), float(r["j_star"]))
@@ -99,6 +139,7 @@ def ratio_stats(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     if not pairs:
         return {
             "J_over_J_star": float("nan"),
+            "J_over_J_star_cvar10": float("nan"),
             "J_over_J_star_ci_low": float("nan"),
             "J_over_J_star_ci_high": float("nan"),
             "J_over_J_star_median": float("nan"),
@@ -128,6 +169,7 @@ def ratio_stats(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
         "J_over_J_star_ci_low": lo,
         "J_over_J_star_ci_high": hi,
         "J_over_J_star_median": float(np.median(ratios)),
+        "J_over_J_star_cvar10": cvar(ratios, 0.1),
         "J_over_J_star_deterministic": deterministic,
         "J_over_J_star_episodes": len(J),
     }

@@ -60,7 +60,7 @@ def write_campaign_index(out_dir: str | Path, results: Sequence[tuple[str, Any]]
     envs (id and kwargs), wall time and report, and the package and git revision. The
     leaderboards themselves are in each campaign's report."""
     out_dir = Path(out_dir)
-    lines = ["# All plant campaigns", ""]
+    lines = ["# All campaigns (--config all)", ""]
     lines += ["| campaign | env · scenario · fault | best analytic | best learned |", "|---|---|---|---|"]
     for name, result in results:
         trained, drift = learned_agents(result.campaign), free_drift_agents(result.campaign)
