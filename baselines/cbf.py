@@ -27,7 +27,8 @@ path runs straight through a cone's centre the filtered slew can stall on the co
 (a deadlock, not a violation).
 
 The same filter shields any policy (a *shield* in the sense of Alshiekh et al., 2018: it sits
-between the agent and the env and changes only commands that would break a barrier condition):
+between the agent and the env and changes only commands that would break a barrier condition
+or the wheels' torque limit; ``filtered_steps`` counts both):
 :class:`Shielded` filters a policy's body-torque action at evaluation, :class:`CBFShield` is the
 Gymnasium wrapper that filters a learner's actions while it trains (the Zoo's ``env_wrapper:
 baselines.cbf.CBFShield``). Both call :meth:`CBFSafetyFilterPolicy.filter_action`, so a

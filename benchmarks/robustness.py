@@ -24,12 +24,10 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import math
 from collections.abc import Callable
 from pathlib import Path
 
 import gymnasium as gym
-import numpy as np
 
 import attitude_envs  # noqa: F401
 from attitude_envs.conditions import Conditions
@@ -37,6 +35,7 @@ from attitude_envs.evaluation.rollout import rollout
 from attitude_envs.files import atomic_write
 from attitude_envs.presets import flight
 from experiments import optimum
+from experiments.report.statistics import cvar
 
 #: the env id of each plant page and its flight table's inertia tolerance key
 PLANTS = {
@@ -82,12 +81,6 @@ def j_star(env_id: str, conditions: dict, seed: int, env_kwargs: dict | None = N
     if not plant.is_lab:
         kwargs["conditions"] = plant.as_dict()
     return optimum.solve_episode(env_id, kwargs, seed=seed).j_star
-
-
-def cvar(ratios: np.ndarray, alpha: float = 0.1) -> float:
-    """The mean of the worst ``alpha`` fraction of ``ratios`` (at least one)."""
-    worst = np.sort(ratios)[::-1][: max(1, math.ceil(alpha * len(ratios)))]
-    return float(worst.mean())
 
 
 def run(
@@ -137,7 +130,7 @@ def run(
                     "axis": axis,
                     "level": level,
                     "j_over_j_star": sum(js) / sum(jstars),
-                    "cvar10": cvar(np.array(ratios)),
+                    "cvar10": cvar(ratios, 0.1),
                     "seeds": seeds,
                 }
                 rows.append(row)

@@ -194,6 +194,8 @@ def build_policy(spec: dict[str, Any], env, name: str | None = None):
                     )
                 policy = wrap_policy(policy, env, **kwargs)
         shield = params.get("shield")
+        if shield is None and params.get("shield_params"):
+            raise ValueError("params.shield_params needs params.shield (accepted: " + ", ".join(sorted(SHIELDS)) + ")")
         if shield is not None:  # a shield at deployment only
             if shield not in SHIELDS:
                 raise ValueError(f"params.shield must be one of {sorted(SHIELDS)} (or absent), got {shield!r}")

@@ -40,7 +40,7 @@ from experiments.training.hyperparams import split_hyperparams
 from experiments.training.vec_envs import batched_supported, make_eval_env, make_training_env
 
 #: the campaigns of ``--config all``, the full campaign and the quick one
-PLANT_CAMPAIGNS = ("wheel", "air-bearing", "magnetorquer", "slosh", "linear", "slew", "full", "quick")
+CAMPAIGNS = ("wheel", "air-bearing", "magnetorquer", "slosh", "linear", "slew", "full", "quick")
 #: campaigns whose cell starts every seed from the same state (the paper's x₀)
 DETERMINISTIC = {"linear"}
 NOWHERE = Path("/nonexistent")
@@ -48,7 +48,7 @@ NOWHERE = Path("/nonexistent")
 
 def _jobs() -> list[tuple[str, dict]]:
     out = []
-    for name in PLANT_CAMPAIGNS:
+    for name in CAMPAIGNS:
         for job in training_jobs(load_campaign(name), NOWHERE):
             out.append((f"{name}:{job['out_dir'].split('models/')[1]}", {**job, "campaign": name}))
     return out

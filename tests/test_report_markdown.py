@@ -31,3 +31,28 @@ def test_report_opens_with_the_results_and_ends_with_the_run_record():
     ):
         assert line in record and line not in results
     assert "success: the env's criterion in the run record" in results
+
+
+def test_constrained_cells_show_the_failure_rate_cvar_and_what_each_layer_costs():
+    from experiments.report.markdown import layers_markdown
+
+    def row(agent, seed, j, j_star, violations, margin):
+        key = {"env": "slew", "scenario": "s", "fault": "none", "agent": agent, "seed": seed, "J": j}
+        return key | {"j_star": j_star, "violations": violations, "min_margin_deg": margin, "success": True}
+
+    rows = [row("bare", s, 12.0 + s, 10.0, 3 if s == 0 else 0, -4.0 if s == 0 else 6.0) for s in range(10)]
+    rows += [row("filtered", s, 13.0 + s, 10.0, 0, 2.0 + s) for s in range(10)]
+    boards = leaderboards(rows)
+    entry = {e["agent"]: e for e in boards[("slew", "s", "none")]}
+    assert entry["bare"]["violating_rate"] == 0.1 and entry["bare"]["violation_steps"] == 0.3
+    assert entry["bare"]["min_margin_deg"] == -4.0 and entry["filtered"]["violating_rate"] == 0.0
+    assert entry["bare"]["J_over_J_star_cvar10"] == 2.1  # the worst tenth: seed 9, (12 + 9) / 10
+    text = report_markdown(
+        rows, boards, {"campaign": "c", "layers": [{"name": "filter", "without": "bare", "with": "filtered"}]}
+    )
+    assert "| violating episodes | violation steps | least margin [deg] | CVaR₀.₁ J/J* |" in text
+    assert "## What each layer costs" in text
+    layer = layers_markdown(rows, boards, [{"name": "filter", "without": "bare", "with": "filtered"}])
+    cost = (sum(13.0 + s for s in range(10)) / sum(12.0 + s for s in range(10)) - 1) * 100
+    assert f"| filter | bare | 1.6500 | 10 % | filtered | 1.7500 | 0 % | +{cost:.1f} % |" in layer
+    assert "What each layer costs" not in report_markdown(rows, boards, {"campaign": "c"})

@@ -155,12 +155,21 @@ def test_dual_ascent_step_is_exact():
     cb.init_callback(FakeModel(venv, Logger(folder=None, output_formats=[])))
     cb.on_training_start({}, {})
     cb.on_rollout_start()
-    fake = [({"constraint_cost": c}, d) for c, d in [(1.0, False), (1.0, True), (0.0, False), (1.0, True)]]
-    for info, done in fake:  # two episodes: costs 2 and 1, mean 1.5
+    fake = [
+        ({"violations": 1}, False),
+        ({"violations": 2}, True),
+        ({"violations": 0}, False),
+        ({"violations": 1}, True),
+    ]
+    for info, done in fake:  # two episodes ended, with 2 and 1 violating steps: mean 1.5
         cb.update_locals({"infos": [info], "dones": np.array([done])})
         cb.on_step()
     cb.on_rollout_end()
     assert cb.penalty == pytest.approx(2.0 + 0.1 * (1.5 - 0.5), rel=0, abs=1e-15)
+    cb.on_rollout_start()
+    cb.update_locals({"infos": [{"cost": 1.0}], "dones": np.array([True])})
+    with pytest.raises(KeyError, match="violations"):
+        cb.on_step()
 
 
 def test_the_multiplier_needs_the_penalty_wrapper():
@@ -176,7 +185,7 @@ def test_the_multiplier_needs_the_penalty_wrapper():
         cb.on_training_start({}, {})
 
 
-@pytest.mark.parametrize("kwargs", [{"budget": -1.0}, {"lr": 0.0}, {"max_penalty": -2.0}])
+@pytest.mark.parametrize("kwargs", [{"budget": -1.0}, {"lr": 0.0}, {"max_penalty": -2.0}, {"episode_cost_key": ""}])
 def test_the_multiplier_refuses_bad_settings_by_name(kwargs):
     pytest.importorskip("stable_baselines3")
     from experiments.training.lagrangian import LagrangeMultiplier
@@ -209,6 +218,7 @@ def test_the_training_wrapper_plays_exactly_as_the_shielded_policy_and_pickles()
     wrapped = pickle.loads(pickle.dumps(CBFShield(ConstrainedSlewEnv())))  # checkpoints pickle the env
     nominal = EigenaxisSlewPolicy(env)
     obs, info = wrapped.reset(seed=SEED_THROUGH_A_CONE)
+    wrapped = pickle.loads(pickle.dumps(wrapped))  # mid-episode too (a checkpoint between rollouts)
     total, changed, done = 0.0, 0, False
     while not done:
         obs, _, terminated, truncated, info = wrapped.step(nominal.act(obs, policy_view(info)))
@@ -387,3 +397,34 @@ def test_a_slew_campaign_plays_one_training_twice_and_reports_the_constraints(tm
     assert "violating episodes" in report and "CVaR₀.₁ J/J*" in report
     assert "the models ppo trained" in report
     assert any(p.name.startswith("boresight-slew") for p in (tmp_path / "figures").iterdir())
+
+
+def test_validation_counts_violating_episodes_and_the_best_snapshot_has_the_fewest():
+    from experiments.training.callbacks import EvalLog, evaluate_cost
+    from experiments.training.run_dir import RunDir
+
+    class Full:  # a predictor asking for full torque: spins past the body-rate limit
+        def predict(self, obs, state=None, episode_start=None, deterministic=True):
+            return np.ones(3, dtype=np.float32), None
+
+    row = evaluate_cost(Full(), ConstrainedSlewEnv(episode_duration_s=5.0), [0, 1])
+    assert row["violating_episodes"] == 2
+    assert "violating_episodes" not in evaluate_cost(Full(), gym.make("attitude_envs/ReactionWheel-v0", action_frame="body"), [0])
+    assert EvalLog.row_text(EvalLog("."), {"timesteps": 1, **row}, header=True).splitlines()[0] == (
+        "timesteps,J_mean,J_std,violating_episodes"
+    )
+    run = {"eval_log": "", "best": None, "last_eval": None}
+
+    class Log:
+        def row_text(self, row, header):
+            return ""
+
+        def append(self, text):
+            pass
+
+    fake = RunDir.__new__(RunDir)
+    fake.evaluations = Log()
+    assert RunDir.record(fake, run, {"timesteps": 1, "J_mean": 10.0, "J_std": 0.0, "violating_episodes": 1})
+    assert RunDir.record(fake, run, {"timesteps": 2, "J_mean": 50.0, "J_std": 0.0, "violating_episodes": 0})
+    assert not RunDir.record(fake, run, {"timesteps": 3, "J_mean": 5.0, "J_std": 0.0, "violating_episodes": 1})
+    assert run["best"]["timesteps"] == 2

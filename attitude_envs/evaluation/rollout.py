@@ -12,7 +12,8 @@ from attitude_envs.info import TRUTH, policy_view
 
 def rollout(env, policy: Policy, seed: int | None = None, options: dict[str, Any] | None = None) -> dict[str, Any]:
     """One episode; returns the episode cost ``J`` (sum of ``info["cost"]``), steps, how it
-    ended and, for attitude envs, the true final error angle (deg) and peak wheel speed (rad/s).
+    ended and, for attitude envs, the true final error angle (deg) and peak wheel speed (rad/s);
+    for an env with constraints, its violating steps (``violations``).
 
     The policy acts on :func:`attitude_envs.info.policy_view` of each info (no ground truth);
     the metrics come from ``info["truth"]``."""
@@ -29,10 +30,13 @@ def rollout(env, policy: Policy, seed: int | None = None, options: dict[str, Any
         wheel = state.get("wheel_speed_rad_s") if isinstance(state, dict) else None
         if wheel is not None:
             peak_wheel = max(peak_wheel, float(np.max(np.abs(wheel))))
-    return {
+    out = {
         "J": total,
         "steps": steps,
         "terminated": bool(terminated),
         "final_error_deg": info[TRUTH].get("error_angle_deg", float("nan")),
         "peak_wheel_speed_rad_s": peak_wheel,
     }
+    if "violations" in info:  # an env with constraints: the episode's violating steps
+        out["violations"] = int(info["violations"])
+    return out

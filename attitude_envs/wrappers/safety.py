@@ -14,10 +14,22 @@ between rollouts by a dual-ascent update, the Lagrangian reward of PPO-Lagrangia
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import gymnasium as gym
+
+from attitude_envs import validation
+
+
+def step_cost(info: dict[str, Any], cost_key: str, who: str) -> float:
+    """``info[cost_key]`` as a float; a ``KeyError`` naming ``who`` and the info's keys when the
+    env reports no such cost."""
+    if cost_key not in info:
+        raise KeyError(
+            f"{who}: the env's info has no {cost_key!r} (keys: {sorted(info)}); "
+            "wrap an env with a constraint cost (ConstrainedSlew-v0) or pass cost_key"
+        )
+    return float(info[cost_key])
 
 
 class SafetyGymnasiumWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
@@ -40,12 +52,7 @@ class SafetyGymnasiumWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
 
     def step(self, action: Any) -> tuple[Any, float, float, bool, bool, dict[str, Any]]:  # type: ignore[override]
         obs, reward, terminated, truncated, info = self.env.step(action)
-        if self.cost_key not in info:
-            raise KeyError(
-                f"SafetyGymnasiumWrapper: the env's info has no {self.cost_key!r} "
-                f"(keys: {sorted(info)}); wrap an env with a constraint cost (ConstrainedSlew-v0) or pass cost_key"
-            )
-        return obs, reward, float(info[self.cost_key]), terminated, truncated, info
+        return obs, reward, step_cost(info, self.cost_key, "SafetyGymnasiumWrapper"), terminated, truncated, info
 
 
 class ConstraintPenalty(gym.Wrapper, gym.utils.RecordConstructorArgs):
@@ -75,13 +82,7 @@ class ConstraintPenalty(gym.Wrapper, gym.utils.RecordConstructorArgs):
 
     @penalty.setter
     def penalty(self, value: float) -> None:
-        try:
-            value = float(value)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"penalty must be a finite number >= 0, got {value!r}") from exc
-        if not (math.isfinite(value) and value >= 0.0):
-            raise ValueError(f"penalty must be a finite number >= 0, got {value!r}")
-        self._penalty = value
+        self._penalty = validation.nonnegative("penalty", value)
 
     def set_penalty(self, value: float) -> None:
         """Set :attr:`penalty` (a vector env's ``env_method("set_penalty", value)`` reaches it
@@ -90,11 +91,6 @@ class ConstraintPenalty(gym.Wrapper, gym.utils.RecordConstructorArgs):
 
     def step(self, action: Any):
         obs, reward, terminated, truncated, info = self.env.step(action)
-        if self.cost_key not in info:
-            raise KeyError(
-                f"ConstraintPenalty: the env's info has no {self.cost_key!r} "
-                f"(keys: {sorted(info)}); wrap an env with a constraint cost (ConstrainedSlew-v0) or pass cost_key"
-            )
-        charge = self._penalty * float(info[self.cost_key])
+        charge = self._penalty * step_cost(info, self.cost_key, "ConstraintPenalty")
         info["constraint_penalty"] = charge
         return obs, float(reward) - charge, terminated, truncated, info

@@ -139,6 +139,8 @@ def prepare_campaign(
     skipped: dict[str, str] = {}
     for agent in campaign.agents:
         reason = available(agent)
+        if reason is None and agent.models_of in skipped:  # its models are never trained
+            reason = f"the agent whose models it plays ({agent.models_of}) is skipped"
         if reason is not None:
             if not agent.optional:
                 raise ValueError(f"campaign {campaign.name!r}: agent {agent.name!r} cannot run: {reason}")

@@ -36,6 +36,8 @@ def leaderboards(
     (a limit crossed: the vehicle lost), by the fraction that did, then J. J sums the cost
     only up to the end of the episode, so an episode cut short costs less; ranking it by J
     alone would reward ending it (an agent trained on the reward −cost can learn exactly that).
+    In a cell with constraints, agents with violating episodes rank after those without (by
+    their share, then J): a cheaper slew through a keep-out cone is no better one.
 
     Where the rows carry J* (``j_star``), each board ends with J*'s own line
     (:func:`oracle_entry`, ``"oracle": True``, agent :data:`ORACLE_AGENT`): unranked, no
@@ -70,10 +72,22 @@ def leaderboards(
                 if any(m in r for r in rs):
                     entry[m] = finite_mean([r.get(m) for r in rs])
             board.append(entry)
-        board.sort(key=lambda e: (not np.isfinite(e["J_mean"]), e["terminated_rate"], e["J_mean"]))
+        board.sort(key=_rank_key)
         oracle = oracle_entry([r for rs in agents.values() for r in rs], thresholds, board[0])
         out[cell] = board + ([oracle] if oracle is not None else [])
     return dict(sorted(out.items()))
+
+
+def _rank_key(e: Mapping[str, Any]) -> tuple:
+    """An entry's place: finite J first, then fewest episodes ended early, then (a cell with
+    constraints) the fewest episodes with a violation, then the lowest J mean."""
+    violating = e.get("violating_rate", 0.0)
+    return (
+        not np.isfinite(e["J_mean"]),
+        e["terminated_rate"],
+        violating if np.isfinite(violating) else 1.0,
+        e["J_mean"],
+    )
 
 
 def is_oracle(entry: Mapping[str, Any]) -> bool:

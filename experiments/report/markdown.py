@@ -110,23 +110,33 @@ def _constraint_cells(e: Mapping[str, Any]) -> list[str]:
 
 
 def layers_markdown(
-    boards: Mapping[tuple[str, str, str], list[dict[str, Any]]], layers: Sequence[Mapping[str, str]]
+    rows: Sequence[Mapping[str, Any]],
+    boards: Mapping[tuple[str, str, str], list[dict[str, Any]]],
+    layers: Sequence[Mapping[str, str]],
 ) -> str:
     """Per cell, one row per layer (``{"name", "without", "with"}``: two agents that differ by
-    it): each side's J / J* and violating episodes, and the layer's cost in J, ``ΣJ_with / ΣJ_without − 1``
-    (the J means over the same episodes)."""
+    it): each side's J / J* and violating episodes, and the layer's cost in J,
+    ``ΣJ_with / ΣJ_without − 1`` over the episodes both played (paired by seed and training
+    seed, J finite on both sides)."""
     lines = []
-    for (env, scenario, fault), board in boards.items():
+    for cell, board in boards.items():
         by_agent = {e["agent"]: e for e in board}
-        rows = [layer for layer in layers if layer["without"] in by_agent and layer["with"] in by_agent]
-        if not rows:
+        shown = [layer for layer in layers if layer["without"] in by_agent and layer["with"] in by_agent]
+        if not shown:
             continue
-        lines += [f"### {env} · {scenario} · fault: {fault}", ""]
+        episodes: dict[str, dict[tuple, float]] = {}
+        for r in rows:
+            if (r["env"], r["scenario"], r["fault"]) == cell:
+                episodes.setdefault(r["agent"], {})[(str(r["seed"]), str(r.get("train_seed")))] = float(r["J"])
+        lines += [f"### {' · '.join(cell[:2])} · fault: {cell[2]}", ""]
         lines += ["| layer | without | J / J* | violating episodes | with | J / J* | violating episodes | cost in J |"]
         lines += ["|---|---|---|---|---|---|---|---|"]
-        for layer in rows:
+        for layer in shown:
             a, b = by_agent[layer["without"]], by_agent[layer["with"]]
-            cost = b["J_mean"] / a["J_mean"] - 1.0 if a["J_mean"] > 0 else float("nan")
+            ja, jb = episodes.get(a["agent"], {}), episodes.get(b["agent"], {})
+            pairs = [(ja[k], jb[k]) for k in ja.keys() & jb.keys() if np.isfinite(ja[k]) and np.isfinite(jb[k])]
+            base = sum(p[0] for p in pairs)
+            cost = sum(p[1] for p in pairs) / base - 1.0 if pairs and base > 0 else float("nan")
             cells = [layer["name"], a["agent"], ratio_text(a.get("J_over_J_star", float("nan")))]
             cells += [_constraint_cells(a)[0], b["agent"], ratio_text(b.get("J_over_J_star", float("nan")))]
             cells += [_constraint_cells(b)[0], f"{100 * cost:+.1f} %" if np.isfinite(cost) else "—"]
@@ -216,7 +226,7 @@ def report_markdown(
     ]
     lines += ["## Leaderboards", "", leaderboard_markdown(boards, metadata.get("agent_notes"))]
     if metadata.get("layers"):
-        lines += ["## What each layer costs", "", layers_markdown(boards, metadata["layers"])]
+        lines += ["## What each layer costs", "", layers_markdown(rows, boards, metadata["layers"])]
     if notes:
         lines += ["## Notes", "", *[f"* {n}" for n in notes], ""]
     if figures:
@@ -239,7 +249,8 @@ def report_markdown(
         lines += ["the share of episodes with at least one step that violates a constraint; violation steps the mean"]
         lines += ["number of such steps per episode; least margin the smallest keep-out cone margin θ − α over every"]
         lines += ["step of every episode (deg, negative inside a cone); CVaR₀.₁ J/J* the mean of the worst tenth of"]
-        lines += ["the per-episode ratios J / J*. J*'s line gives its own replays' constraint outcome.", ""]
+        lines += ["the per-episode ratios J / J*. J*'s line gives its own replays' constraint outcome. Agents with"]
+        lines += ["violating episodes rank after those without (by that share, after ended early), then by J.", ""]
     lines += _optimum_legend(rows)
     lines += ["## Run record", "", *run_record(metadata), ""]
     return "\n".join(lines)

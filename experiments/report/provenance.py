@@ -183,6 +183,7 @@ def campaign_metadata(result, command: str | None = None) -> dict[str, Any]:
             budget[a.name] = (
                 f"the models {a.models_of} trained (its budget), played with params {json.dumps(a.spec.get('params') or {})}"
             )
+            tasks[a.name] = tasks.get(a.models_of, "")
     models = {
         a.name: f"{a.spec['model']} ({snapshot_description(a.spec['model'])})"
         for a in result.campaign.agents

@@ -8,6 +8,7 @@ run); the IQM is :func:`scipy.stats.trim_mean` with a quarter cut at each end.""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -60,11 +61,12 @@ def iqm(values: Sequence[float]) -> float:
 
 def cvar(values: Sequence[float], alpha: float = 0.1) -> float:
     """Conditional value at risk of a cost: the mean of the worst (largest) ``alpha`` share of
-    the finite ``values``, ``⌈alpha · n⌉`` of them (Rockafellar & Uryasev's CVaR at level
-    ``1 − alpha``; safe-control-gym reports it beside the mean); NaN for no finite value."""
+    the ``values``, ``⌈alpha · n⌉`` of them (Rockafellar & Uryasev's CVaR at level ``1 − alpha``;
+    safe-control-gym reports it beside the mean). NaN values are left out; an infinite cost (an
+    unbounded episode) stays, so the CVaR is infinite when it is among the worst; NaN for no value."""
     if not 0.0 < alpha <= 1.0:
         raise ValueError(f"alpha must be in (0, 1], got {alpha!r}")
-    x = np.sort(np.asarray([v for v in values if np.isfinite(v)], dtype=float))
+    x = np.sort(np.asarray([v for v in values if not np.isnan(v)], dtype=float))
     if len(x) == 0:
         return float("nan")
     return float(x[-int(np.ceil(alpha * len(x))) :].mean())
@@ -121,6 +123,12 @@ def known_flag(value: Any) -> bool | None:
     return as_flag(value)
 
 
+def _has_j_star(row: Mapping[str, Any]) -> bool:
+    """Whether an episode row has a finite, positive J*."""
+    j_star = row.get("j_star")
+    return j_star is not None and np.isfinite(float(j_star)) and float(j_star) > 0.0
+
+
 def ratio_stats(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     """J / J* of a cell as a ratio of means: Σ J / Σ J* over the episodes that have a J*, with a
     95 % paired percentile bootstrap CI (:func:`scipy.stats.bootstrap`, ``paired=True``: episodes
@@ -128,14 +136,7 @@ def ratio_stats(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     the per-episode ratios and their CVaR₀.₁ (:func:`cvar`: the mean of the worst tenth),
     whether every episode gave the same ratio, and how many episodes had a J*. A mean of per-episode ratios would be dominated by episodes that start near the
     target, where J* is close to zero and any controller's ratio is huge."""
-    pairs = [
-        (float(r["J"]), float(r["j_star"]))
-        for r in rows
-        if r.get("j_star") is not None
-        and np.isfinite(float(r["j_star"]))
-        and float(r["j_star"]) > 0.0
-        and np.isfinite(float(r["J"]))
-    ]
+    pairs = [(float(r["J"]), float(r["j_star"])) for r in rows if _has_j_star(r) and np.isfinite(float(r["J"]))]
     if not pairs:
         return {
             "J_over_J_star": float("nan"),
@@ -148,6 +149,10 @@ def ratio_stats(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
         }
     J, Js = np.asarray(pairs).T
     ratios = J / Js
+    # the CVaR keeps the episodes whose J is not finite (an unbounded cost is the worst tail)
+    tail = [
+        float(r["J"]) / float(r["j_star"]) if np.isfinite(float(r["J"])) else math.inf for r in rows if _has_j_star(r)
+    ]
     deterministic = is_deterministic(ratios)
     lo, hi = (float("nan"), float("nan"))
     if len(J) == 1:  # every resample is the one episode
@@ -169,7 +174,7 @@ def ratio_stats(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
         "J_over_J_star_ci_low": lo,
         "J_over_J_star_ci_high": hi,
         "J_over_J_star_median": float(np.median(ratios)),
-        "J_over_J_star_cvar10": cvar(ratios, 0.1),
+        "J_over_J_star_cvar10": cvar(tail, 0.1),
         "J_over_J_star_deterministic": deterministic,
         "J_over_J_star_episodes": len(J),
     }

@@ -82,9 +82,18 @@ class NormalizedPredictor:
 def evaluate_cost(predictor, env, seeds: list[int], name: str = "sb3") -> dict[str, float]:
     """Mean and std of the episode cost J (sum of ``info["cost"]``) over ``seeds`` (one episode
     each): on a single env one episode after the other, on a batched env (one sub-env per seed,
-    :func:`episode_costs_batched`) all at once."""
-    costs = episode_costs(predictor, env, seeds, name)
-    return {"J_mean": float(costs.mean()), "J_std": float(costs.std())}
+    :func:`episode_costs_batched`) all at once. For an env with constraints (single env), also
+    ``violating_episodes``: the episodes with a violating step."""
+    if isinstance(env, gym.vector.VectorEnv):
+        costs = episode_costs_batched(predictor, env, seeds)
+        return {"J_mean": float(costs.mean()), "J_std": float(costs.std())}
+    policy = SB3Policy(predictor, deterministic=True, name=name)
+    runs = [rollout(env, policy, seed=s) for s in seeds]
+    costs = np.array([r["J"] for r in runs])
+    out = {"J_mean": float(costs.mean()), "J_std": float(costs.std())}
+    if runs and all("violations" in r for r in runs):
+        out["violating_episodes"] = int(sum(r["violations"] > 0 for r in runs))
+    return out
 
 
 def episode_costs(predictor, env, seeds: list[int], name: str = "sb3") -> np.ndarray:
@@ -119,21 +128,24 @@ def episode_costs_batched(predictor, env, seeds: list[int]) -> np.ndarray:
 
 
 class EvalLog:
-    """``evaluations.csv`` (``timesteps, J_mean, J_std``): each row appended and fsynced before the
-    checkpoint that follows it; :meth:`restore` puts back the text a checkpoint recorded (a run
-    killed after an evaluation but before its checkpoint evaluates that step again)."""
+    """``evaluations.csv`` (``timesteps, J_mean, J_std``, and ``violating_episodes`` for an env
+    with constraints): each row appended and fsynced before the checkpoint that follows it;
+    :meth:`restore` puts back the text a checkpoint recorded (a run killed after an evaluation
+    but before its checkpoint evaluates that step again)."""
 
     FIELDS = ("timesteps", "J_mean", "J_std")
+    OPTIONAL = ("violating_episodes",)
 
     def __init__(self, out_dir: Path) -> None:
         self.path = Path(out_dir) / "evaluations.csv"
 
     def row_text(self, row: dict[str, Any], header: bool) -> str:
         buffer = io.StringIO()
-        writer = csv.DictWriter(buffer, fieldnames=list(self.FIELDS))
+        fields = [*self.FIELDS, *(k for k in self.OPTIONAL if k in row)]
+        writer = csv.DictWriter(buffer, fieldnames=fields)
         if header:
             writer.writeheader()
-        writer.writerow({k: row[k] for k in self.FIELDS})
+        writer.writerow({k: row[k] for k in fields})
         return buffer.getvalue()
 
     def append(self, text: str) -> None:

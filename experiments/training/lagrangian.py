@@ -11,12 +11,14 @@ takes one projected gradient step on the dual,
 
     λ ← min(max_penalty, max(0, λ + lr · (C̄ − d)))
 
-with ``C̄`` the mean constraint cost of the episodes that ended in the rollout. One value
+with ``C̄`` the mean constraint cost of the episodes that ended in the rollout, read at each
+episode's end from the env's own count (``info[episode_cost_key]``, ConstrainedSlew-v0's
+``violations``: the episode's violating steps, the sum of its per-step costs). One value
 function learns ``r − λ c`` here, where Ray et al. keep a second critic for ``c``: with λ
-moving the critic lags it, which the small ``lr`` keeps in bounds. λ lives in the envs, so a
-checkpoint keeps it and a resumed run continues with it (the callback itself holds only the
-running episode sums, which restart with every ``learn()`` segment exactly as in an
-uninterrupted run).
+moving the critic lags it, which the small ``lr`` keeps in bounds. λ lives in the envs and the
+episode counts in the env's info, so a checkpoint keeps both and a resumed run continues
+exactly as an uninterrupted one (an episode that spans two ``learn()`` segments is counted
+whole).
 
 Use (the Zoo's hyperparameter keys)::
 
@@ -41,23 +43,25 @@ class LagrangeMultiplier(BaseCallback):
 
     ``budget`` (≥ 0): the constraint cost allowed per episode (ConstrainedSlew-v0: violating
     steps); ``lr`` (> 0): the dual step, in λ's units per unit of cost above the budget;
-    ``max_penalty`` (> 0): λ's cap; ``cost_key``: the info key of the step's cost.
-    Logs ``lagrangian/penalty`` and ``lagrangian/episode_cost`` after each rollout."""
+    ``max_penalty`` (> 0): λ's cap; ``episode_cost_key``: the info key of the episode's cost so
+    far (read when the episode ends). Logs ``lagrangian/penalty`` and
+    ``lagrangian/episode_cost`` after each rollout in which an episode ended."""
 
     def __init__(
         self,
         budget: float = 0.0,
         lr: float = 0.05,
         max_penalty: float = 100.0,
-        cost_key: str = "constraint_cost",
+        episode_cost_key: str = "violations",
         verbose: int = 0,
     ) -> None:
         super().__init__(verbose)
         self.budget = validation.in_range("budget", budget, 0.0, math.inf)
         self.lr = validation.positive("lr", lr)
         self.max_penalty = validation.positive("max_penalty", max_penalty)
-        self.cost_key = str(cost_key)
-        self._running: np.ndarray | None = None
+        if not isinstance(episode_cost_key, str) or not episode_cost_key:
+            raise ValueError(f"episode_cost_key must be a non-empty string (an info key), got {episode_cost_key!r}")
+        self.episode_cost_key = episode_cost_key
         self._ended: list[float] = []
 
     def _on_training_start(self) -> None:
@@ -70,7 +74,6 @@ class LagrangeMultiplier(BaseCallback):
             ) from exc
         if len(set(penalties)) != 1:
             raise ValueError(f"the training envs' penalties differ ({penalties}); they must start equal")
-        self._running = np.zeros(self.training_env.num_envs)
         self._ended = []
 
     @property
@@ -79,12 +82,14 @@ class LagrangeMultiplier(BaseCallback):
         return float(self.training_env.get_attr("penalty", indices=[0])[0])
 
     def _on_step(self) -> bool:
-        infos, dones = self.locals["infos"], self.locals["dones"]
-        for i, (info, done) in enumerate(zip(infos, dones, strict=True)):
-            self._running[i] += float(info.get(self.cost_key, 0.0))
+        for info, done in zip(self.locals["infos"], self.locals["dones"], strict=True):
             if done:
-                self._ended.append(float(self._running[i]))
-                self._running[i] = 0.0
+                if self.episode_cost_key not in info:
+                    raise KeyError(
+                        f"LagrangeMultiplier: the env's info has no {self.episode_cost_key!r} at an episode's end "
+                        f"(keys: {sorted(info)}); pass episode_cost_key"
+                    )
+                self._ended.append(float(info[self.episode_cost_key]))
         return True
 
     def _on_rollout_end(self) -> None:

@@ -237,12 +237,18 @@ class RunDir:
 
     def record(self, run: dict[str, Any], row: dict[str, Any]) -> bool:
         """Log the evaluation ``row`` (appended to ``evaluations.csv``, fsynced, before the
-        checkpoint that follows it) in ``run``; True when it is the best so far."""
+        checkpoint that follows it) in ``run``; True when it is the best so far: the fewest
+        validation episodes with a constraint violated (an env with constraints), then the
+        lowest mean J."""
         text = self.evaluations.row_text(row, header=not run["eval_log"])
         self.evaluations.append(text)
         run["eval_log"] += text
         run["last_eval"] = row
-        if run["best"] is None or row["J_mean"] < run["best"]["J_mean"]:
+
+        def rank(r: dict[str, Any]) -> tuple[float, float]:
+            return (float(r.get("violating_episodes", 0)), float(r["J_mean"]))
+
+        if run["best"] is None or rank(row) < rank(run["best"]):
             run["best"] = row
             return True
         return False
