@@ -184,8 +184,11 @@ def build_policy(spec: dict[str, Any], env, name: str | None = None):
             raise ValueError("policy 'sb3' needs model: PATH (a saved model .zip or its run directory)")
         predictor = import_target(POLICIES[kind].target_for(None))(spec["model"], env)
         policy = SB3Policy(predictor, deterministic=bool(params.get("deterministic", True)), name=label)
-        # a model trained behind an action filter (baselines.cbf.CBFShield) plays behind its twin
-        for path, kwargs in import_target("experiments.training.training:trained_env_wrappers")(spec["model"]):
+        # a model trained behind wrappers that change the action (baselines.cbf.CBFShield, EigenaxisResidual)
+        # plays behind their twins: the outermost wrapper (the last listed) meets the model's action first
+        for path, kwargs in reversed(
+            import_target("experiments.training.training:trained_env_wrappers")(spec["model"])
+        ):
             wrap_policy = getattr(import_dotted(path), "wrap_policy", None)
             if wrap_policy is not None:
                 if params.get("shield") is not None:

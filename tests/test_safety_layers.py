@@ -282,16 +282,47 @@ def test_load_hyperparams_checks_the_keys_form_and_jax_refuses_them(tmp_path):
         )
 
 
+class Zero:
+    name = "zero"
+
+    def reset(self, seed=None):
+        pass
+
+    def act(self, obs, info):
+        return np.zeros(3, dtype=np.float32)
+
+
+def test_a_zero_residual_is_the_eigenaxis_slew_and_the_wrapper_plays_as_the_policy():
+    from baselines.cbf import EigenaxisResidual, EigenaxisSlewPolicy, WithResidual
+
+    env = ConstrainedSlewEnv()
+    j_slew, _ = play(env, EigenaxisSlewPolicy(env), 3)
+    j_residual, _ = play(env, WithResidual(Zero(), env), 3)
+    assert j_residual == j_slew
+    push = Constant([0.3, -0.2, 0.1])
+    j_policy, _ = play(env, WithResidual(push, env, scale=0.25), 3)
+    wrapped = EigenaxisResidual(ConstrainedSlewEnv(), scale=0.25)
+    obs, info = wrapped.reset(seed=3)
+    total, done = 0.0, False
+    while not done:
+        obs, _, terminated, truncated, info = wrapped.step(push.act(obs, info))
+        total += info["cost"]
+        done = terminated or truncated
+    assert total == j_policy != j_slew
+    with pytest.raises(ValueError, match="scale"):
+        WithResidual(Zero(), env, scale=0.0)
+
+
 def test_a_run_trained_behind_the_shield_plays_behind_it(tmp_path):
     pytest.importorskip("clarabel")
     pytest.importorskip("stable_baselines3")
-    from baselines.cbf import Shielded
+    from baselines.cbf import Shielded, WithResidual
     from experiments.policies import build_policy
     from experiments.training.training import train
 
     out = tmp_path / "run"
     overrides = {
-        "env_wrapper": ["baselines.cbf.CBFShield"],
+        "env_wrapper": ["baselines.cbf.CBFShield", {"baselines.cbf.EigenaxisResidual": {"scale": 0.5}}],
         "callback": [],
         "backend": "sb3",
         "n_envs": 2,
@@ -311,7 +342,7 @@ def test_a_run_trained_behind_the_shield_plays_behind_it(tmp_path):
     assert result.timesteps == 32
     env = ConstrainedSlewEnv()
     policy = build_policy({"policy": "sb3", "model": str(out)}, env, name="ppo-cbf")
-    assert isinstance(policy, Shielded)
+    assert isinstance(policy, Shielded) and isinstance(policy.policy, WithResidual)  # the shield outermost
     assert policy.name == "ppo-cbf"
     _, infos = play(env, policy, SEED_THROUGH_A_CONE)
     assert infos[-1]["violations_by_constraint"]["keep_out_sun_star_tracker"] == 0
@@ -409,7 +440,9 @@ def test_validation_counts_violating_episodes_and_the_best_snapshot_has_the_fewe
 
     row = evaluate_cost(Full(), ConstrainedSlewEnv(episode_duration_s=5.0), [0, 1])
     assert row["violating_episodes"] == 2
-    assert "violating_episodes" not in evaluate_cost(Full(), gym.make("attitude_envs/ReactionWheel-v0", action_frame="body"), [0])
+    assert "violating_episodes" not in evaluate_cost(
+        Full(), gym.make("attitude_envs/ReactionWheel-v0", action_frame="body"), [0]
+    )
     assert EvalLog.row_text(EvalLog("."), {"timesteps": 1, **row}, header=True).splitlines()[0] == (
         "timesteps,J_mean,J_std,violating_episodes"
     )
