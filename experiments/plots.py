@@ -176,7 +176,7 @@ def plot_boresight_paths(
         k = np.sqrt(2.0 / np.maximum(1.0 + c, 1e-12))
         return k * (v @ east), k * (v @ north)
 
-    fig, ax = plt.subplots(figsize=(6.4, 6.0))
+    fig, ax = plt.subplots(figsize=(9.4, 6.0))
     rim = np.linspace(0.0, 2.0 * np.pi, 361)
     ax.plot(2.0 * np.cos(rim), 2.0 * np.sin(rim), color="0.7", lw=0.8)
     for axis, half_angle_deg, label in cones:
@@ -191,7 +191,9 @@ def plot_boresight_paths(
         ax.fill(x, y, color="tab:red", alpha=0.25, lw=0)
         ax.plot(x, y, color="tab:red", lw=1.0)
         cx, cy = project(axis)
-        ax.annotate(label, (cx[0], cy[0]), fontsize=8, ha="center", color="darkred")
+        ax.annotate(
+            label, (cx[0], cy[0]), fontsize=8, ha="center", color="darkred", bbox={"fc": "white", "alpha": 0.7, "lw": 0}
+        )
     for name, v in paths.items():
         x, y = project(np.asarray(v, dtype=float))
         ax.plot(x, y, lw=1.6, label=name)
@@ -203,7 +205,7 @@ def plot_boresight_paths(
     ax.set_ylim(-2.05, 2.05)
     ax.set_xticks([])
     ax.set_yticks([])
-    ax.legend(fontsize=8, loc="lower left")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax.set_title(title, fontsize=9)
     fig.tight_layout()
     return save_figure(fig, path)

@@ -1,6 +1,7 @@
-"""The benchmark at a glance: one leaderboard over the five plant campaigns and two figures.
+"""The benchmark at a glance: one leaderboard over the campaigns of ``--config all`` (the five
+plant campaigns and the constrained slews) and two figures.
 
-Reads each plant campaign's committed ``episodes.csv`` (``docs/campaigns/<plant>/``) and writes
+Reads each campaign's committed ``episodes.csv`` (``docs/campaigns/<plant>/``) and writes
 
 * a markdown table, one row per plant × cell (env · scenario · fault): J*'s own success, the
   best analytic controller and the best learned agent with ΣJ / ΣJ* and its 95 % paired
@@ -40,7 +41,8 @@ import numpy as np
 from scipy import stats
 
 from attitude_envs.files import atomic_write
-from experiments.campaign.spec import PLANT_CAMPAIGNS, PRESETS, load_campaign
+from experiments.campaign.spec import ALL_CAMPAIGNS, PRESETS, load_campaign
+from experiments.campaign.store import RUN_STATUSES, CampaignResult, read_runs
 from experiments.report.leaderboards import (
     best_entry,
     campaign_thresholds,
@@ -51,6 +53,7 @@ from experiments.report.leaderboards import (
 )
 from experiments.report.markdown import ratio_cell
 from experiments.report.statistics import N_BOOT, SEED
+from experiments.report.writing import write_campaign_index
 
 #: the markers in ``docs/benchmarks.md`` between which :func:`write_overview` pastes its text
 MARK_START = "<!-- leaderboard:start -->"
@@ -195,7 +198,8 @@ LEADERBOARD_LEGEND = (
     "success criterion; — where J*'s measurements are not kept. ΣJ / ΣJ*: the cell's total cost over the total "
     "optimal cost of the same episodes (1: optimal), 95 % paired percentile bootstrap CI over episodes "
     "(deterministic: every episode gave the same ratio). Best: the first of its kind on the cell's leaderboard "
-    "on the plant page (fewest episodes ended early, then the lowest mean J). Learned: the agents trained by "
+    "on the plant page (fewest episodes ended early, then, in the slew's cell, the fewest with a constraint "
+    "violated, then the lowest mean J). Learned: the agents trained by "
     "the campaign (PPO, SAC: every training seed × every evaluation seed) and the Q-learning LQR; analytic: "
     "every other controller; free drift (zero torque) is neither."
 )
@@ -492,17 +496,44 @@ def paste_between_markers(page: str, text: str) -> str:
     return page[: start + len(MARK_START)] + "\n" + text.rstrip("\n") + "\n" + page[end:]
 
 
+def page_result(name: str, campaigns_dir: str | Path) -> CampaignResult:
+    """A committed campaign page (``campaigns_dir/name``: ``episodes.csv`` and ``runs.jsonl``) as
+    the :class:`~experiments.campaign.store.CampaignResult` its run returned, for
+    :func:`~experiments.report.writing.write_campaign_index`: its rows and every logged run."""
+    out_dir = Path(campaigns_dir) / name
+    rows = read_episodes(out_dir / "episodes.csv")
+    runs = read_runs(out_dir / "runs.jsonl")
+    return CampaignResult(
+        campaign=load_campaign(name),
+        out_dir=out_dir,
+        rows=rows,
+        trained=[],
+        skipped_agents={},
+        episodes_run=0,
+        episodes_skipped=len(rows),
+        wall_time_s=0.0,
+        executor="",
+        total_wall_time_s=sum(float(r["wall_time_s"]) for r in runs),
+        runs=len(runs),
+        run_statuses={s: n for s in RUN_STATUSES if (n := sum(r["status"] == s for r in runs))},
+        run_log=runs,
+    )
+
+
 def write_overview(
     campaigns_dir: str | Path,
     page: str | Path,
     figures_dir: str | Path,
-    plants: Sequence[str] = PLANT_CAMPAIGNS,
+    plants: Sequence[str] = ALL_CAMPAIGNS,
     aggregate: bool = True,
     n_boot: int = N_BOOT,
 ) -> dict[str, Path]:
     """Read ``campaigns_dir/<plant>/episodes.csv`` of ``plants``, draw the figures into
-    ``figures_dir`` and paste the overview into ``page`` between the markers (atomically).
-    ``aggregate``: also the rliable aggregates (figure 2 and their table). Returns what it wrote."""
+    ``figures_dir`` and paste the overview into ``page`` between the markers (atomically); when
+    every plant is a shipped campaign, write ``campaigns_dir/index.md``
+    (:func:`~experiments.report.writing.write_campaign_index`, the page ``--config all`` writes)
+    from the same pages. ``aggregate``: also the rliable aggregates
+    (figure 2 and their table). Returns what it wrote."""
     cells = overview_cells([load_plant(p, campaigns_dir) for p in plants])
     figures_dir, page = Path(figures_dir), Path(page)
     written = {"ratios": plot_ratios(cells, figures_dir / "overview-ratios.png")}
@@ -513,6 +544,8 @@ def write_overview(
     rel = Path(os.path.relpath(figures_dir.resolve(), page.parent.resolve())).as_posix()
     text = overview_markdown(cells, agg, rel)
     written["page"] = atomic_write(page, paste_between_markers(page.read_text(encoding="utf-8"), text))
+    if all(p in PRESETS for p in plants):  # the index names each campaign's envs: its definition is needed
+        written["index"] = write_campaign_index(campaigns_dir, [(p, page_result(p, campaigns_dir)) for p in plants])
     return written
 
 
@@ -522,7 +555,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--campaigns", default=str(_REPO / "docs" / "campaigns"), help="folder of <plant>/episodes.csv")
     parser.add_argument("--page", default=str(_REPO / "docs" / "benchmarks.md"), help="page with the markers")
     parser.add_argument("--figures", default=str(_REPO / "docs" / "figures"), help="folder of the two PNGs")
-    parser.add_argument("--plants", nargs="+", default=list(PLANT_CAMPAIGNS), help="plant campaigns, in order")
+    parser.add_argument("--plants", nargs="+", default=list(ALL_CAMPAIGNS), help="campaigns, in order")
     parser.add_argument("--no-aggregates", action="store_true", help="skip rliable's aggregates (figure 2)")
     args = parser.parse_args(argv)
     written = write_overview(args.campaigns, args.page, args.figures, args.plants, aggregate=not args.no_aggregates)
