@@ -155,36 +155,55 @@ class WithResidual:
         return self.combine(self.policy.act(obs, info), obs, info)
 
 
-class EigenaxisResidual(gym.Wrapper, gym.utils.RecordConstructorArgs):
+class _PlayedActionWrapper(gym.Wrapper):
+    """A wrapper that changes each action as its policy-side twin would: :meth:`transform` gets
+    the action with the observation and :func:`~attitude_envs.info.policy_view` of the info that
+    preceded it (what the policy saw), so a model trained behind the wrapper plays exactly the
+    same behind the twin (``wrap_policy``)."""
+
+    _last: tuple[np.ndarray, dict[str, Any]] | None = None
+
+    def transform(self, action: Any, obs: np.ndarray, info: dict[str, Any]) -> tuple[np.ndarray, dict[str, Any]]:
+        """The action the env receives, and entries for the step's info."""
+        raise NotImplementedError
+
+    def on_reset(self) -> None:
+        """Called at every reset."""
+
+    def reset(self, **kwargs: Any):
+        obs, info = self.env.reset(**kwargs)
+        self.on_reset()
+        self._last = (obs, policy_view(info))
+        return obs, info
+
+    def step(self, action: Any):
+        if self._last is None:
+            raise RuntimeError(f"{type(self).__name__}: call reset() before step()")
+        applied, extra = self.transform(action, *self._last)
+        obs, reward, terminated, truncated, info = self.env.step(applied)
+        info.update(extra)
+        self._last = (obs, policy_view(info))
+        return obs, reward, terminated, truncated, info
+
+
+class EigenaxisResidual(_PlayedActionWrapper, gym.utils.RecordConstructorArgs):
     """A learner's env whose action is a residual on the eigenaxis slew (:class:`WithResidual`'s
-    ``scale`` and nominal keywords): each action becomes ``clip(a_slew + scale · a, −1, 1)`` with
-    the slew computed from the observation and :func:`~attitude_envs.info.policy_view` of the
-    info that preceded it, exactly as :class:`WithResidual` plays. The Zoo's ``env_wrapper:
-    baselines.cbf.EigenaxisResidual``; listed after :class:`CBFShield` (outside it), the
-    residual's sum is what the shield filters."""
+    ``scale`` and nominal keywords): each action becomes ``clip(a_slew + scale · a, −1, 1)``, as
+    :class:`WithResidual` plays it. The Zoo's ``env_wrapper: baselines.cbf.EigenaxisResidual``;
+    listed after :class:`CBFShield` (outside it), the residual's sum is what the shield filters."""
 
     def __init__(self, env: gym.Env, scale: float = 0.5, **nominal: Any) -> None:
         gym.utils.RecordConstructorArgs.__init__(self, scale=scale, **nominal)
         gym.Wrapper.__init__(self, env)
         self.residual = WithResidual(None, env, scale, **nominal)
-        self._last: tuple[np.ndarray, dict[str, Any]] | None = None
 
     @staticmethod
     def wrap_policy(policy, env, **kwargs: Any) -> WithResidual:
         """The evaluation-side twin of this wrapper: ``policy`` as a residual on the slew."""
         return WithResidual(policy, env, **kwargs)
 
-    def reset(self, **kwargs: Any):
-        obs, info = self.env.reset(**kwargs)
-        self._last = (obs, policy_view(info))
-        return obs, info
-
-    def step(self, action: Any):
-        if self._last is None:
-            raise RuntimeError("EigenaxisResidual: call reset() before step()")
-        obs, reward, terminated, truncated, info = self.env.step(self.residual.combine(action, *self._last))
-        self._last = (obs, policy_view(info))
-        return obs, reward, terminated, truncated, info
+    def transform(self, action: Any, obs: np.ndarray, info: dict[str, Any]) -> tuple[np.ndarray, dict[str, Any]]:
+        return self.residual.combine(action, obs, info), {}
 
 
 class CBFSafetyFilterPolicy(EigenaxisSlewPolicy):
@@ -359,37 +378,27 @@ class Shielded:
         return self.filter.filter_action(self.policy.act(obs, info), obs, info)
 
 
-class CBFShield(gym.Wrapper, gym.utils.RecordConstructorArgs):
+class CBFShield(_PlayedActionWrapper, gym.utils.RecordConstructorArgs):
     """A learner's env behind the CBF filter (``filter_params``: :class:`CBFSafetyFilterPolicy`'s
-    keywords): each action is filtered with the observation and the
-    :func:`~attitude_envs.info.policy_view` of the info that preceded it, exactly as
-    :class:`Shielded` filters at evaluation. ``info["shield_changed"]``: whether the filter
-    changed this step's action. The reward and the cost are the env's for the filtered action.
+    keywords): each action is filtered as :class:`Shielded` filters it at evaluation.
+    ``info["shield_changed"]``: whether the filter changed this step's action. The reward and the
+    cost are the env's for the filtered action.
     """
 
     def __init__(self, env: gym.Env, **filter_params: Any) -> None:
         gym.utils.RecordConstructorArgs.__init__(self, **filter_params)
         gym.Wrapper.__init__(self, env)
         self.filter = CBFSafetyFilterPolicy(env, **filter_params)
-        self._last: tuple[np.ndarray, dict[str, Any]] | None = None
 
     @staticmethod
     def wrap_policy(policy, env, **filter_params: Any) -> Shielded:
         """The evaluation-side twin of this wrapper: ``policy`` behind the same filter."""
         return Shielded(policy, env, **filter_params)
 
-    def reset(self, **kwargs: Any):
-        obs, info = self.env.reset(**kwargs)
+    def on_reset(self) -> None:
         self.filter.reset()
-        self._last = (obs, policy_view(info))
-        return obs, info
 
-    def step(self, action: Any):
-        if self._last is None:
-            raise RuntimeError("CBFShield: call reset() before step()")
+    def transform(self, action: Any, obs: np.ndarray, info: dict[str, Any]) -> tuple[np.ndarray, dict[str, Any]]:
         before = self.filter.filtered_steps
-        filtered = self.filter.filter_action(action, *self._last)
-        obs, reward, terminated, truncated, info = self.env.step(filtered)
-        info["shield_changed"] = self.filter.filtered_steps > before
-        self._last = (obs, policy_view(info))
-        return obs, reward, terminated, truncated, info
+        filtered = self.filter.filter_action(action, obs, info)
+        return filtered, {"shield_changed": self.filter.filtered_steps > before}
