@@ -47,6 +47,7 @@ import numpy as np
 from attitude_envs import validation
 from attitude_envs.lqr import dlqr
 from attitude_envs.symbolic.gyrostat import GyrostatParameters, error_state, step_function
+from attitude_envs.symbolic.problem import QUIET, SOLVED
 from baselines.allocation import wheel_model
 from baselines.lqr import LQRPolicy
 
@@ -54,10 +55,6 @@ try:
     import casadi
 except ImportError as exc:  # casadi is an optional extra
     raise ImportError("the MPC baseline needs CasADi: pip install 'attitude-envs[optimal]'") from exc
-
-#: IPOPT's return statuses that mean a (locally) optimal point was found
-SOLVED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
-_QUIET = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": 0}
 
 
 def model_parameters(env) -> GyrostatParameters:
@@ -159,7 +156,7 @@ class MPCPolicy:
             "g": casadi.vertcat(*constraints),
         }
         opts = {
-            **_QUIET,
+            **QUIET,
             "expand": True,
             "ipopt.mu_strategy": "adaptive",
             "ipopt.max_iter": self._max_iter,

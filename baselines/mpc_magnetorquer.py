@@ -76,9 +76,9 @@ try:
 except ImportError as exc:  # casadi is an optional extra
     raise ImportError("the magnetorquer MPC needs CasADi: pip install 'attitude-envs[optimal]'") from exc
 
-from baselines.mpc import SOLVED, shifted  # noqa: E402  (after the CasADi check: its message names this MPC)
+from attitude_envs.symbolic.problem import QUIET, SOLVED  # noqa: E402  (after the CasADi check: its message names this MPC)
+from baselines.mpc import shifted  # noqa: E402
 
-_QUIET = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": 0}
 _N_Y, _N_U = 8, 4
 
 
@@ -189,7 +189,7 @@ class MagnetorquerMPCPolicy:
             "g": constraints,
         }
         opts = {
-            **_QUIET,
+            **QUIET,
             "expand": True,
             "ipopt.mu_strategy": "adaptive",
             "ipopt.max_iter": int(max_iter),

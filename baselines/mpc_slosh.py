@@ -78,11 +78,11 @@ try:
 except ImportError as exc:  # casadi is an optional extra
     raise ImportError("the fuel-slosh MPC baseline needs CasADi: pip install 'attitude-envs[optimal]'") from exc
 
+from attitude_envs.symbolic.problem import QUIET
 from attitude_envs.symbolic.slosh import nominal_step_function
 from baselines.compiled_nlp import compiled_nlpsol
 from baselines.mpc import shifted
 
-_QUIET = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": 0}
 _QUIET_SQP = {
     "print_header": False,
     "print_iteration": False,
@@ -249,7 +249,7 @@ class SloshMPCPolicy:
         """CasADi's solver ``solver`` (``"sqp"`` or ``"ipopt"``) of the MPC's NLP, its functions
         compiled to C when ``compiled`` (:func:`baselines.compiled_nlp.compiled_nlpsol`)."""
         if solver == "ipopt":
-            opts = {**_QUIET, "ipopt.max_iter": max_iter, "ipopt.tol": self._tol}
+            opts = {**QUIET, "ipopt.max_iter": max_iter, "ipopt.tol": self._tol}
         else:
             opts = {**_QUIET_SQP, "max_iter": max_iter, "tol_pr": self._tol, "tol_du": self._tol}
         opts = {**opts, "error_on_fail": False, **options}

@@ -53,6 +53,7 @@ from attitude_envs.constraints import episode_summary
 from attitude_envs.files import atomic_write
 from attitude_envs.info import policy_view
 from attitude_envs.symbolic import BUILDERS, DiscreteProblem, problem_for
+from attitude_envs.symbolic.problem import QUIET, SOLVED
 from experiments.jsonable import json_ready
 from experiments.policies import build_policy
 
@@ -78,9 +79,6 @@ BASELINES: dict[str, list[tuple[str, dict]]] = {
     # the CBF-filtered eigenaxis slew: a feasible start around the keep-out cones
     "ConstrainedSlew-v0": [("eigenaxis+cbf", {})],
 }
-#: IPOPT's return statuses that mean a (locally) optimal point was found
-SOLVED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
-_QUIET = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": 0}
 
 
 @dataclass
@@ -329,7 +327,7 @@ def solve_problem(
     w = casadi.vertcat(casadi.vec(xs_scaled), casadi.vec(us))
     nlp = {"x": w, "f": casadi.sum2(costs), "g": casadi.vertcat(*constraints)}
     opts = {
-        **_QUIET,
+        **QUIET,
         "expand": False,  # the mapped step keeps the graph small: a fast build, one derivative per step
         "ipopt.max_iter": int(max_iter),
         "ipopt.tol": float(tol),

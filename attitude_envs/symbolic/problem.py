@@ -1,5 +1,6 @@
 """The :class:`DiscreteProblem` dataclass (kept apart from the package's ``__init__`` so a
-builder module can import it without importing the builder registry)."""
+builder module can import it without importing the builder registry), and the IPOPT settings
+every solver of the suite (J*, the MPCs) shares: :data:`SOLVED` and :data:`QUIET`."""
 
 from __future__ import annotations
 
@@ -11,6 +12,12 @@ try:
     import casadi
 except ImportError as exc:  # the optional extra
     raise ImportError("the symbolic models need CasADi: pip install 'attitude-envs[optimal]'") from exc
+
+
+#: IPOPT's return statuses that mean a (locally) optimal point was found
+SOLVED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+#: CasADi ``nlpsol`` options that silence IPOPT
+QUIET = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": 0}
 
 
 @dataclass(frozen=True)
