@@ -50,7 +50,8 @@ def test_constrained_cells_show_the_failure_rate_cvar_and_what_each_layer_costs(
     text = report_markdown(
         rows, boards, {"campaign": "c", "layers": [{"name": "filter", "without": "bare", "with": "filtered"}]}
     )
-    assert "| violating episodes | violation steps | least margin [deg] | CVaR₀.₁ J/J* |" in text
+    assert "| J / J* | CVaR₀.₁ J/J* | success |" in text
+    assert "| violating episodes | violation steps | least margin [deg] |" in text
     assert "## What each layer costs" in text
     layer = layers_markdown(rows, boards, [{"name": "filter", "without": "bare", "with": "filtered"}])
     cost = (sum(13.0 + s for s in range(10)) / sum(12.0 + s for s in range(10)) - 1) * 100
