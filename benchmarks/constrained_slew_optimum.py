@@ -43,7 +43,8 @@ import gymnasium as gym
 import numpy as np
 
 import attitude_envs  # noqa: F401  (registers the envs)
-from attitude_envs.info import policy_view
+from attitude_envs.constraints import episode_summary
+from attitude_envs.evaluation.trace import play
 from attitude_envs.symbolic import problem_for
 from attitude_envs.symbolic.gyrostat import build_reaction_wheel
 from benchmarks.results_file import write_results
@@ -64,56 +65,42 @@ LOAD_NOTE = (
 )
 
 
+def _constraint_outcome(summary: dict[str, Any]) -> dict[str, Any]:
+    """The record's constraint columns from :func:`attitude_envs.constraints.episode_summary`'s
+    (its least margin is inf for an episode without cones, as the record has always kept it)."""
+    prefix = "violations_"
+    margin = float(summary["min_margin_deg"])
+    return {
+        "violations": int(summary["violations"]),
+        "violations_by_constraint": {k[len(prefix) :]: int(v) for k, v in summary.items() if k.startswith(prefix)},
+        "min_cone_margin_deg": margin if math.isfinite(margin) else math.inf,
+    }
+
+
 def rollout(env, policy, seed: int, options: dict | None = None) -> dict[str, Any]:
     """One closed-loop episode of ``policy`` from ``env.reset(seed=seed, options=options)``
-    (the policy sees :func:`~attitude_envs.info.policy_view` of each info): its actions and
-    the episode's J, violations, least cone margin (deg), final error (deg), wall time and
-    this process's CPU time (s; on a shared machine the CPU time is the cost, the wall time
-    also counts the waits)."""
+    (:func:`attitude_envs.evaluation.trace.play`: the policy sees
+    :func:`~attitude_envs.info.policy_view` of each info): its actions and the episode's J,
+    violations, least cone margin (deg), final error (deg), wall time and this process's CPU
+    time (s; on a shared machine the CPU time is the cost, the wall time also counts the waits)."""
     start, cpu_start = time.perf_counter(), time.process_time()
-    obs, info = env.reset(seed=seed, options=options)
-    first = info
-    policy.reset(seed)
-    actions, total, margin = [], 0.0, math.inf
-    while True:
-        a = np.asarray(policy.act(obs, policy_view(info)), dtype=float)
-        actions.append(a)
-        obs, _, terminated, truncated, info = env.step(a)
-        total += float(info["cost"])
-        margin = min(margin, min(info["constraint_margins_deg"].values(), default=math.inf))
-        if terminated or truncated:
-            break
+    infos, actions, terminated = play(env, policy, seed, options)
     return {
         "actions": np.array(actions),
-        "J": total,
-        "violations": int(info["violations"]),
-        "violations_by_constraint": dict(info["violations_by_constraint"]),
-        "min_cone_margin_deg": margin,
-        **{k: float(v) for k, v in env.unwrapped.success_metric.measurements(first, info).items()},
-        "terminated": bool(terminated),
+        "J": float(sum(float(i["cost"]) for i in infos[1:])),
+        **_constraint_outcome(episode_summary(infos)),
+        **{k: float(v) for k, v in env.unwrapped.success_metric.measurements(infos[0], infos[-1]).items()},
+        "terminated": terminated,
         "wall_s": time.perf_counter() - start,
         "cpu_s": time.process_time() - cpu_start,
     }
 
 
 def replay(env, actions: np.ndarray, seed: int) -> dict[str, Any]:
-    """The open-loop ``actions`` through the env from ``reset(seed=seed)``: J, violations and
-    the least cone margin (deg)."""
-    _, info = env.reset(seed=seed)
-    total, margin = 0.0, math.inf
-    for a in actions:
-        _, _, terminated, truncated, info = env.step(np.asarray(a, dtype=float))
-        total += float(info["cost"])
-        margin = min(margin, min(info["constraint_margins_deg"].values(), default=math.inf))
-        if terminated or truncated:
-            break
-    return {
-        "J": total,
-        "violations": int(info["violations"]),
-        "violations_by_constraint": dict(info["violations_by_constraint"]),
-        "min_cone_margin_deg": margin,
-        "terminated": bool(terminated),
-    }
+    """The open-loop ``actions`` through the env from ``reset(seed=seed)``
+    (:func:`experiments.optimum.replay_measured`): J, violations and the least cone margin (deg)."""
+    r = optimum.replay_measured(env, actions, seed, None)
+    return {"J": r.J, **_constraint_outcome(r.measurements), "terminated": r.terminated}
 
 
 def solve_seed(seed: int, max_iter: int = 1000, tol: float = 1e-10) -> dict[str, Any]:

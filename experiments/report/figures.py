@@ -13,8 +13,8 @@ import numpy as np
 from gymnasium.wrappers import RecordVideo
 
 from attitude_envs import quaternion
-from attitude_envs.evaluation.trace import record_episode, record_state_trace
-from attitude_envs.info import policy_view
+from attitude_envs.evaluation.trace import play, record_episode, record_state_trace
+from attitude_envs.info import TRUTH, policy_view
 from experiments.campaign.jobs import episode_jobs
 from experiments.policies import build_policy
 from experiments.report.leaderboards import free_drift_agents, history_agents, is_oracle, learned_agents
@@ -77,23 +77,26 @@ def _save(fig, path: str | Path) -> Path:
     return _plots().save_figure(fig, path, dpi=100)
 
 
+def _job_for(jobs: Sequence[dict], cell: tuple[str, str, str], agent: str, seed: int | None = None) -> dict | None:
+    """The first episode job of ``agent`` in ``cell`` (env, scenario, fault), on ``seed`` when given."""
+    return next(
+        (
+            j
+            for j in jobs
+            if (j["key"]["env"], j["key"]["scenario"], j["key"]["fault"], j["key"]["agent"]) == (*cell, agent)
+            and (seed is None or int(j["key"]["seed"]) == seed)
+        ),
+        None,
+    )
+
+
 def _example_traces(result, env_spec, scenario: dict, fault: str, agents: Sequence[str], record=record_episode) -> dict:
     """Re-run seed ``campaign.seeds[0]`` of ``agents`` (first training seed) and record their
     traces with ``record`` (:func:`record_episode` for wheel envs, :func:`record_state_trace` for any)."""
     jobs = episode_jobs(result.campaign, result.out_dir, skip_agents=result.skipped_agents)
     traces = {}
     for agent in agents:
-        job = next(
-            (
-                j
-                for j in jobs
-                if j["key"]["env"] == env_spec.name
-                and j["key"]["scenario"] == scenario["name"]
-                and j["key"]["fault"] == fault
-                and j["key"]["agent"] == agent
-            ),
-            None,
-        )
+        job = _job_for(jobs, (env_spec.name, scenario["name"], fault), agent)
         if job is None:
             continue
         env = gym.make(job["env_id"], **job["env_kwargs"])
@@ -126,15 +129,7 @@ def _boresight_figure(result, env_spec, cell: tuple[str, str, str], board, out_d
     jobs = episode_jobs(result.campaign, result.out_dir, skip_agents=result.skipped_agents)
     paths, cones = {}, []
     for agent in agents:
-        job = next(
-            (
-                j
-                for j in jobs
-                if (j["key"]["env"], j["key"]["scenario"], j["key"]["fault"], j["key"]["agent"]) == cell + (agent,)
-                and int(j["key"]["seed"]) == seed
-            ),
-            None,
-        )
+        job = _job_for(jobs, cell, agent, seed)
         if job is None:
             continue
         env = gym.make(job["env_id"], **job["env_kwargs"])
@@ -142,15 +137,9 @@ def _boresight_figure(result, env_spec, cell: tuple[str, str, str], board, out_d
             base = env.unwrapped
             boresight = base.boresights[CONE_KINDS[0][1]]
             policy = build_policy(job["policy"], env, name=agent)
-            obs, info = env.reset(seed=seed, options=copy.deepcopy(job["options"]) or None)
-            policy.reset(seed)
-            track = [quaternion.to_matrix(base.state_row[:4]) @ boresight]
-            done = False
-            while not done:
-                obs, _, terminated, truncated, info = env.step(policy.act(obs, policy_view(info)))
-                track.append(quaternion.to_matrix(base.state_row[:4]) @ boresight)
-                done = terminated or truncated
-            paths[f"{agent} ({int(info['violations'])} violating steps)"] = np.array(track)
+            infos, _, _ = play(env, policy, seed, copy.deepcopy(job["options"]) or None)  # as the campaign's episode
+            track = [quaternion.to_matrix(i[TRUTH]["state"]["attitude"]) @ boresight for i in infos]
+            paths[f"{agent} ({int(infos[-1]['violations'])} violating steps)"] = np.array(track)
             if not cones:
                 cones = [
                     (c.inertial_direction, c.half_angle_deg, c.name)

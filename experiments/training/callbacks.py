@@ -87,8 +87,7 @@ def evaluate_cost(predictor, env, seeds: list[int], name: str = "sb3") -> dict[s
     if isinstance(env, gym.vector.VectorEnv):
         costs = episode_costs_batched(predictor, env, seeds)
         return {"J_mean": float(costs.mean()), "J_std": float(costs.std())}
-    policy = SB3Policy(predictor, deterministic=True, name=name)
-    runs = [rollout(env, policy, seed=s) for s in seeds]
+    runs = _rollouts(predictor, env, seeds, name)
     costs = np.array([r["J"] for r in runs])
     out = {"J_mean": float(costs.mean()), "J_std": float(costs.std())}
     if runs and all("violations" in r for r in runs):
@@ -100,8 +99,13 @@ def episode_costs(predictor, env, seeds: list[int], name: str = "sb3") -> np.nda
     """The cost J of one episode per seed (see :func:`evaluate_cost`)."""
     if isinstance(env, gym.vector.VectorEnv):
         return episode_costs_batched(predictor, env, seeds)
+    return np.array([r["J"] for r in _rollouts(predictor, env, seeds, name)])
+
+
+def _rollouts(predictor, env, seeds: list[int], name: str) -> list[dict[str, Any]]:
+    """One :func:`~attitude_envs.evaluation.rollout.rollout` per seed of the deterministic policy, one after the other."""
     policy = SB3Policy(predictor, deterministic=True, name=name)
-    return np.array([rollout(env, policy, seed=s)["J"] for s in seeds])
+    return [rollout(env, policy, seed=s) for s in seeds]
 
 
 def episode_costs_batched(predictor, env, seeds: list[int]) -> np.ndarray:
