@@ -88,11 +88,12 @@ def env_name(env_id: str) -> str:
 
 
 def episode_key(env_id: str, env_kwargs: Mapping[str, Any] | None, seed: int, options: Mapping | None) -> dict:
-    """The episode's identity: env name, keyword arguments (faults included), seed and reset
-    options (None when empty: ``reset(options={})`` is ``reset(options=None)``)."""
+    """The episode's identity: env name, keyword arguments (actuator faults included, sensor
+    faults not: :func:`oracle_kwargs`), seed and reset options (None when empty:
+    ``reset(options={})`` is ``reset(options=None)``)."""
     return {
         "env_id": env_name(env_id),
-        "env_kwargs": json_ready(dict(env_kwargs or {})),
+        "env_kwargs": json_ready(oracle_kwargs(env_kwargs or {})),
         "seed": int(seed),
         "options": json_ready(dict(options)) if options else None,
     }
@@ -153,6 +154,17 @@ def solve_by_default() -> bool:
     return os.environ.get(SOLVE_ENV, "1").strip().lower() not in ("0", "false", "no", "off")
 
 
+def oracle_kwargs(env_kwargs: Mapping[str, Any]) -> dict[str, Any]:
+    """``env_kwargs`` less the sensor faults (``target: sensor``): the oracle knows the true
+    state, so a sensor fault leaves its problem and the replay's cost (on the true state) as
+    they are, and a cell with one shares the J* of its fault-free twin."""
+    faults = env_kwargs.get("faults")
+    if not faults or not any(isinstance(f, Mapping) and f.get("target") == "sensor" for f in faults):
+        return dict(env_kwargs)
+    kept = [f for f in faults if not (isinstance(f, Mapping) and f.get("target") == "sensor")]
+    return {k: v for k, v in env_kwargs.items() if k != "faults"} | ({"faults": kept} if kept else {})
+
+
 def episode_specs(jobs: Iterable[Mapping[str, Any]], label: str = "") -> list[dict[str, Any]]:
     """One J* spec per distinct episode key of campaign episode ``jobs`` (agents and training
     seeds share it), with the campaign cells ``(env, scenario, fault, seed)`` it serves."""
@@ -160,7 +172,7 @@ def episode_specs(jobs: Iterable[Mapping[str, Any]], label: str = "") -> list[di
     for job in jobs:
         k = job["key"]
         env_id = job.get("cell_env_id", job["env_id"])  # the cell's episode, whatever env the agent plays it on
-        env_kwargs = job.get("cell_env_kwargs", job["env_kwargs"])
+        env_kwargs = oracle_kwargs(job.get("cell_env_kwargs", job["env_kwargs"]))
         key = episode_key(env_id, env_kwargs, k["seed"], job.get("options"))
         h = key_hash(key)
         spec = specs.setdefault(

@@ -103,3 +103,18 @@ def test_an_episode_with_other_options_is_not_its_neighbours(monkeypatch):
     pushed = episode_specs([{**job, "options": {"a": 1}}])
     assert pushed[0]["key"]["options"] == {"a": 1}
     assert _resolve_from_table(pushed, monkeypatch).rows == {}
+
+
+def test_a_sensor_fault_shares_the_key_of_its_fault_free_episode():
+    """The oracle knows the true state: a sensor fault changes neither its problem nor its
+    replay's cost, so the cell with one looks up the fault-free episode's J*; an actuator
+    fault beside it stays in the key."""
+    flight = {**KWARGS, "conditions": "flight"}
+    gyro = {"kind": "bias", "target": "sensor", "sensor": "gyro", "index": 2, "value": 1e-3, "onset_s": 5.0}
+    wheel = {"kind": "outage", "target": "actuator", "index": 2, "onset_s": 2.0}
+    plain = key_hash(episode_key(ENV, flight, 3, None))
+    assert key_hash(episode_key(ENV, {**flight, "faults": [gyro]}, 3, None)) == plain
+    with_wheel = key_hash(episode_key(ENV, {**flight, "faults": [wheel]}, 3, None))
+    assert with_wheel != plain
+    assert key_hash(episode_key(ENV, {**flight, "faults": [gyro, wheel]}, 3, None)) == with_wheel
+    assert optimum_table.oracle_kwargs({**flight, "faults": [gyro, wheel]}) == {**flight, "faults": [wheel]}

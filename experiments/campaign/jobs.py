@@ -39,6 +39,8 @@ def training_jobs(campaign: Campaign, out_dir: Path, skip_agents: Iterable[str] 
             if agent.train is None or agent.name in skip:
                 continue
             t = agent.train
+            if t.get("env", env.name) != env.name:  # trains on another entry only (train.env)
+                continue
             env_id, kwargs = play_env(agent, env.id, env.kwargs)
             for seed in t["seeds"]:
                 jobs.append(
@@ -81,7 +83,7 @@ def episode_jobs(campaign: Campaign, out_dir: Path, skip_agents: Iterable[str] =
                     for tseed in train_seeds:
                         spec = dict(agent.spec)
                         if tseed is not None:
-                            run_dir = train_dir(out_dir, env.name, source.name, tseed)
+                            run_dir = train_dir(out_dir, campaign.trained_on(agent, env), source.name, tseed)
                             spec["model"] = str(trained_model(run_dir, source.train.get("select", "best")))
                         for seed in campaign.seeds:
                             key = {

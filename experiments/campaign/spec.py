@@ -41,7 +41,7 @@ ENV_KEYS = ("name", "id", "kwargs", "scenarios", "faults")
 AGENT_KEYS = ("name", "policy", "params", "model", "learn", "envs", "optional", "train", "note", "env_id", "env_kwargs")
 AGENT_KEYS += ("models_of",)
 TRAIN_KEYS = ("algo", "backend", "timesteps", "seeds", "select", "env_kwargs", "overrides", "hyperparams_file")
-TRAIN_KEYS += ("checkpoint_freq", "eval_freq", "eval_episodes")
+TRAIN_KEYS += ("checkpoint_freq", "eval_freq", "eval_episodes", "env")
 
 #: the campaign key that sets each success metric's threshold (:mod:`attitude_envs.evaluation.success`)
 SUCCESS_KEYS = {"final_error_deg": "success_error_deg", "final_state_fraction": "success_state_fraction"}
@@ -80,7 +80,11 @@ class AgentSpec:
 
     ``models_of`` (SB3 agents): the name of an earlier agent whose trained models this one plays,
     one per training seed, with its own ``params`` (``shield: cbf`` puts them behind the CBF
-    safety filter at deployment): a second row of the same training, no training of its own."""
+    safety filter at deployment): a second row of the same training, no training of its own.
+
+    ``train.env`` (an env entry's name): the agent trains on that entry only and plays those
+    models on every entry it plays (trained in the lab, scored under flight conditions too);
+    absent, it trains on each entry it plays, one training per entry."""
 
     name: str
     spec: dict[str, Any]
@@ -138,6 +142,12 @@ class Campaign:
         if agent.models_of is not None:
             return next(a for a in self.agents if a.name == agent.models_of)
         return agent if agent.train is not None else None
+
+    def trained_on(self, agent: AgentSpec, env: EnvSpec) -> str:
+        """The name of the env entry whose training ``agent`` plays on ``env``: ``train.env``
+        of the agent it plays the models of, else ``env``'s own."""
+        source = self.trained_by(agent)
+        return (source.train or {}).get("env", env.name) if source is not None else env.name
 
     def success_threshold(self, metric: SuccessMetric) -> float:
         """The threshold this campaign sets for ``metric`` (:data:`SUCCESS_KEYS`), else the metric's default."""
@@ -256,6 +266,13 @@ def _train(where: str, train: Any, envs: list[EnvSpec], env_id: str | None = Non
     select = train.get("select", "best")
     _require(select in SELECT, f"{where}.select must be one of {list(SELECT)}, got {select!r}")
     _mapping(f"{where}.env_kwargs", train.get("env_kwargs"))
+    if "env" in train:
+        _require(
+            train["env"] in {e.name for e in envs},
+            f"{where}.env names the env entry the agent trains on, one of those it plays "
+            f"{[e.name for e in envs]}, got {train['env']!r}",
+        )
+        envs = [e for e in envs if e.name == train["env"]]
     overrides = _mapping(f"{where}.overrides", train.get("overrides"))
     hp_file = train.get("hyperparams_file")
     _require(hp_file is None or isinstance(hp_file, str), f"{where}.hyperparams_file must be a path, got {hp_file!r}")

@@ -147,6 +147,58 @@ def layers_markdown(
     return "\n".join(lines) + "\n"
 
 
+def conditions_pairs(rows: Sequence[Mapping[str, Any]]) -> list[tuple[str, str, str]]:
+    """``(lab env, flight env, scenario)`` for each env run under other conditions than the lab's
+    (the rows' ``conditions``) whose scenario also ran in exactly one lab env: the pairs the
+    lab-and-flight table sets side by side."""
+    envs: dict[str, tuple[str, set[str]]] = {}
+    for r in rows:
+        cond = str(r.get("conditions") or "lab")
+        envs.setdefault(r["env"], (cond, set()))[1].add(r["scenario"])
+    pairs = []
+    for name, (cond, scenarios) in envs.items():
+        if cond == "lab":
+            continue
+        for s in sorted(scenarios):
+            labs = [n for n, (c, sc) in envs.items() if c == "lab" and s in sc]
+            if len(labs) == 1:
+                pairs.append((labs[0], name, s))
+    return pairs
+
+
+def conditions_markdown(
+    rows: Sequence[Mapping[str, Any]], boards: Mapping[tuple[str, str, str], list[dict[str, Any]]]
+) -> str:
+    """Per lab/flight pair (:func:`conditions_pairs`), one row per agent: J / J* (and CVaR₀.₁ of
+    the per-episode ratios) on the lab's fault-free cell beside each of the flight env's cells
+    (its faults there being sensor faults or none). Each side is scored against its own J*:
+    the flight oracle knows that episode's drawn plant and acts through the same actuators."""
+    lines = []
+    for lab, flight, scenario in conditions_pairs(rows):
+        cells = [(lab, scenario, "none")] if (lab, scenario, "none") in boards else []
+        cells += sorted((c for c in boards if c[0] == flight and c[1] == scenario), key=lambda c: c[2] != "none")
+        if len(cells) < 2:
+            continue
+        by_cell = {c: {e["agent"]: e for e in boards[c] if not e.get("oracle")} for c in cells}
+        agents = list(dict.fromkeys(a for c in cells for a in by_cell[c]))
+        lines += [f"### {lab} (lab) and {flight} · {scenario}", ""]
+        head = [f"{c[0]} · {c[2]}" for c in cells]
+        lines += ["| agent | " + " | ".join(f"{h}: J / J* (CVaR₀.₁)" for h in head) + " |"]
+        lines += ["|---|" + "---|" * len(cells)]
+        for agent in agents:
+            out = []
+            for c in cells:
+                e = by_cell[c].get(agent)
+                mean = e.get("J_over_J_star", float("nan")) if e else float("nan")
+                if e is None or not np.isfinite(mean):
+                    out.append("—" if e is None else f"J {fmt(e['J_mean'])}")
+                    continue
+                out.append(f"{ratio_text(mean)} ({ratio_text(e.get('J_over_J_star_cvar10', float('nan')))})")
+            lines.append(f"| {agent} | " + " | ".join(out) + " |")
+        lines.append("")
+    return "\n".join(lines) + "\n" if lines else ""
+
+
 def _rate_cell(e: Mapping[str, Any], rate: str, known: str, what: str) -> str:
     """``20 %``, or for J*'s line with some episodes unknown ``— (J* success: 12 of 20 episodes known)``."""
     value = float(e.get(rate, 0.0))
@@ -229,6 +281,14 @@ def report_markdown(
     lines += ["## Leaderboards", "", leaderboard_markdown(boards, metadata.get("agent_notes"))]
     if metadata.get("layers"):
         lines += ["## What each layer costs", "", layers_markdown(rows, boards, metadata["layers"])]
+    flight = conditions_markdown(rows, boards)
+    if flight:
+        lines += ["## Lab and flight", ""]
+        lines += ["Every row's J / J* in the lab (fault-free) beside the same episodes under flight conditions,"]
+        lines += ["fault-free and with each sensor fault; each side against its own J* (the flight oracle knows"]
+        lines += ["the drawn plant and the true state, and acts through the same actuators and delay)."]
+        lines += ["— : not played there.", ""]
+        lines += [flight]
     if notes:
         lines += ["## Notes", "", *[f"* {n}" for n in notes], ""]
     if figures:
