@@ -50,8 +50,8 @@ import numpy as np
 from filterpy.kalman import KalmanFilter
 from scipy.linalg import expm
 
-from attitude_envs import quaternion
-from attitude_envs.estimation.mekf import AttitudeMEKF
+from attitude_envs import quaternion, validation
+from attitude_envs.estimation.mekf import AttitudeMEKF, NISFaultDetector
 from attitude_envs.info import MEASURED
 
 __all__ = [
@@ -129,21 +129,42 @@ class GyrostatMEKF:
     step, the star tracker when it delivers a new sample. The observation's first six
     entries become the nominal model's error state of the estimate (``q̂``, ``ω_m − b̂``);
     later entries (wheel momentum, hints) pass through as measured. ``info["measured"]``:
-    ``attitude`` q̂, ``rate_rad_s`` ω̂, the wheel speeds and target as measured."""
+    ``attitude`` q̂, ``rate_rad_s`` ω̂, the wheel speeds and target as measured.
+
+    **Fault detection** (``fault_detection``, default on): a χ² test of each new
+    star-tracker sample's innovation (:class:`~attitude_envs.estimation.mekf.NISFaultDetector`);
+    ``fault_confirm`` consecutive samples above the ``1 − fault_false_alarm`` quantile
+    declare a gyro fault and re-inflate the bias covariance (``fault_bias_std``, rad/s;
+    ``None``: the jump the innovation implies), so the bias re-converges after a jump.
+    Read back: :attr:`detections` (times, s), :attr:`fault_detected_at_s` (the first, or
+    ``None``) and ``info["estimate"]``'s ``fault_detected`` and ``nis``."""
 
     name = "mekf"
 
-    def __init__(self, env, filter_params: dict | None = None) -> None:
+    def __init__(
+        self,
+        env,
+        filter_params: dict | None = None,
+        fault_detection: bool = True,
+        fault_false_alarm: float = 1e-3,
+        fault_confirm: int = 2,
+        fault_bias_std: float | None = None,
+        fault_window_s: float = 1.0,
+    ) -> None:
         layer = _sensor_layer(env, ("gyro", "star_tracker"), type(self).__name__)
         self.model = env.unwrapped.model
-        self.filter = AttitudeMEKF(**_mekf_params(layer, filter_params))
+        detector = NISFaultDetector(
+            fault_false_alarm, fault_confirm, fault_bias_std, fault_window_s
+        )  # validates all three
+        self.detector = detector if validation.flag("fault_detection", fault_detection) else None
+        self.filter = AttitudeMEKF(**_mekf_params(layer, filter_params), detector=self.detector)
         self.star_gate = SampleGate(layer.parameters("star_tracker")["period_s"])
         self._t = 0.0
         self.updates = 0  # star-tracker updates this episode
 
     def reset(self, obs: np.ndarray, info: dict[str, Any]):
         s = info["sensors"]
-        self.filter.reset(s["star_tracker"], s["gyro"])
+        self.filter.reset(s["star_tracker"], s["gyro"], float(info["time_s"]))
         self.star_gate.reset(s["star_tracker"])
         self._reset_gates(s)
         self._t = float(info["time_s"])
@@ -158,6 +179,23 @@ class GyrostatMEKF:
             self.filter.step(s["gyro"], star, float(info["time_s"]) - self._t, **self._step_extras(s, info))
         self._t = float(info["time_s"])
         return self._view(obs, info)
+
+    @property
+    def detections(self) -> list[float]:
+        """Times (s, env time) of the gyro faults declared this episode (empty without a detector)."""
+        return [] if self.detector is None else list(self.detector.detections)
+
+    @property
+    def fault_detected_at_s(self) -> float | None:
+        """Time (s) of this episode's first declared gyro fault, ``None`` if none."""
+        d = self.detections
+        return d[0] if d else None
+
+    def _fault_estimate(self) -> dict:
+        """``info["estimate"]``'s fault entries: ``fault_detected`` (so far this episode) and
+        the latest star sample's ``nis`` (NaN before the first or without a detector)."""
+        det = self.detector
+        return {"fault_detected": bool(det and det.detections), "nis": det.nis if det else float("nan")}
 
     def _reset_gates(self, sensors: dict) -> None:
         """Reset the gates of the other sensors (none here)."""
@@ -179,6 +217,7 @@ class GyrostatMEKF:
             "gyro_bias_rad_s": f.bias.copy(),
             "rate_rad_s": rate.copy(),
             "covariance": f.covariance.copy(),
+            **self._fault_estimate(),
         }
         view = dict(info, estimate=estimate)
         view[MEASURED] = dict(measured, attitude=f.attitude.copy(), rate_rad_s=rate.copy())
@@ -194,7 +233,8 @@ class MagnetorquerMEKF(GyrostatMEKF):
     model in orbital axes (``info["magnetic_field_orbital_t"]``, the env's field model),
     with the nominal ``magnetometer`` noise of the sensor layer (its bias spread counted as
     white noise: the bias is not estimated); a magnetometer left out of the sensor
-    config (it then reads the true field) is not used.
+    config (it then reads the true field) is not used. Fault detection on the star tracker
+    as :class:`GyrostatMEKF` (its keywords).
 
     The observation's error state ``[q_e,vec, ω_e]`` is rebuilt from the estimate against
     ``info["reference"]`` (``q_e = q_d* ⊗ q̂``, sign with ``q_e,w ≥ 0``, ``ω_e = ω̂_bo −
@@ -205,8 +245,10 @@ class MagnetorquerMEKF(GyrostatMEKF):
 
     name = "mekf"
 
-    def __init__(self, env, filter_params: dict | None = None, use_magnetometer: bool = True) -> None:
-        super().__init__(env, filter_params)
+    def __init__(
+        self, env, filter_params: dict | None = None, use_magnetometer: bool = True, **fault_params: Any
+    ) -> None:
+        super().__init__(env, filter_params, **fault_params)
         layer = env.unwrapped.sensor_layer
         mag = layer.parameters("magnetometer") if "magnetometer" in layer.channels else None
         self.magnetometer_std = None
@@ -247,6 +289,7 @@ class MagnetorquerMEKF(GyrostatMEKF):
             "rate_rad_s": w_bo.copy(),
             "inertial_rate_rad_s": w_bi.copy(),
             "covariance": f.covariance.copy(),
+            **self._fault_estimate(),
         }
         view = dict(info, estimate=estimate)
         view[MEASURED] = dict(
