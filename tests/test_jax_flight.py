@@ -2,7 +2,8 @@
 numba ReactionWheel and AirBearing envs: the delay and the actuator chain step for step (x64,
 whole episodes, the numba episode's drawn plant given to the JAX reset), the per-episode
 parameter draws in distribution (two-sample Kolmogorov–Smirnov tests against the numba
-env's draws), and what is not modeled yet (the flight sensors) refused by name."""
+env's draws), and what is not modeled yet (sensor faults, sensors outside flight conditions)
+refused by name."""
 
 from __future__ import annotations
 
@@ -276,8 +277,15 @@ def test_autoreset_redraws_the_plant_and_rests_the_chain():
             },
             "sensor faults",
         ),
-        ("Magnetorquer-v1", {"conditions": {"delay_steps": 1}}, "lab conditions only"),
-        ("FuelSlosh-v0", {"conditions": "flight"}, "lab conditions only"),
+        (
+            "FuelSlosh-v0",
+            {
+                "conditions": "flight",
+                "faults": [{"kind": "bias", "target": "sensor", "sensor": "state", "index": 2, "value": 1e-3}],
+            },
+            "target 'sensor' are not modeled",
+        ),
+        ("LinearSystem-v0", {"sensors": {"state": {"noise_std": 1e-3}}}, "only as flight conditions' sensors"),
     ],
 )
 def test_make_names_the_flight_features_not_modeled(env_id, kwargs, named):

@@ -41,6 +41,23 @@ def _read_only(a: np.ndarray) -> np.ndarray:
     return a
 
 
+def flight_plant_tolerances(table, scale: float) -> dict[str, float] | None:
+    """The flight tolerances (relative) of the slosh masses and pendulum lengths in ``table``
+    (:class:`~attitude_envs.presets.flight.FlightTable`) times the conditions' ``parameters``
+    ``scale``; None when no parameter is drawn. A ``ValueError`` where a tolerance would reach
+    90 %."""
+    if scale == 0:
+        return None
+    tol = {k: table.plant_value(k) * scale for k in ("slosh_mass", "pendulum_length")}
+    for key, value in tol.items():
+        if value >= 0.9:
+            raise ValueError(
+                f"conditions['parameters'] = {scale:g} scales the {key} tolerance to {value:.0%}; it must "
+                f"stay below 90 % (parameters < {0.9 / table.plant_value(key):.3g})"
+            )
+    return tol
+
+
 class FuelSloshEnv(AttitudeEnv):
     """Stabilize pitch, transverse velocity and fuel slosh during a constant-thrust burn.
 
@@ -259,7 +276,7 @@ class FuelSloshEnv(AttitudeEnv):
             conditions=cond,
             control_dt_s=self.control_dt_s,
         )
-        self._flight_plant = self._flight_plant_tolerances()
+        self._flight_plant = flight_plant_tolerances(self.flight_table, self.conditions.parameters)
         low, high = self._hint_bounds(-high, high)
         self.observation_space = spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
@@ -395,22 +412,6 @@ class FuelSloshEnv(AttitudeEnv):
                 self.model.cost.R,
             )
         )
-
-    def _flight_plant_tolerances(self) -> dict[str, float] | None:
-        """The flight tolerances of the slosh masses and pendulum lengths (relative) times
-        ``conditions["parameters"]``; None when no parameter is drawn."""
-        scale = self.conditions.parameters
-        if scale == 0:
-            return None
-        table = self.flight_table
-        tol = {k: table.plant_value(k) * scale for k in ("slosh_mass", "pendulum_length")}
-        for key, value in tol.items():
-            if value >= 0.9:
-                raise ValueError(
-                    f"conditions['parameters'] = {scale:g} scales the {key} tolerance to {value:.0%}; it must "
-                    f"stay below 90 % (parameters < {0.9 / table.plant_value(key):.3g})"
-                )
-        return tol
 
     def _draw_flight_plant(self, rng: np.random.Generator) -> None:
         """This episode's true plant (from the flight generator): each pendulum's slosh mass

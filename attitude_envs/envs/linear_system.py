@@ -34,6 +34,16 @@ class _DefaultPreset:
 DEFAULT_PRESET = _DefaultPreset()
 
 
+def state_scale(x0_mean: np.ndarray, x0_std: np.ndarray) -> np.ndarray:
+    """Each state entry's typical scale, the RMS of its initial distribution
+    ``√(x0_mean² + x0_std²)`` (state units; an entry whose start is exactly 0 takes the
+    largest entry's, and 1 when every entry's is 0): what the flight sensor noise is a
+    fraction of (:mod:`attitude_envs.presets.flight_linear`)."""
+    scale = np.hypot(x0_mean, x0_std)
+    top = float(scale.max())
+    return np.where(scale > 0, scale, top if top > 0 else 1.0)
+
+
 class LinearSystemEnv(AttitudeEnv):
     """Discrete linear plant ``x⁺ = A x + B u + w`` with stage cost ``xᵀQx + uᵀRu``, the
     input held over ``k = control_dt_s / dt_s`` plant steps per decision.
@@ -261,13 +271,8 @@ class LinearSystemEnv(AttitudeEnv):
 
     @property
     def state_scale(self) -> np.ndarray:
-        """Each state entry's typical scale, the RMS of its initial distribution
-        ``√(x0_mean² + x0_std²)`` (state units; an entry whose start is exactly 0 takes the
-        largest entry's, and 1 when every entry's is 0): what the flight sensor noise is a
-        fraction of (:mod:`attitude_envs.presets.flight_linear`)."""
-        scale = np.hypot(self._x0_mean, self._x0_std)
-        top = float(scale.max())
-        return np.where(scale > 0, scale, top if top > 0 else 1.0)
+        """Each state entry's typical scale (:func:`state_scale` of the reset distribution)."""
+        return state_scale(self._x0_mean, self._x0_std)
 
     @property
     def reset_distribution(self) -> dict[str, np.ndarray]:

@@ -26,6 +26,11 @@ from flax import struct
 
 from attitude_envs.actuator_dynamics import ActuatorChain, ActuatorModel
 
+#: folded into a plant's reset key for its flight draws (the true plant, the actuator gains),
+#: so a flight episode's start, target and faults are the lab episode's of the same key (as
+#: the numba envs spawn their flight generator without advancing their own)
+FLIGHT_STREAM = 0x464C54
+
 
 @dataclass(frozen=True)
 class ActuatorLayout:
@@ -166,4 +171,13 @@ def output(
     return y, state.replace(lagged=lagged)
 
 
-__all__ = ["ActuatorLayout", "ActuatorParams", "ActuatorState", "command", "initial_state", "layout_of", "output"]
+__all__ = [
+    "FLIGHT_STREAM",
+    "ActuatorLayout",
+    "ActuatorParams",
+    "ActuatorState",
+    "command",
+    "initial_state",
+    "layout_of",
+    "output",
+]

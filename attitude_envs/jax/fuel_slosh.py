@@ -26,17 +26,36 @@ Full state ``y`` (10, SI): ``[X, Z, θ, ψ1, ψ2, v_x, v_z, Ω, ψ̇1, ψ̇2]`` 
 rad/s; :mod:`attitude_envs.plants.slosh`); reduced (error) state
 ``x = [v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2]``.
 
+Flight conditions (``conditions=``, :mod:`attitude_envs.conditions`; the values of
+:mod:`attitude_envs.presets.flight_slosh`): the delay and the actuator chain (the gimbal's rate
+limit and first-order lag, each actuator's scale factor) act on ``[δ, M_c]`` around the faults
+as :meth:`attitude_envs.actuator_dynamics.ActuatorChain.deliver` (:mod:`attitude_envs.jax.actuators`;
+its runtime state in ``EnvState.flight``); ``reset_env`` draws the episode's true slosh masses
+and pendulum lengths (the fixed propellant mass taking the slosh mass change) and the gains
+from its key folded with :data:`~attitude_envs.jax.actuators.FLIGHT_STREAM`, by the numba
+env's law (not its draws; the start and the faults are the lab episode's of the same key), or
+takes a numba episode's (:func:`with_drawn_parameters`); the cost weights, limits and the
+actuator limits stay nominal, as in the numba env. The ``state`` sensor (the IMU navigation
+solution of the flight table, one noise, bias walk and bias spread per observed entry, or an
+explicit ``sensors=`` with the conditions' sensors on) samples at reset and at the end of each
+finite step from keys folded with :data:`~attitude_envs.jax.sensors.SENSOR_STREAM` (the numba
+sensor layer's law, not its draws); the observation is then the measurement, with the slosh
+entries the flight sensors do not measure (``unmeasured``) reading 0, as the numba env's;
+``info``, the cost and the limits stay the truth's. The lab's compiled program is unchanged
+(``flight`` and ``sensors`` None in the env, its params and state).
+
 Modeled: every keyword of the numba env (``preset``/``params``, limits, periods, ``Q``,
 ``R``, ``observe_slosh``, ``initial_state``, ``randomize_initial_state``, the termination
-limits and ``termination_cost``, actuator ``faults`` with per-episode draws, ``fault_hint``)
-except ``sensors`` and sensor-target faults, for which :func:`from_keywords` raises a
-``ValueError`` naming them. ``design_v_x_m_s`` only sets the nominal linear model
-(``numba_env.model``), not the step.
+limits and ``termination_cost``, actuator ``faults`` with per-episode draws, ``fault_hint``,
+``conditions``) except ``sensors`` in the lab (sensors only as flight conditions' sensors) and
+sensor-target faults, for which :func:`from_keywords` raises a ``ValueError`` naming them.
+``design_v_x_m_s`` only sets the nominal linear model (``numba_env.model``), not the step.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import jax
@@ -44,18 +63,28 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from attitude_envs.envs.base import check_keywords, keyword_defaults
-from attitude_envs.envs.fuel_slosh import OBS_INDEX, OBS_INDEX_NO_SLOSH, FuelSloshConfig, configure
+from attitude_envs.envs.base import Layers, check_keywords, keyword_defaults
+from attitude_envs.envs.fuel_slosh import (
+    OBS_INDEX,
+    OBS_INDEX_NO_SLOSH,
+    FuelSloshConfig,
+    configure,
+    flight_plant_tolerances,
+)
 from attitude_envs.envs.fuel_slosh import FuelSloshEnv as NumbaFuelSloshEnv
+from attitude_envs.jax import actuators as jact
 from attitude_envs.jax import cost as jcost
 from attitude_envs.jax import faults as jfaults
+from attitude_envs.jax import sensors as jsens
 from attitude_envs.jax.environment import Environment, preset_defaults
-from attitude_envs.jax.make import lab_layers
+from attitude_envs.jax.make import state_layers
 from attitude_envs.jax.ops import JAX
 from attitude_envs.jax.spaces import Box
 from attitude_envs.plants import slosh
 from attitude_envs.plants.slosh_definition import define
 from attitude_envs.plants.slosh_model import REDUCED_INDEX
+from attitude_envs.presets import flight_slosh
+from attitude_envs.presets.flight import table as flight_table
 from attitude_envs.presets.navabi_slosh import PAPER_INITIAL_STATE
 
 #: full-state indices of the start state ``[v_x, v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2]``
@@ -67,16 +96,72 @@ N_ACTUATORS = 2  # gimbal angle δ (rad), pitch moment M_c (N·m)
 _PLANT = define(JAX)
 
 
+@dataclass(frozen=True)
+class FlightLayout:
+    """What the flight conditions switch on in the compiled program (static): the
+    ``actuators`` chain's layout (:class:`attitude_envs.jax.actuators.ActuatorLayout`: delay,
+    rate limit, lag, gains) and ``draw_plant`` (the slosh masses and lengths drawn per episode)."""
+
+    actuators: jact.ActuatorLayout
+    draw_plant: bool = False
+
+
+@struct.dataclass
+class FlightParams:
+    """The flight conditions' numbers: the ``actuators`` chain
+    (:class:`attitude_envs.jax.actuators.ActuatorParams`) and the relative tolerances drawn per
+    episode (``slosh_mass``, ``pendulum_length``: each pendulum's, times ``1 + tol · U(−1, 1)``;
+    ``gain_tolerance`` (2): each actuator's scale factor). ``given``: the reset takes the
+    ``given_*`` draws instead (a numba episode's: :func:`with_drawn_parameters`):
+    ``given_slosh_mass_kg`` (2, kg), ``given_length_m`` (2, m), ``given_fuel_mass_kg`` (kg),
+    ``given_gain`` (2)."""
+
+    actuators: jact.ActuatorParams
+    slosh_mass: jax.Array
+    pendulum_length: jax.Array
+    gain_tolerance: jax.Array
+    given: jax.Array
+    given_slosh_mass_kg: jax.Array
+    given_length_m: jax.Array
+    given_fuel_mass_kg: jax.Array
+    given_gain: jax.Array
+
+
+@struct.dataclass
+class EpisodePlant:
+    """One episode's true slosh parameters drawn by the flight conditions: ``slosh_mass_kg``
+    (2, kg), ``length_m`` (2, m) and the fixed propellant's ``fuel_mass_kg`` (kg)."""
+
+    slosh_mass_kg: jax.Array
+    length_m: jax.Array
+    fuel_mass_kg: jax.Array
+
+
+@struct.dataclass
+class FlightState:
+    """An episode's flight state: the actuator chain's runtime state ``actuators`` (delay
+    line, rate limiter, lag), the true ``plant`` (None: the params') and the actuators' scale
+    factors ``gain`` (2; None: ones)."""
+
+    actuators: jact.ActuatorState
+    plant: EpisodePlant | None = None
+    gain: jax.Array | None = None
+
+
 @struct.dataclass
 class EnvState:
     """One episode's state: ``time`` (decisions taken), ``y`` (10, the full state of
     :mod:`attitude_envs.plants.slosh`, SI), the episode's realized actuator ``faults`` and
-    their runtime ``fault_state`` (latched stuck values, intermittent phases; times in s)."""
+    their runtime ``fault_state`` (latched stuck values, intermittent phases; times in s);
+    under flight conditions its ``flight`` state and the ``state`` sensor's (``sensors``;
+    None: the truth is observed)."""
 
     time: jax.Array
     y: jax.Array
     faults: jfaults.FaultParams
     fault_state: jfaults.FaultState
+    flight: FlightState | None = None
+    sensors: jsens.StateSensor | None = None
 
 
 #: a params field whose default is that group of the default preset's params
@@ -152,7 +237,9 @@ class EnvParams:
     (FuelSlosh-v0's): ``plant``, ``timing``, ``cost`` (with the limits and the termination
     charge), ``start``, ``faults`` (the actuator faults of every episode; an env with
     ``redraw_faults`` draws each episode's from its fault configs instead, as the numba env
-    does) and ``max_steps_in_episode`` (the time limit in decisions)."""
+    does), ``max_steps_in_episode`` (the time limit in decisions), ``flight`` (the flight
+    conditions' actuator chain and per-episode draws, None in the lab) and ``sensors`` (the
+    ``state`` sensor's model over the observed entries, None: the truth is observed)."""
 
     plant: PlantParams = _default("plant")
     timing: TimingParams = _default("timing")
@@ -160,6 +247,8 @@ class EnvParams:
     start: StartParams = _default("start")
     faults: jfaults.FaultParams = struct.field(default_factory=jfaults.no_faults)
     max_steps_in_episode: jax.Array = _default("max_steps_in_episode")
+    flight: FlightParams | None = None
+    sensors: jsens.ChannelParams | None = None
 
 
 def _take(v: jax.Array, index: tuple[int, ...]) -> jax.Array:
@@ -229,11 +318,14 @@ class FuelSloshEnv(Environment):
     observation layout ``obs_index`` (full-state indices: ``[v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2,
     v_x]``, or ``[v_z, θ, Ω, v_x]`` without ``observe_slosh``), ``fault_hint`` (append 3
     active-fault flags: gimbal, moment, then the ``state`` sensor, never faulted here), the
-    fault configs (``fault_configs``; ``redraw_faults``: draw the faults per episode).
+    fault configs (``fault_configs``; ``redraw_faults``: draw the faults per episode),
+    ``flight`` (:class:`FlightLayout`, None in the lab), ``sensors`` (the ``state`` sensor is
+    modeled) and ``unmeasured`` (positions in the observation the sensors do not measure,
+    reading 0: the slosh entries under the flight sensors).
 
     Action: ``Box(-1, 1, (2,))``, clipped: ``δ = a0 · max gimbal``, ``M_c = a1 · max moment``.
-    Observation: the state entries (m/s, rad, rad/s) in the compute dtype (float64 under
-    x64; the numba env casts to float32), then the hint flags; zeros when the step's state
+    Observation: the state entries (m/s, rad, rad/s; their measurements with ``sensors``) in
+    the compute dtype (float64 under x64; the numba env casts to float32), then the hint flags; zeros when the step's state
     is not finite (as the numba env's). Reward ``−cost``."""
 
     def __init__(
@@ -246,6 +338,9 @@ class FuelSloshEnv(Environment):
         n_hint_flags: int = 3,
         fault_configs: tuple[dict, ...] = (),
         redraw_faults: bool = False,
+        flight: FlightLayout | None = None,
+        sensors: bool = False,
+        unmeasured: tuple[int, ...] = (),
     ) -> None:
         self.n_substeps = int(n_substeps)
         self.obs_index = tuple(int(i) for i in obs_index)
@@ -257,6 +352,12 @@ class FuelSloshEnv(Environment):
         self.redraw_faults = bool(redraw_faults)
         self.n_faults = int(default_params.faults.kind.shape[-1])
         self.obs_size = len(self.obs_index) + self.n_hint_flags
+        #: the flight conditions' static layout (None: the lab, the step and reset unchanged)
+        self.flight = flight
+        #: the ``state`` sensor is modeled (False: the truth is observed)
+        self.sensors = bool(sensors)
+        #: observation positions the sensors do not measure (read 0)
+        self.unmeasured = tuple(int(i) for i in unmeasured)
         self._default_params = default_params
 
     @property
@@ -268,8 +369,10 @@ class FuelSloshEnv(Environment):
         return "FuelSlosh"
 
     # ------------------------------------------------------------------ dynamics
-    def _observe(self, y: jax.Array, faults: jfaults.FaultParams, t_s) -> jax.Array:
-        obs = _take(y, self.obs_index)
+    def _observe(self, y: jax.Array, faults: jfaults.FaultParams, t_s, measured: jax.Array | None = None) -> jax.Array:
+        """The observation of the full state ``y`` at ``t_s`` (s), or of the sensors'
+        ``measured`` entries (the unmeasured ones then read 0), with the hint flags."""
+        obs = _take(y, self.obs_index) if measured is None else self._reading(measured)
         if not self.fault_hint:
             return obs
         flags = jfaults.active_flags(faults, t_s, N_ACTUATORS).astype(y.dtype)
@@ -277,24 +380,37 @@ class FuelSloshEnv(Environment):
 
     def step_env(self, key: jax.Array, state: EnvState, action: jax.Array, params: EnvParams):
         """One decision: clip the action to [-1, 1], scale it to ``[δ (rad), M_c (N·m)]``,
-        apply the actuator faults at the decision's start time ``time · control_dt_s`` s,
-        advance the plant over the RK4 sub-steps and charge their cost, plus the termination
-        charge on a finite step that crosses a slosh, pitch-rate or pitch limit. A
-        non-finite step terminates (no charge; observation zeros). Reward ``−cost``; info
-        ``cost``, ``time_s`` (s), ``commanded`` and ``applied`` (``[δ rad, M_c N·m]`` before
-        clipping, after clipping and faults), ``new_inputs`` (step-mean ``[a_z m/s², Ω̇
-        rad/s²]``)."""
+        apply the actuator faults at the decision's start time ``time · control_dt_s`` s
+        (under flight conditions between the delay and rate limit and the lag and gains),
+        advance the plant (this episode's true plant in flight) over the RK4 sub-steps and
+        charge their cost, plus the termination charge on a finite step that crosses a slosh,
+        pitch-rate or pitch limit. A non-finite step terminates (no charge; observation
+        zeros). Reward ``−cost``; info ``cost``, ``time_s`` (s), ``commanded`` and ``applied``
+        (``[δ rad, M_c N·m]`` before clipping, delivered to the plant), ``new_inputs``
+        (step-mean ``[a_z m/s², Ω̇ rad/s²]``)."""
         dtype = state.y.dtype
         t_s = state.time * params.timing.control_dt_s
         a = jnp.asarray(action, dtype)
         limits = params.plant.actuator_limits
         commanded = a * limits
         applied = jnp.clip(a, -1.0, 1.0) * limits
-        if self.n_faults:
-            applied, fault_state = jfaults.apply(state.faults, state.fault_state, key, applied, t_s, limits)
-        else:
-            fault_state = state.fault_state
-        y, cost, new_inputs = control_step(state.y, applied, params, self.n_substeps)
+        fl, flight = self.flight, state.flight
+        plant_params = params
+        if fl is None:
+            applied, fault_state = self._faulted(key, state, applied, t_s, limits)
+        else:  # ActuatorChain.deliver: delay, rate limit, faults, lag, gains
+            act_p = params.flight.actuators
+            c, act = jact.command(fl.actuators, act_p, flight.actuators, applied)
+            faulted, fault_state = self._faulted(key, state, c, t_s, limits)
+            applied, act = jact.output(fl.actuators, act_p, act, faulted, flight.gain, jnp.zeros_like(faulted))
+            flight = flight.replace(actuators=act)
+            if fl.draw_plant:  # this episode's true slosh parameters
+                pl = flight.plant
+                plant = params.plant.replace(
+                    slosh_mass_kg=pl.slosh_mass_kg, length_m=pl.length_m, fuel_mass_kg=pl.fuel_mass_kg
+                )
+                plant_params = params.replace(plant=plant)
+        y, cost, new_inputs = control_step(state.y, applied, plant_params, self.n_substeps)
         time = state.time + 1
         t_next = time * params.timing.control_dt_s
         finite = jnp.isfinite(cost) & jnp.all(jnp.isfinite(y)) & jnp.all(jnp.isfinite(new_inputs))
@@ -306,8 +422,17 @@ class FuelSloshEnv(Environment):
         charge = jcost.termination_charge(c.termination_mode, x, c.Q, c.horizon_s, t_next)
         cost = jnp.where(terminated & finite, cost + charge, cost)
         obs = self._observe(y, state.faults, t_next)
+        sensors = state.sensors
+        if self.sensors:  # sampled at the step's end when the state is finite (as the numba env)
+            key_sensor = jax.random.fold_in(key, jsens.SENSOR_STREAM)
+            truth = _take(y, self.obs_index)
+            m, measured = jsens.measure_state(key_sensor, params.sensors, state.sensors, truth, t_next)
+            obs = self._observe(y, state.faults, t_next, m)
+            sensors = jax.tree.map(lambda a, b: jnp.where(finite, a, b), measured, state.sensors)
         obs = jnp.where(finite, obs, jnp.zeros_like(obs))
-        new_state = EnvState(time=time, y=y, faults=state.faults, fault_state=fault_state)
+        new_state = EnvState(
+            time=time, y=y, faults=state.faults, fault_state=fault_state, flight=flight, sensors=sensors
+        )
         info = {
             "cost": cost,
             "time_s": t_next,
@@ -321,7 +446,9 @@ class FuelSloshEnv(Environment):
         """A fresh episode: the start state (entry k ``U(−w_k, w_k)`` where
         ``initial_random[k]``, else ``initial_state[k]``; the numba env's law), the episode's
         faults (``params.faults``, or drawn from the fault configs with ``redraw_faults``)
-        and their initial runtime state."""
+        and their initial runtime state; under flight conditions the actuator chain at rest,
+        the true slosh parameters and the gains (drawn, or the params' given ones), and the
+        ``state`` sensor's bias and first sample."""
         key_init, key_faults, key_state = jax.random.split(key, 3)
         start = params.start
         dtype = start.initial_state.dtype
@@ -335,13 +462,66 @@ class FuelSloshEnv(Environment):
         faults = params.faults
         if self.redraw_faults:
             faults = jfaults.for_episode(key_faults, self.fault_configs, N_ACTUATORS, params.faults)
+        flight = None
+        if self.flight is not None:
+            flight = self._draw_flight(jax.random.fold_in(key, jact.FLIGHT_STREAM), params)
         state = EnvState(
             time=jnp.zeros((), jnp.int32),
             y=y,
             faults=faults,
             fault_state=jfaults.initial_state(key_state, faults),
+            flight=flight,
         )
-        return self._observe(y, faults, jnp.zeros((), dtype)), state
+        zero = jnp.zeros((), dtype)
+        if not self.sensors:
+            return self._observe(y, faults, zero), state
+        key_sensor = jax.random.fold_in(key, jsens.SENSOR_STREAM)
+        m, sensors = jsens.start_state_sensor(key_sensor, params.sensors, _take(y, self.obs_index))
+        return self._observe(y, faults, zero, m), state.replace(sensors=sensors)
+
+    def _faulted(self, key: jax.Array, state: EnvState, c: jax.Array, t_s, limits: jax.Array):
+        """The episode's actuator faults on ``c`` (``[δ rad, M_c N·m]``) at ``t_s`` (s):
+        ``(output, fault state)``."""
+        if not self.n_faults:
+            return c, state.fault_state
+        return jfaults.apply(state.faults, state.fault_state, key, c, t_s, limits)
+
+    def _reading(self, measured: jax.Array) -> jax.Array:
+        """The sensors' ``measured`` observation entries with the unmeasured ones set to 0."""
+        if not self.unmeasured:
+            return measured
+        keep = np.ones(len(self.obs_index), dtype=bool)
+        keep[list(self.unmeasured)] = False
+        return jnp.where(keep, measured, 0.0)
+
+    def _draw_flight(self, key: jax.Array, params: EnvParams) -> FlightState:
+        """An episode's flight state: the actuator chain at rest and, with the parameters
+        drawn, each pendulum's slosh mass and length times ``1 + tol · U(−1, 1)``, the fixed
+        propellant mass taking the slosh masses' change, and each actuator's gain
+        ``1 + tol · U(−1, 1)`` (:meth:`FuelSloshEnv._draw_flight_plant`'s law, not its draws),
+        or the params' ``given_*`` draws."""
+        fl, fp, nominal = self.flight, params.flight, params.plant
+        dtype = nominal.mass_kg.dtype
+        actuators = jact.initial_state(fl.actuators, N_ACTUATORS, dtype)
+        if not (fl.draw_plant or fl.actuators.gain):
+            return FlightState(actuators=actuators)
+        # one uniform draw (one threefry program): 2 masses, 2 lengths, 2 gains
+        u = jax.random.uniform(key, (6,), dtype, -1.0, 1.0)
+        given = fp.given
+        plant = gain = None
+        if fl.draw_plant:
+            masses = nominal.slosh_mass_kg * (1.0 + fp.slosh_mass * u[0:2])
+            lengths = nominal.length_m * (1.0 + fp.pendulum_length * u[2:4])
+            change = (masses[0] + masses[1]) - (nominal.slosh_mass_kg[0] + nominal.slosh_mass_kg[1])
+            fuel = jnp.maximum(0.0, nominal.fuel_mass_kg - change)
+            plant = EpisodePlant(
+                slosh_mass_kg=jnp.where(given, fp.given_slosh_mass_kg, masses),
+                length_m=jnp.where(given, fp.given_length_m, lengths),
+                fuel_mass_kg=jnp.where(given, fp.given_fuel_mass_kg, fuel),
+            )
+        if fl.actuators.gain:
+            gain = jnp.where(given, fp.given_gain, 1.0 + fp.gain_tolerance * u[4:6])
+        return FlightState(actuators=actuators, plant=plant, gain=gain)
 
     # ------------------------------------------------------------------ spaces
     def action_space(self, params: EnvParams | None = None) -> Box:
@@ -373,15 +553,83 @@ class FuelSloshEnv(Environment):
         actuator faults and their runtime state; ``time`` the decisions it has taken (0 after
         its reset: the numba env keeps its counter private). An intermittent fault not yet
         evaluated (no first switch drawn) gets its first switch time drawn with ``key``
-        (default ``PRNGKey(0)``) from the same law. ``numba_env`` may be wrapped (``gym.make``'s env)."""
+        (default ``PRNGKey(0)``) from the same law. ``numba_env`` may be wrapped (``gym.make``'s env).
+        Under flight conditions the episode's drawn slosh parameters and gains and the actuator
+        chain at rest (its runtime state is not public: a ``ValueError`` for ``time > 0`` with a
+        delay or actuator dynamics); a ``ValueError`` with sensors (their state is not public:
+        reset the JAX env instead)."""
         numba_env = getattr(numba_env, "unwrapped", numba_env)
         faults, fault_state = jfaults.from_numba_layer(numba_env.fault_layer.realized, self.n_faults, key)
+        y = jnp.asarray(np.asarray(numba_env.state, dtype=float))
+        if self.sensors:
+            raise ValueError(
+                "state_from does not take an env with sensors: the numba sensor layer's state is not public "
+                "(reset the JAX env instead)"
+            )
         return EnvState(
             time=jnp.asarray(int(time), jnp.int32),
-            y=jnp.asarray(np.asarray(numba_env.state, dtype=float)),
+            y=y,
             faults=faults,
             fault_state=fault_state,
+            flight=None if self.flight is None else self._flight_state_from(numba_env, int(time), y.dtype),
         )
+
+    def _flight_state_from(self, env: Any, time: int, dtype) -> FlightState:
+        """The flight state of the numba env's current episode (:meth:`state_from`)."""
+        fl = self.flight
+        if time and (fl.actuators.delay_steps or fl.actuators.model):
+            raise ValueError(
+                "state_from takes a flight env with a delay or actuator dynamics only right after its reset "
+                f"(time=0, the actuator chain at rest), got time={time}"
+            )
+        drawn = env.drawn_parameters()
+
+        def f(v: Any) -> jax.Array:
+            return jnp.asarray(np.asarray(v, dtype=float), dtype=dtype)
+
+        plant = gain = None
+        if fl.draw_plant:
+            plant = EpisodePlant(
+                slosh_mass_kg=f(drawn["slosh_mass_kg"]),
+                length_m=f(drawn["length_m"]),
+                fuel_mass_kg=f(drawn["fuel_mass_kg"]),
+            )
+        if fl.actuators.gain:
+            gain = f(drawn["actuator_gain"])
+        return FlightState(actuators=jact.initial_state(fl.actuators, N_ACTUATORS, dtype), plant=plant, gain=gain)
+
+
+def with_drawn_parameters(params: EnvParams, drawn: dict) -> EnvParams:
+    """``params`` whose resets take the true slosh parameters and gains ``drawn`` (a numba
+    flight episode's ``env.unwrapped.drawn_parameters()``: ``slosh_mass_kg``, ``length_m``,
+    ``fuel_mass_kg``, ``actuator_gain``) instead of drawing them: the JAX episode of that numba
+    episode's plant. ``ValueError`` for lab params or a missing entry."""
+    fp = params.flight
+    if fp is None:
+        raise ValueError("with_drawn_parameters takes the params of a flight env (conditions with parameter draws)")
+    keys = ("slosh_mass_kg", "length_m", "fuel_mass_kg", "actuator_gain")
+    missing = [k for k in keys if k not in drawn]
+    if missing:
+        raise ValueError(
+            f"drawn parameters lack {missing} (got {sorted(drawn)}): pass env.unwrapped.drawn_parameters()"
+        )
+    dtype = fp.given_gain.dtype
+
+    def f(v: Any, shape: tuple[int, ...]) -> jax.Array:
+        a = np.asarray(v, dtype=float)
+        if a.shape != shape:
+            raise ValueError(f"drawn parameters must have shape {shape}, got {a.shape}")
+        return jnp.asarray(a, dtype=dtype)
+
+    return params.replace(
+        flight=fp.replace(
+            given=jnp.asarray(True),
+            given_slosh_mass_kg=f(drawn["slosh_mass_kg"], (2,)),
+            given_length_m=f(drawn["length_m"], (2,)),
+            given_fuel_mass_kg=f(drawn["fuel_mass_kg"], ()),
+            given_gain=f(drawn["actuator_gain"], (N_ACTUATORS,)),
+        )
+    )
 
 
 def episode_steps(episode_duration_s: float, control_dt_s: float) -> int:
@@ -395,10 +643,18 @@ def episode_steps(episode_duration_s: float, control_dt_s: float) -> int:
     return n
 
 
-def params_of(cfg: FuelSloshConfig, fault_configs: tuple[dict, ...] = ()) -> EnvParams:
+def params_of(
+    cfg: FuelSloshConfig,
+    fault_configs: tuple[dict, ...] = (),
+    layers: Layers | None = None,
+    plant_tolerances: dict[str, float] | None = None,
+) -> EnvParams:
     """The ``EnvParams`` of a validated configuration (:func:`attitude_envs.envs.fuel_slosh.configure`)
     with the validated actuator ``fault_configs``, drawn once with ``PRNGKey(0)`` (with random
-    fields only a default: each episode draws its own, ``redraw_faults``)."""
+    fields only a default: each episode draws its own, ``redraw_faults``) and, under flight
+    conditions, the flight numbers and the ``state`` sensor's model of its ``layers``
+    (:func:`attitude_envs.jax.make.state_layers`; None: the lab's params) with the
+    relative ``plant_tolerances`` ``slosh_mass`` and ``pendulum_length`` (None: not drawn)."""
     p = cfg.model.params
     # one compiled draw (eager, its many small ops would each compile)
     faults = jax.jit(lambda key: jfaults.realize(key, list(fault_configs), N_ACTUATORS))(jax.random.PRNGKey(0))
@@ -411,6 +667,25 @@ def params_of(cfg: FuelSloshConfig, fault_configs: tuple[dict, ...] = ()) -> Env
         return jnp.asarray(np.asarray(v, dtype=float))
 
     physical = {field: f(getattr(p, field)) for field in PlantParams.__dataclass_fields__ if field != "actuator_limits"}
+    flight = sensors = None
+    if layers is not None and not layers.conditions.is_lab:
+        dtype = jnp.result_type(float)
+        chain = layers.actuator_chain
+        tol = plant_tolerances or {}
+        flight = FlightParams(
+            actuators=jact.params_of(None if chain is None else chain.model, N_ACTUATORS, cfg.control_dt_s, dtype),
+            slosh_mass=f(tol.get("slosh_mass", 0.0)),
+            pendulum_length=f(tol.get("pendulum_length", 0.0)),
+            gain_tolerance=f(layers.gain_tolerance),
+            given=jnp.asarray(False),
+            given_slosh_mass_kg=physical["slosh_mass_kg"],
+            given_length_m=physical["length_m"],
+            given_fuel_mass_kg=physical["fuel_mass_kg"],
+            given_gain=f(np.ones(N_ACTUATORS)),
+        )
+        config = layers.sensor_layer.config.get("state")
+        n_obs = len(OBS_INDEX if cfg.observe_slosh else OBS_INDEX_NO_SLOSH)
+        sensors = None if config is None else jsens.params_of(config, n_obs, dtype)
     return EnvParams(
         plant=PlantParams(**physical, actuator_limits=f([cfg.model.max_gimbal_rad, cfg.model.max_moment_nm])),
         timing=TimingParams(control_dt_s=f(cfg.control_dt_s), integrator_dt_s=f(cfg.integrator_dt_s)),
@@ -430,20 +705,40 @@ def params_of(cfg: FuelSloshConfig, fault_configs: tuple[dict, ...] = ()) -> Env
         ),
         faults=faults,
         max_steps_in_episode=jnp.asarray(episode_steps(cfg.episode_duration_s, cfg.control_dt_s), jnp.int32),
+        flight=flight,
+        sensors=sensors,
     )
 
 
 def from_keywords(plant: str, kwargs: dict[str, Any]) -> tuple[FuelSloshEnv, EnvParams]:
     """The JAX ``plant`` and its ``EnvParams`` for the numba env's keywords ``kwargs``, validated
     as the numba env validates them (no numba env is built). A ``ValueError`` names what the
-    JAX plant does not model (``sensors``, sensor faults, flight conditions)."""
+    JAX plant does not model (``sensors`` in the lab, sensor faults)."""
     check_keywords(NumbaFuelSloshEnv, kwargs)
     cfg = configure({**keyword_defaults(NumbaFuelSloshEnv), **kwargs})
     obs_index = OBS_INDEX if cfg.observe_slosh else OBS_INDEX_NO_SLOSH
     limits = np.array([cfg.model.max_gimbal_rad, cfg.model.max_moment_nm])
-    layer = lab_layers(plant, cfg, limits, len(obs_index))
+    cond = cfg.conditions
+    layers = flight = tolerances = None
+    unmeasured: tuple[int, ...] = ()
+    if cond.is_lab:
+        layer = state_layers(plant, cfg, limits, len(obs_index)).fault_layer
+    else:
+        # the numba env's flight sensor: one value per observed entry, the slosh entries not measured
+        entries = np.arange(8) if cfg.observe_slosh else np.array([0, 1, 2, 7])
+        sensors = flight_slosh.state_sensor_config(entries, cond.sensors)
+        if cfg.sensors is None and cond.sensors > 0:
+            unmeasured = tuple(int(i) for i in np.flatnonzero(~np.array(flight_slosh.MEASURED)[entries]))
+        layers = state_layers(plant, cfg, limits, len(obs_index), sensors, cfg.control_dt_s)
+        layer = layers.fault_layer
+        tolerances = flight_plant_tolerances(flight_table(NumbaFuelSloshEnv.env_name, cfg.preset), cond.parameters)
+        model = None if layers.actuator_chain is None else layers.actuator_chain.model
+        flight = FlightLayout(
+            actuators=jact.layout_of(model, cond.delay_steps, bool(layers.gain_tolerance.any())),
+            draw_plant=tolerances is not None,
+        )
     configs = tuple(dict(c) for c in layer.configs)
-    params = params_of(cfg, configs)
+    params = params_of(cfg, configs, layers, tolerances)
     env = FuelSloshEnv(
         cfg.n_substeps,
         params,
@@ -452,5 +747,8 @@ def from_keywords(plant: str, kwargs: dict[str, Any]) -> tuple[FuelSloshEnv, Env
         n_hint_flags=layer.n + 1,
         fault_configs=configs,
         redraw_faults=any(jfaults.draws_per_episode(c) for c in configs),
+        flight=flight,
+        sensors=params.sensors is not None,
+        unmeasured=unmeasured,
     )
     return env, params

@@ -90,12 +90,6 @@ START_FIXED, START_AXIS_ANGLE, START_EULER = 0, 1, 2
 _N_SENSOR_CHANNELS = 3
 
 
-#: folded into ``reset_env``'s key for the flight draws (the true plant, the actuator gains),
-#: so a flight episode's start, target and faults are the lab episode's of the same key
-#: (as the numba env spawns its flight generator without advancing its own)
-_FLIGHT_STREAM = 0x464C54
-
-
 @dataclass(frozen=True)
 class FlightLayout:
     """What the flight conditions (:mod:`attitude_envs.conditions`) switch on in the compiled
@@ -160,8 +154,6 @@ class FlightState:
     gain: jax.Array | None = None
 
 
-#: folded into the reset's and the step's keys for the sensors' draws (the other draws unchanged)
-_SENSOR_STREAM = 0x534E53
 #: the gyrostat's sensor channels: (name, slice of the state row ``[q, ω, Ω]``, attitude)
 _CHANNELS = (("gyro", (4, 7), False), ("star_tracker", (0, 4), True), ("tachometer", (7, None), False))
 
@@ -714,7 +706,9 @@ class GyrostatEnv(Environment):
         finite = jnp.all(jnp.isfinite(y_new)) & jnp.isfinite(cost)
         sensor_state = state.sensors
         if self.sensors:  # sampled at the step's end when the state is finite (the numba env's _measure)
-            y_m, measured_state = self._measure(jax.random.fold_in(key, _SENSOR_STREAM), p, state.sensors, y_new, t1)
+            y_m, measured_state = self._measure(
+                jax.random.fold_in(key, jsens.SENSOR_STREAM), p, state.sensors, y_new, t1
+            )
             obs = self._observe(y_m, state.target_attitude, state.faults, t1, p)[0]
             sensor_state = jax.tree.map(lambda a, b: jnp.where(finite, a, b), measured_state, state.sensors)
         rate = jnp.max(jnp.abs(y_new[4:7]))
@@ -779,7 +773,7 @@ class GyrostatEnv(Environment):
         faults = p.faults
         if self.redraw_faults:
             faults = self._draw_faults(k_realize, p.faults)
-        flight = None if self.flight is None else self._draw_flight(jax.random.fold_in(key, _FLIGHT_STREAM), p)
+        flight = None if self.flight is None else self._draw_flight(jax.random.fold_in(key, jact.FLIGHT_STREAM), p)
         state = EnvState(
             time=jnp.zeros((), dtype=jnp.int32),
             attitude=q0,
@@ -791,7 +785,7 @@ class GyrostatEnv(Environment):
             flight=flight,
         )
         if self.sensors:  # the biases drawn and the first sample at t = 0
-            k_sensor = jax.random.fold_in(key, _SENSOR_STREAM)
+            k_sensor = jax.random.fold_in(key, jsens.SENSOR_STREAM)
             k_bias, k_measure = jax.random.split(k_sensor)
             y = jnp.concatenate([q0, rate, state.wheel_speed_rad_s])
             start = SensorState(t_last=jnp.zeros((), dtype=dtype))

@@ -16,9 +16,26 @@ Time is counted as the numba env counts it: ``state.time`` in decisions, the pla
 faults are applied at the decision's start time and held over it) and the termination
 charge (``horizon_steps`` and the elapsed plant steps, :func:`attitude_envs.jax.cost.termination_charge`).
 
-Modeled: every keyword of the numba env except ``sensors`` and sensor-target faults (a
-``ValueError`` names them); actuator faults (``faults``, per-episode draws included) and
-``fault_hint``; process noise (the same law, draws from the step's key).
+Flight conditions (``conditions=``, :mod:`attitude_envs.conditions`; the values of
+:mod:`attitude_envs.presets.flight_linear`): the delay and the actuator chain act between the
+command and the faults and after them as :meth:`attitude_envs.actuator_dynamics.ActuatorChain.deliver`
+(:mod:`attitude_envs.jax.actuators`; LinearSystem's chain has no dynamics beyond each input's
+scale factor, the flight error of ``B``), its runtime state in ``EnvState.flight``; ``reset_env``
+draws the episode's gains within the flight tolerance from its key folded with
+:data:`~attitude_envs.jax.actuators.FLIGHT_STREAM` (by the numba env's law, not its draws; the
+start and the faults are the lab episode's of the same key), or takes a numba episode's
+(:func:`with_drawn_parameters`). The ``state`` sensor (white noise of 1 % of each entry's
+:attr:`~attitude_envs.envs.linear_system.LinearSystemEnv.state_scale`, or an explicit
+``sensors=`` with flight conditions' sensors on) samples at reset and at the end of each finite
+step from keys folded with :data:`~attitude_envs.jax.sensors.SENSOR_STREAM` (the numba sensor
+layer's law, not its draws); the observation is then the measurement, as the numba env's, and
+``info``, the cost and the limit stay the truth's. The lab's compiled program is unchanged
+(``flight`` and ``sensors`` None in the env, its params and state).
+
+Modeled: every keyword of the numba env except ``sensors`` in the lab (sensors only as flight
+conditions' sensors) and sensor-target faults (a ``ValueError`` names them); actuator faults
+(``faults``, per-episode draws included) and ``fault_hint``; process noise (the same law, draws
+from the step's key).
 """
 
 from __future__ import annotations
@@ -30,27 +47,57 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from attitude_envs.envs.base import check_keywords, keyword_defaults
-from attitude_envs.envs.linear_system import LinearSystemConfig, configure
+from attitude_envs.envs.base import Layers, check_keywords, keyword_defaults
+from attitude_envs.envs.linear_system import LinearSystemConfig, configure, state_scale
 from attitude_envs.envs.linear_system import LinearSystemEnv as NumbaLinearSystemEnv
 from attitude_envs.faults import RealizedFault
+from attitude_envs.jax import actuators as jact
 from attitude_envs.jax import cost as jcost
 from attitude_envs.jax import faults as jfaults
+from attitude_envs.jax import sensors as jsens
 from attitude_envs.jax.environment import Environment, preset_defaults
-from attitude_envs.jax.make import lab_layers
+from attitude_envs.jax.make import state_layers
 from attitude_envs.jax.spaces import Box
+from attitude_envs.presets.flight_linear import state_sensor_config
+
+
+@struct.dataclass
+class FlightParams:
+    """The flight conditions' numbers: the ``actuators`` chain
+    (:class:`attitude_envs.jax.actuators.ActuatorParams`; neutral entries but the gains),
+    ``gain_tolerance`` (m, relative: each input's scale factor is drawn per episode within
+    ± it). ``given``: the reset takes ``given_gain`` (m) instead of drawing (a numba
+    episode's: :func:`with_drawn_parameters`)."""
+
+    actuators: jact.ActuatorParams
+    gain_tolerance: jax.Array
+    given: jax.Array
+    given_gain: jax.Array
+
+
+@struct.dataclass
+class FlightState:
+    """An episode's flight state: the actuator chain's runtime state ``actuators`` (delay
+    line) and the inputs' scale factors ``gain`` (m; None: not drawn, ones)."""
+
+    actuators: jact.ActuatorState
+    gain: jax.Array | None = None
 
 
 @struct.dataclass
 class EnvState:
     """One episode's state: ``time`` (decisions taken), ``x`` (n, the plant state in the
     units of the model), the episode's realized actuator ``faults`` and their runtime
-    ``fault_state`` (latched stuck values, intermittent phases; times in s)."""
+    ``fault_state`` (latched stuck values, intermittent phases; times in s); under flight
+    conditions its ``flight`` state and the ``state`` sensor's (``sensors``; None: the
+    truth is observed)."""
 
     time: jax.Array
     x: jax.Array
     faults: jfaults.FaultParams
     fault_state: jfaults.FaultState
+    flight: FlightState | None = None
+    sensors: jsens.StateSensor | None = None
 
 
 #: a params field whose default is that group of the default preset's params
@@ -117,8 +164,10 @@ class EnvParams:
     (the decision step), ``cost`` (with the limit and the termination charge), ``start``,
     ``disturbance`` (process noise), ``faults`` (the actuator faults of every episode; an
     env with ``redraw_faults`` draws each episode's from its fault configs instead, as the
-    numba env does) and ``max_steps_in_episode`` (the time limit in decisions,
-    ``episode_steps / k``)."""
+    numba env does), ``max_steps_in_episode`` (the time limit in decisions,
+    ``episode_steps / k``), ``flight`` (the flight conditions' actuator chain and gain
+    draws, None in the lab) and ``sensors`` (the ``state`` sensor's model, None: the truth
+    is observed)."""
 
     plant: PlantParams = _default("plant")
     hold: HoldParams = _default("hold")
@@ -127,6 +176,8 @@ class EnvParams:
     disturbance: DisturbanceParams = _default("disturbance")
     faults: jfaults.FaultParams = struct.field(default_factory=jfaults.no_faults)
     max_steps_in_episode: jax.Array = _default("max_steps_in_episode")
+    flight: FlightParams | None = None
+    sensors: jsens.ChannelParams | None = None
 
 
 class LinearSystemEnv(Environment):
@@ -135,10 +186,12 @@ class LinearSystemEnv(Environment):
     ``decision_steps`` k, ``noisy`` (k plant steps with process noise instead of the exact
     hold), ``fault_hint`` (the observation appends m + 1 active-fault flags: the actuators,
     then the ``state`` sensor, never faulted here), the fault configs (``fault_configs``,
-    ``redraw_faults``: draw the faults per episode), the observation bounds.
+    ``redraw_faults``: draw the faults per episode), the observation bounds, ``flight`` (the
+    actuator chain's :class:`~attitude_envs.jax.actuators.ActuatorLayout` under flight
+    conditions, None in the lab) and ``sensors`` (the ``state`` sensor is modeled).
 
-    Observation: ``x`` (n) in the compute dtype, then the hint flags; zeros when the state
-    is not finite (as the numba env's)."""
+    Observation: ``x`` (n; its measurement with ``sensors``) in the compute dtype, then the
+    hint flags; zeros when the state is not finite (as the numba env's)."""
 
     def __init__(
         self,
@@ -152,6 +205,8 @@ class LinearSystemEnv(Environment):
         fault_configs: tuple[dict, ...] = (),
         redraw_faults: bool = False,
         obs_bound: float = np.inf,
+        flight: jact.ActuatorLayout | None = None,
+        sensors: bool = False,
     ) -> None:
         self.n = int(n)
         self.m = int(m)
@@ -163,6 +218,10 @@ class LinearSystemEnv(Environment):
         self.n_faults = int(default_params.faults.kind.shape[-1])
         self.obs_size = self.n + (self.m + 1 if self.fault_hint else 0)
         self.obs_bound = float(obs_bound)
+        #: the flight conditions' actuator chain (None: the lab, the step and reset unchanged)
+        self.flight = flight
+        #: the ``state`` sensor is modeled (False: the truth is observed)
+        self.sensors = bool(sensors)
         self._default_params = default_params
 
     @property
@@ -198,11 +257,18 @@ class LinearSystemEnv(Environment):
         flags = jfaults.active_flags(faults, t_s, self.m).astype(x.dtype)
         return jnp.concatenate([x, flags, jnp.zeros(1, x.dtype)])
 
+    def _faulted(self, key: jax.Array, state: EnvState, c: jax.Array, t_s, params: EnvParams):
+        """The episode's actuator faults on the inputs ``c`` at ``t_s`` (s): ``(u, fault state)``."""
+        if not self.n_faults:
+            return c, state.fault_state
+        return jfaults.apply(state.faults, state.fault_state, key, c, t_s, params.plant.action_scale)
+
     def step_env(self, key: jax.Array, state: EnvState, action: jax.Array, params: EnvParams):
         """One decision: clip the action to [-1, 1], scale it to the physical input, apply
-        the actuator faults at the decision's start time ``time · k · dt_s`` s, advance the
-        plant k plant steps and charge their cost (plus the termination charge on a finite
-        step that crosses ``divergence_threshold``). Reward ``−cost``."""
+        the actuator faults at the decision's start time ``time · k · dt_s`` s (under flight
+        conditions between the delay and the gains), advance the plant k plant steps and
+        charge their cost (plus the termination charge on a finite step that crosses
+        ``divergence_threshold``). Reward ``−cost``."""
         dtype = state.x.dtype
         # a split only when both draw (noise, intermittent faults): fewer programs to compile
         key_noise, key_fault = jax.random.split(key) if self.noisy and self.n_faults else (key, key)
@@ -211,12 +277,15 @@ class LinearSystemEnv(Environment):
         t_s = _seconds(steps, params.plant.dt_s, dtype)
         a = jnp.clip(jnp.asarray(action, dtype), -1.0, 1.0)
         commanded = params.plant.action_scale * a
-        if self.n_faults:
-            u, fault_state = jfaults.apply(
-                state.faults, state.fault_state, key_fault, commanded, t_s, params.plant.action_scale
-            )
-        else:
-            u, fault_state = commanded, state.fault_state
+        flight = state.flight
+        if self.flight is None:
+            u, fault_state = self._faulted(key_fault, state, commanded, t_s, params)
+        else:  # ActuatorChain.deliver: the delay, the faults, the gains
+            act_p = params.flight.actuators
+            c, act = jact.command(self.flight, act_p, flight.actuators, commanded)
+            faulted, fault_state = self._faulted(key_fault, state, c, t_s, params)
+            u, act = jact.output(self.flight, act_p, act, faulted, flight.gain, jnp.zeros_like(faulted))
+            flight = flight.replace(actuators=act)
         noise = None
         if self.noisy:
             noise = params.disturbance.process_noise_std * jax.random.normal(key_noise, (k, self.n), dtype)
@@ -230,15 +299,30 @@ class LinearSystemEnv(Environment):
         charge = jcost.termination_charge(c.termination_mode, x_next, c.Q, c.horizon_steps, elapsed)
         cost = cost + jnp.where(terminated & finite, charge, 0.0)
         obs = self._observe(x_next, state.faults, t_next)
+        sensors = state.sensors
+        if self.sensors:  # sampled at the step's end when the state is finite (as the numba env)
+            key_sensor = jax.random.fold_in(key, jsens.SENSOR_STREAM)
+            m, measured = jsens.measure_state(key_sensor, params.sensors, state.sensors, x_next, t_next)
+            obs = self._observe(m, state.faults, t_next)
+            sensors = jax.tree.map(lambda a, b: jnp.where(finite, a, b), measured, state.sensors)
         obs = jnp.where(finite, obs, jnp.zeros_like(obs))
-        new_state = EnvState(time=state.time + 1, x=x_next, faults=state.faults, fault_state=fault_state)
+        new_state = EnvState(
+            time=state.time + 1,
+            x=x_next,
+            faults=state.faults,
+            fault_state=fault_state,
+            flight=flight,
+            sensors=sensors,
+        )
         info = {"cost": cost, "time_s": t_next, "commanded": commanded, "applied": u}
         return obs, new_state, -cost, terminated, info
 
     def reset_env(self, key: jax.Array, params: EnvParams):
         """A fresh episode: ``x0 = x0_mean + x0_std · N(0, I)``, the episode's faults
         (``params.faults``, or drawn from the fault configs with ``redraw_faults``) and
-        their initial runtime state."""
+        their initial runtime state; under flight conditions the actuator chain at rest and
+        the inputs' gains (drawn, or the params' given ones), and the ``state`` sensor's bias
+        and first sample."""
         key_x, key_faults, key_state = jax.random.split(key, 3) if self.n_faults else (key, key, key)
         start = params.start
         dtype = start.x0_mean.dtype
@@ -246,13 +330,33 @@ class LinearSystemEnv(Environment):
         faults = params.faults
         if self.redraw_faults:
             faults = jfaults.for_episode(key_faults, self.fault_configs, self.m, params.faults)
+        flight = None
+        if self.flight is not None:
+            flight = self._draw_flight(jax.random.fold_in(key, jact.FLIGHT_STREAM), params)
         state = EnvState(
             time=jnp.zeros((), jnp.int32),
             x=x0,
             faults=faults,
             fault_state=jfaults.initial_state(key_state, faults),
+            flight=flight,
         )
-        return self._observe(x0, faults, jnp.zeros((), dtype)), state
+        zero = jnp.zeros((), dtype)
+        if not self.sensors:
+            return self._observe(x0, faults, zero), state
+        m, sensors = jsens.start_state_sensor(jax.random.fold_in(key, jsens.SENSOR_STREAM), params.sensors, x0)
+        return self._observe(m, faults, zero), state.replace(sensors=sensors)
+
+    def _draw_flight(self, key: jax.Array, params: EnvParams) -> FlightState:
+        """An episode's flight state: the actuator chain at rest and, with the gains drawn,
+        each input's ``1 + tol · U(−1, 1)`` (the numba env's law, not its draws) or the
+        params' ``given_gain``."""
+        fp = params.flight
+        dtype = params.start.x0_mean.dtype
+        actuators = jact.initial_state(self.flight, self.m, dtype)
+        if not self.flight.gain:
+            return FlightState(actuators=actuators)
+        gain = 1.0 + fp.gain_tolerance * jax.random.uniform(key, (self.m,), dtype, -1.0, 1.0)
+        return FlightState(actuators=actuators, gain=jnp.where(fp.given, fp.given_gain, gain))
 
     # ------------------------------------------------------------------ spaces
     def action_space(self, params: EnvParams | None = None) -> Box:
@@ -272,16 +376,55 @@ class LinearSystemEnv(Environment):
         """The JAX state of the numba env's current episode: its state ``x``, decisions
         taken, realized actuator faults and their runtime state. An intermittent fault not
         yet evaluated (no first switch drawn) gets its first switch time drawn with ``key``
-        (default ``PRNGKey(0)``) from the same law. ``numba_env`` may be wrapped (``gym.make``'s env)."""
+        (default ``PRNGKey(0)``) from the same law. ``numba_env`` may be wrapped (``gym.make``'s env).
+        Under flight conditions the episode's drawn gains and the actuator chain at rest (its
+        delay line is not public: a ``ValueError`` after the first step with a delay); a
+        ``ValueError`` with sensors (their state is not public: reset the JAX env instead)."""
         numba_env = getattr(numba_env, "unwrapped", numba_env)
         faults, fault_state = jfaults.from_numba_layer(numba_env.fault_layer.realized, self.n_faults, key)
         steps = int(numba_env.steps_taken)  # plant steps elapsed
+        x = jnp.asarray(numba_env.state, dtype=float)
+        if self.sensors:
+            raise ValueError(
+                "state_from does not take an env with sensors: the numba sensor layer's state is not public "
+                "(reset the JAX env instead)"
+            )
+        flight = None
+        if self.flight is not None:
+            if steps and self.flight.delay_steps:
+                raise ValueError(
+                    "state_from takes a flight env with a delay only right after its reset (the actuator chain "
+                    f"at rest), got {steps} plant steps taken"
+                )
+            flight = FlightState(actuators=jact.initial_state(self.flight, self.m, x.dtype))
+            if self.flight.gain:
+                gain = numba_env.drawn_parameters()["actuator_gain"]
+                flight = flight.replace(gain=jnp.asarray(np.asarray(gain, dtype=float), dtype=x.dtype))
         return EnvState(
             time=jnp.asarray(steps // self.decision_steps, jnp.int32),
-            x=jnp.asarray(numba_env.state, dtype=float),
+            x=x,
             faults=faults,
             fault_state=fault_state,
+            flight=flight,
         )
+
+
+def with_drawn_parameters(params: EnvParams, drawn: dict) -> EnvParams:
+    """``params`` whose resets take the gains ``drawn`` (a numba flight episode's
+    ``env.unwrapped.drawn_parameters()``: ``actuator_gain``) instead of drawing them: the JAX
+    episode of that numba episode's plant. ``ValueError`` for lab params or a missing entry."""
+    fp = params.flight
+    if fp is None:
+        raise ValueError("with_drawn_parameters takes the params of a flight env (conditions with parameter draws)")
+    if "actuator_gain" not in drawn:
+        raise ValueError(
+            f"drawn parameters lack 'actuator_gain' (got {sorted(drawn)}): pass env.unwrapped.drawn_parameters()"
+        )
+    gain = np.asarray(drawn["actuator_gain"], dtype=float)
+    if gain.shape != tuple(fp.given_gain.shape):
+        raise ValueError(f"drawn actuator_gain must have shape {tuple(fp.given_gain.shape)}, got {gain.shape}")
+    dtype = fp.given_gain.dtype
+    return params.replace(flight=fp.replace(given=jnp.asarray(True), given_gain=jnp.asarray(gain, dtype=dtype)))
 
 
 def _seconds(steps: jax.Array, dt_s: jax.Array, dtype) -> jax.Array:
@@ -327,14 +470,29 @@ def _nominal_faults(configs: tuple[dict, ...], n_actuators: int) -> jfaults.Faul
     return jfaults.from_realized(realized)
 
 
-def params_of(cfg: LinearSystemConfig, fault_configs: tuple[dict, ...] = ()) -> EnvParams:
+def params_of(cfg: LinearSystemConfig, fault_configs: tuple[dict, ...] = (), layers: Layers | None = None) -> EnvParams:
     """The ``EnvParams`` of a validated configuration (:func:`attitude_envs.envs.linear_system.configure`)
-    with the validated actuator ``fault_configs`` as :func:`_nominal_faults` lays them out."""
+    with the validated actuator ``fault_configs`` as :func:`_nominal_faults` lays them out and,
+    under flight conditions, the flight numbers and the ``state`` sensor's model of its
+    ``layers`` (:func:`~attitude_envs.jax.make.state_layers`; None: the lab's params)."""
     model, held = cfg.model, cfg.decision_model
     n, m = model.n, model.m
 
     def f(v: Any) -> jax.Array:
         return jnp.asarray(np.asarray(v, dtype=float))
+
+    flight = sensors = None
+    if layers is not None and not layers.conditions.is_lab:
+        dtype = jnp.result_type(float)
+        chain = layers.actuator_chain
+        flight = FlightParams(
+            actuators=jact.params_of(None if chain is None else chain.model, m, cfg.control_dt_s, dtype),
+            gain_tolerance=f(layers.gain_tolerance),
+            given=jnp.asarray(False),
+            given_gain=f(np.ones(m)),
+        )
+        config = layers.sensor_layer.config.get("state")
+        sensors = None if config is None else jsens.params_of(config, n, dtype)
 
     return EnvParams(
         plant=PlantParams(A=f(model.A), B=f(model.B), dt_s=f(model.dt_s), action_scale=f(cfg.action_scale)),
@@ -356,19 +514,29 @@ def params_of(cfg: LinearSystemConfig, fault_configs: tuple[dict, ...] = ()) -> 
         disturbance=DisturbanceParams(process_noise_std=f(cfg.process_noise_std)),
         faults=_nominal_faults(fault_configs, m),
         max_steps_in_episode=jnp.asarray(cfg.episode_steps // cfg.decision_steps, jnp.int32),
+        flight=flight,
+        sensors=sensors,
     )
 
 
 def from_keywords(plant: str, kwargs: dict[str, Any]) -> tuple[LinearSystemEnv, EnvParams]:
     """The JAX ``plant`` and its ``EnvParams`` for the numba env's keywords ``kwargs``, validated
     as the numba env validates them (no numba env is built). A ``ValueError`` names what the
-    JAX plant does not model (``sensors``, sensor faults, flight conditions)."""
+    JAX plant does not model (``sensors`` in the lab, sensor faults)."""
     check_keywords(NumbaLinearSystemEnv, kwargs)
     cfg = configure({**keyword_defaults(NumbaLinearSystemEnv), **kwargs})
     n, m, k = cfg.model.n, cfg.model.m, cfg.decision_steps
-    layer = lab_layers(plant, cfg, cfg.action_scale, n)
+    layers = chain = None
+    if cfg.conditions.is_lab:
+        layer = state_layers(plant, cfg, cfg.action_scale, n).fault_layer
+    else:
+        sensors = state_sensor_config(state_scale(cfg.x0_mean, cfg.x0_std), cfg.conditions.sensors)
+        layers = state_layers(plant, cfg, cfg.action_scale, n, sensors, cfg.control_dt_s)
+        layer = layers.fault_layer
+        model = None if layers.actuator_chain is None else layers.actuator_chain.model
+        chain = jact.layout_of(model, cfg.conditions.delay_steps, bool(layers.gain_tolerance.any()))
     configs = tuple(dict(c) for c in layer.configs)
-    params = params_of(cfg, configs)
+    params = params_of(cfg, configs, layers)
     env = LinearSystemEnv(
         n,
         m,
@@ -379,5 +547,7 @@ def from_keywords(plant: str, kwargs: dict[str, Any]) -> tuple[LinearSystemEnv, 
         fault_configs=configs,
         redraw_faults=any(jfaults.draws_per_episode(c) for c in configs),
         obs_bound=float(np.float32(cfg.obs_bound)),
+        flight=chain,
+        sensors=params.sensors is not None,
     )
     return env, params

@@ -30,10 +30,32 @@ episode_duration_s − 1e-9·control_dt_s`` (``max_steps_in_episode``) and termi
 non-finite state or ``max|ω_bo| > max_rate_rad_s``, the latter charged
 :func:`attitude_envs.jax.cost.termination_charge` at the step's end time.
 
-Modeled: every keyword of the numba env except ``sensors`` and sensor-target faults,
-``field_model="igrf"`` (the IGRF table needs ``ppigrf`` on the host per episode) and an
-``inertia_uncertainty`` that could make ``I + ΔJ(t)`` indefinite (the numba env raises at
-such a reset); :func:`from_env` raises a ``ValueError`` naming them. Episode draws (orbit
+Flight conditions (``conditions=``, :mod:`attitude_envs.conditions`) as the numba env models
+them: the delay and the actuator dynamics (the dipoles' 8-bit resolution and 80 % duty cycle,
+the magnetometer sampling while the torquers are off; the wheel's resolution, lag and
+friction against its speed, which adds to the body torque ``T_w``) act between the command
+and the plant as :meth:`attitude_envs.actuator_dynamics.ActuatorChain.deliver`
+(:mod:`attitude_envs.jax.actuators`; the faults between its command and output stages, the
+chain's runtime state in ``EnvState.flight``). ``reset_env`` draws the episode's true inertia
+(principal moments and axes within the flight tolerances, unless ``inertia_uncertainty``
+draws it) and the actuators' scale factors from a key folded off its own, so the start,
+orbit phase, disturbance and faults are the lab episode's of the same key (the numba env's
+law, not its draws); the inertia goes into ``EnvState.inertia_kg_m2`` as the lab's dispersion
+does, the gains into ``EnvState.flight``. The flight sensors (gyro: ω_bi; star tracker: the
+attitude; tachometer; magnetometer: the body field) sample at reset and at each step's end
+(:mod:`attitude_envs.jax.sensors`, from keys folded off the reset's and the step's); the
+observation is then built from the readings (``ω_bo = gyro − R(q_m) ω_oi``, the measured field
+with ``observe_field``), as the numba env's, while the cost, the limits and ``info`` stay the
+truth's. :func:`with_drawn_parameters` gives a numba episode's draws to the reset instead (the
+x64 equality tests). In the lab ``flight`` and ``sensors`` are None in the env, its params and
+its state, and the compiled step is the lab's.
+
+Modeled: every keyword of the numba env except a ``sensors`` keyword in the lab (sensors
+only as flight conditions' sensors, which an explicit ``sensors`` dict may replace) and
+sensor-target faults, ``field_model="igrf"`` (the IGRF table needs ``ppigrf`` on the host per
+episode) and an ``inertia_uncertainty`` or flight inertia draw that could make ``I + ΔJ(t)``
+indefinite (the numba env raises at such a reset); :func:`from_env` raises a ``ValueError``
+naming them. Episode draws (orbit
 start, regulation attitude and rate, inertia dispersion, sinusoid phases, fault draws) follow
 the numba env's laws with ``jax.random`` (the same laws, not the same draws; the inertia
 dispersion takes the first of :data:`MOMENT_CANDIDATES` draws that meets the triangle
@@ -44,7 +66,9 @@ rejected (the numba env raises): it makes the state non-finite, which terminates
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 import jax
@@ -52,10 +76,13 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
+from attitude_envs.envs.base import build_layers
 from attitude_envs.faults import ActuatorFaults
+from attitude_envs.jax import actuators as jact
 from attitude_envs.jax import cost as jcost
 from attitude_envs.jax import faults as jfaults
 from attitude_envs.jax import quaternion as jq
+from attitude_envs.jax import sensors as jsens
 from attitude_envs.jax.environment import Environment
 from attitude_envs.jax.ops import JAX
 from attitude_envs.jax.spaces import Box
@@ -66,6 +93,77 @@ N_ACTUATORS = 4  # m_x, m_y, m_z (A·m²), wheel torque (N·m)
 _PLANT = define(JAX)
 N_SENSOR_FLAGS = 4  # gyro, star tracker, tachometer, magnetometer: never faulted here
 _UNCERTAINTY_CODES = {None: 0, "fixed": 1, "random": 2}
+#: the sensor channels, in the numba env's order: (name, axes of its error, attitude)
+_CHANNELS = (("gyro", 3, False), ("star_tracker", 3, True), ("tachometer", 1, False), ("magnetometer", 3, False))
+
+
+@dataclass(frozen=True)
+class FlightLayout:
+    """What the flight conditions (:mod:`attitude_envs.conditions`) switch on in the compiled
+    program (static): the ``actuators`` chain's layout
+    (:class:`attitude_envs.jax.actuators.ActuatorLayout`: delay, actuator dynamics, gains),
+    ``parameters`` (the true parameters are drawn per episode: the reset takes given draws,
+    :func:`with_drawn_parameters`) and ``draw_inertia`` (the flight tolerances draw the true
+    inertia: not with an ``inertia_uncertainty``, which then draws it)."""
+
+    actuators: jact.ActuatorLayout
+    parameters: bool = False
+    draw_inertia: bool = False
+
+
+@struct.dataclass
+class FlightParams:
+    """The flight conditions' numbers: the ``actuators`` chain
+    (:class:`attitude_envs.jax.actuators.ActuatorParams`; m_x, m_y, m_z in A·m², the wheel in
+    N·m), the tolerances the true inertia is drawn within (``inertia_moment``: relative, on
+    each principal moment; ``inertia_axis_deg``: the principal axes' rotation, deg) and each
+    actuator's scale-factor ``gain_tolerance`` (relative). ``given``: the reset takes the
+    ``given_*`` draws (a numba episode's: :func:`with_drawn_parameters`) instead: the true
+    ``given_inertia_kg_m2`` (kg·m²), its ``given_inertia_eff_inv`` (1/(kg·m²)), ``given_gain``."""
+
+    actuators: jact.ActuatorParams
+    inertia_moment: jax.Array
+    inertia_axis_deg: jax.Array
+    gain_tolerance: jax.Array
+    given: jax.Array
+    given_inertia_kg_m2: jax.Array
+    given_inertia_eff_inv: jax.Array
+    given_gain: jax.Array
+
+
+@struct.dataclass
+class FlightState:
+    """An episode's flight state: the actuator chain's runtime state ``actuators`` (delay
+    line, rate limiter, lag) and the actuators' scale-factor ``gain`` (4; None: ones)."""
+
+    actuators: jact.ActuatorState
+    gain: jax.Array | None = None
+
+
+@struct.dataclass
+class SensorParams:
+    """The modeled sensors (:mod:`attitude_envs.jax.sensors`): one
+    :class:`~attitude_envs.jax.sensors.ChannelParams` per configured channel (None: the
+    channel measures the truth): ``gyro`` (ω_bi, rad/s), ``star_tracker`` (the attitude; its
+    errors a body rotation vector, rad), ``tachometer`` (Ω, rad/s), ``magnetometer`` (the body
+    field, T)."""
+
+    gyro: jsens.ChannelParams | None = None
+    star_tracker: jsens.ChannelParams | None = None
+    tachometer: jsens.ChannelParams | None = None
+    magnetometer: jsens.ChannelParams | None = None
+
+
+@struct.dataclass
+class SensorState:
+    """The sensors' runtime state: per configured channel its bias, last sample and sample
+    time; ``t_last``, the last observation's time (s)."""
+
+    t_last: jax.Array
+    gyro: jsens.ChannelState | None = None
+    star_tracker: jsens.ChannelState | None = None
+    tachometer: jsens.ChannelState | None = None
+    magnetometer: jsens.ChannelState | None = None
 
 
 @struct.dataclass
@@ -80,7 +178,9 @@ class EnvState:
       ``inertia_eff_inv`` (its ``(I − J_w e_y e_yᵀ)⁻¹``, 1/(kg·m²));
     * ``disturbance`` (3): the held torque (constant, random walk; N·m) or the sinusoid's
       phases (rad) this episode;
-    * ``faults``: the episode's realized actuator faults, ``fault_state`` their runtime state.
+    * ``faults``: the episode's realized actuator faults, ``fault_state`` their runtime state;
+    * ``flight``: the flight conditions' actuator chain and gains (None in the lab);
+      ``sensors``: the flight sensors' state (None: the truth is observed).
     """
 
     time: jax.Array
@@ -93,6 +193,8 @@ class EnvState:
     disturbance: jax.Array
     faults: jfaults.FaultParams
     fault_state: jfaults.FaultState
+    flight: FlightState | None = None
+    sensors: SensorState | None = None
 
 
 @struct.dataclass
@@ -131,7 +233,9 @@ class EnvParams:
       ``principal_axes`` (of the nominal inertia), ``moment_scale``, ``axis_angle_deg``
       (random: :class:`attitude_envs.uncertainty.InertiaUncertainty`);
     * ``faults``: the actuator faults of every episode (an env with ``redraw_faults`` draws
-      each episode's from its fault configs instead, as the numba env does).
+      each episode's from its fault configs instead, as the numba env does);
+    * ``flight``: the flight conditions' actuator chain and draws (None in the lab);
+      ``sensors``: the flight sensors (None: the truth is observed).
     """
 
     inertia_kg_m2: jax.Array
@@ -190,6 +294,8 @@ class EnvParams:
     axis_angle_deg: jax.Array
     faults: jfaults.FaultParams
     max_steps_in_episode: jax.Array
+    flight: FlightParams | None = None
+    sensors: SensorParams | None = None
 
 
 class Context(NamedTuple):
@@ -274,6 +380,14 @@ def reference(ref: jax.Array, t_s: jax.Array) -> tuple[jax.Array, jax.Array]:
     qw = jnp.where(t_s >= ref[K.REF_TF], held_end, qw)
     qw = jnp.where(jnp.logical_or(ref[K.REF_CONST] != 0.0, t_s <= 0.0), held_start, qw)
     return qw[:4], qw[4:]
+
+
+def _orbit_rate_in_body(q: jax.Array, orbit_rate: jax.Array) -> jax.Array:
+    """``R ω_oi`` (rad/s, body axes) with ``ω_oi = [0, −ν̇, 0]`` (eq. 3) for the attitude ``q``
+    and the orbit rate ν̇ ``orbit_rate``: ``R``'s second column times −ν̇ (the numba kernel's
+    snapshot)."""
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    return jnp.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)]) * (-orbit_rate)
 
 
 def _inverse3(m):
@@ -408,13 +522,15 @@ class MagnetorquerEnv(Environment):
     (it appends 8 active-fault flags: m_x, m_y, m_z, wheel, then 4 sensor channels, never
     faulted here), ``random_walk`` (the held disturbance torque takes a random-walk
     increment per step, drawn from the step's key), the fault configs (``fault_configs``;
-    ``redraw_faults``: draw each episode's faults from them), the observation bounds.
+    ``redraw_faults``: draw each episode's faults from them), the observation bounds,
+    ``flight`` (:class:`FlightLayout`, None in the lab) and ``sensors`` (the modeled sensor
+    channels; empty: the truth is observed).
 
     Action: ``Box(-1, 1, (4,))``, clipped: ``m = a[:3] · max_dipole_am2`` (A·m²),
     ``T_w = a[3] · max_wheel_torque_nm`` (N·m, on the body about +y). Observation (compute
     dtype): ``[q_e,vec (3), ω_e (3, rad/s), Ω/1000 (krad/s)]``, then ``b_body / 5e-5 T`` (3)
-    with ``observe_field``, then the hint flags; zeros when the state is not finite.
-    Reward ``−∫ (xᵀQx + uᵀRu) dt`` over the step, minus the termination charge."""
+    with ``observe_field``, then the hint flags; zeros when the state is not finite. With
+    sensors, of the readings. Reward ``−∫ (xᵀQx + uᵀRu) dt`` over the step, minus the termination charge."""
 
     def __init__(
         self,
@@ -428,6 +544,8 @@ class MagnetorquerEnv(Environment):
         redraw_faults: bool = False,
         obs_low: np.ndarray | None = None,
         obs_high: np.ndarray | None = None,
+        flight: FlightLayout | None = None,
+        sensors: tuple[str, ...] = (),
     ) -> None:
         self.n_substeps = int(n_substeps)
         self.observe_field = bool(observe_field)
@@ -439,6 +557,10 @@ class MagnetorquerEnv(Environment):
         self.obs_size = 7 + (3 if self.observe_field else 0) + (N_ACTUATORS + N_SENSOR_FLAGS if self.fault_hint else 0)
         self.obs_low = np.full(self.obs_size, -np.inf) if obs_low is None else np.asarray(obs_low, float)
         self.obs_high = np.full(self.obs_size, np.inf) if obs_high is None else np.asarray(obs_high, float)
+        #: the flight conditions' static layout (None: the lab, the step and reset unchanged)
+        self.flight = flight
+        #: the sensor channels modeled (empty: the truth is observed)
+        self.sensors = tuple(sensors)
         self._default_params = default_params
 
     @property
@@ -450,26 +572,91 @@ class MagnetorquerEnv(Environment):
         return "Magnetorquer"
 
     # ------------------------------------------------------------------ observation
-    def _observe(self, state: EnvState, q_d: jax.Array, w_d: jax.Array, field, t_s: jax.Array) -> jax.Array:
+    def _observe(
+        self, state: EnvState, q_d: jax.Array, w_d: jax.Array, field, t_s: jax.Array, body_field=None
+    ) -> jax.Array:
         """The observation of ``state`` at ``t_s`` with the reference ``q_d``, ``w_d`` and the
-        orbital-frame ``field`` (T; read with ``observe_field`` only) of that time."""
+        orbital-frame ``field`` (T; read with ``observe_field`` only) of that time, or the
+        ``body_field`` (T) when given (a magnetometer's reading)."""
         x, _ = error_state(state.attitude, state.rate_rad_s, q_d, w_d)
         parts = [x, state.wheel_speed_rad_s / K.WHEEL_SPEED_SCALE_RAD_S]
         if self.observe_field:
-            q = state.attitude
-            b = _PLANT.body_vector(q[0], q[1], q[2], q[3], field[0], field[1], field[2])
-            parts.append(jnp.stack(b) / K.FIELD_SCALE_T)
+            if body_field is None:
+                q = state.attitude
+                b = jnp.stack(_PLANT.body_vector(q[0], q[1], q[2], q[3], field[0], field[1], field[2]))
+            else:
+                b = body_field
+            parts.append(b / K.FIELD_SCALE_T)
         if self.fault_hint:
             flags = jfaults.active_flags(state.faults, t_s, N_ACTUATORS).astype(x.dtype)
             parts += [flags, jnp.zeros(N_SENSOR_FLAGS, x.dtype)]
         return jnp.concatenate(parts)
 
     def observation(self, state: EnvState, params: EnvParams) -> jax.Array:
-        """The observation of ``state`` at its time ``time · control_dt_s``."""
+        """The observation of ``state`` at its time ``time · control_dt_s`` (with sensors, of
+        their last readings)."""
         t_s = state.time.astype(state.rate_rad_s.dtype) * params.control_dt_s
         q_d, w_d = reference(params.reference, t_s)
+        if self.sensors:
+            rate, _, _, field = orbit_field(params, state.mean_anomaly0_rad, t_s)
+            return self._observe_readings(state, self.readings(state, rate, field), q_d, w_d, rate, t_s)
         field = orbit_field(params, state.mean_anomaly0_rad, t_s)[3] if self.observe_field else None
         return self._observe(state, q_d, w_d, field, t_s)
+
+    # ------------------------------------------------------------------ sensors
+    def _truths(self, state: EnvState, orbit_rate: jax.Array, field: jax.Array) -> dict[str, jax.Array]:
+        """What each sensor channel measures in ``state``, given the orbit rate ν̇ (rad/s) and
+        the orbital-frame field (3, T) of its time: ω_bi = ω_bo + R ω_oi (rad/s), the attitude,
+        Ω (rad/s), the body field ``R b_o`` (T) (the numba kernel's snapshot)."""
+        q = state.attitude
+        x, y, z, w = q[0], q[1], q[2], q[3]
+        return {
+            "gyro": state.rate_rad_s + _orbit_rate_in_body(q, orbit_rate),
+            "star_tracker": q,
+            "tachometer": state.wheel_speed_rad_s,
+            "magnetometer": jnp.stack(_PLANT.body_vector(x, y, z, w, field[0], field[1], field[2])),
+        }
+
+    def _measure(
+        self, key: jax.Array, p: SensorParams, s: SensorState, truths: dict[str, jax.Array], t_s: jax.Array
+    ) -> SensorState:
+        """The sensors' next state after sampling ``truths`` at ``t_s`` (s)
+        (:meth:`attitude_envs.sensors.SensorSuite.measure`'s law; :func:`jsens.measure` per channel)."""
+        for i, (name, _, attitude) in enumerate(_CHANNELS):
+            cp = getattr(p, name)
+            if cp is not None:
+                k = jax.random.fold_in(key, i)
+                _, cs = jsens.measure(k, cp, getattr(s, name), truths[name], t_s, s.t_last, attitude)
+                s = s.replace(**{name: cs})
+        return s.replace(t_last=t_s)
+
+    def readings(self, state: EnvState, orbit_rate: jax.Array, field: jax.Array) -> dict[str, jax.Array]:
+        """The sensors' last readings of ``state`` (a channel not modeled reads the truth,
+        :meth:`_truths`, at the state's orbit rate ν̇ and orbital-frame field)."""
+        truths = self._truths(state, orbit_rate, field)
+        if state.sensors is None:
+            return truths
+        return {
+            name: truths[name] if getattr(state.sensors, name) is None else getattr(state.sensors, name).last
+            for name, _, _ in _CHANNELS
+        }
+
+    def _observe_readings(
+        self,
+        state: EnvState,
+        readings: dict[str, jax.Array],
+        q_d: jax.Array,
+        w_d: jax.Array,
+        orbit_rate: jax.Array,
+        t_s: jax.Array,
+    ) -> jax.Array:
+        """The observation built from sensor ``readings`` as the numba env's: the error state of
+        the star tracker's attitude and ``ω_bo = gyro − R(q_m) ω_oi`` (ν̇ ``orbit_rate``), the
+        tachometer's Ω and the magnetometer's field."""
+        q_m = readings["star_tracker"]
+        rate = readings["gyro"] - _orbit_rate_in_body(q_m, orbit_rate)
+        measured = state.replace(attitude=q_m, rate_rad_s=rate, wheel_speed_rad_s=readings["tachometer"])
+        return self._observe(measured, q_d, w_d, None, t_s, body_field=readings["magnetometer"])
 
     # ------------------------------------------------------------------ dynamics
     def control_step(
@@ -535,9 +722,11 @@ class MagnetorquerEnv(Environment):
 
     def step_env(self, key: jax.Array, state: EnvState, action: jax.Array, params: EnvParams):
         """One decision: clip the action to [-1, 1] and scale it to ``[m, T_w]``, apply the
-        actuator faults at the step's start time, move a random-walk disturbance on, advance
-        ``n_substeps`` RK4 sub-steps, charge the step's cost (plus the termination charge on a
-        finite step with ``max|ω_bo| > max_rate_rad_s``). Reward ``−cost``."""
+        actuator faults at the step's start time (under flight conditions between the
+        actuator chain's command and output stages), move a random-walk disturbance on,
+        advance ``n_substeps`` RK4 sub-steps, charge the step's cost (plus the termination
+        charge on a finite step with ``max|ω_bo| > max_rate_rad_s``), sample the sensors at the
+        step's end. Reward ``−cost``."""
         dtype = state.rate_rad_s.dtype
         key_fault, key_dist = jax.random.split(key) if self.random_walk else (key, key)
         limits = jnp.stack(
@@ -547,10 +736,20 @@ class MagnetorquerEnv(Environment):
         t0 = state.time.astype(dtype) * params.control_dt_s
         time = state.time + 1
         t1 = time.astype(dtype) * params.control_dt_s
+        fl, flight = self.flight, state.flight
+        command = commanded
+        if fl is not None:  # ActuatorChain.deliver: delay, resolution, rate limit, then the faults
+            command, actuators = jact.command(fl.actuators, params.flight.actuators, flight.actuators, commanded)
         if state.faults.kind.shape[-1]:
-            delivered, fault_state = jfaults.apply(state.faults, state.fault_state, key_fault, commanded, t0, limits)
+            delivered, fault_state = jfaults.apply(state.faults, state.fault_state, key_fault, command, t0, limits)
         else:
-            delivered, fault_state = commanded, state.fault_state
+            delivered, fault_state = command, state.fault_state
+        if fl is not None:  # lag, gain and duty cycle, wheel friction (against −Ω: T_w acts on the body)
+            speeds = jnp.concatenate([jnp.zeros(3, dtype), -state.wheel_speed_rad_s])
+            delivered, actuators = jact.output(
+                fl.actuators, params.flight.actuators, actuators, delivered, flight.gain, speeds
+            )
+            flight = flight.replace(actuators=actuators)
         state = state.replace(disturbance=self.advance_disturbance(key_dist, state.disturbance, params))
         y, cost, applied, ctx_end = self.control_step(state, delivered, t0, t1, params)
         new_state = state.replace(
@@ -559,9 +758,21 @@ class MagnetorquerEnv(Environment):
             rate_rad_s=y[4:7],
             wheel_speed_rad_s=y[7:],
             fault_state=fault_state,
+            flight=flight,
         )
-        obs = self._observe(new_state, ctx_end.q_d, ctx_end.w_d, ctx_end.field, t1)
+        if not self.sensors:  # traced before ``finite``, as the lab's program always was
+            obs = self._observe(new_state, ctx_end.q_d, ctx_end.w_d, ctx_end.field, t1)
         finite = jnp.isfinite(cost) & jnp.all(jnp.isfinite(y))
+        if self.sensors:  # sampled at the step's end, kept when the state is finite (the numba env's _measure)
+            truths = self._truths(new_state, ctx_end.rate, ctx_end.field)
+            sampled = self._measure(
+                jax.random.fold_in(key, jsens.SENSOR_STREAM), params.sensors, state.sensors, truths, t1
+            )
+            new_state = new_state.replace(
+                sensors=jax.tree.map(lambda a, b: jnp.where(finite, a, b), sampled, state.sensors)
+            )
+            readings = self.readings(new_state, ctx_end.rate, ctx_end.field)
+            obs = self._observe_readings(new_state, readings, ctx_end.q_d, ctx_end.w_d, ctx_end.rate, t1)
         crossed = jnp.any(jnp.stack(_PLANT.limit_rows(y[4], y[5], y[6], params.max_rate_rad_s)) > 0.0)
         terminated = jnp.logical_not(finite) | crossed
         x_end, _ = error_state(new_state.attitude, new_state.rate_rad_s, ctx_end.q_d, ctx_end.w_d)
@@ -579,7 +790,9 @@ class MagnetorquerEnv(Environment):
         with ``regulation`` q_d(0) ⊗ a rotation about a uniform axis by an angle uniform in
         [0, ``initial_angle_deg``]), ω_bo uniform in ±``initial_rate_max_rad_s``, Ω = 0, the
         sinusoid's phases (uniform in [0, 2π) when random), the faults (``params.faults``, or
-        drawn from the configs with ``redraw_faults``) and their runtime state."""
+        drawn from the configs with ``redraw_faults``) and their runtime state; under flight
+        conditions the actuator chain at rest, the true inertia and the gains drawn from a
+        folded key (:meth:`_draw_flight`) and the sensors' biases and first sample."""
         dtype = params.reference.dtype
         # two draws for everything but the faults (few random-number programs to compile)
         k_uniform, k_normal, k_moments, k_faults, k_fault_state = jax.random.split(key, 5)
@@ -608,11 +821,61 @@ class MagnetorquerEnv(Environment):
             faults=faults,
             fault_state=jfaults.initial_state(k_fault_state, faults),
         )
+        if self.flight is not None:
+            state = self._draw_flight(jax.random.fold_in(key, jact.FLIGHT_STREAM), state, params)
         # the observation at t = 0: the reference is held at its start
         t0 = jnp.zeros((), dtype)
         held = params.reference[K.REF_HELD_START : K.REF_HELD_START + 7]
+        if self.sensors:  # the biases drawn and the first sample at t = 0
+            orbit_rate, _, _, field = orbit_field(params, state.mean_anomaly0_rad, t0)
+            truths = self._truths(state, orbit_rate, field)
+            k_bias, k_measure = jax.random.split(jax.random.fold_in(key, jsens.SENSOR_STREAM))
+            start = SensorState(t_last=t0)
+            for i, (name, _, _) in enumerate(_CHANNELS):
+                cp = getattr(params.sensors, name)
+                if cp is not None:
+                    cs = jsens.initial_state(jax.random.fold_in(k_bias, i), cp, truths[name])
+                    start = start.replace(**{name: cs})
+            state = state.replace(sensors=self._measure(k_measure, params.sensors, start, truths, t0))
+            readings = self.readings(state, orbit_rate, field)
+            return self._observe_readings(state, readings, held[:4], held[4:], orbit_rate, t0), state
         field = orbit_field(params, state.mean_anomaly0_rad, t0)[3] if self.observe_field else None
         return self._observe(state, held[:4], held[4:], field, t0), state
+
+    def _draw_flight(self, key: jax.Array, state: EnvState, params: EnvParams) -> EnvState:
+        """``state`` with its flight state: the actuator chain at rest and, with the parameters
+        drawn, the true inertia (principal moments within ``1 ± inertia_moment``, axes turned by
+        up to ``inertia_axis_deg``: :meth:`attitude_envs.uncertainty.InertiaUncertainty.draw`'s
+        law, as the numba env's flight draw) and the actuators' gains ``1 + U(−tol, tol)``, from
+        ``key`` (not the numba env's draws), or the params' ``given_*`` draws."""
+        fl, fp = self.flight, params.flight
+        dtype = params.reference.dtype
+        flight = FlightState(actuators=jact.initial_state(fl.actuators, N_ACTUATORS, dtype))
+        if not fl.parameters:
+            return state.replace(flight=flight)
+        k_moments, k_uniform, k_normal = jax.random.split(key, 3)
+        u = jax.random.uniform(k_uniform, (1 + N_ACTUATORS,), dtype)
+        inertia, eff_inv = state.inertia_kg_m2, state.inertia_eff_inv
+        if fl.draw_inertia:
+            axis = jax.random.normal(k_normal, (3,), dtype)
+            inertia, eff_inv = _random_inertia(
+                k_moments,
+                u[0],
+                axis,
+                params.principal_moments,
+                params.principal_axes,
+                fp.inertia_moment,
+                fp.inertia_axis_deg,
+                params.wheel_inertia_kg_m2,
+            )
+        if fl.actuators.gain:
+            gain = 1.0 + fp.gain_tolerance * (2.0 * u[1:] - 1.0)
+            flight = flight.replace(gain=jnp.where(fp.given, fp.given_gain, gain))
+        return state.replace(
+            inertia_kg_m2=jnp.where(fp.given, fp.given_inertia_kg_m2, inertia),
+            inertia_eff_inv=jnp.where(fp.given, fp.given_inertia_eff_inv, eff_inv),
+            flight=flight,
+        )
 
     # ------------------------------------------------------------------ spaces
     def action_space(self, params: EnvParams | None = None) -> Box:
@@ -628,10 +891,30 @@ class MagnetorquerEnv(Environment):
     def state_from(self, numba_env: Any, key: jax.Array | None = None) -> EnvState:
         """The JAX state of the numba env's current episode: the physical state, decisions
         taken, the episode's draws (orbit phase, true inertia, disturbance entry) and its
-        realized actuator faults with their runtime state. An intermittent fault not yet
+        realized actuator faults with their runtime state and, under flight conditions, its
+        drawn gains with the actuator chain at rest (its delay line and lag state are not
+        public: a ``ValueError`` after the first step with a delay or actuator dynamics; one for
+        an env with sensors, whose samples are not public either). An intermittent fault not yet
         evaluated gets its first switch time drawn with ``key`` (default ``PRNGKey(0)``)
         from the same law. ``numba_env`` may be wrapped (``gym.make``'s env)."""
         numba_env = getattr(numba_env, "unwrapped", numba_env)
+        if self.sensors:
+            raise ValueError(
+                "state_from does not take an env with sensors: the numba sensor layer's samples and sample times "
+                "are not public (reset the JAX env instead)"
+            )
+        flight = None
+        if self.flight is not None:
+            chain = self.flight.actuators
+            if numba_env.steps_taken and (chain.delay_steps or chain.model):
+                raise ValueError(
+                    "state_from takes a flight env with a delay or actuator dynamics only right after its reset "
+                    f"(the actuator chain at rest), got steps_taken={numba_env.steps_taken}"
+                )
+            flight = FlightState(actuators=jact.initial_state(chain, N_ACTUATORS, jnp.result_type(float)))
+            if chain.gain:
+                gain = np.asarray(numba_env.drawn_parameters()["actuator_gain"], dtype=float)
+                flight = flight.replace(gain=jnp.asarray(gain))
         realized = numba_env.fault_layer.realized
         if len(realized) > self.n_faults:
             raise ValueError(
@@ -656,6 +939,7 @@ class MagnetorquerEnv(Environment):
             disturbance=f(ep[K.EN_DIST : K.EN_DIST + 3]),
             faults=faults,
             fault_state=fault_state,
+            flight=flight,
         )
 
 
@@ -673,21 +957,16 @@ def _draw_inertia(
     draws that meets the triangle inequality (the law of the numba env's redraw loop; the
     nominal moments if none does), and the principal axes turned by ``axis`` (N(0, I)) by
     ``u_angle · axis_angle_deg`` (``u_angle`` uniform in [0, 1])."""
-    dtype = params.principal_moments.dtype
-    scale = 1.0 + (2.0 * jax.random.uniform(key, (MOMENT_CANDIDATES, 3), dtype) - 1.0) * params.moment_scale
-    drawn = params.principal_moments * scale
-    d0, d1, d2 = drawn[:, 0], drawn[:, 1], drawn[:, 2]
-    ok = jnp.where(
-        (d2 >= d0) & (d2 >= d1), d0 + d1 >= d2, jnp.where(d1 >= d0, d0 + d2 >= d1, d1 + d2 >= d0)
-    )  # the two smaller moments sum to at least the largest
-    moments = jnp.where(jnp.any(ok), drawn[jnp.argmax(ok)], params.principal_moments)
-    rot = (
-        orbital_to_body(jq.from_axis_angle(axis, jnp.deg2rad(u_angle * params.axis_angle_deg))).T
-        @ params.principal_axes
+    inertia, inertia_inv = _random_inertia(
+        key,
+        u_angle,
+        axis,
+        params.principal_moments,
+        params.principal_axes,
+        params.moment_scale,
+        params.axis_angle_deg,
+        params.wheel_inertia_kg_m2,
     )
-    inertia = rot @ jnp.diag(moments) @ rot.T
-    inertia = 0.5 * (inertia + inertia.T)
-    inertia_inv = _inverse3(inertia.at[1, 1].add(-params.wheel_inertia_kg_m2))
     code = params.uncertainty_code
     inertia = jnp.where(
         code == 2, inertia, jnp.where(code == 1, params.uncertainty_inertia_kg_m2, params.inertia_kg_m2)
@@ -696,6 +975,36 @@ def _draw_inertia(
         code == 2, inertia_inv, jnp.where(code == 1, params.uncertainty_eff_inv, params.inertia_eff_inv)
     )
     return inertia, eff_inv
+
+
+def _random_inertia(
+    key: jax.Array,
+    u_angle: jax.Array,
+    axis: jax.Array,
+    principal_moments: jax.Array,
+    principal_axes: jax.Array,
+    moment_scale: jax.Array,
+    axis_angle_deg: jax.Array,
+    wheel_inertia_kg_m2: jax.Array,
+) -> tuple[jax.Array, jax.Array]:
+    """A random true inertia (kg·m²) and its ``I_eff⁻¹`` (1/(kg·m²)) by
+    :meth:`attitude_envs.uncertainty.InertiaUncertainty.draw`'s law: the ``principal_moments``
+    scaled by ``1 + U(−s, s)`` (``s = moment_scale``), the first of :data:`MOMENT_CANDIDATES`
+    draws from ``key`` that meets the triangle inequality (the nominal moments if none does),
+    and the ``principal_axes`` turned about ``axis`` (N(0, I)) by ``u_angle · axis_angle_deg``
+    (``u_angle`` uniform in [0, 1])."""
+    dtype = principal_moments.dtype
+    scale = 1.0 + (2.0 * jax.random.uniform(key, (MOMENT_CANDIDATES, 3), dtype) - 1.0) * moment_scale
+    drawn = principal_moments * scale
+    d0, d1, d2 = drawn[:, 0], drawn[:, 1], drawn[:, 2]
+    ok = jnp.where(
+        (d2 >= d0) & (d2 >= d1), d0 + d1 >= d2, jnp.where(d1 >= d0, d0 + d2 >= d1, d1 + d2 >= d0)
+    )  # the two smaller moments sum to at least the largest
+    moments = jnp.where(jnp.any(ok), drawn[jnp.argmax(ok)], principal_moments)
+    rot = orbital_to_body(jq.from_axis_angle(axis, jnp.deg2rad(u_angle * axis_angle_deg))).T @ principal_axes
+    inertia = rot @ jnp.diag(moments) @ rot.T
+    inertia = 0.5 * (inertia + inertia.T)
+    return inertia, _inverse3(inertia.at[1, 1].add(-wheel_inertia_kg_m2))
 
 
 # ----------------------------------------------------------------------------- from the numba env
@@ -713,14 +1022,19 @@ def max_steps(duration_s: float, control_dt_s: float) -> int:
 
 def from_env(numba_env: Any) -> tuple[MagnetorquerEnv, EnvParams]:
     """The JAX plant and its ``EnvParams`` of a numba
-    :class:`~attitude_envs.envs.magnetorquer.MagnetorquerEnv` (unwrapped, as built). A
-    one-line ``ValueError`` names what the JAX plant does not model: ``sensors`` and sensor
-    faults, ``field_model='igrf'``, an ``inertia_uncertainty`` that could make ``I + ΔJ(t)``
-    indefinite."""
+    :class:`~attitude_envs.envs.magnetorquer.MagnetorquerEnv` (unwrapped, as built), its flight
+    conditions included. A one-line ``ValueError`` names what the JAX plant does not model:
+    ``sensors`` in the lab (sensors only as flight conditions' sensors) and sensor faults,
+    ``field_model='igrf'``, an ``inertia_uncertainty`` or flight inertia draw that could make
+    ``I + ΔJ(t)`` indefinite."""
     where = "Magnetorquer JAX plant"
     sensors = numba_env.sensor_layer
-    if sensors.config:
-        raise ValueError(f"{where}: keyword 'sensors' is not modeled (the true state is observed)")
+    conditions = numba_env.conditions
+    if sensors.config and conditions.sensors == 0:
+        raise ValueError(
+            f"{where}: keyword 'sensors' is modeled only as flight conditions' sensors (conditions with "
+            "'sensors' > 0); in the lab the true state is observed"
+        )
     if sensors.fault_configs:
         raise ValueError(f"{where}: 'faults' with target 'sensor' are not modeled (actuator faults only)")
     if numba_env.field.model == "igrf":
@@ -748,6 +1062,14 @@ def from_env(numba_env: Any) -> tuple[MagnetorquerEnv, EnvParams]:
             )
     if unc is not None and unc.kind == "fixed":
         unc_inertia = np.asarray(unc.inertia_kg_m2, dtype=float)
+    flight_layout, flight_params = _flight_of(numba_env, moments)
+    if dj is not None and flight_layout is not None and flight_layout.draw_inertia:
+        if float(np.min(moments)) * (1.0 - float(flight_params.inertia_moment)) <= float(np.max(dj.amplitude_kg_m2)):
+            raise ValueError(
+                f"{where}: flight conditions' inertia draw (parameters={conditions.parameters}) with "
+                "time_varying_inertia is not modeled where a draw could make I + ΔJ(t) indefinite (the numba env "
+                "raises at such a reset)"
+            )
     eff = unc_inertia.copy()
     eff[1, 1] -= p.wheel_inertia_kg_m2
     anomaly = draws["mean_anomaly_deg"]
@@ -831,6 +1153,8 @@ def from_env(numba_env: Any) -> tuple[MagnetorquerEnv, EnvParams]:
         max_steps_in_episode=jnp.asarray(
             max_steps(float(numba_env.episode_duration_s), float(numba_env.control_dt_s)), jnp.int32
         ),
+        flight=flight_params,
+        sensors=_sensor_params(sensors.config),
     )
     space = numba_env.observation_space
     env = MagnetorquerEnv(
@@ -843,5 +1167,103 @@ def from_env(numba_env: Any) -> tuple[MagnetorquerEnv, EnvParams]:
         redraw_faults=any(jfaults.draws_per_episode(c) for c in configs),
         obs_low=np.asarray(space.low, dtype=float),
         obs_high=np.asarray(space.high, dtype=float),
+        flight=flight_layout,
+        sensors=tuple(name for name, _, _ in _CHANNELS if name in sensors.config),
     )
     return env, params
+
+
+def _flight_of(numba_env: Any, principal_moments: np.ndarray) -> tuple[FlightLayout | None, FlightParams | None]:
+    """The static layout and the params of the numba env's flight conditions (None, None in the
+    lab): its actuator chain and gain tolerances as :func:`attitude_envs.envs.base.build_layers`
+    builds them for it, and its flight inertia tolerances (the numba env's ``_flight_inertia_draw``)."""
+    conditions = numba_env.conditions
+    if conditions.is_lab:
+        return None, None
+    p = numba_env.model.params
+    # the numba env's own layer construction (its sensors are read from its sensor layer)
+    layers = build_layers(
+        type(numba_env).env_name,
+        numba_env.preset,
+        n_actuators=N_ACTUATORS,
+        actuator_limits=p.limits,
+        channels=[],
+        faults=None,
+        sensors=None,
+        fault_hint=False,
+        conditions=dataclasses.replace(conditions, sensors=0.0),
+        control_dt_s=numba_env.control_dt_s,
+    )
+    chain, gain_tolerance = layers.actuator_chain, layers.gain_tolerance
+    model = None if chain is None else chain.model
+    scale = conditions.parameters
+    draw_inertia = scale > 0 and numba_env.reset_distribution["inertia_uncertainty"] is None
+    moment, axis = 0.0, 0.0
+    if draw_inertia:
+        table = numba_env.flight_table
+        moment, axis = table.plant_value("inertia_moment") * scale, table.plant_value("inertia_axis_deg") * scale
+    layout = FlightLayout(
+        actuators=jact.layout_of(model, conditions.delay_steps, bool(gain_tolerance.any())),
+        parameters=scale > 0,
+        draw_inertia=draw_inertia,
+    )
+    dtype = jnp.result_type(float)
+
+    def f(v: Any) -> jax.Array:
+        return jnp.asarray(np.asarray(v, dtype=float), dtype=dtype)
+
+    nominal = np.asarray(p.inertia_kg_m2, dtype=float)
+    params = FlightParams(
+        actuators=jact.params_of(model, N_ACTUATORS, numba_env.control_dt_s, dtype),
+        inertia_moment=f(moment),
+        inertia_axis_deg=f(axis),
+        gain_tolerance=f(gain_tolerance),
+        given=jnp.asarray(False),
+        given_inertia_kg_m2=f(nominal),
+        given_inertia_eff_inv=f(p.inertia_eff_inv),
+        given_gain=f(np.ones(N_ACTUATORS)),
+    )
+    return layout, params
+
+
+def _sensor_params(config: dict) -> SensorParams | None:
+    """The :class:`SensorParams` of a validated ``SensorSuite.config`` (None: no sensors)."""
+    if not config:
+        return None
+    dtype = jnp.result_type(float)
+    axes = {name: n for name, n, _ in _CHANNELS}
+    return SensorParams(**{name: jsens.params_of(c, axes[name], dtype) for name, c in config.items()})
+
+
+def with_drawn_parameters(params: EnvParams, drawn: dict) -> EnvParams:
+    """``params`` whose resets take the true inertia and gains ``drawn`` (a numba flight
+    episode's ``env.unwrapped.drawn_parameters()``: ``inertia_kg_m2``, ``actuator_gain`` where
+    drawn) instead of drawing them: the JAX episode of that numba episode's plant (``I_eff⁻¹``
+    computed with numpy as the numba env's ``_pack_env`` does, so bit for bit its). A
+    ``ValueError`` for params without flight conditions or a draw missing."""
+    fp = params.flight
+    if fp is None:
+        raise ValueError("with_drawn_parameters takes the params of a flight env (conditions with parameter draws)")
+    if "inertia_kg_m2" not in drawn:
+        raise ValueError(
+            f"drawn parameters lack 'inertia_kg_m2' (got {sorted(drawn)}): pass env.unwrapped.drawn_parameters()"
+        )
+    inertia = np.asarray(drawn["inertia_kg_m2"], dtype=float)
+    if inertia.shape != (3, 3):
+        raise ValueError(f"drawn inertia_kg_m2 must be 3×3, got shape {inertia.shape}")
+    eff = inertia.copy()
+    eff[1, 1] -= float(params.wheel_inertia_kg_m2)
+    gain = np.asarray(drawn.get("actuator_gain", np.ones(N_ACTUATORS)), dtype=float)
+    dtype = params.reference.dtype
+
+    def f(v: Any) -> jax.Array:
+        return jnp.asarray(np.asarray(v, dtype=float), dtype=dtype)
+
+    return params.replace(
+        flight=fp.replace(
+            given=jnp.asarray(True),
+            given_inertia_kg_m2=f(inertia),
+            given_inertia_eff_inv=f(np.linalg.inv(eff)),
+            given_gain=f(gain),
+        )
+    )

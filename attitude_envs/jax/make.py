@@ -16,9 +16,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from attitude_envs.conditions import Conditions
-from attitude_envs.envs.base import build_layers
-from attitude_envs.faults import ActuatorFaults
+from attitude_envs.envs.base import Layers, build_layers
 from attitude_envs.registration import task_defaults
 from attitude_envs.sensors import Channel
 
@@ -32,9 +30,6 @@ PLANT_MODULES = {
     "LinearSystem": "attitude_envs.jax.linear_system",
 }
 NAMESPACE = "attitude_envs"
-#: the plants whose JAX twin models flight conditions (:mod:`attitude_envs.conditions`): the
-#: delay, the actuator dynamics, the per-episode parameter draws and the flight sensors
-FLIGHT_PLANTS = ("ReactionWheel", "AirBearing")
 
 
 def full_id(env_id: str) -> str:
@@ -61,20 +56,25 @@ def numba_env(env_id: str, **kwargs: Any):
     return gym.make(full_id(env_id), disable_env_checker=True, **kwargs).unwrapped
 
 
-def lab_only(plant: str, conditions: Conditions) -> None:
-    """A ``ValueError`` unless ``conditions`` are the lab's: the JAX ``plant`` models no other."""
-    if not conditions.is_lab:
-        raise ValueError(
-            f"conditions={conditions.name!r} ({conditions.as_dict()}): the JAX {plant} models the lab "
-            "conditions only so far; use the numba env (gymnasium.make) for flight conditions"
-        )
-
-
-def lab_layers(plant: str, cfg: Any, limits: np.ndarray, n_states: int) -> ActuatorFaults:
-    """The actuator fault layer of a lab plant with one ``state`` sensor channel of
-    ``n_states`` entries: ``cfg``'s ``faults``, ``sensors`` and ``fault_hint`` validated by the
-    numba envs' own :func:`~attitude_envs.envs.base.build_layers`; a ``ValueError`` for flight
-    conditions, ``sensors`` or sensor faults, which the JAX ``plant`` does not model."""
+def state_layers(
+    plant: str,
+    cfg: Any,
+    limits: np.ndarray,
+    n_states: int,
+    flight_sensors: dict | None = None,
+    control_dt_s: float | None = None,
+) -> Layers:
+    """The layers of a plant with one ``state`` sensor channel of ``n_states`` entries:
+    ``cfg``'s ``faults``, ``sensors``, ``fault_hint`` and ``conditions`` validated by the numba
+    envs' own :func:`~attitude_envs.envs.base.build_layers`. Under flight conditions with
+    sensors on and no ``sensors=`` of its own, the channel is the env's flight ``state`` sensor
+    ``flight_sensors`` (its ``sensors=`` entry, scaled to the plant); ``control_dt_s`` (s) is
+    the decision period. A ``ValueError`` for sensor faults, and for ``sensors`` without the
+    conditions' sensors, which the JAX ``plant`` does not model."""
+    cond = cfg.conditions
+    sensors = cfg.sensors
+    if sensors is None and cond.sensors > 0:
+        sensors = {"state": flight_sensors}
     layers = build_layers(
         plant,
         None,
@@ -82,27 +82,28 @@ def lab_layers(plant: str, cfg: Any, limits: np.ndarray, n_states: int) -> Actua
         actuator_limits=limits,
         channels=[Channel("state", n_states)],
         faults=cfg.faults,
-        sensors=cfg.sensors,
+        sensors=sensors,
         fault_hint=cfg.fault_hint,
+        conditions=cond,
+        control_dt_s=control_dt_s,
     )
-    lab_only(plant, cfg.conditions)
-    if layers.sensor_layer.config:
-        raise ValueError(f"{plant} JAX plant: keyword 'sensors' is not modeled (the state is observed exactly)")
     if layers.sensor_layer.fault_configs:
         raise ValueError(f"{plant} JAX plant: 'faults' with target 'sensor' are not modeled (actuator faults only)")
-    return layers.fault_layer
+    if layers.sensor_layer.config and cond.sensors == 0:
+        raise ValueError(
+            f"{plant} JAX plant: keyword 'sensors' is modeled only as flight conditions' sensors (conditions with "
+            "'sensors' > 0); without them the state is observed exactly"
+        )
+    return layers
 
 
 def make(env_id: str, **kwargs: Any):
     """The JAX plant of ``env_id`` (``"AirBearing-v1"`` or ``"attitude_envs/AirBearing-v1"``)
-    and its default ``EnvParams``, configured by the numba env's keywords. Flight ``conditions`` only for the gyrostats
-    (:data:`FLIGHT_PLANTS`); a ``ValueError`` names the rest."""
+    and its default ``EnvParams``, configured by the numba env's keywords, flight ``conditions``
+    included; a ``ValueError`` names what a twin does not model."""
     full = full_id(env_id)
     plant = full.split("/")[1].rsplit("-v", 1)[0]
     module = importlib.import_module(PLANT_MODULES[plant])
     if hasattr(module, "from_keywords"):
         return module.from_keywords(plant, {**task_defaults(full), **kwargs})
-    env = numba_env(env_id, **kwargs)
-    if plant not in FLIGHT_PLANTS:
-        lab_only(plant, env.conditions)
-    return module.from_env(env)
+    return module.from_env(numba_env(env_id, **kwargs))

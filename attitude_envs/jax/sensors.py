@@ -25,6 +25,9 @@ from attitude_envs.jax import quaternion as jq
 
 #: the relative margin of the sample-period test (:meth:`SensorSuite.measure`'s)
 _PERIOD_MARGIN = 1.0 - 1e-9
+#: folded into a plant's reset and step keys for its sensors' draws (the plant's other draws
+#: unchanged, so turning the sensors on changes no start, fault or process noise)
+SENSOR_STREAM = 0x534E53
 
 
 @struct.dataclass
@@ -101,4 +104,41 @@ def measure(
     )
 
 
-__all__ = ["ChannelParams", "ChannelState", "initial_state", "measure", "params_of"]
+@struct.dataclass
+class StateSensor:
+    """A plant's one ``state`` sensor channel (LinearSystem's, FuelSlosh's) at runtime: the
+    ``channel``'s state and ``t_last``, the last observation's time (s)."""
+
+    channel: ChannelState
+    t_last: jax.Array
+
+
+def start_state_sensor(key: jax.Array, p: ChannelParams, truth: jax.Array) -> tuple[jax.Array, StateSensor]:
+    """A ``state`` sensor at reset (:meth:`SensorSuite.reset` and the first sample at
+    ``t = 0``): the measurement of ``truth`` and the sensor's state."""
+    k_bias, k_measure = jax.random.split(key)
+    zero = jnp.zeros((), dtype=truth.dtype)
+    start = StateSensor(channel=initial_state(k_bias, p, truth), t_last=zero)
+    return measure_state(k_measure, p, start, truth, zero)
+
+
+def measure_state(
+    key: jax.Array, p: ChannelParams, s: StateSensor, truth: jax.Array, t_s
+) -> tuple[jax.Array, StateSensor]:
+    """The ``state`` sensor's measurement of ``truth`` (a vector channel) at ``t_s`` (s) and
+    its next state."""
+    m, channel = measure(key, p, s.channel, truth, t_s, s.t_last, False)
+    return m, StateSensor(channel=channel, t_last=jnp.asarray(t_s, dtype=truth.dtype))
+
+
+__all__ = [
+    "SENSOR_STREAM",
+    "StateSensor",
+    "measure_state",
+    "start_state_sensor",
+    "ChannelParams",
+    "ChannelState",
+    "initial_state",
+    "measure",
+    "params_of",
+]
