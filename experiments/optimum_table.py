@@ -5,7 +5,8 @@ own discrete problem that knows the episode's faults (and every other draw) in a
 ``J / J*`` >= 1 (up to IPOPT's local optimality) says how far a controller is from the best any
 controller could reach on that episode.
 
-An episode is identified by its **key**: the env id, its keyword arguments (faults included),
+An episode is identified by its **key**: the env id, its keyword arguments (actuator faults
+included; sensor faults left out, as they change neither the oracle's problem nor its cost),
 the seed and the reset options (:func:`episode_key`), hashed to a stable :func:`key_hash`.
 A campaign takes each episode's J* from, in order:
 
@@ -399,7 +400,7 @@ def write_table(
         "about": DESCRIPTION,
         "oracle": True,
         "command": COMMAND,
-        "key": "hash = sha256 of the sorted-key JSON of {env_id, env_kwargs (faults included), seed, options}[:20]",
+        "key": "hash = sha256 of the sorted-key JSON of {env_id, env_kwargs (actuator faults included, sensor faults not), seed, options}[:20]",
         "solver": {**SOLVER, "method": "direct multiple shooting, IPOPT (experiments.optimum.solve_episode)"},
         "generated_with": {"attitude_envs": attitude_envs.__version__, "casadi": casadi.__version__},
         "solve_s_total": round(sum(e["solve_s"] for e in entries), 1),
