@@ -154,30 +154,13 @@ class FlightState:
     gain: jax.Array | None = None
 
 
-#: the gyrostat's sensor channels: (name, slice of the state row ``[q, ω, Ω]``, attitude)
-_CHANNELS = (("gyro", (4, 7), False), ("star_tracker", (0, 4), True), ("tachometer", (7, None), False))
+#: the gyrostat's sensor channels: name → slice of the state row ``[q, ω, Ω]``
+_SLICES = {"gyro": (4, 7), "star_tracker": (0, 4), "tachometer": (7, None)}
 
 
-@struct.dataclass
-class SensorParams:
-    """The modeled sensors (:mod:`attitude_envs.jax.sensors`): one
-    :class:`~attitude_envs.jax.sensors.ChannelParams` per configured channel (None: the
-    channel measures the truth)."""
-
-    gyro: jsens.ChannelParams | None = None
-    star_tracker: jsens.ChannelParams | None = None
-    tachometer: jsens.ChannelParams | None = None
-
-
-@struct.dataclass
-class SensorState:
-    """The sensors' runtime state: per configured channel its bias, last sample and sample
-    time; ``t_last``, the last observation's time (s)."""
-
-    t_last: jax.Array
-    gyro: jsens.ChannelState | None = None
-    star_tracker: jsens.ChannelState | None = None
-    tachometer: jsens.ChannelState | None = None
+def _row_truths(y: jax.Array) -> dict[str, jax.Array]:
+    """What each sensor channel measures of the state row ``y = [q, ω, Ω]``."""
+    return {name: y[a:b] for name, (a, b) in _SLICES.items()}
 
 
 @struct.dataclass
@@ -196,7 +179,7 @@ class EnvState:
     faults: jfaults.FaultParams
     fault_state: jfaults.FaultState
     flight: FlightState | None = None
-    sensors: SensorState | None = None
+    sensors: jsens.SuiteState | None = None
 
 
 #: a params field whose default is that group of the default preset's params
@@ -293,7 +276,7 @@ class EnvParams:
     faults: jfaults.FaultParams = struct.field(default_factory=jfaults.no_faults)
     max_steps_in_episode: jax.Array = _default("max_steps_in_episode")
     flight: FlightParams | None = None
-    sensors: SensorParams | None = None
+    sensors: jsens.SuiteParams | None = None
 
 
 def with_inertia(params: EnvParams, inertia_kg_m2: jax.Array) -> EnvParams:
@@ -788,29 +771,16 @@ class GyrostatEnv(Environment):
             k_sensor = jax.random.fold_in(key, jsens.SENSOR_STREAM)
             k_bias, k_measure = jax.random.split(k_sensor)
             y = jnp.concatenate([q0, rate, state.wheel_speed_rad_s])
-            start = SensorState(t_last=jnp.zeros((), dtype=dtype))
-            for i, (name, (a, b), _) in enumerate(_CHANNELS):
-                cp = getattr(p.sensors, name)
-                if cp is not None:
-                    cs = jsens.initial_state(jax.random.fold_in(k_bias, i), cp, y[a:b])
-                    start = start.replace(**{name: cs})
-            state = state.replace(sensors=self._measure(k_measure, p, start, y, jnp.zeros((), dtype=dtype))[1])
+            t0 = jnp.zeros((), dtype=dtype)
+            start = jsens.start_suite(k_bias, p.sensors, _row_truths(y), t0)
+            state = state.replace(sensors=self._measure(k_measure, p, start, y, t0)[1])
         return self.get_obs(state, p), state
 
-    def _measure(self, key: jax.Array, p: EnvParams, s: SensorState, y: jax.Array, t_s):
+    def _measure(self, key: jax.Array, p: EnvParams, s: jsens.SuiteState, y: jax.Array, t_s):
         """The measured state row ``[q_m, ω_m, Ω_m]`` of the true row ``y`` at ``t_s`` and the
         sensors' next state (a channel not modeled measures the truth)."""
-        parts = []
-        for i, (name, (a, b), attitude) in enumerate(_CHANNELS):
-            cp, cs = getattr(p.sensors, name), getattr(s, name)
-            if cp is None:
-                parts.append(y[a:b])
-                continue
-            m, cs = jsens.measure(jax.random.fold_in(key, i), cp, cs, y[a:b], t_s, s.t_last, attitude)
-            parts.append(m)
-            s = s.replace(**{name: cs})
-        gyro, star, tach = parts
-        return jnp.concatenate([star, gyro, tach]), s.replace(t_last=t_s)
+        m, s = jsens.measure_suite(key, p.sensors, s, _row_truths(y), t_s)
+        return jnp.concatenate([m["star_tracker"], m["gyro"], m["tachometer"]]), s
 
     def measured_row(self, state: EnvState) -> jax.Array:
         """The sensors' last readings as a state row ``[q_m, ω_m, Ω_m]`` (the truth without sensors)."""
@@ -818,7 +788,7 @@ class GyrostatEnv(Environment):
         if not self.sensors:
             return y
         parts = []
-        for name, (a, b), _ in _CHANNELS:
+        for name, (a, b) in _SLICES.items():
             cs = getattr(state.sensors, name)
             parts.append(y[a:b] if cs is None else cs.last)
         gyro, star, tach = parts
@@ -1075,12 +1045,8 @@ def _params_of(cfg: GyrostatConfig, cls: type[ReactionWheelEnv], euler_max_deg: 
     else:
         mode = START_AXIS_ANGLE
     sensor_config = layers.sensor_layer.config if layers.sensor_layer.enabled else {}
-    sensor_params = None
-    if sensor_config:
-        channels = {name: (3 if name != "tachometer" else plant.n_wheels) for name, _, _ in _CHANNELS}
-        sensor_params = SensorParams(
-            **{name: jsens.params_of(c, channels[name], dtype) for name, c in sensor_config.items()}
-        )
+    axes = {name: (3 if name != "tachometer" else plant.n_wheels) for name in _SLICES}
+    sensor_params = jsens.suite_params(sensor_config, axes, dtype)
     identity = np.array([0.0, 0.0, 0.0, 1.0])
     rate, target = cfg.initial_rate_rad_s, cfg.target_attitude
     return EnvParams(
@@ -1167,7 +1133,7 @@ def from_keywords(plant: str, kwargs: dict[str, Any]) -> tuple[GyrostatEnv, EnvP
         fault_configs=configs,
         redraw_faults=any(jfaults.draws_per_episode(c) for c in configs),
         flight=_flight_layout(cfg),
-        sensors=tuple(name for name, _, _ in _CHANNELS if name in sensor_config),
+        sensors=tuple(name for name in _SLICES if name in sensor_config),
     )
     return jenv, params
 

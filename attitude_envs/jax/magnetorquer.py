@@ -93,8 +93,8 @@ N_ACTUATORS = 4  # m_x, m_y, m_z (A·m²), wheel torque (N·m)
 _PLANT = define(JAX)
 N_SENSOR_FLAGS = 4  # gyro, star tracker, tachometer, magnetometer: never faulted here
 _UNCERTAINTY_CODES = {None: 0, "fixed": 1, "random": 2}
-#: the sensor channels, in the numba env's order: (name, axes of its error, attitude)
-_CHANNELS = (("gyro", 3, False), ("star_tracker", 3, True), ("tachometer", 1, False), ("magnetometer", 3, False))
+#: the sensor channels, in the numba env's order: name → axes of its error
+_AXES = {"gyro": 3, "star_tracker": 3, "tachometer": 1, "magnetometer": 3}
 
 
 @dataclass(frozen=True)
@@ -141,32 +141,6 @@ class FlightState:
 
 
 @struct.dataclass
-class SensorParams:
-    """The modeled sensors (:mod:`attitude_envs.jax.sensors`): one
-    :class:`~attitude_envs.jax.sensors.ChannelParams` per configured channel (None: the
-    channel measures the truth): ``gyro`` (ω_bi, rad/s), ``star_tracker`` (the attitude; its
-    errors a body rotation vector, rad), ``tachometer`` (Ω, rad/s), ``magnetometer`` (the body
-    field, T)."""
-
-    gyro: jsens.ChannelParams | None = None
-    star_tracker: jsens.ChannelParams | None = None
-    tachometer: jsens.ChannelParams | None = None
-    magnetometer: jsens.ChannelParams | None = None
-
-
-@struct.dataclass
-class SensorState:
-    """The sensors' runtime state: per configured channel its bias, last sample and sample
-    time; ``t_last``, the last observation's time (s)."""
-
-    t_last: jax.Array
-    gyro: jsens.ChannelState | None = None
-    star_tracker: jsens.ChannelState | None = None
-    tachometer: jsens.ChannelState | None = None
-    magnetometer: jsens.ChannelState | None = None
-
-
-@struct.dataclass
 class EnvState:
     """One episode's state.
 
@@ -194,7 +168,7 @@ class EnvState:
     faults: jfaults.FaultParams
     fault_state: jfaults.FaultState
     flight: FlightState | None = None
-    sensors: SensorState | None = None
+    sensors: jsens.SuiteState | None = None
 
 
 @struct.dataclass
@@ -295,7 +269,7 @@ class EnvParams:
     faults: jfaults.FaultParams
     max_steps_in_episode: jax.Array
     flight: FlightParams | None = None
-    sensors: SensorParams | None = None
+    sensors: jsens.SuiteParams | None = None
 
 
 class Context(NamedTuple):
@@ -617,19 +591,6 @@ class MagnetorquerEnv(Environment):
             "magnetometer": jnp.stack(_PLANT.body_vector(x, y, z, w, field[0], field[1], field[2])),
         }
 
-    def _measure(
-        self, key: jax.Array, p: SensorParams, s: SensorState, truths: dict[str, jax.Array], t_s: jax.Array
-    ) -> SensorState:
-        """The sensors' next state after sampling ``truths`` at ``t_s`` (s)
-        (:meth:`attitude_envs.sensors.SensorSuite.measure`'s law; :func:`jsens.measure` per channel)."""
-        for i, (name, _, attitude) in enumerate(_CHANNELS):
-            cp = getattr(p, name)
-            if cp is not None:
-                k = jax.random.fold_in(key, i)
-                _, cs = jsens.measure(k, cp, getattr(s, name), truths[name], t_s, s.t_last, attitude)
-                s = s.replace(**{name: cs})
-        return s.replace(t_last=t_s)
-
     def readings(self, state: EnvState, orbit_rate: jax.Array, field: jax.Array) -> dict[str, jax.Array]:
         """The sensors' last readings of ``state`` (a channel not modeled reads the truth,
         :meth:`_truths`, at the state's orbit rate ν̇ and orbital-frame field)."""
@@ -638,7 +599,7 @@ class MagnetorquerEnv(Environment):
             return truths
         return {
             name: truths[name] if getattr(state.sensors, name) is None else getattr(state.sensors, name).last
-            for name, _, _ in _CHANNELS
+            for name in _AXES
         }
 
     def _observe_readings(
@@ -765,7 +726,7 @@ class MagnetorquerEnv(Environment):
         finite = jnp.isfinite(cost) & jnp.all(jnp.isfinite(y))
         if self.sensors:  # sampled at the step's end, kept when the state is finite (the numba env's _measure)
             truths = self._truths(new_state, ctx_end.rate, ctx_end.field)
-            sampled = self._measure(
+            _, sampled = jsens.measure_suite(
                 jax.random.fold_in(key, jsens.SENSOR_STREAM), params.sensors, state.sensors, truths, t1
             )
             new_state = new_state.replace(
@@ -830,13 +791,8 @@ class MagnetorquerEnv(Environment):
             orbit_rate, _, _, field = orbit_field(params, state.mean_anomaly0_rad, t0)
             truths = self._truths(state, orbit_rate, field)
             k_bias, k_measure = jax.random.split(jax.random.fold_in(key, jsens.SENSOR_STREAM))
-            start = SensorState(t_last=t0)
-            for i, (name, _, _) in enumerate(_CHANNELS):
-                cp = getattr(params.sensors, name)
-                if cp is not None:
-                    cs = jsens.initial_state(jax.random.fold_in(k_bias, i), cp, truths[name])
-                    start = start.replace(**{name: cs})
-            state = state.replace(sensors=self._measure(k_measure, params.sensors, start, truths, t0))
+            start = jsens.start_suite(k_bias, params.sensors, truths, t0)
+            state = state.replace(sensors=jsens.measure_suite(k_measure, params.sensors, start, truths, t0)[1])
             readings = self.readings(state, orbit_rate, field)
             return self._observe_readings(state, readings, held[:4], held[4:], orbit_rate, t0), state
         field = orbit_field(params, state.mean_anomaly0_rad, t0)[3] if self.observe_field else None
@@ -1154,7 +1110,7 @@ def from_env(numba_env: Any) -> tuple[MagnetorquerEnv, EnvParams]:
             max_steps(float(numba_env.episode_duration_s), float(numba_env.control_dt_s)), jnp.int32
         ),
         flight=flight_params,
-        sensors=_sensor_params(sensors.config),
+        sensors=jsens.suite_params(sensors.config, _AXES, jnp.result_type(float)),
     )
     space = numba_env.observation_space
     env = MagnetorquerEnv(
@@ -1168,7 +1124,7 @@ def from_env(numba_env: Any) -> tuple[MagnetorquerEnv, EnvParams]:
         obs_low=np.asarray(space.low, dtype=float),
         obs_high=np.asarray(space.high, dtype=float),
         flight=flight_layout,
-        sensors=tuple(name for name, _, _ in _CHANNELS if name in sensors.config),
+        sensors=tuple(name for name in _AXES if name in sensors.config),
     )
     return env, params
 
@@ -1224,15 +1180,6 @@ def _flight_of(numba_env: Any, principal_moments: np.ndarray) -> tuple[FlightLay
         given_gain=f(np.ones(N_ACTUATORS)),
     )
     return layout, params
-
-
-def _sensor_params(config: dict) -> SensorParams | None:
-    """The :class:`SensorParams` of a validated ``SensorSuite.config`` (None: no sensors)."""
-    if not config:
-        return None
-    dtype = jnp.result_type(float)
-    axes = {name: n for name, n, _ in _CHANNELS}
-    return SensorParams(**{name: jsens.params_of(c, axes[name], dtype) for name, c in config.items()})
 
 
 def with_drawn_parameters(params: EnvParams, drawn: dict) -> EnvParams:

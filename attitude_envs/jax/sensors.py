@@ -105,6 +105,75 @@ def measure(
 
 
 @struct.dataclass
+class SuiteParams:
+    """An attitude plant's modeled sensors: one :class:`ChannelParams` per configured channel
+    (None: the channel measures the truth): ``gyro`` (rad/s), ``star_tracker`` (the attitude;
+    its errors a body rotation vector, rad), ``tachometer`` (wheel speeds, rad/s) and, on a
+    plant with a field, ``magnetometer`` (the body field, T)."""
+
+    gyro: ChannelParams | None = None
+    star_tracker: ChannelParams | None = None
+    tachometer: ChannelParams | None = None
+    magnetometer: ChannelParams | None = None
+
+
+@struct.dataclass
+class SuiteState:
+    """The sensors' runtime state: per configured channel its :class:`ChannelState`;
+    ``t_last``, the last observation's time (s)."""
+
+    t_last: jax.Array
+    gyro: ChannelState | None = None
+    star_tracker: ChannelState | None = None
+    tachometer: ChannelState | None = None
+    magnetometer: ChannelState | None = None
+
+
+#: the suite's channels in key order (each channel's draws fold its index into the step's key)
+SUITE_CHANNELS = ("gyro", "star_tracker", "tachometer", "magnetometer")
+#: the channels whose readings are attitudes
+_ATTITUDE_CHANNELS = frozenset({"star_tracker"})
+
+
+def suite_params(config: dict, axes: dict[str, int], dtype) -> SuiteParams | None:
+    """The :class:`SuiteParams` of a validated ``SensorSuite.config`` (None: no sensors);
+    ``axes``: each channel's error axes."""
+    if not config:
+        return None
+    return SuiteParams(**{name: params_of(c, axes[name], dtype) for name, c in config.items()})
+
+
+def start_suite(key: jax.Array, p: SuiteParams, truths: dict[str, jax.Array], t_s) -> SuiteState:
+    """The sensors at reset, before their first sample: each configured channel's bias drawn
+    (:func:`initial_state`) from ``key`` folded with its index, at ``t_s`` (s)."""
+    s = SuiteState(t_last=jnp.asarray(t_s))
+    for i, name in enumerate(SUITE_CHANNELS):
+        cp = getattr(p, name)
+        if cp is not None and name in truths:
+            s = s.replace(**{name: initial_state(jax.random.fold_in(key, i), cp, truths[name])})
+    return s
+
+
+def measure_suite(
+    key: jax.Array, p: SuiteParams, s: SuiteState, truths: dict[str, jax.Array], t_s
+) -> tuple[dict[str, jax.Array], SuiteState]:
+    """Each channel's reading of ``truths`` (channel name → true value) at ``t_s`` (s) — a
+    channel not modeled reads the truth — and the sensors' next state."""
+    readings = {}
+    for i, name in enumerate(SUITE_CHANNELS):
+        if name not in truths:
+            continue
+        cp = getattr(p, name)
+        if cp is None:
+            readings[name] = truths[name]
+            continue
+        k = jax.random.fold_in(key, i)
+        readings[name], cs = measure(k, cp, getattr(s, name), truths[name], t_s, s.t_last, name in _ATTITUDE_CHANNELS)
+        s = s.replace(**{name: cs})
+    return readings, s.replace(t_last=t_s)
+
+
+@struct.dataclass
 class StateSensor:
     """A plant's one ``state`` sensor channel (LinearSystem's, FuelSlosh's) at runtime: the
     ``channel``'s state and ``t_last``, the last observation's time (s)."""
@@ -133,6 +202,12 @@ def measure_state(
 
 __all__ = [
     "SENSOR_STREAM",
+    "SUITE_CHANNELS",
+    "SuiteParams",
+    "SuiteState",
+    "measure_suite",
+    "start_suite",
+    "suite_params",
     "StateSensor",
     "measure_state",
     "start_state_sensor",
