@@ -167,6 +167,23 @@ class Environment:
         raise NotImplementedError
 
 
+def check_state_from(sensors: bool, chain: Any, steps: int) -> None:
+    """A ``ValueError`` unless a numba env's episode can become a twin's state: no sensors
+    (the numba sensor layer's samples are not public) and, with a delay or actuator dynamics
+    (``chain``, an :class:`~attitude_envs.jax.actuators.ActuatorLayout` or None), no step
+    taken yet (the chain's state is not public either); ``steps``: the steps it has taken."""
+    if sensors:
+        raise ValueError(
+            "state_from does not take an env with sensors: the numba sensor layer's samples are not public "
+            "(reset the JAX env instead)"
+        )
+    if chain is not None and steps and (chain.delay_steps or chain.model):
+        raise ValueError(
+            "state_from takes a flight env with a delay or actuator dynamics only right after its reset "
+            f"(time=0, the actuator chain at rest), got {steps} steps taken"
+        )
+
+
 def preset_defaults(config: Callable[[], Any], params_of: Callable[[Any], Any]) -> Callable[[str], Any]:
     """``field(group)``: a params field whose default is ``group`` of ``params_of(config())``,
     the default preset's params. ``config`` (called once, cached) is the numba env's validated

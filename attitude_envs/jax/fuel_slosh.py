@@ -76,7 +76,7 @@ from attitude_envs.jax import actuators as jact
 from attitude_envs.jax import cost as jcost
 from attitude_envs.jax import faults as jfaults
 from attitude_envs.jax import sensors as jsens
-from attitude_envs.jax.environment import Environment, preset_defaults
+from attitude_envs.jax.environment import Environment, check_state_from, preset_defaults
 from attitude_envs.jax.make import state_layers
 from attitude_envs.jax.ops import JAX
 from attitude_envs.jax.spaces import Box
@@ -561,11 +561,7 @@ class FuelSloshEnv(Environment):
         numba_env = getattr(numba_env, "unwrapped", numba_env)
         faults, fault_state = jfaults.from_numba_layer(numba_env.fault_layer.realized, self.n_faults, key)
         y = jnp.asarray(np.asarray(numba_env.state, dtype=float))
-        if self.sensors:
-            raise ValueError(
-                "state_from does not take an env with sensors: the numba sensor layer's state is not public "
-                "(reset the JAX env instead)"
-            )
+        check_state_from(self.sensors, None if self.flight is None else self.flight.actuators, int(time))
         return EnvState(
             time=jnp.asarray(int(time), jnp.int32),
             y=y,
@@ -577,11 +573,6 @@ class FuelSloshEnv(Environment):
     def _flight_state_from(self, env: Any, time: int, dtype) -> FlightState:
         """The flight state of the numba env's current episode (:meth:`state_from`)."""
         fl = self.flight
-        if time and (fl.actuators.delay_steps or fl.actuators.model):
-            raise ValueError(
-                "state_from takes a flight env with a delay or actuator dynamics only right after its reset "
-                f"(time=0, the actuator chain at rest), got time={time}"
-            )
         drawn = env.drawn_parameters()
 
         def f(v: Any) -> jax.Array:

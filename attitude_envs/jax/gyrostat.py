@@ -76,7 +76,7 @@ from attitude_envs.jax import faults as jfaults
 from attitude_envs.jax import quaternion as jq
 from attitude_envs.jax import sensors as jsens
 from attitude_envs.jax.cost import mode_code, termination_charge
-from attitude_envs.jax.environment import Environment, preset_defaults
+from attitude_envs.jax.environment import Environment, check_state_from, preset_defaults
 from attitude_envs.jax.ops import JAX
 from attitude_envs.jax.spaces import Box
 from attitude_envs.plants.gyrostat_definition import define
@@ -863,11 +863,7 @@ class GyrostatEnv(Environment):
         if n_faults is None:
             n_faults = 0 if self._params is None else self._params.faults.n_faults
         fp, fault_state = jfaults.from_numba_layer(realized, n_faults, key, dtype=dtype)
-        if self.sensors:
-            raise ValueError(
-                "state_from does not take an env with sensors: the numba sensor layer's samples and sample times "
-                "are not public (reset the JAX env instead)"
-            )
+        check_state_from(bool(self.sensors), None if self.flight is None else self.flight.actuators, int(time))
         flight = None
         if self.flight is not None:
             flight = self._flight_state_from(env, time, dtype)
@@ -888,11 +884,6 @@ class GyrostatEnv(Environment):
         as after a reset (the numba chain's delay line and lag state are not public: a
         ``ValueError`` for ``time > 0`` with a delay or actuator dynamics)."""
         fl = self.flight
-        if time and (fl.actuators.delay_steps or fl.actuators.model):
-            raise ValueError(
-                "state_from takes a flight env with a delay or actuator dynamics only right after its reset "
-                f"(time=0, the actuator chain at rest), got time={time}"
-            )
         actuators = jact.initial_state(fl.actuators, self.n_wheels, dtype)
         if not fl.draw_plant:
             return FlightState(actuators=actuators)

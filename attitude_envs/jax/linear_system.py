@@ -55,7 +55,7 @@ from attitude_envs.jax import actuators as jact
 from attitude_envs.jax import cost as jcost
 from attitude_envs.jax import faults as jfaults
 from attitude_envs.jax import sensors as jsens
-from attitude_envs.jax.environment import Environment, preset_defaults
+from attitude_envs.jax.environment import Environment, check_state_from, preset_defaults
 from attitude_envs.jax.make import state_layers
 from attitude_envs.jax.spaces import Box
 from attitude_envs.presets.flight_linear import state_sensor_config
@@ -384,18 +384,9 @@ class LinearSystemEnv(Environment):
         faults, fault_state = jfaults.from_numba_layer(numba_env.fault_layer.realized, self.n_faults, key)
         steps = int(numba_env.steps_taken)  # plant steps elapsed
         x = jnp.asarray(numba_env.state, dtype=float)
-        if self.sensors:
-            raise ValueError(
-                "state_from does not take an env with sensors: the numba sensor layer's state is not public "
-                "(reset the JAX env instead)"
-            )
+        check_state_from(self.sensors, self.flight, steps)
         flight = None
         if self.flight is not None:
-            if steps and self.flight.delay_steps:
-                raise ValueError(
-                    "state_from takes a flight env with a delay only right after its reset (the actuator chain "
-                    f"at rest), got {steps} plant steps taken"
-                )
             flight = FlightState(actuators=jact.initial_state(self.flight, self.m, x.dtype))
             if self.flight.gain:
                 gain = numba_env.drawn_parameters()["actuator_gain"]

@@ -83,7 +83,7 @@ from attitude_envs.jax import cost as jcost
 from attitude_envs.jax import faults as jfaults
 from attitude_envs.jax import quaternion as jq
 from attitude_envs.jax import sensors as jsens
-from attitude_envs.jax.environment import Environment
+from attitude_envs.jax.environment import Environment, check_state_from
 from attitude_envs.jax.ops import JAX
 from attitude_envs.jax.spaces import Box
 from attitude_envs.plants import magnetorquer_kernels as K
@@ -854,19 +854,10 @@ class MagnetorquerEnv(Environment):
         evaluated gets its first switch time drawn with ``key`` (default ``PRNGKey(0)``)
         from the same law. ``numba_env`` may be wrapped (``gym.make``'s env)."""
         numba_env = getattr(numba_env, "unwrapped", numba_env)
-        if self.sensors:
-            raise ValueError(
-                "state_from does not take an env with sensors: the numba sensor layer's samples and sample times "
-                "are not public (reset the JAX env instead)"
-            )
+        chain = None if self.flight is None else self.flight.actuators
+        check_state_from(bool(self.sensors), chain, int(numba_env.steps_taken))
         flight = None
         if self.flight is not None:
-            chain = self.flight.actuators
-            if numba_env.steps_taken and (chain.delay_steps or chain.model):
-                raise ValueError(
-                    "state_from takes a flight env with a delay or actuator dynamics only right after its reset "
-                    f"(the actuator chain at rest), got steps_taken={numba_env.steps_taken}"
-                )
             flight = FlightState(actuators=jact.initial_state(chain, N_ACTUATORS, jnp.result_type(float)))
             if chain.gain:
                 gain = np.asarray(numba_env.drawn_parameters()["actuator_gain"], dtype=float)
