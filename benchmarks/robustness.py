@@ -7,7 +7,14 @@ at increasing levels:
 * ``parameters``: the true plant drawn within ± that relative inertia error (0–50 %; the
   other tolerances of the plant's flight table scale with it);
 * ``delay``: 0–3 control periods of command delay;
-* ``noise``: the flight sensors with their noise ×1–×10.
+* ``noise``: the flight sensors with their noise ×1–×10;
+* ``held-out``: the whole flight conditions with the parameter tolerances ×1 (the flight
+  cells', where the flight-trained agents trained), ×2 and ×4 (outside their training
+  distribution).
+
+The learned agents (``--models``: a campaign's results directory with the plant's trained
+``ppo``, lab-trained, and ``ppo-flight``, trained under flight conditions) play the same
+episodes on the plant's learning task (``-v1``), every training seed's best snapshot.
 
 Every episode is the lab episode of the same seed (flight draws come from a spawned
 generator) and J* is its oracle under the same conditions (:mod:`experiments.optimum`). The
@@ -42,89 +49,158 @@ PLANTS = {
     "wheel": "attitude_envs/ReactionWheel-v0",
     "air-bearing": "attitude_envs/AirBearing-v0",
 }
+#: the plant campaign's cell keywords (its episodes and J*) and its lab and flight env entries
+CELLS = {
+    "wheel": ({"preset": "pyramid-4wheel", "action_frame": "body"}, "rw", "rw-flight"),
+    "air-bearing": ({"preset": "air-bearing-85kg"}, "ab", "ab-flight"),
+}
+#: the learning task the campaign's learned agents play (the v0 cell's episodes, the same J)
+LEARNING_IDS = {"wheel": "attitude_envs/ReactionWheel-v1", "air-bearing": "attitude_envs/AirBearing-v1"}
+#: the learned agents on the curves: name → the env entry (lab or flight) it was trained on
+LEARNED = {"ppo": 1, "ppo-flight": 2}
 #: the levels of each axis, as (level, conditions); the parameter level is the relative inertia error
 PARAMETER_LEVELS = (0.0, 0.1, 0.25, 0.5)
-#: a whole run's wall time, min, from nothing (J* solves most of it; one process on a shared
-#: 2-core machine, 2026-11-28); a rerun reads every episode back from its record in seconds
-RUN_MINUTES = {"wheel": 13, "air-bearing": 43}
+#: a whole run's wall time, min, from nothing, every axis and agent (J* solves most of it: the
+#: held-out axis's flight episodes 17 s each on ReactionWheel, 80-120 s on AirBearing's 2000
+#: steps; one process on a 2-core machine shared with other runs, 2026-11-28 and -29); a rerun
+#: reads every episode back from its record in seconds
+RUN_MINUTES = {"wheel": 40, "air-bearing": 105}
+#: the plant campaign's wall time, min, with its flight cells (its runs.jsonl: the lab run plus
+#: the flight cells' run, 2026-11-29, shared cores)
+CAMPAIGN_MINUTES = {"wheel": 62, "air-bearing": 28}
 DELAY_LEVELS = (0, 1, 2, 3)
 NOISE_LEVELS = (1.0, 3.0, 10.0)
+#: the held-out axis: the flight conditions' parameter tolerances times these (1: the flight cells')
+HELD_OUT_LEVELS = (1.0, 2.0, 4.0)
+AXES = ("parameters", "delay", "noise", "held-out")
 
 
-def axes(env_id: str) -> list[tuple[str, float, dict]]:
+def axes(env_id: str) -> list[tuple[str, float, dict | str]]:
     """``(axis, level, conditions)`` of every point of the curves."""
     inertia_tol = flight.table(env_id).plant_value("inertia_moment")
     points = [("parameters", p, {"sensors": 1.0, "parameters": p / inertia_tol}) for p in PARAMETER_LEVELS]
     points += [("delay", float(d), {"sensors": 1.0, "delay_steps": d}) for d in DELAY_LEVELS]
     points += [("noise", k, {"sensors": k}) for k in NOISE_LEVELS]
+    points += [("held-out", k, "flight" if k == 1 else {"base": "flight", "parameters": k}) for k in HELD_OUT_LEVELS]
     return points
 
 
 def agents() -> dict[str, Callable]:
-    """The controllers on the curves: name → factory(env) of a policy (``reset``, ``act``)."""
+    """The analytic controllers on the curves: name → factory(env) of a policy (``reset``, ``act``)."""
+    from baselines.estimated import lqr_mekf
     from baselines.lqr import LQRPolicy
 
-    found: dict[str, Callable] = {"lqr": LQRPolicy}
-    from baselines.estimated import lqr_mekf
+    return {
+        "lqr": LQRPolicy,
+        "lqr+mekf": lqr_mekf,
+        # the LQR designed for the env's command delay (a known design value), through the MEKF
+        "lqr-delay+mekf": lambda env: lqr_mekf(env, delay_steps="env", name="lqr-delay+mekf"),
+    }
 
-    found["lqr+mekf"] = lqr_mekf
-    # the LQR designed for the env's command delay (a known design value), through the MEKF
-    found["lqr-delay+mekf"] = lambda env: lqr_mekf(env, delay_steps="env", name="lqr-delay+mekf")
+
+def learned_models(plant: str, results: Path) -> dict[str, list[Path]]:
+    """name → the best snapshot of each training seed of the learned agents (:data:`LEARNED`)
+    in the campaign results directory ``results``; a ``ValueError`` naming what is missing."""
+    from experiments.campaign.jobs import trained_model
+
+    found = {}
+    for name, entry in LEARNED.items():
+        runs = sorted((results / "models" / CELLS[plant][entry] / name).glob("seed*"))
+        models = [trained_model(r, "best") for r in runs]
+        if not models or not all(m.is_file() for m in models):
+            raise ValueError(
+                f"--models {str(results)!r} has no trained {name} of the {plant} campaign ({runs or 'no run'})"
+            )
+        found[name] = models
     return found
 
 
-def j_star(env_id: str, conditions: dict, seed: int, env_kwargs: dict | None = None) -> float:
-    """The oracle's J of the episode: under ``conditions`` without the sensors (the oracle
-    knows the true state), the lab's where nothing else is on."""
-    plant = Conditions.from_config({k: v for k, v in conditions.items() if k != "sensors"})
+def j_star(env_id: str, conditions: dict | str, seed: int, env_kwargs: dict | None = None) -> float:
+    """The oracle's J of the episode: the shipped table's where it holds the episode, else
+    solved under ``conditions`` without the sensors (the oracle knows the true state), the
+    lab's where nothing else is on."""
+    from experiments.optimum_table import table_value
+
     kwargs = dict(env_kwargs or {})
+    listed = table_value(env_id, {**kwargs, "conditions": conditions}, seed, None)
+    if listed is not None:
+        return float(listed)
+    spec = Conditions.from_config(conditions).as_dict()
+    plant = Conditions.from_config({k: v for k, v in spec.items() if k != "sensors"})
     if not plant.is_lab:
         kwargs["conditions"] = plant.as_dict()
     return optimum.solve_episode(env_id, kwargs, seed=seed).j_star
 
 
 def run(
-    plant: str, seeds: int, out: Path, names: list[str] | None = None, env_kwargs: dict | None = None
+    plant: str,
+    seeds: int,
+    out: Path,
+    names: list[str] | None = None,
+    models: Path | None = None,
+    axes_chosen: list[str] | None = None,
+    env_kwargs: dict | None = None,
 ) -> list[dict]:
-    """Every point of ``plant``'s curves over ``seeds`` episodes (of the env built with
-    ``env_kwargs``, default: its default preset); rows written to ``out``."""
+    """Every point of ``plant``'s curves over ``seeds`` episodes of its campaign cell (its
+    keywords, ``env_kwargs`` over them); the learned agents' from the campaign results
+    directory ``models`` (None: the analytic ones only); rows written to ``out``. An
+    episode's J* is solved once, whichever agent plays it."""
     env_id = PLANTS[plant]
+    cell_kwargs = {**CELLS[plant][0], **dict(env_kwargs or {})}
     log = out.with_suffix(".episodes.jsonl")
     done: dict[tuple, dict] = {}
+    j_stars: dict[tuple, float] = {}
     if log.is_file():
         for line in log.read_text().splitlines():
             if line.strip():
                 r = json.loads(line)
-                done[(r["agent"], r["axis"], r["level"], r["seed"])] = r
+                done[(r["agent"], r["axis"], r["level"], r["seed"], r.get("train_seed"))] = r
+                j_stars[(r["axis"], r["level"], r["seed"])] = r["j_star"]
     factories = agents()
-    chosen = names or list(factories)
+    learned = learned_models(plant, models) if models is not None else {}
+    chosen = names or [*factories, *learned]
+    unknown = set(chosen) - set(factories) - set(learned)
+    if unknown:
+        raise ValueError(f"--agents {sorted(unknown)} unknown; accepted: {[*factories, *learned]} (learned: --models)")
     out.parent.mkdir(parents=True, exist_ok=True)
     rows = []
     with log.open("a") as sink:
         for axis, level, conditions in axes(env_id):
+            if axes_chosen and axis not in axes_chosen:
+                continue
             for name in chosen:
-                env = gym.make(env_id, conditions=conditions, **dict(env_kwargs or {}))
-                policy = factories[name](env)
-                ratios, js, jstars = [], [], []
-                for seed in range(seeds):
-                    key = (name, axis, level, seed)
-                    if key not in done:
-                        j = float(rollout(env, policy, seed=seed)["J"])  # the policy sees no ground truth
-                        done[key] = {
-                            "agent": name,
-                            "axis": axis,
-                            "level": level,
-                            "seed": seed,
-                            "j": j,
-                            "j_star": j_star(env_id, conditions, seed, env_kwargs),
-                        }
-                        sink.write(json.dumps(done[key]) + "\n")
-                        sink.flush()
-                    r = done[key]
-                    js.append(r["j"])
-                    jstars.append(r["j_star"])
-                    ratios.append(r["j"] / r["j_star"])
-                env.close()
+                players = (
+                    [(None, factories[name], env_id)]
+                    if name in factories
+                    else [(t, _learned_factory(path), LEARNING_IDS[plant]) for t, path in enumerate(learned[name])]
+                )
+                js, jstars, ratios = [], [], []
+                for train_seed, factory, play_id in players:
+                    env = gym.make(play_id, conditions=conditions, **cell_kwargs)
+                    policy = factory(env)
+                    for seed in range(seeds):
+                        key = (name, axis, level, seed, train_seed)
+                        if key not in done:
+                            episode = (axis, level, seed)
+                            if episode not in j_stars:
+                                j_stars[episode] = j_star(env_id, conditions, seed, cell_kwargs)
+                            done[key] = {
+                                "agent": name,
+                                "axis": axis,
+                                "level": level,
+                                "seed": seed,
+                                **({"train_seed": train_seed} if train_seed is not None else {}),
+                                # the policy sees no ground truth
+                                "j": float(rollout(env, policy, seed=seed)["J"]),
+                                "j_star": j_stars[episode],
+                            }
+                            sink.write(json.dumps(done[key]) + "\n")
+                            sink.flush()
+                        r = done[key]
+                        js.append(r["j"])
+                        jstars.append(r["j_star"])
+                        ratios.append(r["j"] / r["j_star"])
+                    env.close()
                 row = {
                     "agent": name,
                     "axis": axis,
@@ -135,7 +211,7 @@ def run(
                 }
                 rows.append(row)
                 print(
-                    f"{plant} {name:9s} {axis:10s} {level:5g}  ΣJ/ΣJ* {row['j_over_j_star']:.4f}  "
+                    f"{plant} {name:14s} {axis:10s} {level:5g}  ΣJ/ΣJ* {row['j_over_j_star']:.4f}  "
                     f"CVaR0.1 {row['cvar10']:.4f}",
                     flush=True,
                 )
@@ -150,6 +226,13 @@ def run(
     return rows
 
 
+def _learned_factory(model: Path) -> Callable:
+    """factory(env) of the trained policy saved at ``model``."""
+    from experiments.policies import build_policy
+
+    return lambda env: build_policy({"policy": "sb3", "model": str(model)}, env)
+
+
 def figure(rows: list[dict], plant: str, path: Path) -> None:
     """The curves: ΣJ/ΣJ* (top row) and the CVaR₀.₁ of J/J* (bottom row, log scale: a few
     episodes of tiny J* dominate it), one column per axis."""
@@ -158,13 +241,14 @@ def figure(rows: list[dict], plant: str, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    axes_names = ["parameters", "delay", "noise"]
+    axes_names = [a for a in AXES if any(r["axis"] == a for r in rows)]
     labels = {
         "parameters": "inertia error (relative)",
         "delay": "delay (control periods)",
         "noise": "sensor noise (× flight)",
+        "held-out": "flight, tolerances × (1: trained)",
     }
-    fig, grid = plt.subplots(2, 3, figsize=(11, 5.2), sharex="col")
+    fig, grid = plt.subplots(2, len(axes_names), figsize=(3.7 * len(axes_names), 5.2), sharex="col", squeeze=False)
     for col, axis in enumerate(axes_names):
         for name in sorted({r["agent"] for r in rows}):
             pts = sorted(
@@ -194,6 +278,7 @@ AXIS_LEVEL = {
     "parameters": lambda v: f"{v:.0%}",
     "delay": lambda v: f"{v:g}",
     "noise": lambda v: f"×{v:g}",
+    "held-out": lambda v: f"×{v:g}",
 }
 
 
@@ -206,14 +291,31 @@ def page(rows: list[dict], plant: str, episodes: list[dict]) -> str:
     head += " | ".join(f"{a} CVaR₀.₁" for a in agents_seen) + " |"
     lines = [head, "|" + "---|" * (2 + 2 * len(agents_seen))]
     by = {(r["axis"], r["level"], r["agent"]): r for r in rows}
-    for axis in ("parameters", "delay", "noise"):
+    for axis in AXES:
         for level in dict.fromkeys(r["level"] for r in rows if r["axis"] == axis):
-            cells = [f"{by[(axis, level, a)]['j_over_j_star']:.4f}" for a in agents_seen]
-            cells += [f"{by[(axis, level, a)]['cvar10']:.3g}" for a in agents_seen]
+            cells = [
+                f"{by[(axis, level, a)]['j_over_j_star']:.4f}" if (axis, level, a) in by else "—" for a in agents_seen
+            ]
+            cells += [f"{by[(axis, level, a)]['cvar10']:.3g}" if (axis, level, a) in by else "—" for a in agents_seen]
             lines.append(f"| {axis} | {AXIS_LEVEL[axis](level)} | " + " | ".join(cells) + " |")
     smallest = min((e for e in episodes if e["axis"] == "noise"), key=lambda e: e["j_star"])
     worst = max((e for e in episodes if e["seed"] == smallest["seed"] and e["axis"] == "noise"), key=lambda e: e["j"])
     seeds = rows[0]["seeds"]
+    held_out = (
+        "* **held-out**: every flight feature, with the parameter tolerances times that factor. At ×1\n"
+        "  these are the campaign's flight cells, the distribution `ppo-flight` trained on; ×2 and ×4\n"
+        "  lie outside it."
+        if "held-out" in {r["axis"] for r in rows}
+        else "* **held-out** (the flight cells' tolerances ×1–×4) is not run here: its J* needs 40 more\n"
+        "  flight solves of 2000-step episodes, about an hour on 2 cores."
+    )
+    dt = {i: gym.make(i).unwrapped.control_dt_s for i in (PLANTS[plant], LEARNING_IDS[plant])}
+    run_axes = [a for a in AXES if any(r["axis"] == a for r in rows)]
+    axes_arg = "" if run_axes == list(AXES) else " --axes " + " ".join(run_axes)
+    periods = (
+        f"{dt[PLANTS[plant]]:g} s for the analytic rows ({env_name}), "
+        f"{dt[LEARNING_IDS[plant]]:g} s for the learned ones ({LEARNING_IDS[plant].split('/')[1]})"
+    )
     return rf"""# {env_name}: robustness to flight conditions
 
 <!-- Generated by benchmarks/robustness.py from robustness.episodes.jsonl; rerun it, do not edit. -->
@@ -222,14 +324,17 @@ def page(rows: list[dict], plant: str, episodes: list[dict]) -> str:
 
 {chr(10).join(lines)}
 
-Each point covers the {seeds} lab episodes (seeds 0–{seeds - 1}) of {env_name}'s default
-preset, with the flight sensors on (`attitude_envs.conditions`). One more feature is switched
-on per axis:
+Each point covers the {seeds} episodes (seeds 0–{seeds - 1}) of the {plant} campaign's cell
+(`{json.dumps(CELLS[plant][0])}`), with the flight sensors on (`attitude_envs.conditions`).
+One more feature is switched on per axis:
 
 * **parameters**: the true inertia drawn within ± that relative error, with the plant's other
   tolerances scaled with it;
 * **delay**: that many control periods of command delay;
-* **noise**: the flight sensors' noise times that factor.
+* **noise**: the flight sensors' noise times that factor;
+{held_out}
+
+The delay counts control periods of the env each agent plays: {periods}.
 
 J* is the oracle under the same conditions. Sensors do not enter it, because it knows the
 true state.
@@ -240,14 +345,19 @@ The agents:
 * `lqr+mekf` is the same LQR acting through the MEKF.
 * `lqr-delay+mekf` is the LQR designed for the delay, through the MEKF. Its state is
   augmented with the commands in flight (`baselines.lqr`, `delay_steps="env"`).
+* `ppo` is the campaign's PPO, trained in the lab; `ppo-flight` the campaign's PPO trained
+  under flight conditions (domain randomization over the flight cells' distribution). Both
+  play the episodes on the learning task ({LEARNING_IDS[plant].split("/")[1]}) on the
+  measurements, each of their 3 training seeds' best snapshot: their points cover 3 × {seeds}
+  episodes.
 
 **The CVaR₀.₁ of J/J\* follows the smallest J\*.** Episode {smallest["seed"]} has the smallest
 J\* on the noise axis, {smallest["j_star"]:.3g}. There an agent's J/J\* reaches
 {worst["j"] / worst["j_star"]:.3g} ({worst["agent"]} at noise ×{worst["level"]:g}), because
 the sensor noise floor's cost does not shrink with the maneuver. ΣJ/ΣJ\* is the robust summary.
 
-Reproduce: `python -m benchmarks.robustness --plant {plant} --seeds {seeds}` (≈ {RUN_MINUTES[plant]} min on
-2 cores from nothing, most of it J\*). The run resumes from `robustness.episodes.jsonl`, which holds every episode's J
+The learned rows need the campaign's models: `attitude-envs benchmark --config {plant} --out results/{plant}` (≈ {CAMPAIGN_MINUTES[plant]} min on 2 cores).
+Then `python -m benchmarks.robustness --plant {plant} --seeds {seeds} --models results/{plant}{axes_arg}` (≈ {RUN_MINUTES[plant]} min on 2 cores from nothing, most of it J\*). The run resumes from `robustness.episodes.jsonl`, which holds every episode's J
 and J\*. The data are in [`robustness.csv`](robustness.csv), with columns agent, axis, level,
 j_over_j_star, cvar10 and seeds.
 """
@@ -257,13 +367,20 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--plant", choices=sorted(PLANTS), required=True)
     parser.add_argument("--seeds", type=int, default=20)
-    parser.add_argument("--agents", nargs="*", default=None, help="names of agents() (default: all)")
+    parser.add_argument("--agents", nargs="*", default=None, help="agents on the curves (default: all)")
+    parser.add_argument(
+        "--models", default=None, help="a campaign results directory: its learned agents join the curves"
+    )
+    parser.add_argument("--axes", nargs="*", choices=AXES, default=None, help="axes to run (default: all)")
     parser.add_argument("--out", default=None, help="CSV (default docs/campaigns/<plant>/robustness.csv)")
     args = parser.parse_args(argv)
     if args.seeds < 1:
         parser.error(f"--seeds must be >= 1, got {args.seeds}")
     out = Path(args.out or f"docs/campaigns/{args.plant}/robustness.csv")
-    rows = run(args.plant, args.seeds, out, args.agents)
+    models = Path(args.models) if args.models else None
+    if models is not None and not models.is_dir():
+        parser.error(f"--models must be a campaign results directory, got {args.models!r}")
+    rows = run(args.plant, args.seeds, out, args.agents, models, args.axes)
     figure(rows, args.plant, out.parent / "figures" / "robustness.png")
     log = out.with_suffix(".episodes.jsonl")
     episodes = [json.loads(line) for line in log.read_text().splitlines() if line.strip()]

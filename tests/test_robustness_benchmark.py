@@ -20,8 +20,17 @@ def test_cvar_is_the_mean_of_the_worst_tenth():
 
 def test_every_point_has_the_flight_sensors_and_one_feature():
     points = robustness.axes("attitude_envs/ReactionWheel-v0")
-    assert {a for a, _, _ in points} == {"parameters", "delay", "noise"}
+    assert {a for a, _, _ in points} == {"parameters", "delay", "noise", "held-out"}
+    held_out = [(level, c) for a, level, c in points if a == "held-out"]
+    # the flight cells' conditions, then their parameter tolerances widened beyond training's
+    assert held_out == [
+        (1.0, "flight"),
+        (2.0, {"base": "flight", "parameters": 2.0}),
+        (4.0, {"base": "flight", "parameters": 4.0}),
+    ]
     for axis, level, conditions in points:
+        if axis == "held-out":
+            continue
         assert conditions["sensors"] == (level if axis == "noise" else 1.0)
         assert set(conditions) - {"sensors"} == ({"parameters"} if axis == "parameters" else set()) | (
             {"delay_steps"} if axis == "delay" else set()
@@ -33,6 +42,7 @@ def test_a_short_run_writes_rows_and_resumes(tmp_path):
     kwargs = {"episode_duration_s": 2.0, "control_dt_s": 0.5}
     rows = robustness.run("wheel", 1, out, ["lqr"], env_kwargs=kwargs)
     assert len(rows) == len(robustness.axes("attitude_envs/ReactionWheel-v0"))
+    assert [r["axis"] for r in rows][-3:] == ["held-out"] * 3
     for row in rows:
         assert row["j_over_j_star"] >= 1.0 - 1e-9  # no controller beats the oracle
     written = list(csv.DictReader(out.open()))
@@ -42,3 +52,27 @@ def test_a_short_run_writes_rows_and_resumes(tmp_path):
     again = robustness.run("wheel", 1, out, ["lqr"], env_kwargs=kwargs)  # resumes: nothing replayed
     assert out.with_suffix(".episodes.jsonl").read_text().splitlines() == episodes
     assert [r["j_over_j_star"] for r in again] == [r["j_over_j_star"] for r in rows]
+
+
+def test_learned_agents_need_the_campaign_models(tmp_path):
+    with pytest.raises(ValueError, match=r"--models .* has no trained ppo of the wheel campaign"):
+        robustness.learned_models("wheel", tmp_path)
+
+
+def test_learned_agents_are_every_training_seeds_best_snapshot(tmp_path):
+    for entry, name in (("rw", "ppo"), ("rw-flight", "ppo-flight")):
+        for seed in (0, 1):
+            run = tmp_path / "models" / entry / name / f"seed{seed}"
+            (run / "final").mkdir(parents=True)
+            (run / "final" / "model.zip").write_bytes(b"")
+            if seed == 0:  # a best snapshot where one was saved, else the final one
+                (run / "best").mkdir()
+                (run / "best" / "model.zip").write_bytes(b"")
+    found = robustness.learned_models("wheel", tmp_path)
+    assert {k: [p.relative_to(tmp_path).as_posix() for p in v] for k, v in found.items()} == {
+        "ppo": ["models/rw/ppo/seed0/best/model.zip", "models/rw/ppo/seed1/final/model.zip"],
+        "ppo-flight": [
+            "models/rw-flight/ppo-flight/seed0/best/model.zip",
+            "models/rw-flight/ppo-flight/seed1/final/model.zip",
+        ],
+    }
