@@ -56,6 +56,7 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from flax import struct
 
 
@@ -165,6 +166,25 @@ class Environment:
 
     def observation_space(self, params: Any = None):
         raise NotImplementedError
+
+
+def drawn_arrays(flight: Any, drawn: dict, shapes: dict[str, tuple[int, ...]]) -> dict[str, np.ndarray]:
+    """The entries ``shapes`` names of a numba flight episode's ``drawn`` parameters
+    (``env.unwrapped.drawn_parameters()``) as float arrays of those shapes, for a twin's
+    ``with_drawn_parameters``; a ``ValueError`` for lab params (``flight`` None), a missing
+    entry or a wrong shape."""
+    if flight is None:
+        raise ValueError("with_drawn_parameters takes the params of a flight env (conditions with parameter draws)")
+    missing = [k for k in shapes if k not in drawn]
+    if missing:
+        raise ValueError(
+            f"drawn parameters lack {missing} (got {sorted(drawn)}): pass env.unwrapped.drawn_parameters()"
+        )
+    out = {k: np.asarray(drawn[k], dtype=float) for k in shapes}
+    for k, shape in shapes.items():
+        if out[k].shape != tuple(shape):
+            raise ValueError(f"drawn {k} must have shape {tuple(shape)}, got {out[k].shape}")
+    return out
 
 
 def check_state_from(sensors: bool, chain: Any, steps: int) -> None:

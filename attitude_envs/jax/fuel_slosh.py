@@ -76,7 +76,7 @@ from attitude_envs.jax import actuators as jact
 from attitude_envs.jax import cost as jcost
 from attitude_envs.jax import faults as jfaults
 from attitude_envs.jax import sensors as jsens
-from attitude_envs.jax.environment import Environment, check_state_from, preset_defaults
+from attitude_envs.jax.environment import Environment, check_state_from, drawn_arrays, preset_defaults
 from attitude_envs.jax.make import state_layers
 from attitude_envs.jax.ops import JAX
 from attitude_envs.jax.spaces import Box
@@ -596,29 +596,20 @@ def with_drawn_parameters(params: EnvParams, drawn: dict) -> EnvParams:
     ``fuel_mass_kg``, ``actuator_gain``) instead of drawing them: the JAX episode of that numba
     episode's plant. ``ValueError`` for lab params or a missing entry."""
     fp = params.flight
-    if fp is None:
-        raise ValueError("with_drawn_parameters takes the params of a flight env (conditions with parameter draws)")
-    keys = ("slosh_mass_kg", "length_m", "fuel_mass_kg", "actuator_gain")
-    missing = [k for k in keys if k not in drawn]
-    if missing:
-        raise ValueError(
-            f"drawn parameters lack {missing} (got {sorted(drawn)}): pass env.unwrapped.drawn_parameters()"
-        )
+    shapes = {"slosh_mass_kg": (2,), "length_m": (2,), "fuel_mass_kg": (), "actuator_gain": (N_ACTUATORS,)}
+    a = drawn_arrays(fp, drawn, shapes)
     dtype = fp.given_gain.dtype
 
-    def f(v: Any, shape: tuple[int, ...]) -> jax.Array:
-        a = np.asarray(v, dtype=float)
-        if a.shape != shape:
-            raise ValueError(f"drawn parameters must have shape {shape}, got {a.shape}")
-        return jnp.asarray(a, dtype=dtype)
+    def f(key: str) -> jax.Array:
+        return jnp.asarray(a[key], dtype=dtype)
 
     return params.replace(
         flight=fp.replace(
             given=jnp.asarray(True),
-            given_slosh_mass_kg=f(drawn["slosh_mass_kg"], (2,)),
-            given_length_m=f(drawn["length_m"], (2,)),
-            given_fuel_mass_kg=f(drawn["fuel_mass_kg"], ()),
-            given_gain=f(drawn["actuator_gain"], (N_ACTUATORS,)),
+            given_slosh_mass_kg=f("slosh_mass_kg"),
+            given_length_m=f("length_m"),
+            given_fuel_mass_kg=f("fuel_mass_kg"),
+            given_gain=f("actuator_gain"),
         )
     )
 

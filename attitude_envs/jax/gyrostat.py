@@ -76,7 +76,7 @@ from attitude_envs.jax import faults as jfaults
 from attitude_envs.jax import quaternion as jq
 from attitude_envs.jax import sensors as jsens
 from attitude_envs.jax.cost import mode_code, termination_charge
-from attitude_envs.jax.environment import Environment, check_state_from, preset_defaults
+from attitude_envs.jax.environment import Environment, check_state_from, drawn_arrays, preset_defaults
 from attitude_envs.jax.ops import JAX
 from attitude_envs.jax.spaces import Box
 from attitude_envs.plants.gyrostat_definition import define
@@ -911,21 +911,10 @@ def with_drawn_parameters(params: EnvParams, drawn: dict) -> EnvParams:
     :class:`~attitude_envs.plants.gyrostat.GyrostatParams` does, so bit for bit the numba
     env's). ``ValueError`` for lab params or a missing entry."""
     fp = params.flight
-    if fp is None:
-        raise ValueError("with_drawn_parameters takes the params of a flight env (conditions with parameter draws)")
     dtype = params.plant.inertia_kg_m2.dtype
-    missing = [k for k in ("inertia_kg_m2", "wheel_axes", "offset_torque_nm") if k not in drawn]
-    if missing:
-        raise ValueError(
-            f"drawn parameters lack {missing} (got {sorted(drawn)}): pass env.unwrapped.drawn_parameters()"
-        )
-    inertia = np.asarray(drawn["inertia_kg_m2"], dtype=float)
-    axes = np.asarray(drawn["wheel_axes"], dtype=float)
-    if axes.shape != tuple(params.plant.wheel_axes.shape) or inertia.shape != (3, 3):
-        raise ValueError(
-            f"drawn inertia_kg_m2 {inertia.shape} and wheel_axes {axes.shape} must be (3, 3) and "
-            f"{tuple(params.plant.wheel_axes.shape)}"
-        )
+    shapes = {"inertia_kg_m2": (3, 3), "wheel_axes": tuple(params.plant.wheel_axes.shape), "offset_torque_nm": (3,)}
+    a = drawn_arrays(fp, drawn, shapes)
+    inertia, axes = a["inertia_kg_m2"], a["wheel_axes"]
     j_s = float(params.plant.wheel_inertia_kg_m2)
     eff_inv = np.linalg.inv(inertia - j_s * axes @ axes.T)
     gain = np.asarray(drawn.get("actuator_gain", np.ones(axes.shape[1])), dtype=float)
@@ -939,7 +928,7 @@ def with_drawn_parameters(params: EnvParams, drawn: dict) -> EnvParams:
             given_inertia_kg_m2=f(inertia),
             given_inertia_eff_inv=f(eff_inv),
             given_wheel_axes=f(axes),
-            given_offset_torque_nm=f(drawn["offset_torque_nm"]),
+            given_offset_torque_nm=f(a["offset_torque_nm"]),
             given_gain=f(gain),
         )
     )

@@ -55,7 +55,7 @@ from attitude_envs.jax import actuators as jact
 from attitude_envs.jax import cost as jcost
 from attitude_envs.jax import faults as jfaults
 from attitude_envs.jax import sensors as jsens
-from attitude_envs.jax.environment import Environment, check_state_from, preset_defaults
+from attitude_envs.jax.environment import Environment, check_state_from, drawn_arrays, preset_defaults
 from attitude_envs.jax.make import state_layers
 from attitude_envs.jax.spaces import Box
 from attitude_envs.presets.flight_linear import state_sensor_config
@@ -405,15 +405,8 @@ def with_drawn_parameters(params: EnvParams, drawn: dict) -> EnvParams:
     ``env.unwrapped.drawn_parameters()``: ``actuator_gain``) instead of drawing them: the JAX
     episode of that numba episode's plant. ``ValueError`` for lab params or a missing entry."""
     fp = params.flight
-    if fp is None:
-        raise ValueError("with_drawn_parameters takes the params of a flight env (conditions with parameter draws)")
-    if "actuator_gain" not in drawn:
-        raise ValueError(
-            f"drawn parameters lack 'actuator_gain' (got {sorted(drawn)}): pass env.unwrapped.drawn_parameters()"
-        )
-    gain = np.asarray(drawn["actuator_gain"], dtype=float)
-    if gain.shape != tuple(fp.given_gain.shape):
-        raise ValueError(f"drawn actuator_gain must have shape {tuple(fp.given_gain.shape)}, got {gain.shape}")
+    shape = () if fp is None else tuple(fp.given_gain.shape)
+    gain = drawn_arrays(fp, drawn, {"actuator_gain": shape})["actuator_gain"]
     dtype = fp.given_gain.dtype
     return params.replace(flight=fp.replace(given=jnp.asarray(True), given_gain=jnp.asarray(gain, dtype=dtype)))
 

@@ -83,7 +83,7 @@ from attitude_envs.jax import cost as jcost
 from attitude_envs.jax import faults as jfaults
 from attitude_envs.jax import quaternion as jq
 from attitude_envs.jax import sensors as jsens
-from attitude_envs.jax.environment import Environment, check_state_from
+from attitude_envs.jax.environment import Environment, check_state_from, drawn_arrays
 from attitude_envs.jax.ops import JAX
 from attitude_envs.jax.spaces import Box
 from attitude_envs.plants import magnetorquer_kernels as K
@@ -1180,15 +1180,7 @@ def with_drawn_parameters(params: EnvParams, drawn: dict) -> EnvParams:
     computed with numpy as the numba env's ``_pack_env`` does, so bit for bit its). A
     ``ValueError`` for params without flight conditions or a draw missing."""
     fp = params.flight
-    if fp is None:
-        raise ValueError("with_drawn_parameters takes the params of a flight env (conditions with parameter draws)")
-    if "inertia_kg_m2" not in drawn:
-        raise ValueError(
-            f"drawn parameters lack 'inertia_kg_m2' (got {sorted(drawn)}): pass env.unwrapped.drawn_parameters()"
-        )
-    inertia = np.asarray(drawn["inertia_kg_m2"], dtype=float)
-    if inertia.shape != (3, 3):
-        raise ValueError(f"drawn inertia_kg_m2 must be 3×3, got shape {inertia.shape}")
+    inertia = drawn_arrays(fp, drawn, {"inertia_kg_m2": (3, 3)})["inertia_kg_m2"]
     eff = inertia.copy()
     eff[1, 1] -= float(params.wheel_inertia_kg_m2)
     gain = np.asarray(drawn.get("actuator_gain", np.ones(N_ACTUATORS)), dtype=float)
