@@ -102,11 +102,10 @@ def test_config_all_checks_every_campaign_before_running_any(tmp_path, monkeypat
 def test_backend_option_replaces_every_trained_agents_backend():
     data = yaml.safe_load(preset_path("wheel").read_text())
     plain, forced = load_campaign(data), load_campaign(data, backend="sb3")
-    for agent in plain.agents:  # the -v1 entries' backend: SBX, the parity run's choice
+    for agent in plain.agents:  # the -v1 entries' backend (SBX, the parity run's choice), but the flight PPO's
         if agent.train is not None:
-            assert (
-                "backend" not in agent.train and load_hyperparams(agent.train["algo"], agent.env_id)["backend"] == "sbx"
-            )
+            backend = agent.train.get("backend") or load_hyperparams(agent.train["algo"], agent.env_id)["backend"]
+            assert backend == ("jax" if agent.name == "ppo-flight" else "sbx")
     assert all(a.train.get("backend") == "sb3" for a in forced.agents if a.train is not None)
     assert plain.fingerprint != forced.fingerprint  # a different campaign: results never mix
     assert json.dumps(data) == json.dumps(yaml.safe_load(Path(preset_path("wheel")).read_text()))  # input untouched
