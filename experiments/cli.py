@@ -639,7 +639,7 @@ def _write_table(args: argparse.Namespace) -> int:
     try:
         keep = optimum_table.reusable_entries(path) if args.keep_table else None
         path, failed = optimum_table.write_table(
-            specs, path, executor, cache=not args.no_cache, progress=print, keep=keep
+            specs, path, executor, cache=not args.no_cache, progress=print, keep=keep, keep_others=args.keep_table
         )
     finally:
         executor.close()
@@ -907,7 +907,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--keep-table",
         action="store_true",
         help="with --write-table: keep the entries the table file already holds (solved with the same "
-        "settings) and solve only the other episode keys",
+        "settings), those of other cells as they are, and solve only the named cells' other episode keys",
     )
     _add_jobs_option(op, "with --write-table: solves in parallel (>= 1; default: CPU count)")
     op.set_defaults(func=_optimum)

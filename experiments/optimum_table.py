@@ -346,10 +346,12 @@ def write_table(
     cache: bool = True,
     progress: Callable[[str], None] | None = None,
     keep: Mapping[str, Mapping[str, Any]] | None = None,
+    keep_others: bool = False,
 ) -> tuple[Path, list[dict[str, Any]]]:
     """Solve every spec (on ``executor``) and write the J* table to ``path``; returns the path
     and the specs whose solve failed (they are left out of the table). ``keep`` (hash → entry,
-    :func:`reusable_entries`): specs it holds take that entry instead of a solve."""
+    :func:`reusable_entries`): specs it holds take that entry instead of a solve;
+    ``keep_others``: its entries of no spec (other cells) stay in the table as they are."""
     if solver_unavailable():
         raise ValueError(f"--write-table solves J*: {INSTALL_HINT}")
     say = progress or (lambda _msg: None)
@@ -357,6 +359,12 @@ def write_table(
     kept = [{**keep[s["hash"]], "cells": s["labels"]} for s in specs if s["hash"] in keep]
     if kept:
         say(f"  {len(kept)} episode key(s) kept from the existing table")
+    if keep_others:
+        named = {s["hash"] for s in specs}
+        others = [dict(e) for h, e in keep.items() if h not in named]
+        if others:
+            say(f"  {len(others)} entry(ies) of other cells kept as they are")
+        kept += others
     jobs = [{**s, "cache": cache} for s in specs if s["hash"] not in keep]
     by_hash = {s["hash"]: s for s in specs}
     rows = []

@@ -211,6 +211,13 @@ def test_write_table_keeps_what_the_table_holds_and_solves_the_rest(tmp_path):
     assert set(written) == {s["hash"] for s in specs + new_key}
     for s in specs:
         assert written[s["hash"]]["j_star"] == keep[s["hash"]]["j_star"]
+    # the other cells' entries of the file go only with keep_others (the CLI's --keep-table): a
+    # table written for some cells does not drop the rest
+    others = {h for h in keep if h not in {s["hash"] for s in specs}}
+    assert others and not others & set(written)
+    both, _ = optimum_table.write_table(specs, tmp_path / "both.json", Inline(), keep=keep, keep_others=True)
+    assert set(load_table(both)) == set(keep)
+    assert all(load_table(both)[h]["j_star"] == keep[h]["j_star"] for h in keep)
     data = json.loads(path.read_text())
     data["solver"]["tol"] = 1e-6
     path.write_text(json.dumps(data))
