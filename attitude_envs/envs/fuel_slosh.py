@@ -41,6 +41,14 @@ def _read_only(a: np.ndarray) -> np.ndarray:
     return a
 
 
+def flight_state_sensor(observe_slosh: bool, noise_scale: float) -> tuple[dict, np.ndarray]:
+    """The flight ``state`` sensor over the observed entries (one value per entry, its noise,
+    bias walk and bias spread times ``noise_scale``) and the observation positions it does not
+    measure (the slosh states, reported as 0)."""
+    entries = np.arange(8) if observe_slosh else np.array([0, 1, 2, 7])
+    return state_sensor_config(entries, noise_scale), np.flatnonzero(~np.array(_FLIGHT_MEASURED)[entries])
+
+
 def flight_plant_tolerances(table, scale: float) -> dict[str, float] | None:
     """The flight tolerances (relative) of the slosh masses and pendulum lengths in ``table``
     (:class:`~attitude_envs.presets.flight.FlightTable`) times the conditions' ``parameters``
@@ -257,14 +265,13 @@ class FuelSloshEnv(AttitudeEnv):
         slosh_high = np.array([2 * self.max_slosh_angle_rad, 50.0] * 2)
         high = np.concatenate([high, slosh_high, [1e4]]) if self.observe_slosh else np.append(high, 1e4)
         self._limits = _read_only(np.array([self.model.max_gimbal_rad, self.model.max_moment_nm]))
-        obs_entries = np.arange(8) if self.observe_slosh else np.array([0, 1, 2, 7])
         cond = cfg.conditions
         #: observation entries the sensors do not measure (reported as 0): the slosh states
         #: under the flight sensors
         self._unmeasured = np.zeros(0, dtype=int)
         if sensors is None and cond.sensors > 0:  # the flight sensors, one value per observed entry
-            sensors = {"state": state_sensor_config(obs_entries, cond.sensors)}
-            self._unmeasured = np.flatnonzero(~np.array(_FLIGHT_MEASURED)[obs_entries])
+            config, self._unmeasured = flight_state_sensor(self.observe_slosh, cond.sensors)
+            sensors = {"state": config}
         # actuator 0: gimbal angle (rad), actuator 1: pitch moment (N·m)
         self._init_layers(
             n_actuators=2,

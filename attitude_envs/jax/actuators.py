@@ -17,7 +17,9 @@ output and the lag's state) an :class:`ActuatorState`, carried in the env state.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -89,6 +91,21 @@ def layout_of(model: ActuatorModel | None, delay_steps: int, gain: bool) -> Actu
         friction=bool(model.coulomb.any() or model.viscous.any()),
         gain=bool(gain),
     )
+
+
+def chain_layout(layers: Any) -> ActuatorLayout:
+    """The static layout of the actuator chain of a numba env's ``layers``
+    (:func:`~attitude_envs.envs.base.build_layers`): its model (None: no actuator dynamics),
+    the conditions' delay, and scale-factor gains where they are drawn."""
+    chain = layers.actuator_chain
+    model = None if chain is None else chain.model
+    return layout_of(model, layers.conditions.delay_steps, bool(layers.gain_tolerance.any()))
+
+
+def chain_params(layers: Any, n: int, dt_s: float, dtype) -> ActuatorParams:
+    """The arrays of the actuator chain of ``layers`` (``n`` actuators, control period ``dt_s``)."""
+    chain = layers.actuator_chain
+    return params_of(None if chain is None else chain.model, n, dt_s, dtype)
 
 
 def params_of(model: ActuatorModel | None, n: int, dt_s: float, dtype) -> ActuatorParams:
@@ -171,12 +188,34 @@ def output(
     return y, state.replace(lagged=lagged)
 
 
+def deliver(
+    layout: ActuatorLayout,
+    p: ActuatorParams,
+    state: ActuatorState,
+    commanded: jax.Array,
+    fault: Callable[[jax.Array], tuple[jax.Array, Any]],
+    gain: jax.Array | None,
+    speeds: jax.Array,
+) -> tuple[jax.Array, Any, ActuatorState]:
+    """:meth:`ActuatorChain.deliver`: the command's stages 1–3 (:func:`command`), the env's
+    actuator faults ``fault(c) -> (faulted, fault state)`` (stage 4), then stages 5–7
+    (:func:`output`, ``gain`` and wheel ``speeds`` as there). Returns the delivered command,
+    the faults' next state and the chain's."""
+    c, state = command(layout, p, state, commanded)
+    faulted, fault_state = fault(c)
+    delivered, state = output(layout, p, state, faulted, gain, speeds)
+    return delivered, fault_state, state
+
+
 __all__ = [
     "FLIGHT_STREAM",
     "ActuatorLayout",
     "ActuatorParams",
     "ActuatorState",
+    "chain_layout",
+    "chain_params",
     "command",
+    "deliver",
     "initial_state",
     "layout_of",
     "output",

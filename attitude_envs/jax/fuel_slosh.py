@@ -70,6 +70,7 @@ from attitude_envs.envs.fuel_slosh import (
     FuelSloshConfig,
     configure,
     flight_plant_tolerances,
+    flight_state_sensor,
 )
 from attitude_envs.envs.fuel_slosh import FuelSloshEnv as NumbaFuelSloshEnv
 from attitude_envs.jax import actuators as jact
@@ -83,7 +84,6 @@ from attitude_envs.jax.spaces import Box
 from attitude_envs.plants import slosh
 from attitude_envs.plants.slosh_definition import define
 from attitude_envs.plants.slosh_model import REDUCED_INDEX
-from attitude_envs.presets import flight_slosh
 from attitude_envs.presets.flight import table as flight_table
 from attitude_envs.presets.navabi_slosh import PAPER_INITIAL_STATE
 
@@ -399,10 +399,15 @@ class FuelSloshEnv(Environment):
         if fl is None:
             applied, fault_state = self._faulted(key, state, applied, t_s, limits)
         else:  # ActuatorChain.deliver: delay, rate limit, faults, lag, gains
-            act_p = params.flight.actuators
-            c, act = jact.command(fl.actuators, act_p, flight.actuators, applied)
-            faulted, fault_state = self._faulted(key, state, c, t_s, limits)
-            applied, act = jact.output(fl.actuators, act_p, act, faulted, flight.gain, jnp.zeros_like(faulted))
+            applied, fault_state, act = jact.deliver(
+                fl.actuators,
+                params.flight.actuators,
+                flight.actuators,
+                applied,
+                lambda c: self._faulted(key, state, c, t_s, limits),
+                flight.gain,
+                jnp.zeros_like(applied),
+            )
             flight = flight.replace(actuators=act)
             if fl.draw_plant:  # this episode's true slosh parameters
                 pl = flight.plant
@@ -652,10 +657,9 @@ def params_of(
     flight = sensors = None
     if layers is not None and not layers.conditions.is_lab:
         dtype = jnp.result_type(float)
-        chain = layers.actuator_chain
         tol = plant_tolerances or {}
         flight = FlightParams(
-            actuators=jact.params_of(None if chain is None else chain.model, N_ACTUATORS, cfg.control_dt_s, dtype),
+            actuators=jact.chain_params(layers, N_ACTUATORS, cfg.control_dt_s, dtype),
             slosh_mass=f(tol.get("slosh_mass", 0.0)),
             pendulum_length=f(tol.get("pendulum_length", 0.0)),
             gain_tolerance=f(layers.gain_tolerance),
@@ -706,19 +710,13 @@ def from_keywords(plant: str, kwargs: dict[str, Any]) -> tuple[FuelSloshEnv, Env
     if cond.is_lab:
         layer = state_layers(plant, cfg, limits, len(obs_index)).fault_layer
     else:
-        # the numba env's flight sensor: one value per observed entry, the slosh entries not measured
-        entries = np.arange(8) if cfg.observe_slosh else np.array([0, 1, 2, 7])
-        sensors = flight_slosh.state_sensor_config(entries, cond.sensors)
+        sensors, missing = flight_state_sensor(cfg.observe_slosh, cond.sensors)
         if cfg.sensors is None and cond.sensors > 0:
-            unmeasured = tuple(int(i) for i in np.flatnonzero(~np.array(flight_slosh.MEASURED)[entries]))
+            unmeasured = tuple(int(i) for i in missing)
         layers = state_layers(plant, cfg, limits, len(obs_index), sensors, cfg.control_dt_s)
         layer = layers.fault_layer
         tolerances = flight_plant_tolerances(flight_table(NumbaFuelSloshEnv.env_name, cfg.preset), cond.parameters)
-        model = None if layers.actuator_chain is None else layers.actuator_chain.model
-        flight = FlightLayout(
-            actuators=jact.layout_of(model, cond.delay_steps, bool(layers.gain_tolerance.any())),
-            draw_plant=tolerances is not None,
-        )
+        flight = FlightLayout(actuators=jact.chain_layout(layers), draw_plant=tolerances is not None)
     configs = tuple(dict(c) for c in layer.configs)
     params = params_of(cfg, configs, layers, tolerances)
     env = FuelSloshEnv(

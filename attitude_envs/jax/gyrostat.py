@@ -676,10 +676,15 @@ class GyrostatEnv(Environment):
         if fl is None:
             delivered, fault_state = jfaults.apply(state.faults, state.fault_state, key, commanded, t0, limits)
         else:  # ActuatorChain.deliver: delay, resolution, rate limit, faults, lag, gain, friction
-            act_p = p.flight.actuators
-            c, act = jact.command(fl.actuators, act_p, flight.actuators, commanded)
-            faulted, fault_state = jfaults.apply(state.faults, state.fault_state, key, c, t0, limits)
-            delivered, act = jact.output(fl.actuators, act_p, act, faulted, flight.gain, state.wheel_speed_rad_s)
+            delivered, fault_state, act = jact.deliver(
+                fl.actuators,
+                p.flight.actuators,
+                flight.actuators,
+                commanded,
+                lambda c: jfaults.apply(state.faults, state.fault_state, key, c, t0, limits),
+                flight.gain,
+                state.wheel_speed_rad_s,
+            )
             flight = flight.replace(actuators=act)
         y = jnp.concatenate([state.attitude, state.rate_rad_s, state.wheel_speed_rad_s])
         y_new, cost, applied = self._rk4(y, delivered, state.target_attitude, p)
@@ -1124,12 +1129,10 @@ def _flight_layout(cfg: GyrostatConfig) -> FlightLayout | None:
     layers = cfg.layers
     if layers.conditions.is_lab:
         return None
-    chain, tol = layers.actuator_chain, cfg.flight_tolerances
+    tol = cfg.flight_tolerances
     draw_plant = tol is not None
     return FlightLayout(
-        actuators=jact.layout_of(
-            None if chain is None else chain.model, layers.conditions.delay_steps, bool(layers.gain_tolerance.any())
-        ),
+        actuators=jact.chain_layout(layers),
         draw_plant=draw_plant,
         draw_inertia=draw_plant and cfg.inertia_uncertainty is None,
         draw_offset=draw_plant and "offset_torque_nm" in tol,
@@ -1144,7 +1147,6 @@ def _flight_params(cfg: GyrostatConfig, dtype) -> FlightParams | None:
         return None
     plant = cfg.model.params
     n = plant.n_wheels
-    chain = layers.actuator_chain
     tol = cfg.flight_tolerances or {}  # none drawn: every tolerance 0
     moments, principal = np.linalg.eigh(plant.inertia_kg_m2)
 
@@ -1152,7 +1154,7 @@ def _flight_params(cfg: GyrostatConfig, dtype) -> FlightParams | None:
         return jnp.asarray(np.asarray(v, dtype=float), dtype=dtype)
 
     return FlightParams(
-        actuators=jact.params_of(None if chain is None else chain.model, n, cfg.control_dt_s, dtype),
+        actuators=jact.chain_params(layers, n, cfg.control_dt_s, dtype),
         inertia_moment=f(tol.get("inertia_moment", 0.0)),
         inertia_axis_deg=f(tol.get("inertia_axis_deg", 0.0)),
         misalignment_deg=f(tol.get("wheel_misalignment_deg", 0.0)),

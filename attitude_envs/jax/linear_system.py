@@ -281,10 +281,15 @@ class LinearSystemEnv(Environment):
         if self.flight is None:
             u, fault_state = self._faulted(key_fault, state, commanded, t_s, params)
         else:  # ActuatorChain.deliver: the delay, the faults, the gains
-            act_p = params.flight.actuators
-            c, act = jact.command(self.flight, act_p, flight.actuators, commanded)
-            faulted, fault_state = self._faulted(key_fault, state, c, t_s, params)
-            u, act = jact.output(self.flight, act_p, act, faulted, flight.gain, jnp.zeros_like(faulted))
+            u, fault_state, act = jact.deliver(
+                self.flight,
+                params.flight.actuators,
+                flight.actuators,
+                commanded,
+                lambda c: self._faulted(key_fault, state, c, t_s, params),
+                flight.gain,
+                jnp.zeros_like(commanded),
+            )
             flight = flight.replace(actuators=act)
         noise = None
         if self.noisy:
@@ -468,9 +473,8 @@ def params_of(cfg: LinearSystemConfig, fault_configs: tuple[dict, ...] = (), lay
     flight = sensors = None
     if layers is not None and not layers.conditions.is_lab:
         dtype = jnp.result_type(float)
-        chain = layers.actuator_chain
         flight = FlightParams(
-            actuators=jact.params_of(None if chain is None else chain.model, m, cfg.control_dt_s, dtype),
+            actuators=jact.chain_params(layers, m, cfg.control_dt_s, dtype),
             gain_tolerance=f(layers.gain_tolerance),
             given=jnp.asarray(False),
             given_gain=f(np.ones(m)),
@@ -517,8 +521,7 @@ def from_keywords(plant: str, kwargs: dict[str, Any]) -> tuple[LinearSystemEnv, 
         sensors = state_sensor_config(state_scale(cfg.x0_mean, cfg.x0_std), cfg.conditions.sensors)
         layers = state_layers(plant, cfg, cfg.action_scale, n, sensors, cfg.control_dt_s)
         layer = layers.fault_layer
-        model = None if layers.actuator_chain is None else layers.actuator_chain.model
-        chain = jact.layout_of(model, cfg.conditions.delay_steps, bool(layers.gain_tolerance.any()))
+        chain = jact.chain_layout(layers)
     configs = tuple(dict(c) for c in layer.configs)
     params = params_of(cfg, configs, layers)
     env = LinearSystemEnv(

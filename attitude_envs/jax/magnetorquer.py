@@ -360,8 +360,7 @@ def _orbit_rate_in_body(q: jax.Array, orbit_rate: jax.Array) -> jax.Array:
     """``R ω_oi`` (rad/s, body axes) with ``ω_oi = [0, −ν̇, 0]`` (eq. 3) for the attitude ``q``
     and the orbit rate ν̇ ``orbit_rate``: ``R``'s second column times −ν̇ (the numba kernel's
     snapshot)."""
-    x, y, z, w = q[0], q[1], q[2], q[3]
-    return jnp.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)]) * (-orbit_rate)
+    return orbital_to_body(q)[:, 1] * (-orbit_rate)
 
 
 def _inverse3(m):
@@ -697,18 +696,19 @@ class MagnetorquerEnv(Environment):
         t0 = state.time.astype(dtype) * params.control_dt_s
         time = state.time + 1
         t1 = time.astype(dtype) * params.control_dt_s
+
+        def faulted(c: jax.Array):
+            if state.faults.kind.shape[-1]:
+                return jfaults.apply(state.faults, state.fault_state, key_fault, c, t0, limits)
+            return c, state.fault_state
+
         fl, flight = self.flight, state.flight
-        command = commanded
-        if fl is not None:  # ActuatorChain.deliver: delay, resolution, rate limit, then the faults
-            command, actuators = jact.command(fl.actuators, params.flight.actuators, flight.actuators, commanded)
-        if state.faults.kind.shape[-1]:
-            delivered, fault_state = jfaults.apply(state.faults, state.fault_state, key_fault, command, t0, limits)
-        else:
-            delivered, fault_state = command, state.fault_state
-        if fl is not None:  # lag, gain and duty cycle, wheel friction (against −Ω: T_w acts on the body)
+        if fl is None:
+            delivered, fault_state = faulted(commanded)
+        else:  # ActuatorChain.deliver; the wheel's friction against −Ω (T_w acts on the body)
             speeds = jnp.concatenate([jnp.zeros(3, dtype), -state.wheel_speed_rad_s])
-            delivered, actuators = jact.output(
-                fl.actuators, params.flight.actuators, actuators, delivered, flight.gain, speeds
+            delivered, fault_state, actuators = jact.deliver(
+                fl.actuators, params.flight.actuators, flight.actuators, commanded, faulted, flight.gain, speeds
             )
             flight = flight.replace(actuators=actuators)
         state = state.replace(disturbance=self.advance_disturbance(key_dist, state.disturbance, params))
@@ -1141,8 +1141,6 @@ def _flight_of(numba_env: Any, principal_moments: np.ndarray) -> tuple[FlightLay
         conditions=dataclasses.replace(conditions, sensors=0.0),
         control_dt_s=numba_env.control_dt_s,
     )
-    chain, gain_tolerance = layers.actuator_chain, layers.gain_tolerance
-    model = None if chain is None else chain.model
     scale = conditions.parameters
     draw_inertia = scale > 0 and numba_env.reset_distribution["inertia_uncertainty"] is None
     moment, axis = 0.0, 0.0
@@ -1150,7 +1148,7 @@ def _flight_of(numba_env: Any, principal_moments: np.ndarray) -> tuple[FlightLay
         table = numba_env.flight_table
         moment, axis = table.plant_value("inertia_moment") * scale, table.plant_value("inertia_axis_deg") * scale
     layout = FlightLayout(
-        actuators=jact.layout_of(model, conditions.delay_steps, bool(gain_tolerance.any())),
+        actuators=jact.chain_layout(layers),
         parameters=scale > 0,
         draw_inertia=draw_inertia,
     )
@@ -1161,10 +1159,10 @@ def _flight_of(numba_env: Any, principal_moments: np.ndarray) -> tuple[FlightLay
 
     nominal = np.asarray(p.inertia_kg_m2, dtype=float)
     params = FlightParams(
-        actuators=jact.params_of(model, N_ACTUATORS, numba_env.control_dt_s, dtype),
+        actuators=jact.chain_params(layers, N_ACTUATORS, numba_env.control_dt_s, dtype),
         inertia_moment=f(moment),
         inertia_axis_deg=f(axis),
-        gain_tolerance=f(gain_tolerance),
+        gain_tolerance=f(layers.gain_tolerance),
         given=jnp.asarray(False),
         given_inertia_kg_m2=f(nominal),
         given_inertia_eff_inv=f(p.inertia_eff_inv),
