@@ -32,6 +32,7 @@ import argparse
 import csv
 import json
 from collections.abc import Callable
+from functools import cache
 from pathlib import Path
 
 import gymnasium as gym
@@ -49,15 +50,9 @@ PLANTS = {
     "wheel": "attitude_envs/ReactionWheel-v0",
     "air-bearing": "attitude_envs/AirBearing-v0",
 }
-#: the plant campaign's cell keywords (its episodes and J*) and its lab and flight env entries
-CELLS = {
-    "wheel": ({"preset": "pyramid-4wheel", "action_frame": "body"}, "rw", "rw-flight"),
-    "air-bearing": ({"preset": "air-bearing-85kg"}, "ab", "ab-flight"),
-}
-#: the learning task the campaign's learned agents play (the v0 cell's episodes, the same J)
-LEARNING_IDS = {"wheel": "attitude_envs/ReactionWheel-v1", "air-bearing": "attitude_envs/AirBearing-v1"}
-#: the learned agents on the curves: name → the env entry (lab or flight) it was trained on
-LEARNED = {"ppo": 1, "ppo-flight": 2}
+#: the learned agents on the curves: the plant campaign's PPO trained in the lab and its PPO
+#: trained under flight conditions
+LEARNED = ("ppo", "ppo-flight")
 #: the levels of each axis, as (level, conditions); the parameter level is the relative inertia error
 PARAMETER_LEVELS = (0.0, 0.1, 0.25, 0.5)
 #: a whole run's wall time, min, from nothing, every axis and agent (J* solves most of it: the
@@ -98,19 +93,40 @@ def agents() -> dict[str, Callable]:
     }
 
 
-def learned_models(plant: str, results: Path) -> dict[str, list[Path]]:
-    """name → the best snapshot of each training seed of the learned agents (:data:`LEARNED`)
-    in the campaign results directory ``results``; a ``ValueError`` naming what is missing."""
-    from experiments.campaign.jobs import trained_model
+@cache
+def campaign_of(plant: str):
+    """The plant's campaign (``experiments/campaigns/<plant>.yml``): its cell, its learned agents."""
+    from experiments.campaign.spec import load_campaign
 
+    return load_campaign(plant)
+
+
+def cell_kwargs(plant: str) -> dict:
+    """The keywords of the plant campaign's lab cell (its episodes and J*)."""
+    return dict(next(e for e in campaign_of(plant).envs if "conditions" not in e.kwargs).kwargs)
+
+
+def learning_id(plant: str) -> str:
+    """The env id the campaign's learned agents play its cells' episodes on (its learning task)."""
+    return next(a for a in campaign_of(plant).agents if a.name == LEARNED[0]).env_id
+
+
+def learned_models(plant: str, results: Path) -> dict[str, list[tuple[int, Path]]]:
+    """name → ``(training seed, best snapshot)`` of each training seed of the learned agents
+    (:data:`LEARNED`) in the campaign results directory ``results``, where the campaign trains
+    them (:func:`~experiments.campaign.jobs.train_dir`); a ``ValueError`` naming what is missing."""
+    from experiments.campaign.jobs import train_dir, trained_model
+
+    campaign = campaign_of(plant)
     found = {}
-    for name, entry in LEARNED.items():
-        runs = sorted((results / "models" / CELLS[plant][entry] / name).glob("seed*"))
-        models = [trained_model(r, "best") for r in runs]
-        if not models or not all(m.is_file() for m in models):
-            raise ValueError(
-                f"--models {str(results)!r} has no trained {name} of the {plant} campaign ({runs or 'no run'})"
-            )
+    for name in LEARNED:
+        agent = next(a for a in campaign.agents if a.name == name)
+        entry = campaign.trained_on(agent, next(e for e in campaign.envs if agent in campaign.agents_for(e)))
+        runs = [(seed, train_dir(results, entry, name, seed)) for seed in agent.train["seeds"]]
+        models = [(seed, trained_model(run, "best")) for seed, run in runs]
+        missing = [str(path) for _, path in models if not path.is_file()]
+        if missing:
+            raise ValueError(f"--models {str(results)!r} has no trained {name} of the {plant} campaign: {missing}")
         found[name] = models
     return found
 
@@ -146,7 +162,7 @@ def run(
     directory ``models`` (None: the analytic ones only); rows written to ``out``. An
     episode's J* is solved once, whichever agent plays it."""
     env_id = PLANTS[plant]
-    cell_kwargs = {**CELLS[plant][0], **dict(env_kwargs or {})}
+    kwargs = {**cell_kwargs(plant), **dict(env_kwargs or {})}
     log = out.with_suffix(".episodes.jsonl")
     done: dict[tuple, dict] = {}
     j_stars: dict[tuple, float] = {}
@@ -172,18 +188,18 @@ def run(
                 players = (
                     [(None, factories[name], env_id)]
                     if name in factories
-                    else [(t, _learned_factory(path), LEARNING_IDS[plant]) for t, path in enumerate(learned[name])]
+                    else [(t, _learned_factory(path), learning_id(plant)) for t, path in learned[name]]
                 )
                 js, jstars, ratios = [], [], []
                 for train_seed, factory, play_id in players:
-                    env = gym.make(play_id, conditions=conditions, **cell_kwargs)
+                    env = gym.make(play_id, conditions=conditions, **kwargs)
                     policy = factory(env)
                     for seed in range(seeds):
                         key = (name, axis, level, seed, train_seed)
                         if key not in done:
                             episode = (axis, level, seed)
                             if episode not in j_stars:
-                                j_stars[episode] = j_star(env_id, conditions, seed, cell_kwargs)
+                                j_stars[episode] = j_star(env_id, conditions, seed, kwargs)
                             done[key] = {
                                 "agent": name,
                                 "axis": axis,
@@ -309,12 +325,13 @@ def page(rows: list[dict], plant: str, episodes: list[dict]) -> str:
         else "* **held-out** (the flight cells' tolerances ×1–×4) is not run here: its J* needs 40 more\n"
         "  flight solves of 2000-step episodes, about an hour on 2 cores."
     )
-    dt = {i: gym.make(i).unwrapped.control_dt_s for i in (PLANTS[plant], LEARNING_IDS[plant])}
+    learned_id = learning_id(plant)
+    dt = {i: gym.make(i).unwrapped.control_dt_s for i in (PLANTS[plant], learned_id)}
     run_axes = [a for a in AXES if any(r["axis"] == a for r in rows)]
     axes_arg = "" if run_axes == list(AXES) else " --axes " + " ".join(run_axes)
     periods = (
         f"{dt[PLANTS[plant]]:g} s for the analytic rows ({env_name}), "
-        f"{dt[LEARNING_IDS[plant]]:g} s for the learned ones ({LEARNING_IDS[plant].split('/')[1]})"
+        f"{dt[learned_id]:g} s for the learned ones ({learned_id.split('/')[1]})"
     )
     return rf"""# {env_name}: robustness to flight conditions
 
@@ -325,7 +342,7 @@ def page(rows: list[dict], plant: str, episodes: list[dict]) -> str:
 {chr(10).join(lines)}
 
 Each point covers the {seeds} episodes (seeds 0–{seeds - 1}) of the {plant} campaign's cell
-(`{json.dumps(CELLS[plant][0])}`), with the flight sensors on (`attitude_envs.conditions`).
+(`{json.dumps(cell_kwargs(plant))}`), with the flight sensors on (`attitude_envs.conditions`).
 One more feature is switched on per axis:
 
 * **parameters**: the true inertia drawn within ± that relative error, with the plant's other
@@ -347,7 +364,7 @@ The agents:
   augmented with the commands in flight (`baselines.lqr`, `delay_steps="env"`).
 * `ppo` is the campaign's PPO, trained in the lab; `ppo-flight` the campaign's PPO trained
   under flight conditions (domain randomization over the flight cells' distribution). Both
-  play the episodes on the learning task ({LEARNING_IDS[plant].split("/")[1]}) on the
+  play the episodes on the learning task ({learned_id.split("/")[1]}) on the
   measurements, each of their 3 training seeds' best snapshot: their points cover 3 × {seeds}
   episodes.
 

@@ -60,8 +60,10 @@ def test_learned_agents_need_the_campaign_models(tmp_path):
 
 
 def test_learned_agents_are_every_training_seeds_best_snapshot(tmp_path):
+    """Where the wheel campaign trains them: the lab PPO on its lab entry, the flight PPO on its
+    flight entry, one run per training seed (0, 1, 2)."""
     for entry, name in (("rw", "ppo"), ("rw-flight", "ppo-flight")):
-        for seed in (0, 1):
+        for seed in (0, 1, 2):
             run = tmp_path / "models" / entry / name / f"seed{seed}"
             (run / "final").mkdir(parents=True)
             (run / "final" / "model.zip").write_bytes(b"")
@@ -69,10 +71,24 @@ def test_learned_agents_are_every_training_seeds_best_snapshot(tmp_path):
                 (run / "best").mkdir()
                 (run / "best" / "model.zip").write_bytes(b"")
     found = robustness.learned_models("wheel", tmp_path)
-    assert {k: [p.relative_to(tmp_path).as_posix() for p in v] for k, v in found.items()} == {
-        "ppo": ["models/rw/ppo/seed0/best/model.zip", "models/rw/ppo/seed1/final/model.zip"],
+    assert {k: [(s, p.relative_to(tmp_path).as_posix()) for s, p in v] for k, v in found.items()} == {
+        "ppo": [
+            (0, "models/rw/ppo/seed0/best/model.zip"),
+            (1, "models/rw/ppo/seed1/final/model.zip"),
+            (2, "models/rw/ppo/seed2/final/model.zip"),
+        ],
         "ppo-flight": [
-            "models/rw-flight/ppo-flight/seed0/best/model.zip",
-            "models/rw-flight/ppo-flight/seed1/final/model.zip",
+            (0, "models/rw-flight/ppo-flight/seed0/best/model.zip"),
+            (1, "models/rw-flight/ppo-flight/seed1/final/model.zip"),
+            (2, "models/rw-flight/ppo-flight/seed2/final/model.zip"),
         ],
     }
+    (tmp_path / "models" / "rw-flight" / "ppo-flight" / "seed2" / "final" / "model.zip").unlink()
+    with pytest.raises(ValueError, match=r"no trained ppo-flight of the wheel campaign: .*seed2/final/model.zip"):
+        robustness.learned_models("wheel", tmp_path)
+
+
+def test_the_cell_and_learning_task_are_the_campaigns():
+    assert robustness.cell_kwargs("wheel") == {"preset": "pyramid-4wheel", "action_frame": "body"}
+    assert robustness.cell_kwargs("air-bearing") == {"preset": "air-bearing-85kg"}
+    assert robustness.learning_id("air-bearing") == "attitude_envs/AirBearing-v1"
