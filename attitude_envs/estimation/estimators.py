@@ -153,9 +153,8 @@ class GyrostatMEKF:
     ) -> None:
         layer = _sensor_layer(env, ("gyro", "star_tracker"), type(self).__name__)
         self.model = env.unwrapped.model
-        detector = NISFaultDetector(
-            fault_false_alarm, fault_confirm, fault_bias_std, fault_window_s
-        )  # validates all three
+        # built (and its settings validated) even when off, so a bad setting is refused either way
+        detector = NISFaultDetector(fault_false_alarm, fault_confirm, fault_bias_std, fault_window_s)
         self.detector = detector if validation.flag("fault_detection", fault_detection) else None
         self.filter = AttitudeMEKF(**_mekf_params(layer, filter_params), detector=self.detector)
         self.star_gate = SampleGate(layer.parameters("star_tracker")["period_s"])

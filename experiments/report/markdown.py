@@ -179,7 +179,7 @@ def conditions_markdown(
         cells += sorted((c for c in boards if c[0] == flight and c[1] == scenario), key=lambda c: c[2] != "none")
         if len(cells) < 2:
             continue
-        by_cell = {c: {e["agent"]: e for e in boards[c] if not e.get("oracle")} for c in cells}
+        by_cell = {c: {e["agent"]: e for e in boards[c] if not is_oracle(e)} for c in cells}
         agents = list(dict.fromkeys(a for c in cells for a in by_cell[c]))
         lines += [f"### {lab} (lab) and {flight} · {scenario}", ""]
         head = [f"{c[0]} · {c[2]}" for c in cells]
