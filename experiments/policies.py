@@ -35,7 +35,9 @@ ftsmc-standin       (Magnetorquer-v0)
 bdot                B-dot detumbling (Magnetorquer-v0)                           gain_nms
 q-learning-lqr      ``agents.QLearningLQR`` (model-free; learns at build time)   constructor kwargs; ``learn``
 sb3                 a saved Stable-Baselines3 model (``model: PATH``); behind    deterministic, shield,
-                    the CBF safety filter with ``shield: cbf``                   shield_params
+                    the CBF safety filter with ``shield: cbf``; on an            shield_params,
+                    estimator's output with ``estimator: mekf`` or ``kf``        estimator,
+                    (as ``lqr+mekf``; the env needs sensors)                     estimator_params
 lqr+mekf,           the controller acting through its estimator                  the controller's, and
 amnftsmc+mekf,      (``baselines.estimated``; the env needs sensors, e.g.        estimator_params
 slosh-lqr+kf,       ``conditions: flight``): the MEKF on the gyrostats and the
@@ -203,6 +205,15 @@ def build_policy(spec: dict[str, Any], env, name: str | None = None):
             if shield not in SHIELDS:
                 raise ValueError(f"params.shield must be one of {sorted(SHIELDS)} (or absent), got {shield!r}")
             policy = import_target(SHIELDS[shield])(policy, env, **dict(params.get("shield_params") or {}))
+        estimator = params.get("estimator")
+        if estimator is None and params.get("estimator_params"):
+            raise ValueError("params.estimator_params needs params.estimator (accepted: mekf, kf)")
+        if estimator is not None:  # the model acts on the estimator's rebuilt observation, as lqr+mekf
+            from attitude_envs.estimation.estimators import estimator_for
+            from baselines.estimated import Estimated
+
+            built = estimator_for(env, str(estimator), **dict(params.get("estimator_params") or {}))
+            policy = Estimated(policy, built)
         policy.name = label
         return policy
     env_id = env.spec.id if getattr(env, "spec", None) is not None else None

@@ -17,7 +17,7 @@ jax = pytest.importorskip("jax")
 pytest.importorskip("flax")
 scipy_stats = pytest.importorskip("scipy.stats")
 import jax.numpy as jnp  # noqa: E402
-from test_jax_magnetorquer import FAST_COMPILE  # noqa: E402
+from test_jax_magnetorquer import FAST_COMPILE, FASTER_COMPILE  # noqa: E402
 
 from attitude_envs import quaternion  # noqa: E402
 from attitude_envs.jax import magnetorquer as mt  # noqa: E402
@@ -173,7 +173,7 @@ def test_parameter_draws_follow_the_numba_law():
     with jax.enable_x64(True):
         env, params = make("Magnetorquer-v1", conditions=conditions)
         keys = jax.random.split(jax.random.PRNGKey(0), n)
-        _, states = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))(keys, params)
+        _, states = jax.jit(jax.vmap(env.reset, in_axes=(0, None)), compiler_options=FASTER_COMPILE)(keys, params)
         lab_env, lab_params = make("Magnetorquer-v1")
         _, lab = jax.vmap(lab_env.reset, in_axes=(0, None))(keys[:4], lab_params)
     inertia, gain = np.asarray(states.inertia_kg_m2), np.asarray(states.flight.gain)
@@ -244,26 +244,30 @@ def _numba_sensor_errors(n: int) -> dict:
 def _jax_sensor_errors(n: int) -> dict:
     with jax.enable_x64(True):
         env, params = make("Magnetorquer-v0", conditions="flight", episode_duration_s=1.0)
-        keys = jax.random.split(jax.random.PRNGKey(1), n)
-        _, states = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
-        step = jax.jit(jax.vmap(env.step_env, in_axes=(0, 0, None, None)), compiler_options=FAST_COMPILE)
 
-        @jax.vmap
         def observe(s):
             t_s = s.time.astype(s.rate_rad_s.dtype) * params.control_dt_s
             rate, _, _, field = mt.orbit_field(params, s.mean_anomaly0_rad, t_s)
             truth = s.replace(sensors=None)  # readings of a state without sensors: the truth
             return env.readings(truth, rate, field), env.readings(s, rate, field)
 
-        truths, readings = [], []
-        for i in range(SENSOR_STEPS + 1):
-            t, r = observe(states)
-            truths.append(t)
-            readings.append(r)
-            keys = jax.random.split(jax.random.PRNGKey(100 + i), n)
-            _, states, *_ = step(keys, states, jnp.zeros(4), params)
-    truth = {k: np.stack([np.asarray(t[k]) for t in truths], 1) for k in truths[0]}
-    read = {k: np.stack([np.asarray(r[k]) for r in readings], 1) for k in readings[0]}
+        def episode(key):
+            # one program: the reset, then SENSOR_STEPS zero-command steps, reading before each
+            key, start = jax.random.split(key)
+            _, state = env.reset(start, params)
+
+            def advance(s, step_key):
+                seen = observe(s)
+                _, s, *_ = env.step_env(step_key, s, jnp.zeros(4), params)
+                return s, seen
+
+            last, seen = jax.lax.scan(advance, state, jax.random.split(key, SENSOR_STEPS))
+            return jax.tree.map(lambda a, b: jnp.concatenate([a, b[None]]), seen, observe(last))
+
+        run = jax.jit(jax.vmap(episode), compiler_options=FASTER_COMPILE)
+        truths, readings = run(jax.random.split(jax.random.PRNGKey(1), n))
+    truth = {k: np.asarray(v) for k, v in truths.items()}
+    read = {k: np.asarray(v) for k, v in readings.items()}
     return _errors(truth["star_tracker"], truth["gyro"], truth["tachometer"], truth["magnetometer"], read)
 
 
@@ -298,8 +302,8 @@ def test_autoreset_redraws_the_gains_and_rests_the_chain():
     with jax.enable_x64(True):
         env, params = make("Magnetorquer-v0", conditions="flight", episode_duration_s=0.2)
         keys = jax.random.split(jax.random.PRNGKey(3), n)
-        _, states = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
-        step = jax.jit(jax.vmap(env.step, in_axes=(0, 0, None, None)), compiler_options=FAST_COMPILE)
+        _, states = jax.jit(jax.vmap(env.reset, in_axes=(0, None)), compiler_options=FASTER_COMPILE)(keys, params)
+        step = jax.jit(jax.vmap(env.step, in_axes=(0, 0, None, None)), compiler_options=FASTER_COMPILE)
         _, s1, _, _, truncated1, info = step(keys, states, jnp.full(4, 0.5), params)
         _, s2, _, _, truncated2, _ = step(keys, s1, jnp.full(4, 0.5), params)
     assert not np.asarray(truncated1).any() and np.asarray(truncated2).all()

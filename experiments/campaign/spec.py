@@ -80,7 +80,8 @@ class AgentSpec:
 
     ``models_of`` (SB3 agents): the name of an earlier agent whose trained models this one plays,
     one per training seed, with its own ``params`` (``shield: cbf`` puts them behind the CBF
-    safety filter at deployment): a second row of the same training, no training of its own.
+    safety filter at deployment, ``estimator: mekf`` acts on the estimator's observation): a
+    second row of the same training, no training of its own, on the source's envs or some of them.
 
     ``train.env`` (an env entry's name): the agent trains on that entry only and plays those
     models on every entry it plays (trained in the lab, scored under flight conditions too);
@@ -341,7 +342,8 @@ def _agent(i: int, a: Any, envs: list[EnvSpec]) -> AgentSpec:
 
 
 def _check_models_of(agents: list[AgentSpec]) -> None:
-    """Each ``models_of`` names an earlier trained agent that plays the same envs and task."""
+    """Each ``models_of`` names an earlier trained agent that plays the same task, on the same
+    envs or some of them (a row behind an estimator plays only the cells with sensors)."""
     for i, a in enumerate(agents):
         if a.models_of is None:
             continue
@@ -350,9 +352,11 @@ def _check_models_of(agents: list[AgentSpec]) -> None:
             source is not None and source.train is not None,
             f"agents[{i}] ({a.name}).models_of must name an earlier agent with train, got {a.models_of!r}",
         )
+        within = source.envs is None or (a.envs is not None and set(a.envs) <= set(source.envs))
         _require(
-            (source.envs, source.env_id, source.env_kwargs) == (a.envs, a.env_id, a.env_kwargs),
-            f"agents[{i}] ({a.name}) plays the models of {source.name}: give it the same envs, env_id and env_kwargs",
+            within and (source.env_id, source.env_kwargs) == (a.env_id, a.env_kwargs),
+            f"agents[{i}] ({a.name}) plays the models of {source.name}: give it the same env_id and env_kwargs, "
+            f"and its envs or some of them",
         )
 
 
