@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import time
 from pathlib import Path
 from typing import Any
@@ -48,6 +47,7 @@ import gymnasium as gym
 import numpy as np
 
 import attitude_envs  # noqa: F401
+from attitude_envs.files import atomic_write
 
 ENV_ID = "attitude_envs/AirBearing-v1"
 CONDITIONS = ("lab", "flight")
@@ -103,12 +103,7 @@ def save(path: Path, data: dict[str, Any]) -> None:
         "git_revision": git_revision(),
         **{k: v for k, v in data.get("meta", {}).items() if k in ("argv",)},
     }
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
-    with tmp.open("rb") as fh:
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
+    atomic_write(path, json.dumps(data, indent=1) + "\n", durable=True)
 
 
 def find(rows: list[dict], **key: Any) -> dict | None:
