@@ -182,5 +182,6 @@ def test_only_campaigns_that_train_with_sbx_pin_their_workers():
         if "train" in agent:
             agent["train"]["overrides"] = {"backend": "sb3"}  # the entry's backend, overridden
     assert not trains_with_sbx(load_campaign(data))
-    data["agents"][-1]["train"]["overrides"] = {"backend": "sbx"}
+    trained = [agent for agent in data["agents"] if "train" in agent]
+    trained[-1]["train"]["overrides"] = {"backend": "sbx"}
     assert trains_with_sbx(load_campaign(data))
