@@ -32,8 +32,8 @@ last sample between samples (:mod:`attitude_envs.sensors`), and the sample time 
 in ``info``. The filters detect a new sample by a *change of value*: a repeated reading
 is no new information and is not fed to the filter again (an exactly repeated noisy
 reading has probability zero; a stuck or held sensor then also stops updating the
-filter, which then coasts on the gyro or the model). A sensor sampled at every step
-(``period_s`` 0) is used at every step.
+filter, which then coasts on the gyro or the model). This holds for a sensor sampled at
+every step too: an outage that holds its last sample must not be fused again and again.
 
 **Delay.** The Kalman filters propagate with the input that acted over the step: the
 command ``info["commanded"]`` of ``delay_steps`` steps earlier, ``delay_steps`` being the
@@ -68,12 +68,12 @@ _MIN_VAR = 1e-18  # floor of a noise variance (a noise-free channel), keeps S in
 
 
 class SampleGate:
-    """Tells whether a sensor's reading is a new sample: always for a sensor sampled at
-    every step (``period_s == 0``), else when the reading differs from the previous one
-    (see the module docstring). NaN readings (dropout) are never new."""
+    """Tells whether a sensor's reading is a new sample: when it differs from the previous
+    one, whatever the sensor's period (see the module docstring). A sensor held by a
+    dropout repeats its last sample exactly, so a filter coasts through the outage instead
+    of re-fusing a stale reading; NaN readings are never new."""
 
-    def __init__(self, period_s: float) -> None:
-        self.every_step = float(period_s) <= 0.0
+    def __init__(self) -> None:
         self._last: np.ndarray | None = None
 
     def reset(self, reading: np.ndarray) -> None:
@@ -83,7 +83,7 @@ class SampleGate:
         r = np.asarray(reading, dtype=float)
         if not np.all(np.isfinite(r)):
             return False
-        new = self.every_step or self._last is None or not np.array_equal(r, self._last)
+        new = self._last is None or not np.array_equal(r, self._last)
         self._last = r.copy()
         return new
 
@@ -157,7 +157,7 @@ class GyrostatMEKF:
         detector = NISFaultDetector(fault_false_alarm, fault_confirm, fault_bias_std, fault_window_s)
         self.detector = detector if validation.flag("fault_detection", fault_detection) else None
         self.filter = AttitudeMEKF(**_mekf_params(layer, filter_params), detector=self.detector)
-        self.star_gate = SampleGate(layer.parameters("star_tracker")["period_s"])
+        self.star_gate = SampleGate()
         self._t = 0.0
         self.updates = 0  # star-tracker updates this episode
 
@@ -253,7 +253,7 @@ class MagnetorquerMEKF(GyrostatMEKF):
         self.magnetometer_std = None
         if use_magnetometer and mag is not None and "magnetometer" in layer.config:
             self.magnetometer_std = float(np.hypot(_scalar(mag["noise_std"]), _scalar(mag["initial_bias_std"])))
-        self.mag_gate = SampleGate(0.0 if mag is None else mag["period_s"])
+        self.mag_gate = SampleGate()
         self._wheel_inertia = float(self.model.params.wheel_inertia_kg_m2)
 
     @staticmethod
@@ -329,13 +329,13 @@ class _InputKF:
 
     name = "kf"
 
-    def _setup(self, f, g, q, var, p0, delay_steps: int, period_s: float) -> None:
+    def _setup(self, f, g, q, var, p0, delay_steps: int) -> None:
         self._f, self._g, self._q = f, g, q
         self._var = np.asarray(var, dtype=float)
         self._p0 = p0
         self._m = g.shape[1]
         self.delay_steps = int(delay_steps)
-        self.gate = SampleGate(period_s)
+        self.gate = SampleGate()
         self._inputs: deque = deque()
         self.kf: KalmanFilter | None = None
         self._rows: tuple[int, ...] | None = None
@@ -406,7 +406,7 @@ class LinearKF(_InputKF):
         p = layer.parameters("state")
         var = np.maximum(_per_axis(p["noise_std"], n) ** 2 + _per_axis(p["initial_bias_std"], n) ** 2, _MIN_VAR)
         p0 = np.diag(var) if initial_std is None else initial_std**2 * np.eye(n)
-        self._setup(a, b, q, var, p0, base.conditions.delay_steps, p["period_s"])
+        self._setup(a, b, q, var, p0, base.conditions.delay_steps)
 
     def reset(self, obs: np.ndarray, info: dict[str, Any]):
         z = np.asarray(info["sensors"]["state"], dtype=float)
@@ -484,7 +484,7 @@ class SloshKF(_InputKF):
         self._slosh_prior = slosh_prior
         p0 = np.diag(np.concatenate([prior, np.square(initial_disturbance_std)]))
         self._n = n
-        self._setup(f, g, q, var, p0, base.conditions.delay_steps, p["period_s"])
+        self._setup(f, g, q, var, p0, base.conditions.delay_steps)
 
     def reset(self, obs: np.ndarray, info: dict[str, Any]):
         z = np.asarray(info["sensors"]["state"], dtype=float)

@@ -37,7 +37,7 @@ class EstimatedAttitude(gym.Wrapper, gym.utils.RecordConstructorArgs):
         params = _mekf_params(sensors, filter_params)
         self.filter = AttitudeMEKF(**params)
         # a star tracker slower than the loop repeats its sample: only new ones update
-        self._star_gate = SampleGate(sensors.parameters("star_tracker")["period_s"])
+        self._star_gate = SampleGate()
         self._t = 0.0
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
