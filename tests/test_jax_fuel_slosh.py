@@ -39,7 +39,7 @@ _CAMPAIGN = Path(__file__).resolve().parents[1] / "experiments" / "campaigns" / 
 def _campaign_faults() -> list[dict]:
     """The thruster faults of the slosh campaign (the packaged scenario slosh-actuator-faults)."""
     spec = yaml.safe_load(_CAMPAIGN.read_text())
-    (fs,) = [e for e in spec["envs"] if e["id"].startswith("attitude_envs/FuelSlosh")]
+    (fs,) = [e for e in spec["envs"] if e["name"] == "fs"]  # the lab cell (fs-flight: its flight twin)
     faults = fs["faults"]["actuator-faults-50s"]
     assert {f["kind"] for f in faults} == {"loss_of_effectiveness", "bias"}
     return faults
