@@ -8,9 +8,9 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 import pytest
+from test_estimators_flight import _angle  # the angle between two attitudes, rad
 
 import attitude_envs  # noqa: F401
-from attitude_envs import quaternion
 from attitude_envs.estimation.estimators import GyrostatMEKF
 from baselines.estimated import Estimated
 from experiments.campaign.jobs import episode_jobs
@@ -52,18 +52,8 @@ def test_the_model_acts_on_the_estimate_and_holds_through_an_outage(model_path):
         obs_e, view = twin.update(obs, info)
         truth = info["truth"]["state"]["attitude"]
         if info["time_s"] > 4.0:  # two seconds into the outage: the reading is held, the estimate coasts on the gyro
-            held.append(
-                np.linalg.norm(
-                    quaternion.to_rotvec(
-                        quaternion.multiply(quaternion.conjugate(truth), info["sensors"]["star_tracker"])
-                    )
-                )
-            )
-            estimated.append(
-                np.linalg.norm(
-                    quaternion.to_rotvec(quaternion.multiply(quaternion.conjugate(truth), view["estimate"]["attitude"]))
-                )
-            )
+            held.append(_angle(truth, info["sensors"]["star_tracker"]))
+            estimated.append(_angle(truth, view["estimate"]["attitude"]))
     assert len(held) > 10
     assert np.median(estimated) < 0.2 * np.median(held), (np.median(estimated), np.median(held))
 
