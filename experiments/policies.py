@@ -206,12 +206,13 @@ def build_policy(spec: dict[str, Any], env, name: str | None = None):
                 raise ValueError(f"params.shield must be one of {sorted(SHIELDS)} (or absent), got {shield!r}")
             policy = import_target(SHIELDS[shield])(policy, env, **dict(params.get("shield_params") or {}))
         estimator = params.get("estimator")
-        if estimator is None and params.get("estimator_params"):
-            raise ValueError("params.estimator_params needs params.estimator (accepted: mekf, kf)")
-        if estimator is not None:  # the model acts on the estimator's rebuilt observation, as lqr+mekf
-            from attitude_envs.estimation.estimators import estimator_for
+        if estimator is not None or params.get("estimator_params"):
+            from attitude_envs.estimation.estimators import ESTIMATORS, estimator_for
             from baselines.estimated import Estimated
 
+            if estimator is None:
+                raise ValueError(f"params.estimator_params needs params.estimator (accepted: {', '.join(ESTIMATORS)})")
+            # the model acts on the estimator's rebuilt observation, as lqr+mekf
             built = estimator_for(env, str(estimator), **dict(params.get("estimator_params") or {}))
             policy = Estimated(policy, built)
         policy.name = label
