@@ -187,13 +187,15 @@ def build_policy(spec: dict[str, Any], env, name: str | None = None):
         predictor = import_target(POLICIES[kind].target_for(None))(spec["model"], env)
         policy = SB3Policy(predictor, deterministic=bool(params.get("deterministic", True)), name=label)
         # a model trained behind wrappers that change the action (baselines.cbf.CBFShield, EigenaxisResidual)
-        # plays behind their twins: the outermost wrapper (the last listed) meets the model's action first
+        # or the observation (attitude_envs.wrappers.LastAction) plays behind their twins: the outermost
+        # wrapper (the last listed) meets the model's action first
         for path, kwargs in reversed(
             import_target("experiments.training.training:trained_env_wrappers")(spec["model"])
         ):
-            wrap_policy = getattr(import_dotted(path), "wrap_policy", None)
+            wrapper = import_dotted(path)
+            wrap_policy = getattr(wrapper, "wrap_policy", None)
             if wrap_policy is not None:
-                if params.get("shield") is not None:
+                if params.get("shield") is not None and getattr(wrapper, "changes_action", True):
                     raise ValueError(
                         f"model {spec['model']!r} was trained behind {path} and plays behind it: drop shield"
                     )

@@ -14,7 +14,8 @@ The keys mean what they mean to Stable-Baselines3's ``PPO`` (2.x) with the Zoo's
 ``normalize`` (``VecNormalize``) and ``policy_kwargs`` (``MlpPolicy``; ``use_sde`` is SB3's
 gSDE with its defaults: full std, ``exp``, features not learned); a key the trainer does not
 implement (``frame_stack`` > 1, ``squash_output``, an optimizer class …) or a value out of
-range raises a ``ValueError`` naming it.
+range raises a ``ValueError`` naming it. ``env_wrapper`` is not the program's: the caller wraps
+the JAX plant in the listed wrappers' twins (``experiments.training.hyperparams.jax_wrappers``).
 """
 
 from __future__ import annotations
@@ -37,7 +38,7 @@ ACTIVATIONS = {
     "leaky_relu": "leaky_relu",
 }
 #: Zoo keys (read by the Zoo itself, not PPO's constructor) this trainer accepts
-ZOO_KEYS = ("n_timesteps", "policy", "normalize", "n_envs", "frame_stack", "backend")
+ZOO_KEYS = ("n_timesteps", "policy", "normalize", "n_envs", "frame_stack", "backend", "env_wrapper")
 #: Stable-Baselines3 PPO constructor keys this trainer accepts
 PPO_KEYS = (
     "learning_rate",

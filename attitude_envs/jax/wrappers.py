@@ -1,4 +1,6 @@
-"""An adapter for PureJaxRL-style trainers that step an env with gymnax 0.0.x's 5-tuple.
+"""Wrappers of the JAX plants: :class:`LastAction`, the observation with the previous command
+(the twin of :class:`attitude_envs.wrappers.LastAction`), and :class:`DoneStep`, an adapter for
+PureJaxRL-style trainers that step an env with gymnax 0.0.x's 5-tuple.
 
 gymnax 1.0 (and the JAX plants, :mod:`attitude_envs.jax.environment`) returns
 ``(obs, state, reward, terminated, truncated, info)`` from ``step``. PureJaxRL (Lu et al.
@@ -27,16 +29,15 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
+import numpy as np
+from flax import struct
 
 from attitude_envs.jax.environment import Environment
+from attitude_envs.jax.spaces import Box
 
 
-class DoneStep:
-    """``env`` (a JAX plant, :func:`attitude_envs.jax.make`) with gymnax 0.0.x's
-    ``step -> (obs, state, reward, done, info)``; see the module docstring.
-
-    ``jax.jit`` and ``jax.vmap`` apply as to the env itself (``self`` is static: it hashes by
-    identity, as a flax ``struct.field(pytree_node=False)`` needs)."""
+class _Wrapper:
+    """A JAX plant ``env`` wrapped: anything not defined here is read through to it."""
 
     def __init__(self, env: Environment) -> None:
         if not isinstance(env, Environment):
@@ -55,6 +56,14 @@ class DoneStep:
     def default_params(self) -> Any:
         """The wrapped env's default ``EnvParams``."""
         return self.env.default_params
+
+
+class DoneStep(_Wrapper):
+    """``env`` (a JAX plant, :func:`attitude_envs.jax.make`) with gymnax 0.0.x's
+    ``step -> (obs, state, reward, done, info)``; see the module docstring.
+
+    ``jax.jit`` and ``jax.vmap`` apply as to the env itself (``self`` is static: it hashes by
+    identity, as a flax ``struct.field(pytree_node=False)`` needs)."""
 
     @partial(jax.jit, static_argnames=("self",))
     def reset(self, key: jax.Array, params: Any = None) -> tuple[jax.Array, Any]:
@@ -88,3 +97,53 @@ class DoneStep:
 
     def __repr__(self) -> str:
         return f"DoneStep({self.env.name})"
+
+
+@struct.dataclass
+class LastActionState:
+    """:class:`LastAction`'s state: the plant's ``env_state`` and the ``last_action`` applied
+    (clipped to the action box; zeros at an episode's start)."""
+
+    env_state: Any
+    last_action: jax.Array
+
+
+class LastAction(_Wrapper, Environment):
+    """``env`` whose observation ends with the previous action, clipped to the action box (zeros
+    at an episode's start): the JAX twin of :class:`attitude_envs.wrappers.LastAction`, equal to
+    it step for step. Under a command delay of one control period the command in flight is
+    part of the state; with it a policy can act on where the plant will be when its command
+    acts (the delay-augmented state of Katsikopoulos & Engelbrecht 2003). ``params`` are the
+    wrapped env's; ``time`` and the time limit are its."""
+
+    def _with_action(self, obs: jax.Array, action: jax.Array) -> jax.Array:
+        return jnp.concatenate([obs, action.astype(obs.dtype)])
+
+    def reset_env(self, key: jax.Array, params: Any):
+        obs, env_state = self.env.reset_env(key, params)
+        last = jnp.zeros(self.action_space(params).shape, obs.dtype)
+        return self._with_action(obs, last), LastActionState(env_state, last)
+
+    def step_env(self, key: jax.Array, state: LastActionState, action: jax.Array, params: Any):
+        space = self.action_space(params)
+        applied = jnp.clip(action, jnp.asarray(space.low, action.dtype), jnp.asarray(space.high, action.dtype))
+        obs, env_state, reward, terminated, info = self.env.step_env(key, state.env_state, action, params)
+        applied = applied.astype(obs.dtype)
+        return self._with_action(obs, applied), LastActionState(env_state, applied), reward, terminated, info
+
+    def is_truncated(self, state: LastActionState, params: Any) -> jax.Array:
+        return self.env.is_truncated(state.env_state, params)
+
+    def action_space(self, params: Any = None) -> Box:
+        return self.env.action_space(params)
+
+    def observation_space(self, params: Any = None) -> Box:
+        """The wrapped env's box, then the action box."""
+        obs, act = self.env.observation_space(params), self.env.action_space(params)
+        low = np.concatenate([obs.low, np.asarray(act.low, obs.low.dtype)])
+        high = np.concatenate([obs.high, np.asarray(act.high, obs.high.dtype)])
+        return Box(low, high, (obs.shape[0] + act.shape[0],), obs.dtype)
+
+    @property
+    def name(self) -> str:
+        return f"LastAction({self.env.name})"

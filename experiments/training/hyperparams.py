@@ -262,6 +262,23 @@ def zoo_objects(name: str, value: Any) -> list[tuple[str, dict[str, Any]]]:
     return out
 
 
+def jax_wrappers(entry: dict[str, Any]) -> tuple[tuple[str, tuple[tuple[str, Any], ...]], ...]:
+    """The JAX twins of a Zoo entry's ``env_wrapper`` list, for the fused trainer: ``((dotted path
+    of the twin, sorted keyword items), ...)`` in the list's order. Each Gymnasium wrapper names
+    its twin in a ``jax_twin`` attribute (:class:`attitude_envs.wrappers.LastAction`); a
+    ``ValueError`` names one that has none."""
+    out = []
+    for path, kwargs in zoo_objects("env_wrapper", entry.get("env_wrapper")):
+        twin = getattr(import_dotted(path), "jax_twin", None)
+        if twin is None:
+            raise ValueError(
+                f"the jax backend (the fused trainer) takes only env_wrapper entries with a JAX twin "
+                f"(attitude_envs.wrappers.LastAction); {path} has none: train with backend sb3 or sbx"
+            )
+        out.append((str(twin), tuple(sorted(kwargs.items()))))
+    return tuple(out)
+
+
 def import_dotted(path: str) -> Any:
     """The object a dotted path ``"package.module.Name"`` names (the Zoo's ``env_wrapper`` and
     ``callback`` syntax); ``ValueError`` naming the path when it does not import."""

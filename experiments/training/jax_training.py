@@ -36,6 +36,7 @@ import numpy as np
 from experiments.jsonable import json_ready
 from experiments.training.algorithm import Algorithm
 from experiments.training.callbacks import evaluate_cost, new_checkpoint_dir, publish_checkpoint
+from experiments.training.hyperparams import import_dotted, jax_wrappers, zoo_objects
 from experiments.training.run_dir import STATE_FILE, RunDir, TrainResult
 from experiments.training.vec_envs import make_eval_env
 
@@ -136,21 +137,33 @@ def compiler_options() -> dict[str, Any] | None:
     return {"xla_backend_optimization_level": 0} if fast else None
 
 
-def program(env_id: str, env_kwargs: dict[str, Any], config) -> Program:
-    """The (cached) :class:`Program` of ``config`` on the JAX plant of ``env_id`` with ``env_kwargs``."""
+def wrapped_plant(env_id: str, env_kwargs: dict[str, Any], wrappers=()):
+    """``(env, env_params)``: the JAX plant of ``env_id`` with ``env_kwargs``, wrapped by
+    ``wrappers`` (:func:`~experiments.training.hyperparams.jax_wrappers` of a Zoo entry, innermost
+    first)."""
+    try:
+        from attitude_envs.jax import make
+    except ImportError as exc:
+        raise ValueError(f"backend 'jax': {exc}") from exc
+    try:
+        env, env_params = make(env_id, **env_kwargs)
+    except ModuleNotFoundError as exc:
+        raise ValueError(f"backend 'jax': {env_id} has no JAX plant yet ({exc})") from exc
+    for path, kwargs in wrappers:
+        env = import_dotted(path)(env, **dict(kwargs))
+    return env, env_params
+
+
+def program(env_id: str, env_kwargs: dict[str, Any], config, wrappers=()) -> Program:
+    """The (cached) :class:`Program` of ``config`` on the JAX plant of ``env_id`` with
+    ``env_kwargs``, wrapped by ``wrappers`` (:func:`wrapped_plant`)."""
     _, trainer = _jax()
     config = dataclasses.replace(config, total_timesteps=1)  # unused by the chunked form
     options = compiler_options()
-    key = (env_id, json.dumps(json_ready(env_kwargs), sort_keys=True, default=repr), config, options is None)
+    wrappers = tuple(wrappers)
+    key = (env_id, json.dumps(json_ready(env_kwargs), sort_keys=True, default=repr), config, wrappers, options is None)
     if key not in _PROGRAMS:
-        try:
-            from attitude_envs.jax import make
-        except ImportError as exc:
-            raise ValueError(f"backend 'jax': {exc}") from exc
-        try:
-            env, env_params = make(env_id, **env_kwargs)
-        except ModuleNotFoundError as exc:
-            raise ValueError(f"backend 'jax': {env_id} has no JAX plant yet ({exc})") from exc
+        env, env_params = wrapped_plant(env_id, env_kwargs, wrappers)
         _PROGRAMS[key] = Program(env, env_params, config, trainer.make_chunked(env, env_params, config), options)
     return _PROGRAMS[key]
 
@@ -244,7 +257,8 @@ def train_jax(
     algo, env_id, total = plan.algorithm.name, plan.env_id, plan.total
     config, hparams = from_zoo(plan.entry, total)
     hparams = as_float32(hparams._replace(schedule_timesteps=float(plan.horizon)))
-    prog = program(env_id, plan.env_kwargs, config)
+    wrappers = jax_wrappers(plan.entry)
+    prog = program(env_id, plan.env_kwargs, config, wrappers)
     key = jax.random.PRNGKey(plan.seed)
     meta = {"env_id": env_id, "algo": algo, "backend": "jax"}
     compiled_before = prog.compile_s
@@ -260,7 +274,13 @@ def train_jax(
         resumed_from = steps
     already_complete = int(state.timesteps) >= total
 
-    eval_env = make_eval_env(env_id, plan.eval_kwargs, plan.eval_episodes, eval_batched)
+    eval_env = make_eval_env(
+        env_id,
+        plan.eval_kwargs,
+        plan.eval_episodes,
+        eval_batched,
+        zoo_objects("env_wrapper", plan.entry.get("env_wrapper")),
+    )
     seeds = plan.eval_seeds
     label = progress if isinstance(progress, str) else f"train {algo} (jax) {env_id.split('/')[-1]}"
     rollout = config.rollout_size

@@ -45,8 +45,8 @@ from attitude_envs.files import atomic_write
 from attitude_envs.make import make_checked
 from experiments.training.algorithm import Algorithm
 from experiments.training.callbacks import evaluate_cost
-from experiments.training.hyperparams import load_hyperparams
-from experiments.training.jax_training import compiler_options, leaves_into
+from experiments.training.hyperparams import jax_wrappers, load_hyperparams, zoo_objects
+from experiments.training.jax_training import compiler_options, leaves_into, wrapped_plant
 from experiments.training.tuning import PPO_SPACE, ppo_space, task_decisions
 from experiments.training.vec_envs import batched_supported, make_eval_env
 
@@ -168,7 +168,6 @@ def tune_population(
     from agents.fused_ppo.config import from_zoo, stack_hparams
     from agents.fused_ppo.export import NumpyPPOPolicy
     from agents.fused_ppo.trainer import make_chunked, policy_arrays, select
-    from attitude_envs.jax import make
 
     env_kwargs = dict(env_kwargs or {})
     fixed = {**dict(overrides or {}), "backend": "jax"}
@@ -185,9 +184,12 @@ def tune_population(
         groups.setdefault(config, []).append(i)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    env, env_params = make(env_id, **env_kwargs)
+    env, env_params = wrapped_plant(env_id, env_kwargs, jax_wrappers(entry))
     probe = make_checked(env_id, **env_kwargs)
-    eval_env = make_eval_env(env_id, env_kwargs, int(eval_episodes), batched_supported(env_id, probe))
+    wrappers = zoo_objects("env_wrapper", entry.get("env_wrapper"))
+    eval_env = make_eval_env(
+        env_id, env_kwargs, int(eval_episodes), batched_supported(env_id, probe) and not wrappers, wrappers
+    )
     probe.close()
     seeds = [int(eval_seed) + i for i in range(int(eval_episodes))]
     every = max(1, budget // int(n_evaluations))

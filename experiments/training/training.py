@@ -30,7 +30,13 @@ from experiments.training.algorithm import Algorithm
 from experiments.training.callbacks import NormalizedPredictor, evaluate_cost, read_json
 from experiments.training.checkpoint import BudgetSchedule, RunClock, read_checkpoint, restore_rng, write_checkpoint
 from experiments.training.discount import warn_if_uncovered
-from experiments.training.hyperparams import import_dotted, load_hyperparams, split_hyperparams, zoo_objects
+from experiments.training.hyperparams import (
+    import_dotted,
+    jax_wrappers,
+    load_hyperparams,
+    split_hyperparams,
+    zoo_objects,
+)
 from experiments.training.progress import ProgressCallback
 from experiments.training.run_dir import RunDir, RunPlan, TrainResult, run_budget
 from experiments.training.vec_envs import PicklableVecFrameStack, batched_supported, make_eval_env, make_training_env
@@ -125,11 +131,12 @@ def train(
     # validates the env kwargs before anything is written; warns when γ is past what a limit charge covers
     n_actions, batched = _probe(env_id, env_kwargs, gamma=entry.get("gamma", 0.99))
     _, eval_batched = _probe(env_id, eval_kwargs)
-    if algorithm.backend == "jax" and (entry.get("env_wrapper") or entry.get("callback")):
+    if algorithm.backend == "jax" and entry.get("callback"):
         raise ValueError(
-            "the jax backend (the fused trainer) takes no env_wrapper or callback: its envs are JAX twins; "
-            "train with backend sb3 or sbx"
+            "the jax backend (the fused trainer) takes no callback: its envs are JAX twins; train with backend sb3 or sbx"
         )
+    if algorithm.backend == "jax" and jax_wrappers(entry):  # an evaluation env wrapped as the twins are: single
+        eval_batched = False
     hp = None if algorithm.backend == "jax" else split_hyperparams(entry, n_actions, algorithm)
     if hp is not None and hp["env_wrapper"]:  # per-env Gymnasium wrappers: single envs
         batched = eval_batched = False
@@ -336,8 +343,13 @@ def load_trained(model_path: str | Path, env: gym.Env | None = None):
             f"model file {str(model_path)!r} cannot be loaded ({exc}): it is cut or not a model file"
         ) from None
     if env is not None:
+        seen = {"observation_space": env.observation_space, "action_space": env.action_space}
+        for path, _ in zoo_objects("env_wrapper", ((saved or {}).get("hyperparams") or {}).get("env_wrapper")):
+            space_of = getattr(import_dotted(path), "observation_space_of", None)  # a wrapper that adds to it
+            if space_of is not None:
+                seen["observation_space"] = space_of(seen["observation_space"], env.action_space)
         for what in ("observation_space", "action_space"):
-            ours, theirs = getattr(env, what), getattr(model, what)
+            ours, theirs = seen[what], getattr(model, what)
             if what == "observation_space" and frame_stack > 1:  # VecFrameStack's stacked space
                 ours = gym.spaces.Box(np.repeat(ours.low, frame_stack, -1), np.repeat(ours.high, frame_stack, -1))
             # a fused-PPO model file (backend jax) keeps the observation's shape only
