@@ -4,24 +4,29 @@ Every point has the flight sensors on (so a controller acts on measurements, thr
 estimator where it has one) and turns on one more feature of :mod:`attitude_envs.conditions`
 at increasing levels:
 
-* ``parameters``: the true plant drawn within ± that relative inertia error (0–50 %; the
-  other tolerances of the plant's flight table scale with it);
+* ``parameters``: the true plant drawn within ± that relative error (0–50 %) of the plant's
+  parameter the axis names (:data:`PARAMETER_AXIS`: the inertia, FuelSlosh's slosh masses,
+  LinearSystem's input gains); the other tolerances of its flight table scale with it;
 * ``delay``: 0–3 control periods of command delay;
 * ``noise``: the flight sensors with their noise ×1–×10;
 * ``held-out``: the whole flight conditions with the parameter tolerances ×1 (the flight
   cells', where the flight-trained agents trained), ×2 and ×4 (outside their training
   distribution).
 
-The learned agents (``--models``: a campaign's results directory with the plant's trained
-``ppo``, lab-trained, and ``ppo-flight``, trained under flight conditions) play the same
-episodes on the plant's learning task (``-v1``), every training seed's best snapshot.
+The analytic agents are rows of the plant's campaign (:data:`ANALYTIC`), built from their
+campaign spec. The learned agents (``--models``: a campaign results directory) are the
+campaign's trained rows (:func:`learned_agents`), every training seed's selected snapshot.
+Every agent plays the episodes on its campaign play env
+(:func:`experiments.campaign.spec.play_env`: a learning task such as ``-v1``, an MPC's own
+period), so a delay level counts that env's control periods.
 
 Every episode is the lab episode of the same seed (flight draws come from a spawned
-generator) and J* is its oracle under the same conditions (:mod:`experiments.optimum`). The
-oracle knows the true state, so sensors do not change it: J* is solved without them.
-Rows are ``agent, axis, level, j_over_j_star, cvar10, seeds``: ΣJ/ΣJ* over the seeds and
-the CVaR₀.₁ of the per-episode J/J* (the mean of its worst tenth). Every episode is appended
-to ``<out>.episodes.jsonl`` as it finishes, so an interrupted run resumes where it stopped.
+generator) and J* is its oracle under the same conditions (:mod:`experiments.optimum`), on
+the campaign's cell. The oracle knows the true state, so sensors do not change it: J* is
+solved without them. Rows are ``agent, axis, level, j_over_j_star, cvar10, seeds``: ΣJ/ΣJ*
+over the seeds and the CVaR₀.₁ of the per-episode J/J* (the mean of its worst tenth). Every
+episode is appended to ``<out>.episodes.jsonl`` as it finishes, so an interrupted run resumes
+where it stopped.
 
     python -m benchmarks.robustness --plant wheel --seeds 20 --out docs/campaigns/wheel/robustness.csv
 """
@@ -31,38 +36,114 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import textwrap
 from collections.abc import Callable
+from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
+from typing import Any, NamedTuple
 
 import gymnasium as gym
+import numpy as np
 
 import attitude_envs  # noqa: F401
-from attitude_envs.conditions import Conditions
+from attitude_envs.conditions import MAX_PARAMETER_SCALE, Conditions
 from attitude_envs.evaluation.rollout import rollout
 from attitude_envs.files import atomic_write
 from attitude_envs.presets import flight
 from experiments import optimum
 from experiments.report.statistics import cvar
 
-#: the env id of each plant page and its flight table's inertia tolerance key
+#: the env id of each plant page (its campaign's cells)
 PLANTS = {
     "wheel": "attitude_envs/ReactionWheel-v0",
     "air-bearing": "attitude_envs/AirBearing-v0",
+    "magnetorquer": "attitude_envs/Magnetorquer-v0",
+    "slosh": "attitude_envs/FuelSlosh-v0",
+    "linear": "attitude_envs/LinearSystem-v0",
 }
-#: the learned agents on the curves: the plant campaign's PPO trained in the lab and its PPO
-#: trained under flight conditions
-LEARNED = ("ppo", "ppo-flight")
-#: the levels of each axis, as (level, conditions); the parameter level is the relative inertia error
+
+
+@dataclass(frozen=True)
+class ParameterAxis:
+    """What a plant's parameters level is a relative error of: ``tolerance``, a ``plant`` key
+    of its flight table or ``"gain_tolerance"`` (the actuators' scale factors), and ``what``,
+    the page's and figure's words for it."""
+
+    tolerance: str
+    what: str
+
+
+#: each plant's parameters axis: the inertia where the plant has one; FuelSlosh's flight table
+#: draws no inertia but the slosh masses and the pendulum lengths (both ±15 %, so one level
+#: is the error of both); LinearSystem's table has no plant tolerance, its flight parameter
+#: error is B's gain (each input's column of B times a drawn gain)
+PARAMETER_AXIS = {
+    "wheel": ParameterAxis("inertia_moment", "inertia"),
+    "air-bearing": ParameterAxis("inertia_moment", "inertia"),
+    "magnetorquer": ParameterAxis("inertia_moment", "inertia"),
+    "slosh": ParameterAxis("slosh_mass", "slosh masses and pendulum lengths"),
+    "linear": ParameterAxis("gain_tolerance", "input gains (each column of B)"),
+}
+#: the page's words for each flight tolerance the ``parameters`` scale multiplies, and its unit
+#: (``%``: relative)
+TOLERANCE_WORDS = {
+    "inertia_moment": ("principal moments", "%"),
+    "inertia_axis_deg": ("principal axes", "°"),
+    "wheel_misalignment_deg": ("wheel mounting", "°"),
+    "offset_torque_nm": ("centre-of-mass offset torque", " N·m"),
+    "slosh_mass": ("slosh masses", "%"),
+    "pendulum_length": ("pendulum lengths", "%"),
+    "gain_tolerance": ("actuator scale factors", "%"),
+}
+
+_GYROSTAT_ANALYTIC = {
+    "lqr": "the nominal LQR on the raw measurements.",
+    "lqr+mekf": "the same LQR acting through the MEKF.",
+    "lqr-delay+mekf": "the LQR designed for the delay, through the MEKF. Its state is augmented with the "
+    'commands in flight (`baselines.lqr`, `delay_steps="env"`).',
+}
+#: the analytic agents on each plant's curves, rows of its campaign by name, and what each is
+#: (the page's words). On the magnetorquer they are its best flight rows: the MPC (1.63 × J* on
+#: mt-flight; 6-9 s an episode, 108 s of a seed's 510 here: --agents can leave it out) and the
+#: adaptive sliding mode on the measurements and through the MEKF (4.95 × J*; the paper's other
+#: sliding modes within 0.2 %)
+ANALYTIC: dict[str, dict[str, str]] = {
+    "wheel": _GYROSTAT_ANALYTIC,
+    "air-bearing": _GYROSTAT_ANALYTIC,
+    "magnetorquer": {
+        "amnftsmc": "Sadigh et al.'s adaptive sliding mode on the raw measurements.",
+        "amnftsmc+mekf": "the same controller acting through the MEKF.",
+        "mpc": "the campaign's MPC (the field predicted along the orbit, a disturbance observer) on the raw "
+        "measurements.",
+    },
+    "slosh": {
+        "slosh-lqr": "Navabi & Davoodi's LQR on the measurements (the slosh pendulums are not measured: they read 0).",
+        "slosh-lqr+kf": "the same LQR on the Kalman filter's estimate, the slosh states reconstructed from "
+        "the measured ones.",
+    },
+    "linear": {
+        "lqr-dare": "the discrete LQR of the nominal (A, B) (its DARE) on the raw state measurements.",
+        "linear-lqr+kf": "the same LQR on the Kalman filter's estimate.",
+    },
+}
+#: the levels of each axis; a parameters level is the relative error of the plant's axis parameter
+#: (:data:`PARAMETER_AXIS`)
 PARAMETER_LEVELS = (0.0, 0.1, 0.25, 0.5)
 #: a whole run's wall time, min, from nothing, every axis and agent (J* solves most of it: the
 #: held-out axis's flight episodes 17 s each on ReactionWheel, 80-120 s on AirBearing's 2000
 #: steps; one process on a 2-core machine shared with other runs, 2026-11-28 and -29); a rerun
-#: reads every episode back from its record in seconds
-RUN_MINUTES = {"wheel": 40, "air-bearing": 105}
+#: reads every episode back from its record in seconds. magnetorquer, slosh and linear: 20 × one
+#: seed's every point measured on 2 shared cores, 2026-11-29 (its 8 J* solves besides the shipped
+#: table's, then its episodes): 510 s a seed on Magnetorquer (J* 385 s, 11-13 s a solve but
+#: 136-176 s on held-out ×2 and ×4; the MPC's episodes 108 s), 415 s on FuelSlosh (J* 404 s,
+#: 15-19 s a parameters solve, 62-82 s a delay or held-out one), 230 s on LinearSystem (J* 106 s;
+#: the LQR's 40000-step episodes 2.6 s, through the Kalman filter 5.7 s)
+RUN_MINUTES = {"wheel": 40, "air-bearing": 105, "magnetorquer": 170, "slosh": 140, "linear": 80}
 #: the plant campaign's wall time, min, with its flight cells (its runs.jsonl: the lab run plus
-#: the flight cells' run, 2026-11-29, shared cores)
-CAMPAIGN_MINUTES = {"wheel": 62, "air-bearing": 28}
+#: the flight cells' run, 2026-11-29, shared cores); linear's is left out while its flight cells
+#: gain rows
+CAMPAIGN_MINUTES = {"wheel": 62, "air-bearing": 28, "magnetorquer": 60, "slosh": 60}
 DELAY_LEVELS = (0, 1, 2, 3)
 NOISE_LEVELS = (1.0, 3.0, 10.0)
 #: the held-out axis: the flight conditions' parameter tolerances times these (1: the flight cells')
@@ -70,71 +151,213 @@ HELD_OUT_LEVELS = (1.0, 2.0, 4.0)
 AXES = ("parameters", "delay", "noise", "held-out")
 
 
-def axes(env_id: str) -> list[tuple[str, float, dict | str]]:
-    """``(axis, level, conditions)`` of every point of the curves."""
-    inertia_tol = flight.table(env_id).plant_value("inertia_moment")
-    points = [("parameters", p, {"sensors": 1.0, "parameters": p / inertia_tol}) for p in PARAMETER_LEVELS]
+def check_plant(plant: str) -> str:
+    """``plant`` if it is a plant page (:data:`PLANTS`), else a ``ValueError`` naming them."""
+    if plant not in PLANTS:
+        raise ValueError(f"plant must be one of {sorted(PLANTS)}, got {plant!r}")
+    return plant
+
+
+def flight_tolerances(plant: str) -> dict[str, Any]:
+    """Every flight tolerance of ``plant`` that the conditions' ``parameters`` scale multiplies:
+    its flight table's plant tolerances and ``gain_tolerance`` (a number, or one per actuator)."""
+    table = flight.table(PLANTS[check_plant(plant)])
+    return {**{k: v.value for k, v in table.plant.items()}, "gain_tolerance": table.gain_tolerance.value}
+
+
+def parameter_tolerance(plant: str) -> float:
+    """The flight tolerance (relative) the plant's parameters levels are errors of
+    (:data:`PARAMETER_AXIS`); a ``ValueError`` where it is not one number."""
+    key = PARAMETER_AXIS[check_plant(plant)].tolerance
+    value = np.asarray(flight_tolerances(plant)[key], dtype=float)
+    if value.ndim:
+        raise ValueError(f"the {plant} parameters axis needs one {key} tolerance, its flight table has {value}")
+    return float(value)
+
+
+def parameter_scale(plant: str, error: float) -> float:
+    """The conditions' ``parameters`` scale that draws ``plant``'s axis parameter within ±
+    ``error`` (relative); a ``ValueError`` where Conditions cannot express it."""
+    tol = parameter_tolerance(plant)
+    scale = error / tol
+    if scale > MAX_PARAMETER_SCALE:
+        raise ValueError(
+            f"the {plant} parameters axis cannot reach {_percent(error)}: its {PARAMETER_AXIS[plant].tolerance} "
+            f"tolerance ±{_percent(tol)} would need conditions['parameters'] = {scale:g}, above {MAX_PARAMETER_SCALE:g} "
+            f"(accepted errors: up to {_percent(MAX_PARAMETER_SCALE * tol)})"
+        )
+    return scale
+
+
+def axes(plant: str) -> list[tuple[str, float, dict | str]]:
+    """``(axis, level, conditions)`` of every point of ``plant``'s curves."""
+    points = [("parameters", p, {"sensors": 1.0, "parameters": parameter_scale(plant, p)}) for p in PARAMETER_LEVELS]
     points += [("delay", float(d), {"sensors": 1.0, "delay_steps": d}) for d in DELAY_LEVELS]
     points += [("noise", k, {"sensors": k}) for k in NOISE_LEVELS]
     points += [("held-out", k, "flight" if k == 1 else {"base": "flight", "parameters": k}) for k in HELD_OUT_LEVELS]
     return points
 
 
-def agents() -> dict[str, Callable]:
-    """The analytic controllers on the curves: name → factory(env) of a policy (``reset``, ``act``)."""
-    from baselines.estimated import lqr_mekf
-    from baselines.lqr import LQRPolicy
+def scaled_tolerances(plant: str, scale: float) -> list[str]:
+    """The page's words for every flight tolerance of ``plant`` but its axis's own at the
+    ``parameters`` ``scale`` (``"principal axes ±20°"``), and a warning where an actuator's
+    scale factor can be drawn at or below zero."""
+    own = PARAMETER_AXIS[plant].tolerance
+    words = []
+    for key, value in flight_tolerances(plant).items():
+        if key == own:
+            continue
+        name, unit = TOLERANCE_WORDS.get(key, (key, ""))
+        values = np.atleast_1d(np.asarray(value, dtype=float)) * scale
+        shown = [_percent(v) if unit == "%" else f"{v:.3g}{unit}" for v in dict.fromkeys(values.tolist())]
+        words.append(f"{name} ±{' / '.join(shown)}")
+        if key == "gain_tolerance" and values.max() >= 1.0:
+            words[-1] += " (±100 % draws an actuator's gain down to zero)"
+    return words
 
-    return {
-        "lqr": LQRPolicy,
-        "lqr+mekf": lqr_mekf,
-        # the LQR designed for the env's command delay (a known design value), through the MEKF
-        "lqr-delay+mekf": lambda env: lqr_mekf(env, delay_steps="env", name="lqr-delay+mekf"),
-    }
+
+def _percent(fraction: float) -> str:
+    """``0.05`` → ``"5 %"`` (three significant digits)."""
+    return f"{100 * fraction:.3g} %"
+
+
+def agents(plant: str) -> list[str]:
+    """The analytic agents of ``plant``'s curves (:data:`ANALYTIC`), in order."""
+    return list(ANALYTIC[check_plant(plant)])
 
 
 @cache
 def campaign_of(plant: str):
-    """The plant's campaign (``experiments/campaigns/<plant>.yml``): its cell, its learned agents."""
+    """The plant's campaign (``experiments/campaigns/<plant>.yml``): its cells, its agents."""
     from experiments.campaign.spec import load_campaign
 
     return load_campaign(plant)
 
 
+def cells(plant: str) -> tuple[Any, Any]:
+    """The plant campaign's lab cell and its flight cell (the entry with ``conditions``)."""
+    envs = campaign_of(plant).envs
+    return next(e for e in envs if "conditions" not in e.kwargs), next(e for e in envs if "conditions" in e.kwargs)
+
+
 def cell_kwargs(plant: str) -> dict:
     """The keywords of the plant campaign's lab cell (its episodes and J*)."""
-    return dict(next(e for e in campaign_of(plant).envs if "conditions" not in e.kwargs).kwargs)
+    return dict(cells(plant)[0].kwargs)
 
 
-def learning_id(plant: str) -> str:
-    """The env id the campaign's learned agents play its cells' episodes on (its learning task)."""
-    return next(a for a in campaign_of(plant).agents if a.name == LEARNED[0]).env_id
+def campaign_row(plant: str, name: str):
+    """The plant campaign's agent ``name`` (its :class:`~experiments.campaign.spec.AgentSpec`)."""
+    rows = {a.name: a for a in campaign_of(plant).agents}
+    if name not in rows:
+        raise ValueError(f"the {plant} campaign has no agent {name!r}; accepted: {sorted(rows)}")
+    return rows[name]
 
 
-def learned_models(plant: str, results: Path) -> dict[str, list[tuple[int, Path]]]:
-    """name → ``(training seed, best snapshot)`` of each training seed of the learned agents
-    (:data:`LEARNED`) in the campaign results directory ``results``, where the campaign trains
-    them (:func:`~experiments.campaign.jobs.train_dir`); a ``ValueError`` naming what is missing."""
+def learned_agents(plant: str) -> list[str]:
+    """The campaign's trained rows on ``plant``'s curves, in campaign order: every agent with
+    ``train`` that plays the flight cell or trains on the lab cell."""
+    lab, flight_cell = cells(plant)
+    return [
+        a.name
+        for a in campaign_of(plant).agents
+        if a.train is not None and (a.envs is None or flight_cell.name in a.envs or a.train.get("env") == lab.name)
+    ]
+
+
+def play_of(plant: str, name: str, kwargs: dict | None = None) -> tuple[str, dict]:
+    """The env id and keywords agent ``name`` plays ``plant``'s cell (built with ``kwargs``,
+    default the lab cell's) on: its campaign play env
+    (:func:`~experiments.campaign.spec.play_env`), without conditions."""
+    from experiments.campaign.spec import play_env
+
+    return play_env(campaign_row(plant, name), PLANTS[plant], dict(cell_kwargs(plant) if kwargs is None else kwargs))
+
+
+def training_entry(plant: str, name: str) -> str:
+    """The campaign env entry whose training of learned agent ``name`` plays the curves: its
+    ``train.env``, else the flight cell where it plays it (its flight training), else the lab cell."""
+    agent = campaign_row(plant, name)
+    lab, flight_cell = cells(plant)
+    played = flight_cell if agent.envs is None or flight_cell.name in agent.envs else lab
+    return campaign_of(plant).trained_on(agent, played)
+
+
+def learned_models(plant: str, results: Path, names: list[str] | None = None) -> dict[str, list[tuple[int, Path]]]:
+    """name → ``(training seed, snapshot)`` of each training seed of the learned agents
+    ``names`` (default :func:`learned_agents`) in the campaign results directory ``results``,
+    where the campaign trains them (:func:`~experiments.campaign.jobs.train_dir`; the snapshot its
+    ``train.select`` picks, ``best`` by default); a ``ValueError`` naming what is missing."""
     from experiments.campaign.jobs import train_dir, trained_model
 
-    campaign = campaign_of(plant)
-    found = {}
-    for name in LEARNED:
-        agent = next(a for a in campaign.agents if a.name == name)
-        entry = campaign.trained_on(agent, next(e for e in campaign.envs if agent in campaign.agents_for(e)))
+    found, missing = {}, {}
+    for name in learned_agents(plant) if names is None else names:
+        agent = campaign_row(plant, name)
+        if agent.train is None:
+            raise ValueError(
+                f"--agents {name!r} is not a trained agent of the {plant} campaign; accepted: {learned_agents(plant)}"
+            )
+        entry = training_entry(plant, name)
         runs = [(seed, train_dir(results, entry, name, seed)) for seed in agent.train["seeds"]]
-        models = [(seed, trained_model(run, "best")) for seed, run in runs]
-        missing = [str(path) for _, path in models if not path.is_file()]
-        if missing:
-            raise ValueError(f"--models {str(results)!r} has no trained {name} of the {plant} campaign: {missing}")
-        found[name] = models
+        found[name] = [(seed, trained_model(run, agent.train.get("select", "best"))) for seed, run in runs]
+        absent = [str(path) for _, path in found[name] if not path.is_file()]
+        if absent:
+            missing[name] = absent
+    if missing:
+        raise ValueError(
+            f"--models {str(results)!r} has no trained {', '.join(missing)} of the {plant} campaign: "
+            + "; ".join(f"{name}: {paths}" for name, paths in missing.items())
+            + " (--agents can leave them out)"
+        )
     return found
 
 
+class Player(NamedTuple):
+    """One policy on the curves: ``factory(env)`` builds it for its play env ``env_id`` with
+    ``env_kwargs`` (no conditions); ``train_seed`` for a learned agent's training run."""
+
+    train_seed: int | None
+    factory: Callable
+    env_id: str
+    env_kwargs: dict
+
+
+def _factory(spec: dict, name: str) -> Callable:
+    """factory(env) of the policy ``spec`` (:func:`~experiments.policies.build_policy`) named ``name``."""
+    from experiments.policies import build_policy
+
+    return lambda env: build_policy(spec, env, name=name)
+
+
+def players(plant: str, names: list[str] | None, models: Path | None, kwargs: dict) -> dict[str, list[Player]]:
+    """name → the players of each agent on the curves (``names``, default every analytic one and,
+    with the campaign results directory ``models``, every learned one) on ``plant``'s cell built
+    with ``kwargs``; a ``ValueError`` naming an unknown agent and the accepted ones."""
+    analytic = agents(plant)
+    learned = learned_agents(plant)
+    chosen = names or [*analytic, *(learned if models is not None else [])]
+    unknown = [n for n in chosen if n not in analytic and (models is None or n not in learned)]
+    if unknown:
+        need = f" (the learned {learned} need --models)" if models is None else ""
+        raise ValueError(f"--agents {unknown} unknown; accepted: {analytic + learned}{need}")
+    found = learned_models(plant, models, [n for n in chosen if n in learned]) if models is not None else {}
+    out = {}
+    for name in chosen:
+        row = campaign_row(plant, name)
+        play_id, play_kwargs = play_of(plant, name, kwargs)
+        if name in found:
+            out[name] = [
+                Player(seed, _factory({**row.spec, "model": str(path)}, name), play_id, play_kwargs)
+                for seed, path in found[name]
+            ]
+        else:
+            out[name] = [Player(None, _factory(dict(row.spec), name), play_id, play_kwargs)]
+    return out
+
+
 def j_star(env_id: str, conditions: dict | str, seed: int, env_kwargs: dict | None = None) -> float:
-    """The oracle's J of the episode: the shipped table's where it holds the episode, else
-    solved under ``conditions`` without the sensors (the oracle knows the true state), the
-    lab's where nothing else is on."""
+    """The oracle's J of the episode under ``conditions`` without the sensors (the oracle knows
+    the true state; the lab's where nothing else is on): the shipped table's where it holds the
+    episode, else solved."""
     from experiments.optimum_table import table_value
 
     kwargs = dict(env_kwargs or {})
@@ -145,7 +368,36 @@ def j_star(env_id: str, conditions: dict | str, seed: int, env_kwargs: dict | No
     plant = Conditions.from_config({k: v for k, v in spec.items() if k != "sensors"})
     if not plant.is_lab:
         kwargs["conditions"] = plant.as_dict()
-    return optimum.solve_episode(env_id, kwargs, seed=seed).j_star
+    listed = table_value(env_id, kwargs, seed, None)  # the lab cell's, where only sensors are on
+    return float(listed) if listed is not None else optimum.solve_episode(env_id, kwargs, seed=seed).j_star
+
+
+def _read_log(log: Path) -> tuple[dict[tuple, dict], dict[tuple, float]]:
+    """The episodes already in the record ``log``, by ``(agent, axis, level, seed, train_seed)``,
+    and their J* by ``(axis, level, seed)``."""
+    done: dict[tuple, dict] = {}
+    j_stars: dict[tuple, float] = {}
+    if log.is_file():
+        for line in log.read_text().splitlines():
+            if line.strip():
+                r = json.loads(line)
+                done[(r["agent"], r["axis"], r["level"], r["seed"], r.get("train_seed"))] = r
+                j_stars[(r["axis"], r["level"], r["seed"])] = r["j_star"]
+    return done, j_stars
+
+
+def _row(name: str, axis: str, level: float, episodes: list[dict], seeds: int) -> dict:
+    """The curves' row of agent ``name`` at one point from its ``episodes``."""
+    js = [r["j"] for r in episodes]
+    jstars = [r["j_star"] for r in episodes]
+    return {
+        "agent": name,
+        "axis": axis,
+        "level": level,
+        "j_over_j_star": sum(js) / sum(jstars),
+        "cvar10": cvar([j / s for j, s in zip(js, jstars, strict=True)], 0.1),
+        "seeds": seeds,
+    }
 
 
 def run(
@@ -161,42 +413,27 @@ def run(
     keywords, ``env_kwargs`` over them); the learned agents' from the campaign results
     directory ``models`` (None: the analytic ones only); rows written to ``out``. An
     episode's J* is solved once, whichever agent plays it."""
-    env_id = PLANTS[plant]
+    env_id = PLANTS[check_plant(plant)]
     kwargs = {**cell_kwargs(plant), **dict(env_kwargs or {})}
     log = out.with_suffix(".episodes.jsonl")
-    done: dict[tuple, dict] = {}
-    j_stars: dict[tuple, float] = {}
-    if log.is_file():
-        for line in log.read_text().splitlines():
-            if line.strip():
-                r = json.loads(line)
-                done[(r["agent"], r["axis"], r["level"], r["seed"], r.get("train_seed"))] = r
-                j_stars[(r["axis"], r["level"], r["seed"])] = r["j_star"]
-    factories = agents()
-    learned = learned_models(plant, models) if models is not None else {}
-    chosen = names or [*factories, *learned]
-    unknown = set(chosen) - set(factories) - set(learned)
-    if unknown:
-        raise ValueError(f"--agents {sorted(unknown)} unknown; accepted: {[*factories, *learned]} (learned: --models)")
+    done, j_stars = _read_log(log)
+    chosen = players(plant, names, models, kwargs)
     out.parent.mkdir(parents=True, exist_ok=True)
     rows = []
     with log.open("a") as sink:
-        for axis, level, conditions in axes(env_id):
+        for axis, level, conditions in axes(plant):
             if axes_chosen and axis not in axes_chosen:
                 continue
-            for name in chosen:
-                players = (
-                    [(None, factories[name], env_id)]
-                    if name in factories
-                    else [(t, _learned_factory(path), learning_id(plant)) for t, path in learned[name]]
-                )
-                js, jstars, ratios = [], [], []
-                for train_seed, factory, play_id in players:
-                    env = gym.make(play_id, conditions=conditions, **kwargs)
-                    policy = factory(env)
+            for name, agent_players in chosen.items():
+                episodes = []
+                for player in agent_players:
+                    env = policy = None  # built for the first episode not in the record
                     for seed in range(seeds):
-                        key = (name, axis, level, seed, train_seed)
+                        key = (name, axis, level, seed, player.train_seed)
                         if key not in done:
+                            if env is None:
+                                env = gym.make(player.env_id, conditions=conditions, **player.env_kwargs)
+                                policy = player.factory(env)
                             episode = (axis, level, seed)
                             if episode not in j_stars:
                                 j_stars[episode] = j_star(env_id, conditions, seed, kwargs)
@@ -205,26 +442,17 @@ def run(
                                 "axis": axis,
                                 "level": level,
                                 "seed": seed,
-                                **({"train_seed": train_seed} if train_seed is not None else {}),
+                                **({"train_seed": player.train_seed} if player.train_seed is not None else {}),
                                 # the policy sees no ground truth
                                 "j": float(rollout(env, policy, seed=seed)["J"]),
                                 "j_star": j_stars[episode],
                             }
                             sink.write(json.dumps(done[key]) + "\n")
                             sink.flush()
-                        r = done[key]
-                        js.append(r["j"])
-                        jstars.append(r["j_star"])
-                        ratios.append(r["j"] / r["j_star"])
-                    env.close()
-                row = {
-                    "agent": name,
-                    "axis": axis,
-                    "level": level,
-                    "j_over_j_star": sum(js) / sum(jstars),
-                    "cvar10": cvar(ratios, 0.1),
-                    "seeds": seeds,
-                }
+                        episodes.append(done[key])
+                    if env is not None:
+                        env.close()
+                row = _row(name, axis, level, episodes, seeds)
                 rows.append(row)
                 print(
                     f"{plant} {name:14s} {axis:10s} {level:5g}  ΣJ/ΣJ* {row['j_over_j_star']:.4f}  "
@@ -242,16 +470,10 @@ def run(
     return rows
 
 
-def _learned_factory(model: Path) -> Callable:
-    """factory(env) of the trained policy saved at ``model``."""
-    from experiments.policies import build_policy
-
-    return lambda env: build_policy({"policy": "sb3", "model": str(model)}, env)
-
-
 def figure(rows: list[dict], plant: str, path: Path) -> None:
-    """The curves: ΣJ/ΣJ* (top row) and the CVaR₀.₁ of J/J* (bottom row, log scale: a few
-    episodes of tiny J* dominate it), one column per axis."""
+    """The curves: ΣJ/ΣJ* (top row; log scale where a column spans more than ×10) and the
+    CVaR₀.₁ of J/J* (bottom row, log scale: a few episodes of tiny J* dominate it), one column
+    per axis."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -259,7 +481,7 @@ def figure(rows: list[dict], plant: str, path: Path) -> None:
 
     axes_names = [a for a in AXES if any(r["axis"] == a for r in rows)]
     labels = {
-        "parameters": "inertia error (relative)",
+        "parameters": f"{PARAMETER_AXIS[plant].what} error (relative)",
         "delay": "delay (control periods)",
         "noise": "sensor noise (× flight)",
         "held-out": "flight, tolerances × (1: trained)",
@@ -276,6 +498,9 @@ def figure(rows: list[dict], plant: str, path: Path) -> None:
             grid[0, col].plot(x, mean, marker="o", label=name)
             grid[1, col].plot(x, tail, marker="o", ls="--", label=name)
         grid[1, col].set_yscale("log")
+        means = [r["j_over_j_star"] for r in rows if r["axis"] == axis]
+        if max(means) > 10 * min(means):  # agents orders of magnitude apart (an episode ended early)
+            grid[0, col].set_yscale("log")
         grid[1, col].set_xlabel(labels[axis])
         for row in (0, 1):
             grid[row, col].grid(alpha=0.3)
@@ -298,11 +523,8 @@ AXIS_LEVEL = {
 }
 
 
-def page(rows: list[dict], plant: str, episodes: list[dict]) -> str:
-    """The Markdown page of the curves: the figure, the table, what the points are, the
-    episode of least J* (which the CVaR of J/J* follows), and how to reproduce it."""
-    env_name = PLANTS[plant].split("/")[1]
-    agents_seen = list(dict.fromkeys(r["agent"] for r in rows))
+def _table(rows: list[dict], agents_seen: list[str]) -> list[str]:
+    """The page's table: one line per point, each agent's ΣJ/ΣJ* then each one's CVaR₀.₁."""
     head = "| axis | level | " + " | ".join(f"{a} ΣJ/ΣJ*" for a in agents_seen) + " | "
     head += " | ".join(f"{a} CVaR₀.₁" for a in agents_seen) + " |"
     lines = [head, "|" + "---|" * (2 + 2 * len(agents_seen))]
@@ -314,67 +536,165 @@ def page(rows: list[dict], plant: str, episodes: list[dict]) -> str:
             ]
             cells += [f"{by[(axis, level, a)]['cvar10']:.3g}" if (axis, level, a) in by else "—" for a in agents_seen]
             lines.append(f"| {axis} | {AXIS_LEVEL[axis](level)} | " + " | ".join(cells) + " |")
-    smallest = min((e for e in episodes if e["axis"] == "noise"), key=lambda e: e["j_star"])
-    worst = max((e for e in episodes if e["seed"] == smallest["seed"] and e["axis"] == "noise"), key=lambda e: e["j"])
-    seeds = rows[0]["seeds"]
-    held_out = (
-        "* **held-out**: every flight feature, with the parameter tolerances times that factor. At ×1\n"
-        "  these are the campaign's flight cells, the distribution `ppo-flight` trained on; ×2 and ×4\n"
-        "  lie outside it."
-        if "held-out" in {r["axis"] for r in rows}
-        else "* **held-out** (the flight cells' tolerances ×1–×4) is not run here: its J* needs 40 more\n"
-        "  flight solves of 2000-step episodes, about an hour on 2 cores."
+    return lines
+
+
+def _wrap(text: str, first: str = "", then: str = "") -> str:
+    """``text`` wrapped at 95 characters, never inside a word (agent names have hyphens)."""
+    return textwrap.fill(
+        text, width=95, initial_indent=first, subsequent_indent=then, break_long_words=False, break_on_hyphens=False
     )
-    learned_id = learning_id(plant)
-    dt = {i: gym.make(i).unwrapped.control_dt_s for i in (PLANTS[plant], learned_id)}
+
+
+def _bullet(text: str) -> str:
+    """A Markdown bullet of ``text``, wrapped at 95 characters."""
+    return _wrap(text, "* ", "  ")
+
+
+def _parameters_text(plant: str, top: float) -> str:
+    """The page's parameters bullet: what the level is an error of and, at the ``top`` level,
+    the plant's other flight tolerances scaled with it."""
+    axis = PARAMETER_AXIS[plant]
+    tol = parameter_tolerance(plant)
+    text = (
+        f"**parameters**: the true {axis.what} drawn within ± that relative error (conditions' "
+        f"`parameters` = the level over the flight table's ±{_percent(tol)} `{axis.tolerance}`)"
+    )
+    others = scaled_tolerances(plant, parameter_scale(plant, top))
+    if not others:
+        return _bullet(text + f", {PLANTS[plant].split('/')[1].split('-v')[0]}'s only flight parameter tolerance;")
+    return _bullet(
+        text + f", with the plant's other flight tolerances scaled with it; at {_percent(top)}: {', '.join(others)};"
+    )
+
+
+def control_period(env_id: str, kwargs: dict) -> float:
+    """The control period (s) of env ``env_id`` built with ``kwargs``."""
+    env = gym.make(env_id, **kwargs)
+    try:
+        return float(env.unwrapped.control_dt_s)
+    finally:
+        env.close()
+
+
+def _periods(plant: str, agents_seen: list[str]) -> str:
+    """The page's words for the control period of each agent's play env, grouped."""
+    groups: dict[tuple[str, float], list[str]] = {}
+    for name in agents_seen:
+        env_id, kwargs = play_of(plant, name)
+        groups.setdefault((env_id, control_period(env_id, kwargs)), []).append(f"`{name}`")
+    return "; ".join(f"{dt:g} s for {', '.join(names)} ({i.split('/')[1]})" for (i, dt), names in groups.items())
+
+
+def learned_note(plant: str, name: str) -> str:
+    """The page's words for learned agent ``name``: its algorithm, where it trained, what on."""
+    agent = campaign_row(plant, name)
+    lab = cells(plant)[0]
+    where = (
+        "in the lab"
+        if training_entry(plant, name) == lab.name
+        else "under flight conditions (domain randomization over the flight cells' distribution)"
+    )
+    note = f"the campaign's {agent.train['algo'].upper()} trained {where}"
+    if (agent.train.get("env_kwargs") or {}).get("faults"):
+        note += ", on random actuator faults"
+    wrapper = (agent.train.get("overrides") or {}).get("env_wrapper")
+    if wrapper:
+        note += f", trained and played behind `{wrapper}`"
+    return note + "."
+
+
+def _agents_text(plant: str, agents_seen: list[str], seeds: int) -> str:
+    """The page's list of the agents on the curves, analytic then learned."""
+    learned = [a for a in agents_seen if a in learned_agents(plant)]
+    lines = [_bullet(f"`{a}` is {ANALYTIC[plant][a]}") for a in agents_seen if a in ANALYTIC[plant]]
+    lines += [_bullet(f"`{a}` is {learned_note(plant, a)}") for a in learned]
+    if learned:
+        runs = sorted({len(campaign_row(plant, a).train["seeds"]) for a in learned})
+        lines.append(
+            "\nThe learned agents play the episodes on the measurements, each training seed's best snapshot\n"
+            f"(its final one where none was saved): their points cover {' or '.join(map(str, runs))} × {seeds} "
+            "episodes."
+        )
+    return "\n".join(lines)
+
+
+def _held_out_text(plant: str, agents_seen: list[str], run: bool) -> str:
+    """The page's held-out bullet: the flight cells ×1 (where the flight-trained agents trained), ×2 and ×4."""
+    if not run:
+        return "* **held-out** (the flight cells' tolerances ×1–×4) is not run here."
+    flight_cell = cells(plant)[1].name
+    trained = [f"`{a}`" for a in agents_seen if a in learned_agents(plant) and training_entry(plant, a) == flight_cell]
+    where = f", the distribution {', '.join(trained)} trained on" if trained else ""
+    return _bullet(
+        "**held-out**: every flight feature, with the parameter tolerances times that factor. At ×1 "
+        f"these are the campaign's flight cells{where}; ×2 and ×4 lie outside it."
+    )
+
+
+def _cvar_text(episodes: list[dict]) -> str:
+    """The page's paragraph on the episode of least J* on the noise axis, which the CVaR follows."""
+    noise = [e for e in episodes if e["axis"] == "noise"]
+    if not noise:
+        return ""
+    smallest = min(noise, key=lambda e: e["j_star"])
+    worst = max((e for e in noise if e["seed"] == smallest["seed"]), key=lambda e: e["j"])
+    return f"""**The CVaR₀.₁ of J/J\\* follows the smallest J\\*.** Episode {smallest["seed"]} has the smallest
+J\\* on the noise axis, {smallest["j_star"]:.3g}. There an agent's J/J\\* reaches
+{worst["j"] / worst["j_star"]:.3g} ({worst["agent"]} at noise ×{worst["level"]:g}): a tiny J\\* magnifies
+whatever cost an agent cannot avoid, such as the sensor noise floor's, which does not shrink
+with the maneuver. ΣJ/ΣJ\\* is the robust summary.
+"""
+
+
+_RUN_NOTE = " from nothing with every agent, most of it J\\*"
+
+
+def _minutes(table: dict[str, int], plant: str, what: str = "") -> str:
+    """``≈ N min on 2 cores`` (then ``what``) from a measured ``table``, or that it is not measured yet."""
+    return f"≈ {table[plant]} min on 2 cores{what}" if plant in table else "its time is not measured yet"
+
+
+def page(rows: list[dict], plant: str, episodes: list[dict]) -> str:
+    """The Markdown page of the curves: the figure, the table, what the points are, the
+    episode of least J* (which the CVaR of J/J* follows), and how to reproduce it."""
+    env_name = PLANTS[check_plant(plant)].split("/")[1]
+    agents_seen = list(dict.fromkeys(r["agent"] for r in rows))
+    seeds = rows[0]["seeds"]
     run_axes = [a for a in AXES if any(r["axis"] == a for r in rows)]
     axes_arg = "" if run_axes == list(AXES) else " --axes " + " ".join(run_axes)
-    periods = (
-        f"{dt[PLANTS[plant]]:g} s for the analytic rows ({env_name}), "
-        f"{dt[learned_id]:g} s for the learned ones ({learned_id.split('/')[1]})"
-    )
+    every = agents(plant) + learned_agents(plant)
+    agents_arg = "" if sorted(agents_seen) == sorted(every) else " --agents " + " ".join(agents_seen)
+    top = max([r["level"] for r in rows if r["axis"] == "parameters"] or [PARAMETER_LEVELS[-1]])
     return rf"""# {env_name}: robustness to flight conditions
 
 <!-- Generated by benchmarks/robustness.py from robustness.episodes.jsonl; rerun it, do not edit. -->
 
 ![robustness curves](figures/robustness.png)
 
-{chr(10).join(lines)}
+{chr(10).join(_table(rows, agents_seen))}
 
 Each point covers the {seeds} episodes (seeds 0–{seeds - 1}) of the {plant} campaign's cell
 (`{json.dumps(cell_kwargs(plant))}`), with the flight sensors on (`attitude_envs.conditions`).
 One more feature is switched on per axis:
 
-* **parameters**: the true inertia drawn within ± that relative error, with the plant's other
-  tolerances scaled with it;
+{_parameters_text(plant, top)}
 * **delay**: that many control periods of command delay;
 * **noise**: the flight sensors' noise times that factor;
-{held_out}
+{_held_out_text(plant, agents_seen, "held-out" in run_axes)}
 
-The delay counts control periods of the env each agent plays: {periods}.
+{_wrap(f"The delay counts control periods of the env each agent plays: {_periods(plant, agents_seen)}.")}
 
-J* is the oracle under the same conditions. Sensors do not enter it, because it knows the
-true state.
+J* is the oracle under the same conditions, on the cell's env ({env_name}). Sensors do not
+enter it, because it knows the true state.
 
 The agents:
 
-* `lqr` is the nominal LQR on the raw measurements.
-* `lqr+mekf` is the same LQR acting through the MEKF.
-* `lqr-delay+mekf` is the LQR designed for the delay, through the MEKF. Its state is
-  augmented with the commands in flight (`baselines.lqr`, `delay_steps="env"`).
-* `ppo` is the campaign's PPO, trained in the lab; `ppo-flight` the campaign's PPO trained
-  under flight conditions (domain randomization over the flight cells' distribution). Both
-  play the episodes on the learning task ({learned_id.split("/")[1]}) on the
-  measurements, each of their 3 training seeds' best snapshot: their points cover 3 × {seeds}
-  episodes.
+{_agents_text(plant, agents_seen, seeds)}
 
-**The CVaR₀.₁ of J/J\* follows the smallest J\*.** Episode {smallest["seed"]} has the smallest
-J\* on the noise axis, {smallest["j_star"]:.3g}. There an agent's J/J\* reaches
-{worst["j"] / worst["j_star"]:.3g} ({worst["agent"]} at noise ×{worst["level"]:g}), because
-the sensor noise floor's cost does not shrink with the maneuver. ΣJ/ΣJ\* is the robust summary.
-
-The learned rows need the campaign's models: `attitude-envs benchmark --config {plant} --out results/{plant}` (≈ {CAMPAIGN_MINUTES[plant]} min on 2 cores).
-Then `python -m benchmarks.robustness --plant {plant} --seeds {seeds} --models results/{plant}{axes_arg}` (≈ {RUN_MINUTES[plant]} min on 2 cores from nothing, most of it J\*). The run resumes from `robustness.episodes.jsonl`, which holds every episode's J
+{_cvar_text(episodes)}
+The learned rows need the campaign's models: `attitude-envs benchmark --config {plant} --out results/{plant}` ({_minutes(CAMPAIGN_MINUTES, plant)}).
+Then `python -m benchmarks.robustness --plant {plant} --seeds {seeds} --models results/{plant}{axes_arg}{agents_arg}` ({_minutes(RUN_MINUTES, plant, _RUN_NOTE)}). The run resumes from `robustness.episodes.jsonl`, which holds every episode's J
 and J\*. The data are in [`robustness.csv`](robustness.csv), with columns agent, axis, level,
 j_over_j_star, cvar10 and seeds.
 """
@@ -384,7 +704,12 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--plant", choices=sorted(PLANTS), required=True)
     parser.add_argument("--seeds", type=int, default=20)
-    parser.add_argument("--agents", nargs="*", default=None, help="agents on the curves (default: all)")
+    parser.add_argument(
+        "--agents",
+        nargs="*",
+        default=None,
+        help="agents on the curves (default: the plant's analytic ones and, with --models, its learned ones)",
+    )
     parser.add_argument(
         "--models", default=None, help="a campaign results directory: its learned agents join the curves"
     )

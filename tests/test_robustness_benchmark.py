@@ -3,13 +3,33 @@
 from __future__ import annotations
 
 import csv
+import json
+import shutil
+from pathlib import Path
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
 from benchmarks import robustness
 
 pytest.importorskip("casadi")
+
+DOCS = Path(__file__).resolve().parents[1] / "docs" / "campaigns"
+#: a few steps of each new plant's cell (its period kept), for runs that play every axis
+SHORT = {
+    "linear": ("lqr-dare", {"episode_steps": 200}),
+    "slosh": ("slosh-lqr+kf", {"episode_duration_s": 1.0}),
+    "magnetorquer": ("amnftsmc+mekf", {"episode_duration_s": 6.0}),
+}
+
+
+def _fake_models(root: Path, entry: str, name: str, seeds=(0, 1, 2)) -> None:
+    """Empty best snapshots where the campaign trains ``name`` on ``entry`` (found, never loaded)."""
+    for seed in seeds:
+        best = root / "models" / entry / name / f"seed{seed}" / "best"
+        best.mkdir(parents=True)
+        (best / "model.zip").write_bytes(b"")
 
 
 def test_cvar_is_the_mean_of_the_worst_tenth():
@@ -18,8 +38,9 @@ def test_cvar_is_the_mean_of_the_worst_tenth():
     assert robustness.cvar(np.array([1.5])) == 1.5
 
 
-def test_every_point_has_the_flight_sensors_and_one_feature():
-    points = robustness.axes("attitude_envs/ReactionWheel-v0")
+@pytest.mark.parametrize("plant", sorted(robustness.PLANTS))
+def test_every_point_has_the_flight_sensors_and_one_feature(plant):
+    points = robustness.axes(plant)
     assert {a for a, _, _ in points} == {"parameters", "delay", "noise", "held-out"}
     held_out = [(level, c) for a, level, c in points if a == "held-out"]
     # the flight cells' conditions, then their parameter tolerances widened beyond training's
@@ -35,13 +56,55 @@ def test_every_point_has_the_flight_sensors_and_one_feature():
         assert set(conditions) - {"sensors"} == ({"parameters"} if axis == "parameters" else set()) | (
             {"delay_steps"} if axis == "delay" else set()
         )
+        robustness.Conditions.from_config(conditions)  # every point is a valid conditions dict
+
+
+@pytest.mark.parametrize(
+    ("plant", "tolerance"),
+    [
+        ("wheel", 0.05),  # the inertia moments
+        ("air-bearing", 0.05),
+        ("magnetorquer", 0.05),
+        ("slosh", 0.15),  # the slosh masses and pendulum lengths
+        ("linear", 0.05),  # B's input gains
+    ],
+)
+def test_a_parameters_level_is_an_error_of_the_plants_named_tolerance(plant, tolerance):
+    assert robustness.parameter_tolerance(plant) == tolerance
+    scales = [c["parameters"] for a, _, c in robustness.axes(plant) if a == "parameters"]
+    assert scales == pytest.approx([p / tolerance for p in robustness.PARAMETER_LEVELS])
+
+
+def test_linear_parameters_level_draws_the_input_gains_within_it():
+    """At 50 % the drawn gains of B's columns spread over ±50 %, not the flight table's ±5 %."""
+    conditions = next(c for a, lv, c in robustness.axes("linear") if a == "parameters" and lv == 0.5)
+    env = gym.make("attitude_envs/LinearSystem-v0", conditions=conditions, preset="heravi-2017")
+    gains = []
+    for seed in range(8):
+        env.reset(seed=seed)
+        gains.append(env.unwrapped.drawn_parameters()["actuator_gain"])
+    gains = np.concatenate(gains)
+    assert np.all(np.abs(gains - 1.0) <= 0.5) and np.max(np.abs(gains - 1.0)) > 0.2
+
+
+def test_a_level_the_conditions_cannot_express_is_refused(monkeypatch):
+    monkeypatch.setattr(robustness, "PARAMETER_LEVELS", (0.0, 0.6))
+    with pytest.raises(ValueError, match=r"wheel parameters axis cannot reach 60 %.*above 10"):
+        robustness.axes("wheel")
+    # the magnetorquer's dipoles (±10 %) reach ±100 % at its top level: the page says so
+    words = robustness.scaled_tolerances("magnetorquer", robustness.parameter_scale("magnetorquer", 0.5))
+    assert words == [
+        "principal axes ±20°",
+        "actuator scale factors ±100 % / 50 % (±100 % draws an actuator's gain down to zero)",
+    ]
+    assert robustness.scaled_tolerances("linear", 10.0) == []
 
 
 def test_a_short_run_writes_rows_and_resumes(tmp_path):
     out = tmp_path / "robustness.csv"
     kwargs = {"episode_duration_s": 2.0, "control_dt_s": 0.5}
     rows = robustness.run("wheel", 1, out, ["lqr"], env_kwargs=kwargs)
-    assert len(rows) == len(robustness.axes("attitude_envs/ReactionWheel-v0"))
+    assert len(rows) == len(robustness.axes("wheel"))
     assert [r["axis"] for r in rows][-3:] == ["held-out"] * 3
     for row in rows:
         assert row["j_over_j_star"] >= 1.0 - 1e-9  # no controller beats the oracle
@@ -54,9 +117,77 @@ def test_a_short_run_writes_rows_and_resumes(tmp_path):
     assert [r["j_over_j_star"] for r in again] == [r["j_over_j_star"] for r in rows]
 
 
+@pytest.mark.parametrize("plant", sorted(SHORT))
+def test_each_new_plant_plays_every_point(plant, tmp_path, monkeypatch):
+    """An analytic agent of each new plant over every axis on a few steps (J* stubbed: no solve)."""
+    solved = []
+    monkeypatch.setattr(robustness, "j_star", lambda env_id, conditions, seed, kwargs: solved.append(env_id) or 1.0)
+    name, kwargs = SHORT[plant]
+    rows = robustness.run(plant, 1, tmp_path / "robustness.csv", [name], env_kwargs=kwargs)
+    assert [(r["axis"], r["level"]) for r in rows] == [(a, lv) for a, lv, _ in robustness.axes(plant)]
+    assert all(np.isfinite(r["j_over_j_star"]) for r in rows)
+    assert set(solved) == {robustness.PLANTS[plant]}  # J* on the campaign's cell
+
+
+def test_the_committed_gyrostat_records_read_back_unchanged(tmp_path):
+    """The wheel and air-bearing pages' episodes resume as they are (same agents, axes, levels,
+    keys): nothing replayed, nothing solved, the committed rows again."""
+    for plant, cell, flight_cell in (("wheel", "rw", "rw-flight"), ("air-bearing", "ab", "ab-flight")):
+        out = tmp_path / plant / "robustness.csv"
+        out.parent.mkdir()
+        record = out.with_suffix(".episodes.jsonl")
+        shutil.copy(DOCS / plant / "robustness.episodes.jsonl", record)
+        _fake_models(tmp_path / plant, cell, "ppo")
+        _fake_models(tmp_path / plant, flight_cell, "ppo-flight")
+        names = ["lqr", "lqr+mekf", "lqr-delay+mekf", "ppo", "ppo-flight"]
+        before = record.read_text()
+        rows = robustness.run(plant, 20, out, names, models=tmp_path / plant)
+        assert record.read_text() == before
+        committed = list(csv.DictReader((DOCS / plant / "robustness.csv").open()))
+        assert [(r["agent"], r["axis"], float(r["level"])) for r in committed] == [
+            (r["agent"], r["axis"], r["level"]) for r in rows
+        ]
+        for old, new in zip(committed, rows, strict=True):
+            assert float(old["j_over_j_star"]) == pytest.approx(new["j_over_j_star"], rel=1e-12)
+            assert float(old["cvar10"]) == pytest.approx(new["cvar10"], rel=1e-12)
+
+
+def test_the_agents_are_campaign_rows():
+    for plant in robustness.PLANTS:
+        lab, flight_cell = robustness.cells(plant)
+        assert lab.id == flight_cell.id == robustness.PLANTS[plant]
+        for name in robustness.agents(plant):
+            assert robustness.campaign_row(plant, name).train is None
+        learned = robustness.learned_agents(plant)
+        assert {"ppo", "ppo-flight"} <= set(learned)
+        assert all(robustness.campaign_row(plant, name).train is not None for name in learned)
+    assert robustness.agents("wheel") == robustness.agents("air-bearing") == ["lqr", "lqr+mekf", "lqr-delay+mekf"]
+    assert robustness.agents("linear") == ["lqr-dare", "linear-lqr+kf"]
+    assert robustness.agents("slosh") == ["slosh-lqr", "slosh-lqr+kf"]
+    assert robustness.agents("magnetorquer") == ["amnftsmc", "amnftsmc+mekf", "mpc"]
+    assert "ppo-flight-10hz" in robustness.learned_agents("air-bearing")
+    assert "ppo-flight-1hz" in robustness.learned_agents("linear")
+    # the models_of rows (acting through an estimator) are not trained rows
+    assert "ppo-flight+kf" not in robustness.learned_agents("linear")
+
+
+def test_an_unknown_agent_names_the_accepted_ones(tmp_path):
+    with pytest.raises(ValueError, match=r"--agents \['lqr'\] unknown; accepted: \['lqr-dare', 'linear-lqr\+kf'"):
+        robustness.run("linear", 1, tmp_path / "r.csv", ["lqr"])
+    with pytest.raises(ValueError, match=r"--agents \['ppo'\] unknown.*need --models"):
+        robustness.run("slosh", 1, tmp_path / "r.csv", ["ppo"])
+    with pytest.raises(ValueError, match=r"plant must be one of .*'wheel'.*got 'rw'"):
+        robustness.axes("rw")
+
+
 def test_learned_agents_need_the_campaign_models(tmp_path):
-    with pytest.raises(ValueError, match=r"--models .* has no trained ppo of the wheel campaign"):
+    with pytest.raises(ValueError, match=r"--models .* has no trained ppo, .* of the wheel campaign"):
         robustness.learned_models("wheel", tmp_path)
+    _fake_models(tmp_path, "ls-flight", "ppo-flight-1hz", seeds=(0, 1))
+    with pytest.raises(
+        ValueError, match=r"no trained ppo-flight-1hz of the linear campaign: .*ls-flight/ppo-flight-1hz/seed2/final"
+    ):
+        robustness.learned_models("linear", tmp_path, ["ppo-flight-1hz"])
 
 
 def test_learned_agents_are_every_training_seeds_best_snapshot(tmp_path):
@@ -70,7 +201,7 @@ def test_learned_agents_are_every_training_seeds_best_snapshot(tmp_path):
             if seed == 0:  # a best snapshot where one was saved, else the final one
                 (run / "best").mkdir()
                 (run / "best" / "model.zip").write_bytes(b"")
-    found = robustness.learned_models("wheel", tmp_path)
+    found = robustness.learned_models("wheel", tmp_path, ["ppo", "ppo-flight"])
     assert {k: [(s, p.relative_to(tmp_path).as_posix()) for s, p in v] for k, v in found.items()} == {
         "ppo": [
             (0, "models/rw/ppo/seed0/best/model.zip"),
@@ -85,10 +216,57 @@ def test_learned_agents_are_every_training_seeds_best_snapshot(tmp_path):
     }
     (tmp_path / "models" / "rw-flight" / "ppo-flight" / "seed2" / "final" / "model.zip").unlink()
     with pytest.raises(ValueError, match=r"no trained ppo-flight of the wheel campaign: .*seed2/final/model.zip"):
-        robustness.learned_models("wheel", tmp_path)
+        robustness.learned_models("wheel", tmp_path, ["ppo", "ppo-flight"])
 
 
-def test_the_cell_and_learning_task_are_the_campaigns():
-    assert robustness.cell_kwargs("wheel") == {"preset": "pyramid-4wheel", "action_frame": "body"}
-    assert robustness.cell_kwargs("air-bearing") == {"preset": "air-bearing-85kg"}
-    assert robustness.learning_id("air-bearing") == "attitude_envs/AirBearing-v1"
+def test_a_learned_agent_plays_on_its_campaign_play_env(tmp_path, monkeypatch):
+    """linear's ppo-flight-1hz decides every 1 s on LinearSystem-v1 (its row's env_kwargs), each
+    training seed's model, under the point's conditions; J* stays the cell's (LinearSystem-v0)."""
+    from baselines.base import ZeroPolicy
+
+    _fake_models(tmp_path, "ls-flight", "ppo-flight-1hz")
+    built = []
+
+    def factory(spec, name):
+        def build(env):
+            built.append((spec, env.spec.id, env.unwrapped.control_dt_s, env.unwrapped.conditions.delay_steps))
+            return ZeroPolicy(env)
+
+        return build
+
+    monkeypatch.setattr(robustness, "_factory", factory)
+    monkeypatch.setattr(robustness, "j_star", lambda env_id, conditions, seed, kwargs: 1.0 if "-v0" in env_id else 0)
+    out = tmp_path / "robustness.csv"
+    rows = robustness.run(
+        "linear", 1, out, ["ppo-flight-1hz"], models=tmp_path, axes_chosen=["delay"], env_kwargs={"episode_steps": 200}
+    )
+    assert [r["level"] for r in rows] == [0.0, 1.0, 2.0, 3.0]
+    assert {(i, dt) for _, i, dt, _ in built} == {("attitude_envs/LinearSystem-v1", 1.0)}
+    assert sorted({d for *_, d in built}) == [0, 1, 2, 3]
+    models = sorted({spec["model"] for spec, *_ in built})
+    assert models == [str(tmp_path / f"models/ls-flight/ppo-flight-1hz/seed{s}/best/model.zip") for s in (0, 1, 2)]
+    assert all(spec["policy"] == "sb3" for spec, *_ in built)
+    episodes = [json.loads(line) for line in out.with_suffix(".episodes.jsonl").read_text().splitlines()]
+    assert sorted({e["train_seed"] for e in episodes}) == [0, 1, 2]
+
+
+def test_the_page_names_each_plants_parameter_and_periods():
+    rows, episodes = [], []
+    for name in ("lqr-dare", "ppo-flight-1hz"):
+        for axis, level, _ in robustness.axes("linear"):
+            rows.append({"agent": name, "axis": axis, "level": level, "j_over_j_star": 1.1, "cvar10": 1.2, "seeds": 2})
+            episodes += [
+                {"agent": name, "axis": axis, "level": level, "seed": s, "j": 2.2, "j_star": 2.0} for s in (0, 1)
+            ]
+    text = " ".join(robustness.page(rows, "linear", episodes).split())  # the page's lines wrapped or not
+    assert "the true input gains (each column of B) drawn within ± that relative error" in text
+    assert "LinearSystem's only flight parameter tolerance" in text
+    assert "0.01 s for `lqr-dare` (LinearSystem-v0); 1 s for `ppo-flight-1hz` (LinearSystem-v1)" in text
+    assert "the distribution `ppo-flight-1hz` trained on" in text
+    assert "--agents lqr-dare ppo-flight-1hz" in text  # not every agent: the command says which
+    assert "inertia" not in text
+    mt_rows = [dict(r, agent="mpc") for r in rows if r["agent"] == "lqr-dare"]
+    text = " ".join(robustness.page(mt_rows, "magnetorquer", [dict(e, agent="mpc") for e in episodes]).split())
+    assert "the true inertia drawn within ± that relative error" in text
+    assert "draws an actuator's gain down to zero" in text
+    assert "3 s for `mpc` (Magnetorquer-v0)" in text
