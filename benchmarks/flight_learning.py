@@ -138,11 +138,10 @@ def baseline(name: str):
 
 
 def trained_policy(model_path: Path, conditions: str):
-    from experiments.training.policy import SB3Policy
-    from experiments.training.training import load_trained
+    from experiments.policies import build_policy
 
-    def build(env):
-        return SB3Policy(load_trained(model_path, env))
+    def build(env):  # behind the wrappers it trained behind, as campaigns play it
+        return build_policy({"policy": "sb3", "model": str(model_path)}, env)
 
     return build
 

@@ -192,10 +192,10 @@ def build_policy(spec: dict[str, Any], env, name: str | None = None):
         for path, kwargs in reversed(
             import_target("experiments.training.training:trained_env_wrappers")(spec["model"])
         ):
-            wrapper = import_dotted(path)
-            wrap_policy = getattr(wrapper, "wrap_policy", None)
+            wrap_policy = getattr(import_dotted(path), "wrap_policy", None)
             if wrap_policy is not None:
-                if params.get("shield") is not None and getattr(wrapper, "changes_action", True):
+                # a shield at deployment would change the command the wrapper's twin records or filters
+                if params.get("shield") is not None:
                     raise ValueError(
                         f"model {spec['model']!r} was trained behind {path} and plays behind it: drop shield"
                     )

@@ -94,12 +94,14 @@ def test_the_jax_twin_equals_the_wrapper_step_for_step_under_the_delay():
         env = JaxLastAction(plant)
         wrapped = LastAction(ne)
         wrapped.reset(seed=3)
-        state = LastActionState(plant.state_from(ne), jnp.zeros(3))
+        state = env.state_from(wrapped)
+        assert isinstance(state, LastActionState)
         step = jax.jit(env.step_env)
         assert env.observation_space(params).shape == wrapped.observation_space.shape
         np.testing.assert_array_equal(env.observation_space(params).high, wrapped.observation_space.high)
         key = jax.random.PRNGKey(0)
         for i, a in enumerate(actions):
+            state_before_end = state
             obs_j, state, reward, terminated, _ = step(key, state, jnp.asarray(a, jnp.float64), params)
             obs, r, term, trunc, info = wrapped.step(a)
             assert np.all(np.abs(obs - np.asarray(obs_j)) <= np.spacing(np.abs(obs))), i
@@ -109,6 +111,14 @@ def test_the_jax_twin_equals_the_wrapper_step_for_step_under_the_delay():
         assert i == 79 and trunc
         reset_obs, _ = env.reset(jax.random.PRNGKey(1), params)
         np.testing.assert_array_equal(np.asarray(reset_obs)[-3:], 0.0)
+        # the autoreset: the last step's final observation ends with its command, the next episode with zeros
+        obs, state, _, terminated, truncated, info = jax.jit(env.step)(key, state_before_end, actions[79], params)
+        assert bool(truncated) and not bool(terminated)
+        np.testing.assert_array_equal(np.asarray(info["final_observation"])[-3:], np.clip(actions[79], -1, 1))
+        np.testing.assert_array_equal(np.asarray(obs)[-3:], 0.0)
+        np.testing.assert_array_equal(np.asarray(state.last_action), 0.0)
+    with pytest.raises(ValueError, match="wrapped in attitude_envs.wrappers.LastAction"):
+        env.state_from(numba_env("LinearSystem-v1"))
 
 
 def test_the_fused_trainer_trains_behind_the_twin_and_the_model_plays_behind_the_policy_twin(tmp_path, monkeypatch):
@@ -141,13 +151,17 @@ def test_the_fused_trainer_trains_behind_the_twin_and_the_model_plays_behind_the
     assert played == pytest.approx(last_eval, rel=1e-5)  # the training's evaluation, behind the wrapper
 
 
-def test_the_jax_backend_names_a_wrapper_without_a_twin(tmp_path):
+def test_the_jax_backend_names_a_wrapper_without_a_twin_and_one_left_unapplied(tmp_path):
     pytest.importorskip("jax")
+    from agents.fused_ppo import from_zoo
     from experiments.training.training import train
 
     overrides = {"backend": "jax", "env_wrapper": "attitude_envs.wrappers.ConstraintPenalty"}
     with pytest.raises(ValueError, match="ConstraintPenalty has none"):
         train("ppo", LS, tmp_path / "run", total_timesteps=160, overrides=overrides)
+    with pytest.raises(ValueError, match="env_wrapper is applied by the caller"):
+        from_zoo({"env_wrapper": LAST_ACTION})  # a program built on the bare plant would drop it
+    assert from_zoo({"env_wrapper": LAST_ACTION}, wrapped=True)[0] == from_zoo({})[0]
 
 
 def test_sb3_trains_behind_the_wrapper_and_the_model_plays_behind_the_policy_twin(tmp_path):
@@ -175,3 +189,7 @@ def test_sb3_trains_behind_the_wrapper_and_the_model_plays_behind_the_policy_twi
     episode = rollout(env, policy, seed=10_000)
     log = (tmp_path / "run" / "evaluations.csv").read_text().splitlines()
     assert float(log[-1].split(",")[1]) == pytest.approx(episode["J"], rel=1e-5)
+    # a deployment shield would change the command the twin records as in flight
+    shielded = {"policy": "sb3", "model": str(result.model_path), "params": {"shield": "cbf"}}
+    with pytest.raises(ValueError, match="was trained behind attitude_envs.wrappers.LastAction"):
+        build_policy(shielded, env)

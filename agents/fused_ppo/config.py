@@ -262,14 +262,23 @@ def _unknown(where: str, mapping: dict[str, Any], accepted: tuple[str, ...]) -> 
         raise ValueError(f"fused PPO: {where} {unknown} not supported (accepted: {list(accepted)})")
 
 
-def from_zoo(entry: dict[str, Any], total_timesteps: int | None = None) -> tuple[PPOConfig, Hparams]:
+def from_zoo(
+    entry: dict[str, Any], total_timesteps: int | None = None, wrapped: bool = False
+) -> tuple[PPOConfig, Hparams]:
     """``(PPOConfig, Hparams)`` of a Zoo PPO entry (the raw entry: strings such as ``lin_3e-4`` and
     ``"dict(...)"`` as in the YAML file, or their parsed values). ``total_timesteps`` (env
     steps) overrides the entry's ``n_timesteps`` as the budget and the schedules' horizon.
+    An entry with ``env_wrapper`` needs ``wrapped``: the caller has wrapped the JAX plant in
+    the wrappers' twins (``experiments.training.jax_training.wrapped_plant``).
     ``ValueError`` naming the key for an unknown or unsupported key or an out-of-range value."""
     if not isinstance(entry, dict):
         raise ValueError(f"a Zoo entry must be a mapping, got {type(entry).__name__}")
     _unknown("hyperparameters", entry, ZOO_KEYS + PPO_KEYS)
+    if entry.get("env_wrapper") and not wrapped:
+        raise ValueError(
+            "fused PPO: env_wrapper is applied by the caller (experiments.training.jax_training.wrapped_plant); "
+            "wrap the JAX plant in the wrappers' twins and pass wrapped=True"
+        )
     e = dict(entry)
     policy = e.get("policy", "MlpPolicy")
     if policy != "MlpPolicy":

@@ -131,6 +131,20 @@ class LastAction(_Wrapper, Environment):
         applied = applied.astype(obs.dtype)
         return self._with_action(obs, applied), LastActionState(env_state, applied), reward, terminated, info
 
+    def state_from(self, numba_env: Any, *args: Any) -> LastActionState:
+        """The JAX state of a numba env's episode played behind
+        :class:`attitude_envs.wrappers.LastAction` (anywhere in its wrapper chain): the plant's
+        (the wrapped twin's ``state_from``, ``args`` passed on) and the wrapper's last action; a
+        ``ValueError`` for an env without that wrapper (its last action is not known)."""
+        from attitude_envs.wrappers.last_action import LastAction as GymLastAction
+
+        wrapper = numba_env
+        while not isinstance(wrapper, GymLastAction):
+            if not hasattr(wrapper, "env"):
+                raise ValueError("state_from needs the numba env wrapped in attitude_envs.wrappers.LastAction")
+            wrapper = wrapper.env
+        return LastActionState(self.env.state_from(wrapper.env, *args), jnp.asarray(wrapper.last_action))
+
     def is_truncated(self, state: LastActionState, params: Any) -> jax.Array:
         return self.env.is_truncated(state.env_state, params)
 

@@ -43,8 +43,6 @@ class LastAction(gym.Wrapper, gym.utils.RecordConstructorArgs):
 
     #: the JAX plants' twin, which the fused trainer applies in its place
     jax_twin = "attitude_envs.jax.wrappers.LastAction"
-    #: the action reaches the env unchanged (a deployment shield may go around the model)
-    changes_action = False
 
     def __init__(self, env: gym.Env) -> None:
         gym.utils.RecordConstructorArgs.__init__(self)
@@ -53,6 +51,11 @@ class LastAction(gym.Wrapper, gym.utils.RecordConstructorArgs):
         self.observation_space = observation_space_with_action(env.observation_space, env.action_space)
         self._low, self._high = act.low, act.high
         self._last = np.zeros(act.shape, dtype=np.float32)
+
+    @property
+    def last_action(self) -> np.ndarray:
+        """The previous action as observed (clipped; zeros after ``reset``), a copy."""
+        return self._last.copy()
 
     def _observe(self, obs: np.ndarray) -> np.ndarray:
         return np.concatenate([np.asarray(obs, dtype=np.float32), self._last.reshape(-1)])

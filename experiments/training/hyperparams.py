@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import ast
 import importlib
+import json
 import math
 import re
 from importlib import resources
@@ -262,9 +263,10 @@ def zoo_objects(name: str, value: Any) -> list[tuple[str, dict[str, Any]]]:
     return out
 
 
-def jax_wrappers(entry: dict[str, Any]) -> tuple[tuple[str, tuple[tuple[str, Any], ...]], ...]:
+def jax_wrappers(entry: dict[str, Any]) -> tuple[tuple[str, str], ...]:
     """The JAX twins of a Zoo entry's ``env_wrapper`` list, for the fused trainer: ``((dotted path
-    of the twin, sorted keyword items), ...)`` in the list's order. Each Gymnasium wrapper names
+    of the twin, its keyword arguments as sorted JSON), ...)`` in the list's order (hashable: a
+    compiled program's cache key). Each Gymnasium wrapper names
     its twin in a ``jax_twin`` attribute (:class:`attitude_envs.wrappers.LastAction`); a
     ``ValueError`` names one that has none."""
     out = []
@@ -275,7 +277,7 @@ def jax_wrappers(entry: dict[str, Any]) -> tuple[tuple[str, tuple[tuple[str, Any
                 f"the jax backend (the fused trainer) takes only env_wrapper entries with a JAX twin "
                 f"(attitude_envs.wrappers.LastAction); {path} has none: train with backend sb3 or sbx"
             )
-        out.append((str(twin), tuple(sorted(kwargs.items()))))
+        out.append((str(twin), json.dumps(kwargs, sort_keys=True)))
     return tuple(out)
 
 

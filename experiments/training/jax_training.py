@@ -150,7 +150,7 @@ def wrapped_plant(env_id: str, env_kwargs: dict[str, Any], wrappers=()):
     except ModuleNotFoundError as exc:
         raise ValueError(f"backend 'jax': {env_id} has no JAX plant yet ({exc})") from exc
     for path, kwargs in wrappers:
-        env = import_dotted(path)(env, **dict(kwargs))
+        env = import_dotted(path)(env, **json.loads(kwargs))
     return env, env_params
 
 
@@ -255,7 +255,7 @@ def train_jax(
 
     plan, out_dir = run_dir.plan, run_dir.path
     algo, env_id, total = plan.algorithm.name, plan.env_id, plan.total
-    config, hparams = from_zoo(plan.entry, total)
+    config, hparams = from_zoo(plan.entry, total, wrapped=True)  # program() wraps the plant
     hparams = as_float32(hparams._replace(schedule_timesteps=float(plan.horizon)))
     wrappers = jax_wrappers(plan.entry)
     prog = program(env_id, plan.env_kwargs, config, wrappers)

@@ -178,7 +178,7 @@ def tune_population(
     groups: dict[Any, list[int]] = {}
     for i, t in enumerate(trials):
         t["overrides"] = {**t["overrides"], **dict(overrides or {})}  # the fixed ones win
-        config, hp = from_zoo({**entry, **t["overrides"]}, budget)
+        config, hp = from_zoo({**entry, **t["overrides"]}, budget, wrapped=True)  # wrapped_plant below
         t["config"], t["hparams"] = config, hp._replace(schedule_timesteps=float(budget))
         t["params"] = trained_params(t["params"], config, hp)
         groups.setdefault(config, []).append(i)
