@@ -140,10 +140,9 @@ PARAMETER_LEVELS = (0.0, 0.1, 0.25, 0.5)
 #: 15-19 s a parameters solve, 62-82 s a delay or held-out one), 230 s on LinearSystem (J* 106 s;
 #: the LQR's 40000-step episodes 2.6 s, through the Kalman filter 5.7 s)
 RUN_MINUTES = {"wheel": 40, "air-bearing": 105, "magnetorquer": 170, "slosh": 140, "linear": 80}
-#: the plant campaign's wall time, min, with its flight cells (its runs.jsonl: the lab run plus
-#: the flight cells' run, 2026-11-29, shared cores); linear's is left out while its flight cells
-#: gain rows
-CAMPAIGN_MINUTES = {"wheel": 62, "air-bearing": 28, "magnetorquer": 60, "slosh": 60}
+#: the plant campaign's wall time, min, with its flight cells (the sum of the runs in its page's
+#: runs.jsonl, 2026-11-26 to -29, shared cores)
+CAMPAIGN_MINUTES = {"wheel": 72, "air-bearing": 47, "magnetorquer": 60, "slosh": 60, "linear": 30}
 DELAY_LEVELS = (0, 1, 2, 3)
 NOISE_LEVELS = (1.0, 3.0, 10.0)
 #: the held-out axis: the flight conditions' parameter tolerances times these (1: the flight cells')
