@@ -37,6 +37,26 @@ def observation_space_with_action(observation_space: gym.Space, action_space: gy
     return gym.spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
 
 
+class _ActionMemory:
+    """The previous action, clipped to ``env``'s action box (zeros after :meth:`reset`), and the
+    observation followed by it: the one memory :class:`LastAction` and its policy-side twin
+    share, so that a model sees the same numbers in training and in play."""
+
+    def __init__(self, env: gym.Env) -> None:
+        _, act = _box_pair(env.observation_space, env.action_space)
+        self._low, self._high = act.low, act.high
+        self.last = np.zeros(act.shape, dtype=np.float32)
+
+    def reset(self) -> None:
+        self.last = np.zeros_like(self.last)
+
+    def record(self, action: Any) -> None:
+        self.last = np.clip(np.asarray(action, dtype=np.float32), self._low, self._high)
+
+    def seen(self, obs: np.ndarray) -> np.ndarray:
+        return np.concatenate([np.asarray(obs, dtype=np.float32), self.last.reshape(-1)])
+
+
 class LastAction(gym.Wrapper, gym.utils.RecordConstructorArgs):
     """The observation followed by the previous action, clipped to the action box (zeros after
     ``reset``); everything else is the env's. See the module docstring."""
@@ -47,29 +67,23 @@ class LastAction(gym.Wrapper, gym.utils.RecordConstructorArgs):
     def __init__(self, env: gym.Env) -> None:
         gym.utils.RecordConstructorArgs.__init__(self)
         gym.Wrapper.__init__(self, env)
-        _, act = _box_pair(env.observation_space, env.action_space)
+        self._memory = _ActionMemory(env)
         self.observation_space = observation_space_with_action(env.observation_space, env.action_space)
-        self._low, self._high = act.low, act.high
-        self._last = np.zeros(act.shape, dtype=np.float32)
 
     @property
     def last_action(self) -> np.ndarray:
         """The previous action as observed (clipped; zeros after ``reset``), a copy."""
-        return self._last.copy()
-
-    def _observe(self, obs: np.ndarray) -> np.ndarray:
-        return np.concatenate([np.asarray(obs, dtype=np.float32), self._last.reshape(-1)])
+        return self._memory.last.copy()
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         obs, info = self.env.reset(seed=seed, options=options)
-        self._last = np.zeros_like(self._last)
-        return self._observe(obs), info
+        self._memory.reset()
+        return self._memory.seen(obs), info
 
     def step(self, action: Any):
-        applied = np.clip(np.asarray(action, dtype=np.float32), self._low, self._high)
         obs, reward, terminated, truncated, info = self.env.step(action)
-        self._last = applied.astype(np.float32)
-        return self._observe(obs), reward, terminated, truncated, info
+        self._memory.record(action)
+        return self._memory.seen(obs), reward, terminated, truncated, info
 
     @staticmethod
     def wrap_policy(policy, env: gym.Env) -> WithLastAction:
@@ -89,18 +103,15 @@ class WithLastAction:
     ``reset``), as :class:`LastAction` feeds it in training."""
 
     def __init__(self, policy, env: gym.Env) -> None:
-        _, act = _box_pair(env.observation_space, env.action_space)
         self.policy = policy
         self.name = getattr(policy, "name", type(policy).__name__)
-        self._low, self._high = act.low, act.high
-        self._last = np.zeros(act.shape, dtype=np.float32)
+        self._memory = _ActionMemory(env)
 
     def reset(self, seed: int | None = None) -> None:
         self.policy.reset(seed)
-        self._last = np.zeros_like(self._last)
+        self._memory.reset()
 
     def act(self, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
-        seen = np.concatenate([np.asarray(obs, dtype=np.float32), self._last.reshape(-1)])
-        action = self.policy.act(seen, info)
-        self._last = np.clip(np.asarray(action, dtype=np.float32), self._low, self._high)
+        action = self.policy.act(self._memory.seen(obs), info)
+        self._memory.record(action)
         return action
