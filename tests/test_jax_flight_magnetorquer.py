@@ -194,7 +194,7 @@ def test_parameter_draws_follow_the_numba_law():
     assert np.all(np.abs(gain - 1.0) <= np.asarray(table.gain_tolerance.value) + 1e-15)
     # the effective inertia's inverse is the drawn inertia's
     eff = inertia.copy()
-    eff[:, 1, 1] -= float(params.wheel_inertia_kg_m2)
+    eff[:, 1, 1] -= float(params.plant.wheel_inertia_kg_m2)
     np.testing.assert_allclose(
         np.asarray(states.inertia_eff_inv) @ eff, np.broadcast_to(np.eye(3), eff.shape), atol=1e-12
     )
@@ -246,7 +246,7 @@ def _jax_sensor_errors(n: int) -> dict:
         env, params = make("Magnetorquer-v0", conditions="flight", episode_duration_s=1.0)
 
         def observe(s):
-            t_s = s.time.astype(s.rate_rad_s.dtype) * params.control_dt_s
+            t_s = s.time.astype(s.rate_rad_s.dtype) * params.timing.control_dt_s
             rate, _, _, field = mt.orbit_field(params, s.mean_anomaly0_rad, t_s)
             truth = s.replace(sensors=None)  # readings of a state without sensors: the truth
             return env.readings(truth, rate, field), env.readings(s, rate, field)
@@ -315,7 +315,7 @@ def test_autoreset_redraws_the_gains_and_rests_the_chain():
     np.testing.assert_array_equal(np.asarray(s2.time), 0)
 
 
-def test_make_and_from_env_refuse_what_is_not_modeled():
+def test_make_refuses_flight_features_not_modeled():
     with pytest.raises(ValueError, match="only as flight conditions' sensors"):
         make("Magnetorquer-v1", sensors={"gyro": {"noise_std": 1e-5}})
     with pytest.raises(ValueError, match="target .sensor."):

@@ -138,7 +138,7 @@ def _run_group(env_id: str, lanes: list, n_steps: int) -> list[dict]:
     """The numba episodes of ``lanes`` and the JAX rollouts of the same, one vmapped program
     (faults padded to a common count). Call under the dtype setting to check."""
     numba_envs = [numba_env(env_id, **kw) for kw, _ in lanes]
-    built = [mt.from_env(e) for e in numba_envs]
+    built = [make(env_id, **kw) for kw, _ in lanes]
     n_faults = max(env.n_faults for env, _ in built)
     first, _ = built[0]
     group = mt.MagnetorquerEnv(  # one static layout for the lanes, faults padded to n_faults
@@ -261,8 +261,8 @@ def api():
     """The JAX env of ``API_KWARGS`` (default dtype), its params for the two lanes, numba envs
     of the same and the jitted, 2-lane vmapped ``reset`` and ``step``."""
     numba_envs = [numba_env(V1, max_dipole_am2=d, **API_KWARGS) for d in DIPOLES]
-    env, _ = mt.from_env(numba_envs[0])
-    params = _stack([mt.from_env(ne)[1] for ne in numba_envs])
+    env, _ = make(V1, max_dipole_am2=DIPOLES[0], **API_KWARGS)
+    params = _stack([make(V1, max_dipole_am2=d, **API_KWARGS)[1] for d in DIPOLES])
     reset = jax.jit(jax.vmap(env.reset), compiler_options=FASTER_COMPILE)
     step = jax.jit(jax.vmap(env.step), compiler_options=FASTER_COMPILE)
     return env, params, numba_envs, reset, step
@@ -384,7 +384,7 @@ def test_reset_draws_follow_the_numba_law(api):
     for key, tol in tolerances.items():
         assert abs(a[key] - b[key]) < tol, (key, a[key], b[key])
     eff = mine.inertia_kg_m2.copy()
-    eff[:, 1, 1] -= float(params.wheel_inertia_kg_m2[0])
+    eff[:, 1, 1] -= float(params.plant.wheel_inertia_kg_m2[0])
     np.testing.assert_allclose(mine.inertia_eff_inv, np.linalg.inv(eff), rtol=1e-4)
 
 
@@ -419,3 +419,63 @@ def test_random_walk_disturbance_increments():
 def test_make_rejects_what_is_not_modeled(kwargs, named):
     with pytest.raises(ValueError, match=named):
         make("Magnetorquer-v1", **kwargs)
+
+
+@pytest.mark.parametrize(
+    "env_id,kwargs",
+    [
+        (V0, {}),
+        (V1, {"conditions": "flight"}),
+        (
+            V0,
+            {
+                "task": "regulation",
+                "orbit": {"mean_anomaly_deg": "random"},
+                "inertia_uncertainty": {"kind": "random", "moment_scale": 0.1, "axis_angle_deg": 3.0},
+                "time_varying_inertia": None,
+                "disturbance": {"kind": "sinusoidal", "amplitude_nm": [1e-6, 2e-6, 1e-6], "period_s": 300.0},
+                "gravity_gradient": True,
+                "fault_hint": True,
+            },
+        ),
+    ],
+)
+def test_standalone_params_are_the_numba_envs_numbers(env_id, kwargs, monkeypatch):
+    """``make`` builds the params without a numba env: each leaf checked is the numba env's
+    number, exactly (x64); the observation bounds are its; the groups default to Magnetorquer-v0's."""
+    ne = numba_env(env_id, **kwargs)
+    with jax.enable_x64(True):
+        with monkeypatch.context() as m:  # no numba env may be built by make
+            m.setattr(type(ne), "_use_layers", lambda *a, **k: pytest.fail("make built a numba env"))
+            env, params = make(env_id, **kwargs)
+        p, orbit = ne.model.params, ne.orbit
+        expected = [
+            (params.plant.inertia_kg_m2, p.inertia_kg_m2),
+            (params.plant.inertia_eff_inv, p.inertia_eff_inv),
+            (params.plant.max_dipole_am2, p.max_dipole_am2),
+            (params.plant.max_wheel_momentum_nms, p.max_wheel_momentum_nms),
+            (params.orbit.eccentricity, orbit.packed[K.ORB_E]),
+            (params.orbit.semi_major_axis_m, orbit.packed[K.ORB_A]),
+            (params.orbit.inclination_rad, orbit.inclination_rad),
+            (params.field.dipole_strength_t_m3, ne.field.strength),
+            (params.start.reference, ne.model.reference.packed),
+            (params.timing.control_dt_s, ne.control_dt_s),
+            (params.timing.integrator_dt_s, ne.integrator_dt_s),
+            (params.cost.Q, ne.model.cost.Q),
+            (params.cost.R, ne.model.cost.R),
+            (params.cost.max_rate_rad_s, ne.max_rate_rad_s),
+            (params.cost.horizon_s, ne.episode_duration_s),
+            (params.start.initial_rate_max_rad_s, ne.reset_distribution["initial_rate_max_rad_s"]),
+        ]
+        for got, want in expected:
+            assert got.dtype == jnp.float64
+            np.testing.assert_array_equal(got, want)
+        assert bool(params.start.regulation) == (ne.task == "regulation")
+        assert bool(params.start.mean_anomaly_random) == (ne.reset_distribution["mean_anomaly_deg"] == "random")
+        space = env.observation_space(params)
+        np.testing.assert_array_equal(np.float32(space.low), ne.observation_space.low)
+        np.testing.assert_array_equal(np.float32(space.high), ne.observation_space.high)
+        assert (params.flight is None) == ne.conditions.is_lab
+        default = mt.EnvParams()
+        v0 = make(V0)[1]
+        assert jax.tree.all(jax.tree.map(np.array_equal, default, v0))

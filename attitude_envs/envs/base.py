@@ -194,6 +194,7 @@ class AttitudeEnv(gym.Env):
 
     def _use_layers(self, layers: Layers) -> None:
         """Hold ``layers`` (built by :func:`build_layers` for this env and preset)."""
+        self._layers = layers
         self.conditions = layers.conditions
         self._fault_layer = layers.fault_layer
         self._sensor_layer = layers.sensor_layer
@@ -240,9 +241,7 @@ class AttitudeEnv(gym.Env):
     def n_hint_flags(self) -> int:
         """Entries ``fault_hint`` appends to the observation (0 when off): one per actuator,
         then one per sensor channel."""
-        if not self.fault_hint:
-            return 0
-        return self._fault_layer.n + len(self._sensor_layer.channels)
+        return self._layers.n_hint_flags
 
     def _init_termination_cost(self, mode: str, Q: np.ndarray, horizon: float) -> None:
         """Validate the ``termination_cost`` keyword; ``Q`` weighs the error state and
@@ -376,8 +375,7 @@ class AttitudeEnv(gym.Env):
 
     def _hint_bounds(self, low: np.ndarray, high: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Observation bounds with the ``fault_hint`` flags' [0, 1] appended when on."""
-        n = self.n_hint_flags
-        return np.concatenate([low, np.zeros(n)]), np.concatenate([high, np.ones(n)])
+        return self._layers.hint_bounds(low, high)
 
     def clip_observation(self, obs: np.ndarray) -> np.ndarray:
         """``obs`` clipped to :attr:`observation_space` (a new float32 array): the observation
@@ -434,6 +432,17 @@ class Layers:
     gain_tolerance: np.ndarray
     fault_hint: bool
     disturbance: Disturbance | None
+
+    @property
+    def n_hint_flags(self) -> int:
+        """Entries ``fault_hint`` appends to the observation (0 when off): one per actuator,
+        then one per sensor channel."""
+        return self.fault_layer.n + len(self.sensor_layer.channels) if self.fault_hint else 0
+
+    def hint_bounds(self, low: np.ndarray, high: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Observation bounds with the ``fault_hint`` flags' [0, 1] appended when on."""
+        n = self.n_hint_flags
+        return np.concatenate([low, np.zeros(n)]), np.concatenate([high, np.ones(n)])
 
 
 def build_layers(

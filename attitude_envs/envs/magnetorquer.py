@@ -12,13 +12,14 @@ from gymnasium import spaces
 
 from attitude_envs import presets, quaternion, validation
 from attitude_envs.cost import QuadraticCost
-from attitude_envs.envs.base import AttitudeEnv
+from attitude_envs.envs.base import TERMINATION_COSTS, AttitudeEnv, Layers, build_layers, constructor_keywords
 from attitude_envs.evaluation.success import FINAL_ERROR_DEG
 from attitude_envs.integrators import substeps
 from attitude_envs.plants import magnetorquer as mt
 from attitude_envs.plants import magnetorquer_kernels as kernels
 from attitude_envs.plants.magnetic_field import FieldModel
 from attitude_envs.plants.orbit import KeplerOrbit
+from attitude_envs.presets import flight
 from attitude_envs.presets.sadigh_2022 import TIME_VARYING_INERTIA
 from attitude_envs.sensors import Channel
 from attitude_envs.trajectories import SmoothBangBang
@@ -288,97 +289,39 @@ class MagnetorquerEnv(AttitudeEnv):
         render_mode: str | None = None,
         preset: str | None = None,  # last: positional callers of the earlier signature keep working
     ) -> None:
-        cfg = self._configure(self.default_preset if preset is None else preset, locals())
-        missing = [k for k in _REQUIRED if cfg.get(k) is None]
-        if missing:
-            raise ValueError(f"{self.env_name} preset {self.preset!r} sets no {missing[0]!r}; pass {missing[0]}=...")
-        preset_values = presets.get(self.env_name, self.preset).params()
-        self.task = validation.choice("task", task, {"tracking", "regulation"})
-        params = mt.MagnetorquerParams(
-            cfg["inertia_kg_m2"],
-            cfg["wheel_inertia_kg_m2"],
-            cfg["max_dipole_am2"],
-            cfg["max_wheel_torque_nm"],
-            cfg["max_wheel_momentum_nms"],
-        )
-        self._orbit_cfg = _completed("orbit", orbit, preset_values.get("orbit"), _ORBIT_KEYS)
-        self._random_anomaly = isinstance(self._orbit_cfg["mean_anomaly_deg"], str)
-        if self._random_anomaly:
-            validation.choice("orbit.mean_anomaly_deg", self._orbit_cfg["mean_anomaly_deg"], {"random"})
-        self.orbit = self._make_orbit(0.0 if self._random_anomaly else float(self._orbit_cfg["mean_anomaly_deg"]))
+        cfg = configure(type(self), preset, locals())
+        self.config = cfg
+        self.preset = cfg.preset
+        self.task = cfg.task
+        self._orbit_cfg = cfg.orbit_config
+        self._random_anomaly = cfg.random_anomaly
+        self.orbit = cfg.orbit
         #: the Earth field model along the orbit (its ``table`` is the episode's IGRF table)
-        self.field = FieldModel(cfg["field_model"], cfg["dipole_strength_t_m3"], field_epoch)
-        self.observe_field = validation.flag("observe_field", observe_field)
-        if isinstance(disturbance, str):
-            validation.choice("disturbance", disturbance, {"paper"})
+        self.field = cfg.field
+        self.observe_field = cfg.observe_field
         #: True when the disturbance is the paper's eq. (39) (compiled; ``disturbance`` is then None)
-        self.paper_disturbance = isinstance(disturbance, str)
-        self.disturbance_scale = validation.nonnegative("disturbance_scale", disturbance_scale)
-        self.disturbance_second_harmonic = validation.flag("disturbance_second_harmonic", disturbance_second_harmonic)
-        self.gravity_gradient = validation.flag("gravity_gradient", gravity_gradient)
-        if isinstance(time_varying_inertia, str):
-            validation.choice("time_varying_inertia", time_varying_inertia, {"paper"})
-            time_varying_inertia = {}
+        self.paper_disturbance = cfg.paper_disturbance
+        self.disturbance_scale = cfg.disturbance_scale
+        self.disturbance_second_harmonic = cfg.disturbance_second_harmonic
+        self.gravity_gradient = cfg.gravity_gradient
         #: ΔJ(t) added to the true inertia (:class:`~attitude_envs.plants.magnetorquer.TimeVaryingInertia`), or None
-        self.time_varying_inertia = mt.TimeVaryingInertia.from_config(time_varying_inertia, TIME_VARYING_INERTIA.value)
-        if self.time_varying_inertia is not None:
-            self.time_varying_inertia.check_against(params.inertia_kg_m2)
-        self._uncertainty = InertiaUncertainty.from_config(inertia_uncertainty)
-        self.control_dt_s = validation.positive("control_dt_s", cfg["control_dt_s"])
-        self.integrator_dt_s = validation.positive("integrator_dt_s", cfg.get("integrator_dt_s", self.control_dt_s))
-        self._substeps = substeps(self.control_dt_s, self.integrator_dt_s)
-        self.episode_duration_s = validation.positive(
-            "episode_duration_s", cfg.get("episode_duration_s", 2.0 * self.orbit.period_s)
-        )
-        target_euler = validation.finite_array("target_euler_deg", target_euler_deg, (3,))  # checked for either task
-        if self.task == "tracking":
-            ref_cfg = _completed("reference", reference, preset_values.get("reference"), _REFERENCE_KEYS)
-            ref = SmoothBangBang(ref_cfg["delta_deg"], ref_cfg["t_final_s"], ref_cfg["start_deg"])
-        else:
-            ref = SmoothBangBang((0.0, 0.0, 0.0), 1.0, target_euler)
-        self._initial_angle = validation.in_range("initial_angle_deg", initial_angle_deg, 0.0, 180.0)
-        default_rate = 0.0 if self.task == "tracking" else 1e-3
-        self._rate_max = validation.nonnegative(
-            "initial_rate_max_rad_s", default_rate if initial_rate_max_rad_s is None else initial_rate_max_rad_s
-        )
-        q_mat = validation.psd_matrix("Q", cfg["Q"], 6)
-        r_mat = validation.psd_matrix("R", cfg["R"], 3, definite=True)
-        self.model = MagnetorquerModel(
-            params,
-            self.orbit.mean_motion_rad_s,
-            self.orbit.inclination_rad,
-            ref,
-            QuadraticCost(q_mat, r_mat),
-            self.control_dt_s,
-        )
-        self._init_layers(
-            n_actuators=4,
-            actuator_limits=params.limits,
-            channels=[
-                Channel("gyro", 3, units="rad/s"),  # inertial rate ω_bi, body axes
-                Channel("star_tracker", 4, "attitude", "rad"),  # attitude relative to the orbital frame
-                Channel("tachometer", 1, units="rad/s"),
-                Channel("magnetometer", 3, units="T"),  # body-frame field
-            ],
-            faults=cfg.get("faults"),
-            sensors=sensors,
-            fault_hint=fault_hint,
-            disturbance=None if self.paper_disturbance else disturbance,
-            conditions=cfg.get("conditions"),
-            control_dt_s=self.control_dt_s,
-        )
-        self._flight_inertia = self._flight_inertia_draw()
-        self.max_rate_rad_s = validation.positive("max_rate_rad_s", max_rate_rad_s)
-        self._init_termination_cost(termination_cost, q_mat, self.episode_duration_s)
-        if render_mode is not None:
-            raise ValueError(f"render_mode must be None (no renderer for Magnetorquer-v0), got {render_mode!r}")
+        self.time_varying_inertia = cfg.time_varying_inertia
+        self._uncertainty = cfg.inertia_uncertainty
+        self.control_dt_s = cfg.control_dt_s
+        self.integrator_dt_s = cfg.integrator_dt_s
+        self._substeps = cfg.n_substeps
+        self.episode_duration_s = cfg.episode_duration_s
+        self._initial_angle = cfg.initial_angle_deg
+        self._rate_max = cfg.initial_rate_max_rad_s
+        self.model = cfg.model
+        self._use_layers(cfg.layers)
+        self._flight_inertia = cfg.flight_inertia
+        self.max_rate_rad_s = cfg.max_rate_rad_s
+        self._init_termination_cost(cfg.termination_cost, cfg.model.cost.Q, self.episode_duration_s)
         self.render_mode = None
+        params = cfg.model.params
 
-        high = np.concatenate([np.ones(3), np.full(3, 2.0 * self.max_rate_rad_s), [1e3]])
-        if self.observe_field:
-            high = np.concatenate([high, np.full(3, 3.0)])
-        low, high = self._hint_bounds(-high, high)
-        self.observation_space = spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
+        self.observation_space = spaces.Box(*observation_bounds(cfg), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(4,), dtype=np.float32)
 
         self._inertia = params.inertia_kg_m2
@@ -387,7 +330,7 @@ class MagnetorquerEnv(AttitudeEnv):
         self._meas: dict[str, np.ndarray] = {}
         self._meas_state: dict[str, Any] = {}
         self._steps = 0
-        self._shared = self._pack_shared(q_mat, r_mat)
+        self._shared = pack_shared(cfg)
         self._env_vec = self._pack_env()
         self._work = np.zeros(kernels.WORK_SIZE)
         self._step_out = np.zeros(kernels.STEP_OUT_SIZE)
@@ -396,54 +339,6 @@ class MagnetorquerEnv(AttitudeEnv):
         self._limits = params.limits
 
     # ------------------------------------------------------------------ construction helpers
-    def _make_orbit(self, mean_anomaly_deg: float) -> KeplerOrbit:
-        c = self._orbit_cfg
-        return KeplerOrbit.from_altitudes(
-            c["apogee_altitude_km"],
-            c["perigee_altitude_km"],
-            c["inclination_deg"],
-            raan_deg=c["raan_deg"],
-            arg_perigee_deg=c["arg_perigee_deg"],
-            mean_anomaly_deg=mean_anomaly_deg,
-            model=c["model"],
-        )
-
-    def _pack_shared(self, q_mat: np.ndarray, r_mat: np.ndarray) -> np.ndarray:
-        """The configuration in the compiled step's layout (:func:`kernels.pack_shared`)."""
-        p = self.model.params
-        dist = self._disturbance
-        amplitude, period = np.zeros(3), 1.0
-        if self.paper_disturbance:
-            kind = kernels.DIST_PAPER
-        elif dist is None:
-            kind = kernels.DIST_NONE
-        elif dist.kind == "sinusoidal":
-            kind, amplitude, period = kernels.DIST_SINUSOIDAL, dist.amplitude_nm, dist.period_s
-        else:  # constant, random walk: a torque held over the control step
-            kind = kernels.DIST_HELD
-        dj = self.time_varying_inertia
-        return kernels.pack_shared(
-            wheel_inertia_kg_m2=p.wheel_inertia_kg_m2,
-            max_wheel_momentum_nms=p.max_wheel_momentum_nms,
-            integrator_dt_s=self.integrator_dt_s,
-            substeps=self._substeps,
-            field_model=self.field.model,
-            dipole_strength_t_m3=self.field.strength,
-            inclination_rad=self.orbit.inclination_rad,
-            table_step_s=self.field.igrf_step_s,
-            disturbance_kind=kind,
-            disturbance_scale=self.disturbance_scale,
-            orbital_rate_rad_s=self.model.orbital_rate_rad_s,
-            second_harmonic=self.disturbance_second_harmonic,
-            disturbance_amplitude_nm=amplitude,
-            disturbance_period_s=period,
-            gravity_gradient=self.gravity_gradient,
-            delta_j=None if dj is None else (dj.amplitude_kg_m2, dj.frequency_rad_s, dj.phase_rad),
-            Q=q_mat,
-            R=r_mat,
-            reference=self.model.reference.packed,
-        )
-
     def _disturbance_vector(self) -> np.ndarray:
         """The per-episode disturbance entry of the compiled step: the held torque (constant,
         random walk) or the sinusoid's phases."""
@@ -570,7 +465,7 @@ class MagnetorquerEnv(AttitudeEnv):
             anomaly = (
                 float(rng.uniform(0.0, 360.0)) if self._random_anomaly else float(self._orbit_cfg["mean_anomaly_deg"])
             )
-        self.orbit = self._make_orbit(anomaly)
+        self.orbit = make_orbit(self._orbit_cfg, anomaly)
         self.field.prepare(self.orbit, self.episode_duration_s + self.control_dt_s)
         q_d, _, _ = self.model.reference.attitude(0.0)
         if self.task == "tracking":
@@ -637,17 +532,6 @@ class MagnetorquerEnv(AttitudeEnv):
         return obs, -cost, terminated, truncated, self._info(commanded, cost)
 
     # ------------------------------------------------------------------ internals
-    def _flight_inertia_draw(self) -> InertiaUncertainty | None:
-        """The flight conditions' true-inertia draw (principal moments and axes within the
-        flight table's tolerances times ``conditions["parameters"]``), or None when no
-        parameter is drawn or ``inertia_uncertainty`` is given (it then draws the inertia)."""
-        scale = self.conditions.parameters
-        if scale == 0 or self._uncertainty is not None:
-            return None
-        table = self.flight_table  # ±5 % × at most 10 (conditions.MAX_PARAMETER_SCALE): positive moments
-        moment, axis = table.plant_value("inertia_moment") * scale, table.plant_value("inertia_axis_deg") * scale
-        return InertiaUncertainty("random", None, moment, axis)
-
     def _friction_speeds(self) -> np.ndarray | None:
         """The speeds the wheel friction of the actuator dynamics acts against, one per
         actuator (None without actuator dynamics): zeros for the dipoles, and the wheel's
@@ -760,3 +644,225 @@ def _completed(name: str, given: Mapping | None, base: Mapping | None, keys: tup
     if missing:
         raise ValueError(f"{name} needs the keys {list(keys)}, missing {missing}")
     return cfg
+
+
+@dataclass(frozen=True)
+class MagnetorquerConfig:
+    """The validated keywords of a :class:`MagnetorquerEnv` and what follows from them: the
+    nominal ``model``, the completed ``orbit_config`` (its ``mean_anomaly_deg`` a number or
+    ``"random"``) and its ``orbit`` (at that anomaly, or 0 when drawn), the ``field``, the
+    disturbance settings, ΔJ(t) (``time_varying_inertia``), the ``inertia_uncertainty``, the
+    step sizes (s; ``n_substeps`` RK4 sub-steps a decision), the start's bounds, the env's
+    ``layers`` (faults, sensors, flight conditions, a non-paper disturbance) and the flight
+    conditions' ``flight_inertia`` draw (None: none). The numba env and the JAX plant
+    (:mod:`attitude_envs.jax.magnetorquer`) are both built from it."""
+
+    preset: str | None
+    task: str
+    orbit_config: dict
+    random_anomaly: bool
+    orbit: KeplerOrbit
+    field: FieldModel
+    observe_field: bool
+    paper_disturbance: bool
+    disturbance_scale: float
+    disturbance_second_harmonic: bool
+    gravity_gradient: bool
+    time_varying_inertia: mt.TimeVaryingInertia | None
+    inertia_uncertainty: InertiaUncertainty | None
+    control_dt_s: float
+    integrator_dt_s: float
+    n_substeps: int
+    episode_duration_s: float
+    initial_angle_deg: float
+    initial_rate_max_rad_s: float
+    model: MagnetorquerModel
+    layers: Layers
+    flight_inertia: InertiaUncertainty | None
+    max_rate_rad_s: float
+    termination_cost: str
+
+
+def configure(cls: type[MagnetorquerEnv], preset: str | None, given: Mapping[str, Any]) -> MagnetorquerConfig:
+    """The keywords ``given`` of env class ``cls`` (every one: the constructor's ``locals()``,
+    or :func:`~attitude_envs.envs.base.keyword_defaults` updated with the keywords passed)
+    resolved (``preset``, None: the class's default, then every keyword that is not None) and
+    validated in the constructor's order, with the same ``ValueError`` for a bad one."""
+    preset = cls.default_preset if preset is None else preset
+    skip = ("self", "__class__", "preset", "render_mode")
+    overrides = {k: v for k, v in given.items() if k not in skip and not k.startswith("_")}
+    cfg = presets.resolve(cls.env_name, preset, overrides, constructor_keywords(cls))
+    missing = [k for k in _REQUIRED if cfg.get(k) is None]
+    if missing:
+        raise ValueError(f"{cls.env_name} preset {preset!r} sets no {missing[0]!r}; pass {missing[0]}=...")
+    preset_values = presets.get(cls.env_name, preset).params()
+    task = validation.choice("task", given["task"], {"tracking", "regulation"})
+    params = mt.MagnetorquerParams(
+        cfg["inertia_kg_m2"],
+        cfg["wheel_inertia_kg_m2"],
+        cfg["max_dipole_am2"],
+        cfg["max_wheel_torque_nm"],
+        cfg["max_wheel_momentum_nms"],
+    )
+    orbit_cfg = _completed("orbit", given["orbit"], preset_values.get("orbit"), _ORBIT_KEYS)
+    random_anomaly = isinstance(orbit_cfg["mean_anomaly_deg"], str)
+    if random_anomaly:
+        validation.choice("orbit.mean_anomaly_deg", orbit_cfg["mean_anomaly_deg"], {"random"})
+    orbit = make_orbit(orbit_cfg, 0.0 if random_anomaly else float(orbit_cfg["mean_anomaly_deg"]))
+    field = FieldModel(cfg["field_model"], cfg["dipole_strength_t_m3"], given["field_epoch"])
+    observe_field = validation.flag("observe_field", given["observe_field"])
+    disturbance = given["disturbance"]
+    if isinstance(disturbance, str):
+        validation.choice("disturbance", disturbance, {"paper"})
+    paper_disturbance = isinstance(disturbance, str)
+    disturbance_scale = validation.nonnegative("disturbance_scale", given["disturbance_scale"])
+    second_harmonic = validation.flag("disturbance_second_harmonic", given["disturbance_second_harmonic"])
+    gravity_gradient = validation.flag("gravity_gradient", given["gravity_gradient"])
+    time_varying = given["time_varying_inertia"]
+    if isinstance(time_varying, str):
+        validation.choice("time_varying_inertia", time_varying, {"paper"})
+        time_varying = {}
+    delta_j = mt.TimeVaryingInertia.from_config(time_varying, TIME_VARYING_INERTIA.value)
+    if delta_j is not None:
+        delta_j.check_against(params.inertia_kg_m2)
+    uncertainty = InertiaUncertainty.from_config(given["inertia_uncertainty"])
+    control_dt_s = validation.positive("control_dt_s", cfg["control_dt_s"])
+    integrator_dt_s = validation.positive("integrator_dt_s", cfg.get("integrator_dt_s", control_dt_s))
+    n_substeps = substeps(control_dt_s, integrator_dt_s)
+    duration = validation.positive("episode_duration_s", cfg.get("episode_duration_s", 2.0 * orbit.period_s))
+    target_euler = validation.finite_array("target_euler_deg", given["target_euler_deg"], (3,))  # either task
+    if task == "tracking":
+        ref_cfg = _completed("reference", given["reference"], preset_values.get("reference"), _REFERENCE_KEYS)
+        ref = SmoothBangBang(ref_cfg["delta_deg"], ref_cfg["t_final_s"], ref_cfg["start_deg"])
+    else:
+        ref = SmoothBangBang((0.0, 0.0, 0.0), 1.0, target_euler)
+    initial_angle = validation.in_range("initial_angle_deg", given["initial_angle_deg"], 0.0, 180.0)
+    rate_max = given["initial_rate_max_rad_s"]
+    default_rate = 0.0 if task == "tracking" else 1e-3
+    rate_max = validation.nonnegative("initial_rate_max_rad_s", default_rate if rate_max is None else rate_max)
+    q_mat = validation.psd_matrix("Q", cfg["Q"], 6)
+    r_mat = validation.psd_matrix("R", cfg["R"], 3, definite=True)
+    model = MagnetorquerModel(
+        params, orbit.mean_motion_rad_s, orbit.inclination_rad, ref, QuadraticCost(q_mat, r_mat), control_dt_s
+    )
+    layers = build_layers(
+        *cls._flight_table_key(preset),
+        n_actuators=4,
+        actuator_limits=params.limits,
+        channels=[
+            Channel("gyro", 3, units="rad/s"),  # inertial rate ω_bi, body axes
+            Channel("star_tracker", 4, "attitude", "rad"),  # attitude relative to the orbital frame
+            Channel("tachometer", 1, units="rad/s"),
+            Channel("magnetometer", 3, units="T"),  # body-frame field
+        ],
+        faults=cfg.get("faults"),
+        sensors=given["sensors"],
+        fault_hint=given["fault_hint"],
+        disturbance=None if paper_disturbance else disturbance,
+        conditions=cfg.get("conditions"),
+        control_dt_s=control_dt_s,
+    )
+    flight_inertia = None
+    scale = layers.conditions.parameters
+    if scale > 0 and uncertainty is None:  # else inertia_uncertainty draws the true inertia
+        # ±5 % × at most 10 (conditions.MAX_PARAMETER_SCALE): positive moments
+        table = flight.table(*cls._flight_table_key(preset))
+        moment, axis = table.plant_value("inertia_moment") * scale, table.plant_value("inertia_axis_deg") * scale
+        flight_inertia = InertiaUncertainty("random", None, moment, axis)
+    max_rate = validation.positive("max_rate_rad_s", given["max_rate_rad_s"])
+    termination_cost = validation.choice("termination_cost", given["termination_cost"], TERMINATION_COSTS)
+    if given["render_mode"] is not None:
+        raise ValueError(f"render_mode must be None (no renderer for Magnetorquer-v0), got {given['render_mode']!r}")
+    return MagnetorquerConfig(
+        preset=preset,
+        task=task,
+        orbit_config=orbit_cfg,
+        random_anomaly=random_anomaly,
+        orbit=orbit,
+        field=field,
+        observe_field=observe_field,
+        paper_disturbance=paper_disturbance,
+        disturbance_scale=disturbance_scale,
+        disturbance_second_harmonic=second_harmonic,
+        gravity_gradient=gravity_gradient,
+        time_varying_inertia=delta_j,
+        inertia_uncertainty=uncertainty,
+        control_dt_s=control_dt_s,
+        integrator_dt_s=integrator_dt_s,
+        n_substeps=n_substeps,
+        episode_duration_s=duration,
+        initial_angle_deg=initial_angle,
+        initial_rate_max_rad_s=rate_max,
+        model=model,
+        layers=layers,
+        flight_inertia=flight_inertia,
+        max_rate_rad_s=max_rate,
+        termination_cost=termination_cost,
+    )
+
+
+def observation_bounds(cfg: MagnetorquerConfig) -> tuple[np.ndarray, np.ndarray]:
+    """The observation's bounds (float32): the error quaternion's vector part within ±1, the
+    rates within twice ``max_rate_rad_s``, the scaled wheel speed within ±1e3, the scaled
+    field within ±3 (``observe_field``), then the ``fault_hint`` flags in [0, 1]."""
+    high = np.concatenate([np.ones(3), np.full(3, 2.0 * cfg.max_rate_rad_s), [1e3]])
+    if cfg.observe_field:
+        high = np.concatenate([high, np.full(3, 3.0)])
+    low, high = cfg.layers.hint_bounds(-high, high)
+    return low.astype(np.float32), high.astype(np.float32)
+
+
+def make_orbit(orbit_config: Mapping[str, Any], mean_anomaly_deg: float) -> KeplerOrbit:
+    """The orbit of the completed ``orbit`` keyword ``orbit_config`` at ``mean_anomaly_deg``
+    (deg, at t = 0)."""
+    c = orbit_config
+    return KeplerOrbit.from_altitudes(
+        c["apogee_altitude_km"],
+        c["perigee_altitude_km"],
+        c["inclination_deg"],
+        raan_deg=c["raan_deg"],
+        arg_perigee_deg=c["arg_perigee_deg"],
+        mean_anomaly_deg=mean_anomaly_deg,
+        model=c["model"],
+    )
+
+
+def disturbance_code(cfg: MagnetorquerConfig) -> tuple[int, np.ndarray, float]:
+    """The compiled step's disturbance kind (``kernels.DIST_*``), the sinusoid's amplitude
+    (3, N·m) and period (s) of ``cfg``'s disturbance (zeros and 1 s for another kind)."""
+    dist = cfg.layers.disturbance
+    if cfg.paper_disturbance:
+        return kernels.DIST_PAPER, np.zeros(3), 1.0
+    if dist is None:
+        return kernels.DIST_NONE, np.zeros(3), 1.0
+    if dist.kind == "sinusoidal":
+        return kernels.DIST_SINUSOIDAL, dist.amplitude_nm, dist.period_s
+    return kernels.DIST_HELD, np.zeros(3), 1.0  # constant, random walk: a torque held over the control step
+
+
+def pack_shared(cfg: MagnetorquerConfig) -> np.ndarray:
+    """``cfg`` in the compiled step's layout (:func:`kernels.pack_shared`)."""
+    p = cfg.model.params
+    kind, amplitude, period = disturbance_code(cfg)
+    dj = cfg.time_varying_inertia
+    return kernels.pack_shared(
+        wheel_inertia_kg_m2=p.wheel_inertia_kg_m2,
+        max_wheel_momentum_nms=p.max_wheel_momentum_nms,
+        integrator_dt_s=cfg.integrator_dt_s,
+        substeps=cfg.n_substeps,
+        field_model=cfg.field.model,
+        dipole_strength_t_m3=cfg.field.strength,
+        inclination_rad=cfg.orbit.inclination_rad,
+        table_step_s=cfg.field.igrf_step_s,
+        disturbance_kind=kind,
+        disturbance_scale=cfg.disturbance_scale,
+        orbital_rate_rad_s=cfg.model.orbital_rate_rad_s,
+        second_harmonic=cfg.disturbance_second_harmonic,
+        disturbance_amplitude_nm=amplitude,
+        disturbance_period_s=period,
+        gravity_gradient=cfg.gravity_gradient,
+        delta_j=None if dj is None else (dj.amplitude_kg_m2, dj.frequency_rad_s, dj.phase_rad),
+        Q=cfg.model.cost.Q,
+        R=cfg.model.cost.R,
+        reference=cfg.model.reference.packed,
+    )

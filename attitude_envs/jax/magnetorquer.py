@@ -54,7 +54,7 @@ Modeled: every keyword of the numba env except a ``sensors`` keyword in the lab 
 only as flight conditions' sensors, which an explicit ``sensors`` dict may replace) and
 sensor-target faults, ``field_model="igrf"`` (the IGRF table needs ``ppigrf`` on the host per
 episode) and an ``inertia_uncertainty`` or flight inertia draw that could make ``I + ΔJ(t)``
-indefinite (the numba env raises at such a reset); :func:`from_env` raises a ``ValueError``
+indefinite (the numba env raises at such a reset); :func:`from_keywords` raises a ``ValueError``
 naming them. Episode draws (orbit
 start, regulation attitude and rate, inertia dispersion, sinusoid phases, fault draws) follow
 the numba env's laws with ``jax.random`` (the same laws, not the same draws; the inertia
@@ -66,7 +66,6 @@ rejected (the numba env raises): it makes the state non-finite, which terminates
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Any, NamedTuple
@@ -76,14 +75,16 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from attitude_envs.envs.base import build_layers
+from attitude_envs.envs.base import check_keywords, keyword_defaults
+from attitude_envs.envs.magnetorquer import MagnetorquerConfig, configure, observation_bounds, pack_shared
+from attitude_envs.envs.magnetorquer import MagnetorquerEnv as NumbaMagnetorquerEnv
 from attitude_envs.faults import ActuatorFaults
 from attitude_envs.jax import actuators as jact
 from attitude_envs.jax import cost as jcost
 from attitude_envs.jax import faults as jfaults
 from attitude_envs.jax import quaternion as jq
 from attitude_envs.jax import sensors as jsens
-from attitude_envs.jax.environment import Environment, check_state_from, drawn_arrays
+from attitude_envs.jax.environment import Environment, check_state_from, drawn_arrays, preset_defaults
 from attitude_envs.jax.ops import JAX
 from attitude_envs.jax.spaces import Box
 from attitude_envs.plants import magnetorquer_kernels as K
@@ -171,46 +172,17 @@ class EnvState:
     sensors: jsens.SuiteState | None = None
 
 
-@struct.dataclass
-class EnvParams:
-    """Every number of the plant and the task (a pytree: ``jax.vmap`` over it randomizes
-    plants, orbits, faults and tasks in one compiled program). SI units.
+#: a params field whose default is that group of the default preset's params
+_default = preset_defaults(
+    lambda: configure(NumbaMagnetorquerEnv, None, keyword_defaults(NumbaMagnetorquerEnv)), lambda cfg: params_of(cfg)
+)
 
-    * plant: ``inertia_kg_m2`` (nominal J_t with the wheel, 3×3) and its
-      ``inertia_eff_inv``, ``wheel_inertia_kg_m2``, ``max_dipole_am2`` (per axis, A·m²),
-      ``max_wheel_torque_nm``, ``max_wheel_momentum_nms``, ``max_rate_rad_s`` (tumbling limit);
-    * orbit (:class:`attitude_envs.plants.orbit.KeplerOrbit`): ``orbit_circular`` (the paper's
-      circular approximation), ``semi_major_axis_m``, ``eccentricity``, ``mean_motion_rad_s``,
-      ``semi_latus_rectum_m``, ``angular_momentum_m2_s``, ``mu_m3_s2``, the unit vectors
-      ``node``, ``in_plane``, ``normal`` (ECI), ``arg_perigee_rad``, ``inclination_rad``;
-    * field: ``field_printed`` (eq. 9 as printed in the orbital frame, else the axial dipole
-      at the position), ``dipole_strength_t_m3`` (μ_e, T·m³);
-    * ``reference``: the smooth bang-bang slew of eqs. 36–38 in the kernel's packed layout
-      (:func:`attitude_envs.plants.magnetorquer_kernels.pack_reference`);
-    * disturbance: ``disturbance_code`` (the kernel's ``DIST_*``), ``disturbance_scale``,
-      ``disturbance_rate_rad_s`` (ω0 of eq. 39), ``disturbance_harmonic`` (k = 1, or 2 with the
-      second harmonic), ``disturbance_amplitude_nm`` (3) and ``disturbance_period_s`` (the
-      sinusoid), ``disturbance_initial`` (3: the constant torque or the walk's start, N·m, or
-      the sinusoid's fixed phases, rad), ``disturbance_random_phase``,
-      ``disturbance_walk_std`` (N·m/√s); ``gravity_gradient``;
-    * ΔJ(t) of eq. (35): ``time_varying_inertia`` and ``delta_j_amplitude_kg_m2``,
-      ``delta_j_frequency_rad_s``, ``delta_j_phase_rad`` (3 each);
-    * time: ``control_dt_s``, ``integrator_dt_s`` (the RK4 sub-step h; the env's
-      ``n_substeps`` is static), ``episode_duration_s`` (the charge's horizon T),
-      ``max_steps_in_episode`` (decisions);
-    * cost: ``Q`` (6×6 on ``[q_e,vec, ω_e]``), ``R`` (3×3 on the body torque, 1/(N·m)²),
-      ``termination_mode`` (:func:`attitude_envs.jax.cost.mode_code`);
-    * initial state: ``regulation`` (else tracking: q = q_d(0)), ``initial_angle_deg``,
-      ``initial_rate_max_rad_s``, ``mean_anomaly_random`` (uniform in [0°, 360°)) or
-      ``mean_anomaly_deg``; ``uncertainty_code`` (0 none, 1 fixed, 2 random),
-      ``uncertainty_inertia_kg_m2`` and ``uncertainty_eff_inv`` (fixed), ``principal_moments``,
-      ``principal_axes`` (of the nominal inertia), ``moment_scale``, ``axis_angle_deg``
-      (random: :class:`attitude_envs.uncertainty.InertiaUncertainty`);
-    * ``faults``: the actuator faults of every episode (an env with ``redraw_faults`` draws
-      each episode's from its fault configs instead, as the numba env does);
-    * ``flight``: the flight conditions' actuator chain and draws (None in the lab);
-      ``sensors``: the flight sensors (None: the truth is observed).
-    """
+
+@struct.dataclass
+class PlantParams:
+    """The spacecraft: ``inertia_kg_m2`` (nominal J_t with the wheel, 3×3) and its
+    ``inertia_eff_inv`` (``(J_t − J_w e_y e_yᵀ)⁻¹``), ``wheel_inertia_kg_m2``,
+    ``max_dipole_am2`` (per axis, A·m²), ``max_wheel_torque_nm``, ``max_wheel_momentum_nms``."""
 
     inertia_kg_m2: jax.Array
     inertia_eff_inv: jax.Array
@@ -218,8 +190,16 @@ class EnvParams:
     max_dipole_am2: jax.Array
     max_wheel_torque_nm: jax.Array
     max_wheel_momentum_nms: jax.Array
-    max_rate_rad_s: jax.Array
-    orbit_circular: jax.Array
+
+
+@struct.dataclass
+class OrbitParams:
+    """The orbit (:class:`attitude_envs.plants.orbit.KeplerOrbit`): ``circular`` (the paper's
+    circular approximation), ``semi_major_axis_m``, ``eccentricity``, ``mean_motion_rad_s``,
+    ``semi_latus_rectum_m``, ``angular_momentum_m2_s``, ``mu_m3_s2``, the unit vectors
+    ``node``, ``in_plane``, ``normal`` (ECI), ``arg_perigee_rad``, ``inclination_rad``."""
+
+    circular: jax.Array
     semi_major_axis_m: jax.Array
     eccentricity: jax.Array
     mean_motion_rad_s: jax.Array
@@ -231,43 +211,126 @@ class EnvParams:
     normal: jax.Array
     arg_perigee_rad: jax.Array
     inclination_rad: jax.Array
-    field_printed: jax.Array
+
+
+@struct.dataclass
+class FieldParams:
+    """The geomagnetic field: ``printed`` (eq. 9 as printed in the orbital frame, else the
+    axial dipole at the position) and ``dipole_strength_t_m3`` (μ_e, T·m³)."""
+
+    printed: jax.Array
     dipole_strength_t_m3: jax.Array
-    reference: jax.Array
-    disturbance_code: jax.Array
-    disturbance_scale: jax.Array
-    disturbance_rate_rad_s: jax.Array
-    disturbance_harmonic: jax.Array
-    disturbance_amplitude_nm: jax.Array
-    disturbance_period_s: jax.Array
-    disturbance_initial: jax.Array
-    disturbance_random_phase: jax.Array
-    disturbance_walk_std: jax.Array
-    gravity_gradient: jax.Array
-    time_varying_inertia: jax.Array
-    delta_j_amplitude_kg_m2: jax.Array
-    delta_j_frequency_rad_s: jax.Array
-    delta_j_phase_rad: jax.Array
+
+
+@struct.dataclass
+class TimingParams:
+    """``control_dt_s`` (s, the decision period) and ``integrator_dt_s`` (s, the RK4 sub-step;
+    the env's static ``n_substeps`` times it is ``control_dt_s``)."""
+
     control_dt_s: jax.Array
     integrator_dt_s: jax.Array
-    episode_duration_s: jax.Array
+
+
+@struct.dataclass
+class CostParams:
+    """``Q`` (6×6 on ``[q_e,vec, ω_e]``), ``R`` (3×3 on the body torque, 1/(N·m)²), the
+    tumbling limit ``max_rate_rad_s`` (rad/s, on each of ``|ω_bo|``), ``termination_mode``
+    (:func:`attitude_envs.jax.cost.mode_code`) and ``horizon_s`` (s, the charge's horizon T:
+    ``episode_duration_s``)."""
+
     Q: jax.Array
     R: jax.Array
+    max_rate_rad_s: jax.Array
     termination_mode: jax.Array
+    horizon_s: jax.Array
+
+
+@struct.dataclass
+class StartParams:
+    """The task and an episode's start: ``reference`` (the smooth bang-bang slew of eqs.
+    36–38 in the kernel's packed layout, :func:`attitude_envs.plants.magnetorquer_kernels.pack_reference`),
+    ``regulation`` (else tracking: q = q_d(0)), ``initial_angle_deg``, ``initial_rate_max_rad_s``,
+    ``mean_anomaly_random`` (uniform in [0°, 360°)) or ``mean_anomaly_deg``."""
+
+    reference: jax.Array
     regulation: jax.Array
     initial_angle_deg: jax.Array
     initial_rate_max_rad_s: jax.Array
     mean_anomaly_random: jax.Array
     mean_anomaly_deg: jax.Array
-    uncertainty_code: jax.Array
-    uncertainty_inertia_kg_m2: jax.Array
-    uncertainty_eff_inv: jax.Array
+
+
+@struct.dataclass
+class DisturbanceParams:
+    """The external torque: ``code`` (the kernel's ``DIST_*``), ``scale``, ``rate_rad_s`` (ω0
+    of eq. 39), ``harmonic`` (k = 1, or 2 with the second harmonic), ``amplitude_nm`` (3) and
+    ``period_s`` (the sinusoid), ``initial`` (3: the constant torque or the walk's start, N·m,
+    or the sinusoid's fixed phases, rad), ``random_phase``, ``walk_std`` (N·m/√s); and
+    ``gravity_gradient`` (on or off)."""
+
+    code: jax.Array
+    scale: jax.Array
+    rate_rad_s: jax.Array
+    harmonic: jax.Array
+    amplitude_nm: jax.Array
+    period_s: jax.Array
+    initial: jax.Array
+    random_phase: jax.Array
+    walk_std: jax.Array
+    gravity_gradient: jax.Array
+
+
+@struct.dataclass
+class InertiaChangeParams:
+    """ΔJ(t) of eq. (35), added to the true inertia when ``on``: ``amplitude_kg_m2``,
+    ``frequency_rad_s``, ``phase_rad`` (3 each, on the diagonal)."""
+
+    on: jax.Array
+    amplitude_kg_m2: jax.Array
+    frequency_rad_s: jax.Array
+    phase_rad: jax.Array
+
+
+@struct.dataclass
+class UncertaintyParams:
+    """The true inertia each episode (:class:`attitude_envs.uncertainty.InertiaUncertainty`):
+    ``code`` (0 nominal, 1 fixed, 2 random), the fixed ``inertia_kg_m2`` and its ``eff_inv``,
+    and for a random draw the nominal ``principal_moments`` and ``principal_axes``, the
+    relative ``moment_scale`` and the axes' ``axis_angle_deg``."""
+
+    code: jax.Array
+    inertia_kg_m2: jax.Array
+    eff_inv: jax.Array
     principal_moments: jax.Array
     principal_axes: jax.Array
     moment_scale: jax.Array
     axis_angle_deg: jax.Array
-    faults: jfaults.FaultParams
-    max_steps_in_episode: jax.Array
+
+
+@struct.dataclass
+class EnvParams:
+    """Every number of the plant and the task (a pytree: ``jax.vmap`` over it randomizes
+    plants, orbits, faults and tasks in one compiled program; SI units), in groups that
+    default to the default preset's (Magnetorquer-v0's): ``plant``, ``orbit``, ``field``,
+    ``timing``, ``cost`` (with the tumbling limit and the termination charge), ``start`` (the
+    reference and the start's draws), ``disturbance``, ``inertia_change`` (ΔJ(t)),
+    ``uncertainty`` (the true inertia's draw), ``faults`` (the actuator faults of every
+    episode; an env with ``redraw_faults`` draws each episode's from its fault configs
+    instead, as the numba env does), ``max_steps_in_episode`` (the time limit in decisions),
+    ``flight`` (the flight conditions' actuator chain and draws, None in the lab) and
+    ``sensors`` (the flight sensors, None: the truth is observed)."""
+
+    plant: PlantParams = _default("plant")
+    orbit: OrbitParams = _default("orbit")
+    field: FieldParams = _default("field")
+    timing: TimingParams = _default("timing")
+    cost: CostParams = _default("cost")
+    start: StartParams = _default("start")
+    disturbance: DisturbanceParams = _default("disturbance")
+    inertia_change: InertiaChangeParams = _default("inertia_change")
+    uncertainty: UncertaintyParams = _default("uncertainty")
+    faults: jfaults.FaultParams = struct.field(default_factory=jfaults.no_faults)
+    max_steps_in_episode: jax.Array = _default("max_steps_in_episode")
     flight: FlightParams | None = None
     sensors: jsens.SuiteParams | None = None
 
@@ -293,8 +356,8 @@ class Context(NamedTuple):
 def true_anomaly(mean_anomaly0_rad: jax.Array, params: EnvParams, t_s: jax.Array) -> jax.Array:
     """ν(t), rad, from Kepler's equation ``M = E − e sin E`` (Newton until ``|ΔE| < 1e-13``,
     at most 30 iterations, as :func:`~attitude_envs.plants.magnetorquer_kernels.true_anomaly`)."""
-    mean = mean_anomaly0_rad + params.mean_motion_rad_s * t_s
-    e = params.eccentricity
+    mean = mean_anomaly0_rad + params.orbit.mean_motion_rad_s * t_s
+    e = params.orbit.eccentricity
 
     def cond(carry):
         _, i, done = carry
@@ -325,10 +388,10 @@ def orbital_to_body(q: jax.Array) -> jax.Array:
 def _field_orbital(params: EnvParams, r, u, pos, frame_t) -> jax.Array:
     """The field in the orbital frame (T): eq. (9) as printed (``field_printed``), or the axial
     dipole ``μ_e/r³ [3(m̂·r̂)r̂ − m̂]``, ``m̂ = −z``, at the ECI position rotated to the frame."""
-    printed = jnp.stack(_PLANT.printed_field(r, u, params.dipole_strength_t_m3, params.inclination_rad))
-    b = jnp.stack(_PLANT.dipole_eci(pos[0], pos[1], pos[2], params.dipole_strength_t_m3))
+    printed = jnp.stack(_PLANT.printed_field(r, u, params.field.dipole_strength_t_m3, params.orbit.inclination_rad))
+    b = jnp.stack(_PLANT.dipole_eci(pos[0], pos[1], pos[2], params.field.dipole_strength_t_m3))
     dipole = frame_t @ b  # eci_from_orbitalᵀ b
-    return jnp.where(params.field_printed, printed, dipole)
+    return jnp.where(params.field.printed, printed, dipole)
 
 
 def reference(ref: jax.Array, t_s: jax.Array) -> tuple[jax.Array, jax.Array]:
@@ -373,16 +436,16 @@ def disturbance_torque(params: EnvParams, disturbance: jax.Array, t_s: jax.Array
     al. 2022 eq. (39) ``d_j = d0 + d1 sin(ω0 t + φ_j1) + d2 sin(k ω0 t + φ_j2)`` (d0 = 1e-7,
     d1 = d2 = 1e-5), the held ``disturbance`` torque, or a sinusoid with the phases
     ``disturbance``; times ``disturbance_scale``."""
-    scale = params.disturbance_scale
-    a = params.disturbance_rate_rad_s * t_s
-    b = params.disturbance_harmonic * params.disturbance_rate_rad_s * t_s
+    scale = params.disturbance.scale
+    a = params.disturbance.rate_rad_s * t_s
+    b = params.disturbance.harmonic * params.disturbance.rate_rad_s * t_s
     q = math.pi / 4
     sines = (jnp.sin(a + q), jnp.sin(a - q), jnp.sin(b - q), jnp.sin(b + q), jnp.sin(a), jnp.sin(b + 2 * q))
     paper = jnp.stack(_PLANT.paper_disturbance(scale, *sines))
     held = scale * disturbance
-    arg = 2 * math.pi * t_s / params.disturbance_period_s
-    sinusoid = scale * (params.disturbance_amplitude_nm * jnp.sin(arg + disturbance))
-    code = params.disturbance_code
+    arg = 2 * math.pi * t_s / params.disturbance.period_s
+    sinusoid = scale * (params.disturbance.amplitude_nm * jnp.sin(arg + disturbance))
+    code = params.disturbance.code
     return jnp.select(
         [code == K.DIST_PAPER, code == K.DIST_HELD, code == K.DIST_SINUSOIDAL],
         [paper, held, sinusoid],
@@ -398,20 +461,24 @@ def orbit_field(
     (:func:`~attitude_envs.plants.magnetorquer_kernels.orbit_state_into`, ``field_orbital_into``)."""
     nu = true_anomaly(mean_anomaly0_rad, params, t_s)
     r_k, nd_k, _, ndd_k = _PLANT.kepler_rates(
-        nu, params.eccentricity, params.angular_momentum_m2_s, params.semi_latus_rectum_m, params.mu_m3_s2
+        nu,
+        params.orbit.eccentricity,
+        params.orbit.angular_momentum_m2_s,
+        params.orbit.semi_latus_rectum_m,
+        params.orbit.mu_m3_s2,
     )
-    u_c = params.arg_perigee_rad + mean_anomaly0_rad + params.mean_motion_rad_s * t_s
-    circ = params.orbit_circular
-    u = jnp.where(circ, u_c, params.arg_perigee_rad + nu)
-    r = jnp.where(circ, params.semi_major_axis_m, r_k)
-    nd = jnp.where(circ, params.mean_motion_rad_s, nd_k)
+    u_c = params.orbit.arg_perigee_rad + mean_anomaly0_rad + params.orbit.mean_motion_rad_s * t_s
+    circ = params.orbit.circular
+    u = jnp.where(circ, u_c, params.orbit.arg_perigee_rad + nu)
+    r = jnp.where(circ, params.orbit.semi_major_axis_m, r_k)
+    nd = jnp.where(circ, params.orbit.mean_motion_rad_s, nd_k)
     ndd = jnp.where(circ, 0.0, ndd_k)
     cu, su = jnp.cos(u), jnp.sin(u)
-    r_hat = params.node * cu + params.in_plane * su
-    t_hat = -params.node * su + params.in_plane * cu
+    r_hat = params.orbit.node * cu + params.orbit.in_plane * su
+    t_hat = -params.orbit.node * su + params.orbit.in_plane * cu
     pos = r * r_hat
     # LVLH: x = t̂, y = −ĥ (anti-normal), z = −r̂ (nadir)
-    field = _field_orbital(params, r, u, pos, jnp.stack([t_hat, -params.normal, -r_hat]))
+    field = _field_orbital(params, r, u, pos, jnp.stack([t_hat, -params.orbit.normal, -r_hat]))
     return nd, ndd, r, field
 
 
@@ -420,13 +487,15 @@ def context(params: EnvParams, state: EnvState, t_s: jax.Array) -> Context:
     (:func:`orbit_field`), the reference, ``I + ΔJ(t)`` (eq. 35) with its ``I_eff⁻¹``, the
     disturbance (:func:`~attitude_envs.plants.magnetorquer_kernels.context_into`)."""
     nd, ndd, r, field = orbit_field(params, state.mean_anomaly0_rad, t_s)
-    q_d, w_d = reference(params.reference, t_s)
+    q_d, w_d = reference(params.start.reference, t_s)
     # true inertia I + ΔJ(t) (eq. 35) and its I_eff⁻¹
-    dj = params.delta_j_amplitude_kg_m2 * jnp.sin(params.delta_j_frequency_rad_s * t_s + params.delta_j_phase_rad)
+    dj = params.inertia_change.amplitude_kg_m2 * jnp.sin(
+        params.inertia_change.frequency_rad_s * t_s + params.inertia_change.phase_rad
+    )
     diagonal = jnp.diagonal(state.inertia_kg_m2) + dj
     inertia_t = jnp.where(jnp.eye(3, dtype=bool), jnp.diag(diagonal), state.inertia_kg_m2)
-    eff = inertia_t.at[1, 1].add(-params.wheel_inertia_kg_m2)
-    tv = params.time_varying_inertia
+    eff = inertia_t.at[1, 1].add(-params.plant.wheel_inertia_kg_m2)
+    tv = params.inertia_change.on
     inertia = jnp.where(tv, inertia_t, state.inertia_kg_m2)
     eff_inv = jnp.where(tv, _inverse3(eff), state.inertia_eff_inv)
     return Context(
@@ -478,10 +547,10 @@ def derivative(aug: jax.Array, m: jax.Array, t_w: jax.Array, params: EnvParams, 
         _flat(ctx),
         0,
         COMPACT_LAYOUT,
-        params.wheel_inertia_kg_m2,
-        params.gravity_gradient,
-        params.Q,
-        params.R,
+        params.plant.wheel_inertia_kg_m2,
+        params.disturbance.gravity_gradient,
+        params.cost.Q,
+        params.cost.R,
         False,
         True,
     )
@@ -568,8 +637,8 @@ class MagnetorquerEnv(Environment):
     def observation(self, state: EnvState, params: EnvParams) -> jax.Array:
         """The observation of ``state`` at its time ``time · control_dt_s`` (with sensors, of
         their last readings)."""
-        t_s = state.time.astype(state.rate_rad_s.dtype) * params.control_dt_s
-        q_d, w_d = reference(params.reference, t_s)
+        t_s = state.time.astype(state.rate_rad_s.dtype) * params.timing.control_dt_s
+        q_d, w_d = reference(params.start.reference, t_s)
         if self.sensors:
             rate, _, _, field = orbit_field(params, state.mean_anomaly0_rad, t_s)
             return self._observe_readings(state, self.readings(state, rate, field), q_d, w_d, rate, t_s)
@@ -628,7 +697,7 @@ class MagnetorquerEnv(Environment):
         the mean wheel torque after the momentum limit), the time context at t1_s)``."""
         dtype = state.rate_rad_s.dtype
         t0_s, t1_s = jnp.asarray(t0_s, dtype), jnp.asarray(t1_s, dtype)
-        n, h = self.n_substeps, params.integrator_dt_s
+        n, h = self.n_substeps, params.timing.integrator_dt_s
         starts = t0_s + jnp.arange(n, dtype=dtype) * h
         times = jnp.concatenate([starts, starts + 0.5 * h, t1_s[None]])
         ctxs = jax.vmap(lambda t: context(params, state, t))(times)
@@ -641,7 +710,7 @@ class MagnetorquerEnv(Environment):
 
         stage_ctxs = jax.tree.map(stages, ctxs)
         m = delivered[:3]
-        j_w, h_max = params.wheel_inertia_kg_m2, params.max_wheel_momentum_nms
+        j_w, h_max = params.plant.wheel_inertia_kg_m2, params.plant.max_wheel_momentum_nms
 
         def substep(carry, stage_ctx):
             aug, wheel_sum = carry
@@ -677,8 +746,8 @@ class MagnetorquerEnv(Environment):
         if not self.random_walk:
             return disturbance
         noise = jax.random.normal(key, (3,), disturbance.dtype)
-        walked = disturbance + params.disturbance_walk_std * jnp.sqrt(params.control_dt_s) * noise
-        return jnp.where(params.disturbance_code == K.DIST_HELD, walked, disturbance)
+        walked = disturbance + params.disturbance.walk_std * jnp.sqrt(params.timing.control_dt_s) * noise
+        return jnp.where(params.disturbance.code == K.DIST_HELD, walked, disturbance)
 
     def step_env(self, key: jax.Array, state: EnvState, action: jax.Array, params: EnvParams):
         """One decision: clip the action to [-1, 1] and scale it to ``[m, T_w]``, apply the
@@ -690,12 +759,17 @@ class MagnetorquerEnv(Environment):
         dtype = state.rate_rad_s.dtype
         key_fault, key_dist = jax.random.split(key) if self.random_walk else (key, key)
         limits = jnp.stack(
-            [params.max_dipole_am2, params.max_dipole_am2, params.max_dipole_am2, params.max_wheel_torque_nm]
+            [
+                params.plant.max_dipole_am2,
+                params.plant.max_dipole_am2,
+                params.plant.max_dipole_am2,
+                params.plant.max_wheel_torque_nm,
+            ]
         ).astype(dtype)
         commanded = jnp.clip(jnp.asarray(action, dtype), -1.0, 1.0) * limits
-        t0 = state.time.astype(dtype) * params.control_dt_s
+        t0 = state.time.astype(dtype) * params.timing.control_dt_s
         time = state.time + 1
-        t1 = time.astype(dtype) * params.control_dt_s
+        t1 = time.astype(dtype) * params.timing.control_dt_s
 
         def faulted(c: jax.Array):
             if state.faults.kind.shape[-1]:
@@ -734,10 +808,10 @@ class MagnetorquerEnv(Environment):
             )
             readings = self.readings(new_state, ctx_end.rate, ctx_end.field)
             obs = self._observe_readings(new_state, readings, ctx_end.q_d, ctx_end.w_d, ctx_end.rate, t1)
-        crossed = jnp.any(jnp.stack(_PLANT.limit_rows(y[4], y[5], y[6], params.max_rate_rad_s)) > 0.0)
+        crossed = jnp.any(jnp.stack(_PLANT.limit_rows(y[4], y[5], y[6], params.cost.max_rate_rad_s)) > 0.0)
         terminated = jnp.logical_not(finite) | crossed
         x_end, _ = error_state(new_state.attitude, new_state.rate_rad_s, ctx_end.q_d, ctx_end.w_d)
-        charge = jcost.termination_charge(params.termination_mode, x_end, params.Q, params.episode_duration_s, t1)
+        charge = jcost.termination_charge(params.cost.termination_mode, x_end, params.cost.Q, params.cost.horizon_s, t1)
         cost = cost + jnp.where(terminated & finite, charge, 0.0)
         obs = jnp.where(finite, obs, jnp.zeros_like(obs))
         info = {"cost": cost, "time_s": t1, "commanded": commanded, "applied": applied}
@@ -754,19 +828,19 @@ class MagnetorquerEnv(Environment):
         drawn from the configs with ``redraw_faults``) and their runtime state; under flight
         conditions the actuator chain at rest, the true inertia and the gains drawn from a
         folded key (:meth:`_draw_flight`) and the sensors' biases and first sample."""
-        dtype = params.reference.dtype
+        dtype = params.start.reference.dtype
         # two draws for everything but the faults (few random-number programs to compile)
         k_uniform, k_normal, k_moments, k_faults, k_fault_state = jax.random.split(key, 5)
         u = jax.random.uniform(k_uniform, (9,), dtype)
         g = jax.random.normal(k_normal, (6,), dtype)
         inertia, eff_inv = _draw_inertia(k_moments, u[8], g[3:], params)
-        anomaly_deg = jnp.where(params.mean_anomaly_random, 360.0 * u[0], params.mean_anomaly_deg)
-        q_d0 = params.reference[K.REF_HELD_START : K.REF_HELD_START + 4]
-        turn = jq.from_axis_angle(g[:3], jnp.deg2rad(u[1] * params.initial_angle_deg))
-        q0 = jnp.where(params.regulation, jq.multiply(q_d0, turn), q_d0)
-        rate = (2.0 * u[2:5] - 1.0) * params.initial_rate_max_rad_s
-        random_phase = params.disturbance_random_phase & (params.disturbance_code == K.DIST_SINUSOIDAL)
-        disturbance = jnp.where(random_phase, (2 * math.pi) * u[5:8], params.disturbance_initial)
+        anomaly_deg = jnp.where(params.start.mean_anomaly_random, 360.0 * u[0], params.start.mean_anomaly_deg)
+        q_d0 = params.start.reference[K.REF_HELD_START : K.REF_HELD_START + 4]
+        turn = jq.from_axis_angle(g[:3], jnp.deg2rad(u[1] * params.start.initial_angle_deg))
+        q0 = jnp.where(params.start.regulation, jq.multiply(q_d0, turn), q_d0)
+        rate = (2.0 * u[2:5] - 1.0) * params.start.initial_rate_max_rad_s
+        random_phase = params.disturbance.random_phase & (params.disturbance.code == K.DIST_SINUSOIDAL)
+        disturbance = jnp.where(random_phase, (2 * math.pi) * u[5:8], params.disturbance.initial)
         faults = params.faults
         if self.redraw_faults:
             faults = jfaults.for_episode(k_faults, self.fault_configs, N_ACTUATORS, params.faults)
@@ -786,7 +860,7 @@ class MagnetorquerEnv(Environment):
             state = self._draw_flight(jax.random.fold_in(key, jact.FLIGHT_STREAM), state, params)
         # the observation at t = 0: the reference is held at its start
         t0 = jnp.zeros((), dtype)
-        held = params.reference[K.REF_HELD_START : K.REF_HELD_START + 7]
+        held = params.start.reference[K.REF_HELD_START : K.REF_HELD_START + 7]
         if self.sensors:  # the biases drawn and the first sample at t = 0
             orbit_rate, _, _, field = orbit_field(params, state.mean_anomaly0_rad, t0)
             truths = self._truths(state, orbit_rate, field)
@@ -805,7 +879,7 @@ class MagnetorquerEnv(Environment):
         law, as the numba env's flight draw) and the actuators' gains ``1 + U(−tol, tol)``, from
         ``key`` (not the numba env's draws), or the params' ``given_*`` draws."""
         fl, fp = self.flight, params.flight
-        dtype = params.reference.dtype
+        dtype = params.start.reference.dtype
         flight = FlightState(actuators=jact.initial_state(fl.actuators, N_ACTUATORS, dtype))
         if not fl.parameters:
             return state.replace(flight=flight)
@@ -818,11 +892,11 @@ class MagnetorquerEnv(Environment):
                 k_moments,
                 u[0],
                 axis,
-                params.principal_moments,
-                params.principal_axes,
+                params.uncertainty.principal_moments,
+                params.uncertainty.principal_axes,
                 fp.inertia_moment,
                 fp.inertia_axis_deg,
-                params.wheel_inertia_kg_m2,
+                params.plant.wheel_inertia_kg_m2,
             )
         if fl.actuators.gain:
             gain = 1.0 + fp.gain_tolerance * (2.0 * u[1:] - 1.0)
@@ -866,7 +940,7 @@ class MagnetorquerEnv(Environment):
         if len(realized) > self.n_faults:
             raise ValueError(
                 f"the numba env realized {len(realized)} faults; this JAX env holds {self.n_faults} "
-                "(build it with from_env of an env configured with these faults)"
+                "(build it with attitude_envs.jax.make and the faults the numba env was given)"
             )
         faults, fault_state = jfaults.from_numba_layer(realized, self.n_faults, key, dtype=float)
         y = np.asarray(numba_env.state_row, dtype=float)
@@ -908,18 +982,18 @@ def _draw_inertia(
         key,
         u_angle,
         axis,
-        params.principal_moments,
-        params.principal_axes,
-        params.moment_scale,
-        params.axis_angle_deg,
-        params.wheel_inertia_kg_m2,
+        params.uncertainty.principal_moments,
+        params.uncertainty.principal_axes,
+        params.uncertainty.moment_scale,
+        params.uncertainty.axis_angle_deg,
+        params.plant.wheel_inertia_kg_m2,
     )
-    code = params.uncertainty_code
+    code = params.uncertainty.code
     inertia = jnp.where(
-        code == 2, inertia, jnp.where(code == 1, params.uncertainty_inertia_kg_m2, params.inertia_kg_m2)
+        code == 2, inertia, jnp.where(code == 1, params.uncertainty.inertia_kg_m2, params.plant.inertia_kg_m2)
     )
     eff_inv = jnp.where(
-        code == 2, inertia_inv, jnp.where(code == 1, params.uncertainty_eff_inv, params.inertia_eff_inv)
+        code == 2, inertia_inv, jnp.where(code == 1, params.uncertainty.eff_inv, params.plant.inertia_eff_inv)
     )
     return inertia, eff_inv
 
@@ -967,16 +1041,13 @@ def max_steps(duration_s: float, control_dt_s: float) -> int:
     return n
 
 
-def from_env(numba_env: Any) -> tuple[MagnetorquerEnv, EnvParams]:
-    """The JAX plant and its ``EnvParams`` of a numba
-    :class:`~attitude_envs.envs.magnetorquer.MagnetorquerEnv` (unwrapped, as built), its flight
-    conditions included. A one-line ``ValueError`` names what the JAX plant does not model:
-    ``sensors`` in the lab (sensors only as flight conditions' sensors) and sensor faults,
+def _check_modeled(cfg: MagnetorquerConfig) -> None:
+    """A one-line ``ValueError`` for what the JAX plant does not model in ``cfg``: ``sensors``
+    in the lab (sensors only as flight conditions' sensors) and sensor faults,
     ``field_model='igrf'``, an ``inertia_uncertainty`` or flight inertia draw that could make
-    ``I + ΔJ(t)`` indefinite."""
+    ``I + ΔJ(t)`` indefinite (the numba env raises at such a reset)."""
     where = "Magnetorquer JAX plant"
-    sensors = numba_env.sensor_layer
-    conditions = numba_env.conditions
+    sensors, conditions = cfg.layers.sensor_layer, cfg.layers.conditions
     if sensors.config and conditions.sensors == 0:
         raise ValueError(
             f"{where}: keyword 'sensors' is modeled only as flight conditions' sensors (conditions with "
@@ -984,43 +1055,51 @@ def from_env(numba_env: Any) -> tuple[MagnetorquerEnv, EnvParams]:
         )
     if sensors.fault_configs:
         raise ValueError(f"{where}: 'faults' with target 'sensor' are not modeled (actuator faults only)")
-    if numba_env.field.model == "igrf":
+    if cfg.field.model == "igrf":
         raise ValueError(f"{where}: field_model='igrf' is not modeled (use 'dipole' or 'dipole-printed')")
-    dist = numba_env.disturbance
+    dist = cfg.layers.disturbance
     if dist is not None and dist.kind not in ("constant", "sinusoidal", "random_walk"):  # pragma: no cover
         raise ValueError(f"{where}: disturbance kind {dist.kind!r} is not modeled")
-    draws = numba_env.reset_distribution
-    model = numba_env.model
-    p = model.params
-    shared = np.asarray(numba_env.kernel_constants, dtype=float)
-    orbit = np.asarray(numba_env.orbit.packed, dtype=float)
-    dj = numba_env.time_varying_inertia
-    unc = draws["inertia_uncertainty"]
-    nominal = np.asarray(p.inertia_kg_m2, dtype=float)
-    moments, axes = np.linalg.eigh(nominal)
-    unc_inertia = nominal
+    dj, unc = cfg.time_varying_inertia, cfg.inertia_uncertainty
+    smallest = float(np.min(np.linalg.eigvalsh(np.asarray(cfg.model.params.inertia_kg_m2, dtype=float))))
     if unc is not None and dj is not None:
         if unc.kind == "fixed":
             dj.check_against(unc.inertia_kg_m2)
-        elif float(np.min(moments)) * (1.0 - unc.moment_scale) <= float(np.max(dj.amplitude_kg_m2)):
+        elif smallest * (1.0 - unc.moment_scale) <= float(np.max(dj.amplitude_kg_m2)):
             raise ValueError(
                 f"{where}: inertia_uncertainty (random) with time_varying_inertia is not modeled where a draw "
                 "could make I + ΔJ(t) indefinite (the numba env raises at such a reset)"
             )
-    if unc is not None and unc.kind == "fixed":
-        unc_inertia = np.asarray(unc.inertia_kg_m2, dtype=float)
-    flight_layout, flight_params = _flight_of(numba_env, moments)
-    if dj is not None and flight_layout is not None and flight_layout.draw_inertia:
-        if float(np.min(moments)) * (1.0 - float(flight_params.inertia_moment)) <= float(np.max(dj.amplitude_kg_m2)):
-            raise ValueError(
-                f"{where}: flight conditions' inertia draw (parameters={conditions.parameters}) with "
-                "time_varying_inertia is not modeled where a draw could make I + ΔJ(t) indefinite (the numba env "
-                "raises at such a reset)"
-            )
+    drawn = cfg.flight_inertia
+    if (
+        dj is not None
+        and drawn is not None
+        and smallest * (1.0 - drawn.moment_scale) <= float(np.max(dj.amplitude_kg_m2))
+    ):
+        raise ValueError(
+            f"{where}: flight conditions' inertia draw (parameters={conditions.parameters}) with "
+            "time_varying_inertia is not modeled where a draw could make I + ΔJ(t) indefinite (the numba env "
+            "raises at such a reset)"
+        )
+
+
+def params_of(cfg: MagnetorquerConfig) -> EnvParams:
+    """The ``EnvParams`` of a validated configuration
+    (:func:`attitude_envs.envs.magnetorquer.configure`): its actuator faults drawn once with a
+    numpy generator seeded 0 (with random fields only a default: each episode draws its own,
+    ``redraw_faults``), its flight conditions' numbers and sensors."""
+    p = cfg.model.params
+    layers = cfg.layers
+    shared = pack_shared(cfg)
+    orbit = np.asarray(cfg.orbit.packed, dtype=float)
+    unc = cfg.inertia_uncertainty
+    nominal = np.asarray(p.inertia_kg_m2, dtype=float)
+    moments, axes = np.linalg.eigh(nominal)
+    unc_inertia = nominal if unc is None or unc.kind != "fixed" else np.asarray(unc.inertia_kg_m2, dtype=float)
     eff = unc_inertia.copy()
     eff[1, 1] -= p.wheel_inertia_kg_m2
-    anomaly = draws["mean_anomaly_deg"]
-    random_anomaly = isinstance(anomaly, str)
+    anomaly = cfg.orbit_config["mean_anomaly_deg"]
+    dist = layers.disturbance
     if dist is None:
         dist_initial, walk_std, random_phase = np.zeros(3), 0.0, False
     elif dist.kind == "constant":
@@ -1029,11 +1108,9 @@ def from_env(numba_env: Any) -> tuple[MagnetorquerEnv, EnvParams]:
         dist_initial, walk_std, random_phase = dist.initial_nm, dist.std, False
     else:
         dist_initial, walk_std, random_phase = dist.phase_rad, 0.0, dist.random_phase
-    configs = tuple(dict(c) for c in numba_env.fault_layer.configs)
     # one realization (the episode's own when nothing is drawn), in numpy: no eager JAX ops
-    layer = ActuatorFaults(list(configs), N_ACTUATORS, p.limits)
-    layer.reset(np.random.default_rng(0))
-    faults = jfaults.from_realized(layer.realized)
+    fault_layer = ActuatorFaults([dict(c) for c in layers.fault_layer.configs], N_ACTUATORS, p.limits)
+    fault_layer.reset(np.random.default_rng(0))
 
     def f(v: Any) -> jax.Array:
         return jnp.asarray(np.asarray(v, dtype=float))
@@ -1041,134 +1118,148 @@ def from_env(numba_env: Any) -> tuple[MagnetorquerEnv, EnvParams]:
     def b(v: Any) -> jax.Array:
         return jnp.asarray(bool(v))
 
-    params = EnvParams(
-        inertia_kg_m2=f(nominal),
-        inertia_eff_inv=f(p.inertia_eff_inv),
-        wheel_inertia_kg_m2=f(shared[K.SH_JW]),
-        max_dipole_am2=f(p.max_dipole_am2),
-        max_wheel_torque_nm=f(p.max_wheel_torque_nm),
-        max_wheel_momentum_nms=f(shared[K.SH_HMAX]),
-        max_rate_rad_s=f(numba_env.max_rate_rad_s),
-        orbit_circular=b(orbit[K.ORB_MODEL] == 1.0),
-        semi_major_axis_m=f(orbit[K.ORB_A]),
-        eccentricity=f(orbit[K.ORB_E]),
-        mean_motion_rad_s=f(orbit[K.ORB_N]),
-        semi_latus_rectum_m=f(orbit[K.ORB_P]),
-        angular_momentum_m2_s=f(orbit[K.ORB_H]),
-        mu_m3_s2=f(orbit[K.ORB_MU]),
-        node=f(orbit[K.ORB_NODE : K.ORB_NODE + 3]),
-        in_plane=f(orbit[K.ORB_IN_PLANE : K.ORB_IN_PLANE + 3]),
-        normal=f(orbit[K.ORB_NORMAL : K.ORB_NORMAL + 3]),
-        arg_perigee_rad=f(orbit[K.ORB_ARGP]),
-        inclination_rad=f(shared[K.SH_INCL]),
-        field_printed=b(shared[K.SH_FIELD] == K.FIELD_CODES["dipole-printed"]),
-        dipole_strength_t_m3=f(shared[K.SH_STRENGTH]),
-        reference=f(shared[K.SH_REF :]),
-        disturbance_code=jnp.asarray(int(shared[K.SH_DIST]), jnp.int32),
-        disturbance_scale=f(shared[K.SH_DIST_SCALE]),
-        disturbance_rate_rad_s=f(shared[K.SH_DIST_RATE]),
-        disturbance_harmonic=f(shared[K.SH_DIST_K]),
-        disturbance_amplitude_nm=f(shared[K.SH_DIST_AMP : K.SH_DIST_AMP + 3]),
-        disturbance_period_s=f(shared[K.SH_DIST_PERIOD]),
-        disturbance_initial=f(dist_initial),
-        disturbance_random_phase=b(random_phase),
-        disturbance_walk_std=f(walk_std),
-        gravity_gradient=b(shared[K.SH_GG] != 0.0),
-        time_varying_inertia=b(shared[K.SH_DJ] != 0.0),
-        delta_j_amplitude_kg_m2=f(shared[K.SH_DJ_AMP : K.SH_DJ_AMP + 3]),
-        delta_j_frequency_rad_s=f(shared[K.SH_DJ_FREQ : K.SH_DJ_FREQ + 3]),
-        delta_j_phase_rad=f(shared[K.SH_DJ_PHASE : K.SH_DJ_PHASE + 3]),
-        control_dt_s=f(numba_env.control_dt_s),
-        integrator_dt_s=f(shared[K.SH_H]),
-        episode_duration_s=f(numba_env.episode_duration_s),
-        Q=f(shared[K.SH_Q : K.SH_Q + 36].reshape(6, 6)),
-        R=f(shared[K.SH_R : K.SH_R + 9].reshape(3, 3)),
-        termination_mode=jnp.asarray(jcost.mode_code(numba_env.termination_cost), jnp.int32),
-        regulation=b(draws["task"] == "regulation"),
-        initial_angle_deg=f(draws["initial_angle_deg"]),
-        initial_rate_max_rad_s=f(draws["initial_rate_max_rad_s"]),
-        mean_anomaly_random=b(random_anomaly),
-        mean_anomaly_deg=f(0.0 if random_anomaly else anomaly),
-        uncertainty_code=jnp.asarray(_UNCERTAINTY_CODES[None if unc is None else unc.kind], jnp.int32),
-        uncertainty_inertia_kg_m2=f(unc_inertia),
-        uncertainty_eff_inv=f(np.linalg.inv(eff)),
-        principal_moments=f(moments),
-        principal_axes=f(axes),
-        moment_scale=f(0.0 if unc is None else unc.moment_scale),
-        axis_angle_deg=f(0.0 if unc is None else unc.axis_angle_deg),
-        faults=faults,
-        max_steps_in_episode=jnp.asarray(
-            max_steps(float(numba_env.episode_duration_s), float(numba_env.control_dt_s)), jnp.int32
+    return EnvParams(
+        plant=PlantParams(
+            inertia_kg_m2=f(nominal),
+            inertia_eff_inv=f(p.inertia_eff_inv),
+            wheel_inertia_kg_m2=f(shared[K.SH_JW]),
+            max_dipole_am2=f(p.max_dipole_am2),
+            max_wheel_torque_nm=f(p.max_wheel_torque_nm),
+            max_wheel_momentum_nms=f(shared[K.SH_HMAX]),
         ),
-        flight=flight_params,
-        sensors=jsens.suite_params(sensors.config, _AXES, jnp.result_type(float)),
+        orbit=OrbitParams(
+            circular=b(orbit[K.ORB_MODEL] == 1.0),
+            semi_major_axis_m=f(orbit[K.ORB_A]),
+            eccentricity=f(orbit[K.ORB_E]),
+            mean_motion_rad_s=f(orbit[K.ORB_N]),
+            semi_latus_rectum_m=f(orbit[K.ORB_P]),
+            angular_momentum_m2_s=f(orbit[K.ORB_H]),
+            mu_m3_s2=f(orbit[K.ORB_MU]),
+            node=f(orbit[K.ORB_NODE : K.ORB_NODE + 3]),
+            in_plane=f(orbit[K.ORB_IN_PLANE : K.ORB_IN_PLANE + 3]),
+            normal=f(orbit[K.ORB_NORMAL : K.ORB_NORMAL + 3]),
+            arg_perigee_rad=f(orbit[K.ORB_ARGP]),
+            inclination_rad=f(shared[K.SH_INCL]),
+        ),
+        field=FieldParams(
+            printed=b(shared[K.SH_FIELD] == K.FIELD_CODES["dipole-printed"]),
+            dipole_strength_t_m3=f(shared[K.SH_STRENGTH]),
+        ),
+        timing=TimingParams(control_dt_s=f(cfg.control_dt_s), integrator_dt_s=f(shared[K.SH_H])),
+        cost=CostParams(
+            Q=f(shared[K.SH_Q : K.SH_Q + 36].reshape(6, 6)),
+            R=f(shared[K.SH_R : K.SH_R + 9].reshape(3, 3)),
+            max_rate_rad_s=f(cfg.max_rate_rad_s),
+            termination_mode=jnp.asarray(jcost.mode_code(cfg.termination_cost), jnp.int32),
+            horizon_s=f(cfg.episode_duration_s),
+        ),
+        start=StartParams(
+            reference=f(shared[K.SH_REF :]),
+            regulation=b(cfg.task == "regulation"),
+            initial_angle_deg=f(cfg.initial_angle_deg),
+            initial_rate_max_rad_s=f(cfg.initial_rate_max_rad_s),
+            mean_anomaly_random=b(cfg.random_anomaly),
+            mean_anomaly_deg=f(0.0 if cfg.random_anomaly else anomaly),
+        ),
+        disturbance=DisturbanceParams(
+            code=jnp.asarray(int(shared[K.SH_DIST]), jnp.int32),
+            scale=f(shared[K.SH_DIST_SCALE]),
+            rate_rad_s=f(shared[K.SH_DIST_RATE]),
+            harmonic=f(shared[K.SH_DIST_K]),
+            amplitude_nm=f(shared[K.SH_DIST_AMP : K.SH_DIST_AMP + 3]),
+            period_s=f(shared[K.SH_DIST_PERIOD]),
+            initial=f(dist_initial),
+            random_phase=b(random_phase),
+            walk_std=f(walk_std),
+            gravity_gradient=b(shared[K.SH_GG] != 0.0),
+        ),
+        inertia_change=InertiaChangeParams(
+            on=b(shared[K.SH_DJ] != 0.0),
+            amplitude_kg_m2=f(shared[K.SH_DJ_AMP : K.SH_DJ_AMP + 3]),
+            frequency_rad_s=f(shared[K.SH_DJ_FREQ : K.SH_DJ_FREQ + 3]),
+            phase_rad=f(shared[K.SH_DJ_PHASE : K.SH_DJ_PHASE + 3]),
+        ),
+        uncertainty=UncertaintyParams(
+            code=jnp.asarray(_UNCERTAINTY_CODES[None if unc is None else unc.kind], jnp.int32),
+            inertia_kg_m2=f(unc_inertia),
+            eff_inv=f(np.linalg.inv(eff)),
+            principal_moments=f(moments),
+            principal_axes=f(axes),
+            moment_scale=f(0.0 if unc is None else unc.moment_scale),
+            axis_angle_deg=f(0.0 if unc is None else unc.axis_angle_deg),
+        ),
+        faults=jfaults.from_realized(fault_layer.realized),
+        max_steps_in_episode=jnp.asarray(max_steps(cfg.episode_duration_s, cfg.control_dt_s), jnp.int32),
+        flight=_flight_params(cfg),
+        sensors=jsens.suite_params(layers.sensor_layer.config, _AXES, jnp.result_type(float)),
     )
-    space = numba_env.observation_space
+
+
+def from_keywords(plant: str, kwargs: dict[str, Any]) -> tuple[MagnetorquerEnv, EnvParams]:
+    """The JAX plant and its ``EnvParams`` for the numba env's keywords ``kwargs`` (flight
+    conditions included), validated as the numba env validates them (no numba env is built).
+    A one-line ``ValueError`` names what the JAX plant does not model (:func:`_check_modeled`)."""
+    check_keywords(NumbaMagnetorquerEnv, kwargs)
+    given = {**keyword_defaults(NumbaMagnetorquerEnv), **kwargs}
+    cfg = configure(NumbaMagnetorquerEnv, given.get("preset"), given)
+    _check_modeled(cfg)
+    params = params_of(cfg)
+    layers = cfg.layers
+    configs = tuple(dict(c) for c in layers.fault_layer.configs)
+    dist = layers.disturbance
+    low, high = observation_bounds(cfg)
     env = MagnetorquerEnv(
         params,
-        n_substeps=int(shared[K.SH_NSUB]),
-        observe_field=numba_env.observe_field,
-        fault_hint=numba_env.fault_hint,
+        n_substeps=cfg.n_substeps,
+        observe_field=cfg.observe_field,
+        fault_hint=layers.fault_hint,
         random_walk=dist is not None and dist.kind == "random_walk",
         fault_configs=configs,
         redraw_faults=any(jfaults.draws_per_episode(c) for c in configs),
-        obs_low=np.asarray(space.low, dtype=float),
-        obs_high=np.asarray(space.high, dtype=float),
-        flight=flight_layout,
-        sensors=tuple(name for name in _AXES if name in sensors.config),
+        obs_low=np.asarray(low, dtype=float),
+        obs_high=np.asarray(high, dtype=float),
+        flight=_flight_layout(cfg),
+        sensors=tuple(name for name in _AXES if name in layers.sensor_layer.config),
     )
     return env, params
 
 
-def _flight_of(numba_env: Any, principal_moments: np.ndarray) -> tuple[FlightLayout | None, FlightParams | None]:
-    """The static layout and the params of the numba env's flight conditions (None, None in the
-    lab): its actuator chain and gain tolerances as :func:`attitude_envs.envs.base.build_layers`
-    builds them for it, and its flight inertia tolerances (the numba env's ``_flight_inertia_draw``)."""
-    conditions = numba_env.conditions
-    if conditions.is_lab:
-        return None, None
-    p = numba_env.model.params
-    # the numba env's own layer construction (its sensors are read from its sensor layer)
-    layers = build_layers(
-        type(numba_env).env_name,
-        numba_env.preset,
-        n_actuators=N_ACTUATORS,
-        actuator_limits=p.limits,
-        channels=[],
-        faults=None,
-        sensors=None,
-        fault_hint=False,
-        conditions=dataclasses.replace(conditions, sensors=0.0),
-        control_dt_s=numba_env.control_dt_s,
-    )
-    scale = conditions.parameters
-    draw_inertia = scale > 0 and numba_env.reset_distribution["inertia_uncertainty"] is None
-    moment, axis = 0.0, 0.0
-    if draw_inertia:
-        table = numba_env.flight_table
-        moment, axis = table.plant_value("inertia_moment") * scale, table.plant_value("inertia_axis_deg") * scale
-    layout = FlightLayout(
+def _flight_layout(cfg: MagnetorquerConfig) -> FlightLayout | None:
+    """The static layout of ``cfg``'s flight conditions (None in the lab): its actuator chain,
+    whether parameters are drawn and whether the flight tolerances draw the true inertia."""
+    layers = cfg.layers
+    if layers.conditions.is_lab:
+        return None
+    return FlightLayout(
         actuators=jact.chain_layout(layers),
-        parameters=scale > 0,
-        draw_inertia=draw_inertia,
+        parameters=layers.conditions.parameters > 0,
+        draw_inertia=cfg.flight_inertia is not None,
     )
+
+
+def _flight_params(cfg: MagnetorquerConfig) -> FlightParams | None:
+    """The params of ``cfg``'s flight conditions (None in the lab): the actuator chain's, the
+    flight inertia tolerances (zeros when none is drawn) and the gain tolerances."""
+    layers = cfg.layers
+    if layers.conditions.is_lab:
+        return None
+    p = cfg.model.params
+    drawn = cfg.flight_inertia
     dtype = jnp.result_type(float)
 
     def f(v: Any) -> jax.Array:
         return jnp.asarray(np.asarray(v, dtype=float), dtype=dtype)
 
-    nominal = np.asarray(p.inertia_kg_m2, dtype=float)
-    params = FlightParams(
-        actuators=jact.chain_params(layers, N_ACTUATORS, numba_env.control_dt_s, dtype),
-        inertia_moment=f(moment),
-        inertia_axis_deg=f(axis),
+    return FlightParams(
+        actuators=jact.chain_params(layers, N_ACTUATORS, cfg.control_dt_s, dtype),
+        inertia_moment=f(0.0 if drawn is None else drawn.moment_scale),
+        inertia_axis_deg=f(0.0 if drawn is None else drawn.axis_angle_deg),
         gain_tolerance=f(layers.gain_tolerance),
         given=jnp.asarray(False),
-        given_inertia_kg_m2=f(nominal),
+        given_inertia_kg_m2=f(np.asarray(p.inertia_kg_m2, dtype=float)),
         given_inertia_eff_inv=f(p.inertia_eff_inv),
         given_gain=f(np.ones(N_ACTUATORS)),
     )
-    return layout, params
 
 
 def with_drawn_parameters(params: EnvParams, drawn: dict) -> EnvParams:
@@ -1180,9 +1271,9 @@ def with_drawn_parameters(params: EnvParams, drawn: dict) -> EnvParams:
     fp = params.flight
     inertia = drawn_arrays(fp, drawn, {"inertia_kg_m2": (3, 3)})["inertia_kg_m2"]
     eff = inertia.copy()
-    eff[1, 1] -= float(params.wheel_inertia_kg_m2)
+    eff[1, 1] -= float(params.plant.wheel_inertia_kg_m2)
     gain = np.asarray(drawn.get("actuator_gain", np.ones(N_ACTUATORS)), dtype=float)
-    dtype = params.reference.dtype
+    dtype = params.start.reference.dtype
 
     def f(v: Any) -> jax.Array:
         return jnp.asarray(np.asarray(v, dtype=float), dtype=dtype)

@@ -1,11 +1,9 @@
 """``attitude_envs.jax.make(env_id, **kwargs) -> (env, env_params)``.
 
-The keywords are the numba env's, with the id's registered defaults under them. A plant
-module with ``from_keywords`` validates them with the numba env's own configuration code
-(its presets, checks and derived parameters) and builds the JAX plant without a numba env;
-for the others ``make`` builds the numba env and reads the JAX plant's static layout and
-``EnvParams`` from it (``from_env``). A keyword the JAX plant does not model yet raises a
-``ValueError`` naming it.
+The keywords are the numba env's, with the id's registered defaults under them. Each plant
+module's ``from_keywords`` validates them with the numba env's own configuration code (its
+presets, checks and derived parameters) and builds the JAX plant without a numba env. A
+keyword the JAX plant does not model yet raises a ``ValueError`` naming it.
 """
 
 from __future__ import annotations
@@ -20,8 +18,7 @@ from attitude_envs.envs.base import Layers, build_layers
 from attitude_envs.registration import task_defaults
 from attitude_envs.sensors import Channel
 
-#: the plant module implementing each env name (``from_keywords(plant, kwargs)`` or
-#: ``from_env(numba_env)``, each ``-> (env, params)``)
+#: the plant module implementing each env name (``from_keywords(plant, kwargs) -> (env, params)``)
 PLANT_MODULES = {
     "ReactionWheel": "attitude_envs.jax.gyrostat",
     "AirBearing": "attitude_envs.jax.gyrostat",
@@ -50,7 +47,8 @@ def full_id(env_id: str) -> str:
 
 
 def numba_env(env_id: str, **kwargs: Any):
-    """The numba (Gymnasium) env the JAX plant of ``env_id`` is built from, unwrapped."""
+    """The numba (Gymnasium) env of ``env_id`` with ``kwargs``, unwrapped: the reference a JAX plant
+    of the same keywords (:func:`make`) is checked against."""
     import attitude_envs  # noqa: F401  (registers the ids)
 
     return gym.make(full_id(env_id), disable_env_checker=True, **kwargs).unwrapped
@@ -104,6 +102,4 @@ def make(env_id: str, **kwargs: Any):
     full = full_id(env_id)
     plant = full.split("/")[1].rsplit("-v", 1)[0]
     module = importlib.import_module(PLANT_MODULES[plant])
-    if hasattr(module, "from_keywords"):
-        return module.from_keywords(plant, {**task_defaults(full), **kwargs})
-    return module.from_env(numba_env(env_id, **kwargs))
+    return module.from_keywords(plant, {**task_defaults(full), **kwargs})
