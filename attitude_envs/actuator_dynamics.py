@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from attitude_envs import validation
+from attitude_envs.plants.ops import NUMPY
 
 
 @dataclass(frozen=True)
@@ -85,10 +86,163 @@ class ActuatorModel:
         return cls(lim, **values)
 
 
+@dataclass(frozen=True)
+class ActuatorLayout:
+    """The static shape of an actuator chain: ``delay_steps`` (control periods), ``model``
+    (actuator dynamics on) and, with a model, which of its stages act (``resolution``,
+    ``rate``, ``lag``, ``friction``; a stage none of whose actuators has it is skipped).
+    ``gain``: the output is multiplied by the episode's scale-factor gains even without a
+    model (drawn parameters). A compiled JAX program is fixed by it."""
+
+    delay_steps: int = 0
+    model: bool = False
+    resolution: bool = False
+    rate: bool = False
+    lag: bool = False
+    friction: bool = False
+    gain: bool = False
+
+
+def layout_of(model: ActuatorModel | None, delay_steps: int, gain: bool) -> ActuatorLayout:
+    """The static layout of a chain of ``model`` (None: no actuator dynamics) and ``delay_steps``."""
+    if model is None:
+        return ActuatorLayout(delay_steps=int(delay_steps), gain=bool(gain))
+    return ActuatorLayout(
+        delay_steps=int(delay_steps),
+        model=True,
+        resolution=bool(model.resolution.any()),
+        rate=bool(np.isfinite(model.rate_limit).any()),
+        lag=bool(model.lag_s.any()),
+        friction=bool(model.coulomb.any() or model.viscous.any()),
+        gain=bool(gain),
+    )
+
+
+@dataclass(frozen=True)
+class ChainNumbers:
+    """The numbers of an actuator chain at its control period, one entry per actuator:
+    ``limits`` (own units), ``resolution`` (0: none), ``rate_step`` (``rate_limit · Δt``; inf:
+    none), ``lag_on``, ``mean_weight`` (φ), ``decay`` (``e^{−Δt/τ}``), ``duty``, ``coulomb``,
+    ``viscous`` (the fields of the JAX twin's ``ActuatorParams``)."""
+
+    limits: np.ndarray
+    resolution: np.ndarray
+    rate_step: np.ndarray
+    lag_on: np.ndarray
+    mean_weight: np.ndarray
+    decay: np.ndarray
+    duty: np.ndarray
+    coulomb: np.ndarray
+    viscous: np.ndarray
+
+
+def numbers_of(model: ActuatorModel | None, n: int, dt_s: float) -> ChainNumbers:
+    """The numbers of ``model`` (``n`` actuators; None: neutral entries) at the control period
+    ``dt_s`` (s): the lag's ``φ = (τ/Δt)(1 − e^{−Δt/τ})`` and ``e^{−Δt/τ}`` (zeros without a lag)."""
+    if model is None:
+        model = ActuatorModel.build(np.ones(n))
+    lag = model.lag_s
+    with np.errstate(divide="ignore", invalid="ignore"):
+        decay = np.where(lag > 0, np.exp(-dt_s / np.where(lag > 0, lag, 1.0)), 0.0)
+        mean_weight = np.where(lag > 0, lag / dt_s * (1.0 - decay), 0.0)
+    return ChainNumbers(
+        limits=model.limits,
+        resolution=model.resolution,
+        rate_step=model.rate_limit * dt_s,
+        lag_on=lag > 0,
+        mean_weight=mean_weight,
+        decay=decay,
+        duty=model.duty,
+        coulomb=model.coulomb,
+        viscous=model.viscous,
+    )
+
+
+@dataclass(frozen=True)
+class ChainStages:
+    """The chain's stages written once against an operation set
+    (:class:`attitude_envs.plants.ops.Ops`), elementwise on one actuator or on arrays of them.
+
+    * ``quantized(c, q, limit)``: ``c`` rounded to the nearest multiple of ``q`` (half to
+      even), within ``±limit``;
+    * ``rate_limited(c, last, step)``: ``c`` within ``step`` of ``last``;
+    * ``toward(c, y0, w)``: ``c + (y0 − c) w``, the lag's period mean (``w = φ``) and its next
+      state (``w = e^{−Δt/τ}``);
+    * ``with_friction(y, coulomb, sign, viscous, speed)``: ``y − coulomb · sign − viscous · speed``;
+    * ``command(layout, p, last, c) -> (c, last)``: stages 2–3 after the delay line, ``p`` a
+      :class:`ChainNumbers` or any object with its fields;
+    * ``output(layout, p, lagged, faulted, gain, speeds) -> (y, lagged)``: stages 5–7 (``gain``
+      None: ones; ``speeds`` None: no friction; without a model only the gain acts).
+
+    The numpy chain (:class:`ActuatorChain`) and the JAX twins run ``command`` and ``output``;
+    the J* oracle's CasADi chain (``attitude_envs.symbolic.actuators``), which relaxes the
+    resolution and may fix or smooth the friction's sign, runs the stage functions per actuator."""
+
+    quantized: Callable
+    rate_limited: Callable
+    toward: Callable
+    with_friction: Callable
+    command: Callable
+    output: Callable
+
+
+def define_chain(ops) -> ChainStages:
+    """The chain's stages (:class:`ChainStages`) on the executor ``ops``."""
+    fmin, fmax, rnd, where, sign = ops.fmin, ops.fmax, ops.round, ops.where, ops.sign  # names numba can type
+
+    @ops.compile
+    def clip(v, lo, hi):
+        return fmin(fmax(v, lo), hi)
+
+    @ops.compile
+    def quantized(c, q, limit):
+        return clip(rnd(c / q) * q, -limit, limit)
+
+    @ops.compile
+    def rate_limited(c, last, step):
+        return clip(c, last - step, last + step)
+
+    @ops.compile
+    def toward(c, y0, w):
+        return c + (y0 - c) * w
+
+    @ops.compile
+    def with_friction(y, coulomb, sign, viscous, speed):
+        return y - coulomb * sign - viscous * speed
+
+    def command(layout: ActuatorLayout, p, last, c):
+        if layout.model and layout.resolution:
+            on = p.resolution > 0
+            c = where(on, quantized(c, where(on, p.resolution, 1.0), p.limits), c)
+        if layout.model and layout.rate:
+            c = rate_limited(c, last, p.rate_step)
+            last = c
+        return c, last
+
+    def output(layout: ActuatorLayout, p, lagged, faulted, gain, speeds):
+        y = faulted
+        if layout.model:
+            if layout.lag:
+                y = where(p.lag_on, toward(faulted, lagged, p.mean_weight), faulted)
+                lagged = where(p.lag_on, toward(faulted, lagged, p.decay), faulted)
+            y = y * (p.duty if gain is None else gain * p.duty)
+            if layout.friction and speeds is not None:
+                y = with_friction(y, p.coulomb, sign(speeds), p.viscous, speeds)
+        elif gain is not None:
+            y = y * gain
+        return y, lagged
+
+    return ChainStages(quantized, rate_limited, toward, with_friction, command, output)
+
+
+_NUMPY_CHAIN = define_chain(NUMPY)
+
+
 @dataclass
 class ActuatorChain:
     """The delay and the actuator dynamics of one env (runtime state: the delay line, the
-    lag's and the rate limiter's outputs, this episode's gains)."""
+    lag's and the rate limiter's outputs, this episode's gains), in numpy: the delay line,
+    then :func:`define_chain`'s ``command`` and ``output``."""
 
     model: ActuatorModel | None
     delay_steps: int
@@ -103,12 +257,8 @@ class ActuatorChain:
         self.dt_s = validation.positive("control_dt_s", self.dt_s)
         n = 0 if self.model is None else self.model.limits.shape[0]
         self.gain = np.ones(n)
-        if self.model is not None:
-            lag = self.model.lag_s
-            with np.errstate(divide="ignore", invalid="ignore"):
-                decay = np.where(lag > 0, np.exp(-self.dt_s / np.where(lag > 0, lag, 1.0)), 0.0)
-                self._mean_weight = np.where(lag > 0, lag / self.dt_s * (1.0 - decay), 0.0)
-            self._decay = decay
+        self._layout = layout_of(self.model, self.delay_steps, False)
+        self._numbers = None if self.model is None else numbers_of(self.model, n, self.dt_s)
         self.reset(None)
 
     @property
@@ -116,9 +266,9 @@ class ActuatorChain:
         """``(φ, e^{−Δt/τ})`` per actuator (copies; zeros where there is no lag, and for a
         chain without a model): the period-mean weight and the decay of the lag stage, the
         very numbers :meth:`output` uses (read-only, for tools such as the J* oracle)."""
-        if self.model is None:
+        if self._numbers is None:
             return np.zeros(0), np.zeros(0)
-        return self._mean_weight.copy(), self._decay.copy()
+        return self._numbers.mean_weight.copy(), self._numbers.decay.copy()
 
     def reset(self, n: int | None, gain: np.ndarray | None = None) -> None:
         """Start an episode: empty delay line (``n`` actuators), outputs at rest, ``gain``
@@ -136,32 +286,16 @@ class ActuatorChain:
         if self.delay_steps:
             self._queue.append(c.copy())
             c = self._queue.pop(0)
-        m = self.model
-        if m is None:
-            return c
-        if m.resolution.any():
-            q = np.where(m.resolution > 0, m.resolution, 1.0)
-            c = np.where(m.resolution > 0, np.clip(np.round(c / q) * q, -m.limits, m.limits), c)
-        if np.isfinite(m.rate_limit).any():
-            step = m.rate_limit * self.dt_s
-            c = np.clip(c, self._last - step, self._last + step)
-            self._last = c.copy()
+        c, last = _NUMPY_CHAIN.command(self._layout, self._numbers, self._last, c)
+        self._last = np.array(last, copy=True)
         return c
 
     def output(self, faulted: np.ndarray, speeds: np.ndarray | None = None) -> np.ndarray:
         """Stages 5–7: the output held over the period, from the faulted command and the
         wheel speeds (rad/s, one per actuator; None: no friction)."""
-        m = self.model
-        if m is None:
+        if self.model is None:
             return faulted
-        y = faulted
-        if m.lag_s.any():
-            y0 = self._lagged
-            y = np.where(m.lag_s > 0, faulted + (y0 - faulted) * self._mean_weight, faulted)
-            self._lagged = np.where(m.lag_s > 0, faulted + (y0 - faulted) * self._decay, faulted)
-        y = y * (self.gain * m.duty)
-        if speeds is not None and (m.coulomb.any() or m.viscous.any()):
-            y = y - m.coulomb * np.sign(speeds) - m.viscous * speeds
+        y, self._lagged = _NUMPY_CHAIN.output(self._layout, self._numbers, self._lagged, faulted, self.gain, speeds)
         return y
 
     def deliver(

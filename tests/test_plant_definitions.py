@@ -296,3 +296,77 @@ def test_fault_effect_is_the_table_on_every_executor():
         assert float(casadi.Function("f", [sym], [expr])(x)) == expected, kind
     assert define_effect(PYTHON)(KIND_CODES["intermittent"], x, value, t, onset, eff, latched, True) == x
     assert define_effect(PYTHON)(0, x, value, t, onset, eff, latched, True) == x  # no fault (the JAX padding)
+
+
+def test_chain_stages_agree_on_every_executor():
+    """attitude_envs.actuator_dynamics.define_chain: each stage on plain Python and compiled
+    numba scalars equals the numpy stage elementwise, bit for bit (ties of the resolution
+    rounded half to even, sign(0) = 0), and the CasADi stages evaluate to the same numbers."""
+    from attitude_envs.actuator_dynamics import define_chain
+    from attitude_envs.plants.ops import PYTHON
+
+    rng = np.random.default_rng(3)
+    c = np.concatenate([rng.uniform(-2.0, 2.0, 40), [0.005, 0.015, -0.025, 0.0]])
+    q = np.full(c.shape, 0.01)
+    last, y0, w = rng.uniform(-1, 1, c.shape), rng.uniform(-1, 1, c.shape), rng.uniform(0, 1, c.shape)
+    speed = np.concatenate([rng.normal(0.0, 50.0, 40), [0.0, 0.0, -1.0, 2.0]])
+    vec = define_chain(NUMPY)
+
+    def stages(s, i, sign):
+        return (
+            s.quantized(c[i], q[i], 1.5),
+            s.rate_limited(c[i], last[i], 0.2),
+            s.toward(c[i], y0[i], w[i]),
+            s.with_friction(c[i], 0.01, sign(speed[i]), 1e-4, speed[i]),
+        )
+
+    want = np.stack(
+        [
+            vec.quantized(c, q, 1.5),
+            vec.rate_limited(c, last, 0.2),
+            vec.toward(c, y0, w),
+            vec.with_friction(c, 0.01, np.sign(speed), 1e-4, speed),
+        ],
+        axis=1,
+    )
+    plain = define_chain(PYTHON)
+    compiled = define_chain(NUMBA)
+    quantized, rate, toward, friction = (
+        compiled.quantized,
+        compiled.rate_limited,
+        compiled.toward,
+        compiled.with_friction,
+    )
+    numba_sign = NUMBA.sign
+    sign = NUMBA.compile(lambda v: numba_sign(v))
+    for i in range(len(c)):
+        assert np.array_equal(np.array(stages(plain, i, PYTHON.sign)), want[i]), i
+        got = (
+            quantized(c[i], q[i], 1.5),
+            rate(c[i], last[i], 0.2),
+            toward(c[i], y0[i], w[i]),
+            friction(c[i], 0.01, sign(speed[i]), 1e-4, speed[i]),
+        )
+        assert np.array_equal(np.array(got), want[i]), i
+    casadi = pytest.importorskip("casadi")
+    from attitude_envs.symbolic.ops import CASADI
+
+    sym = define_chain(CASADI)
+    v = casadi.SX.sym("v", 4)
+    f = casadi.Function(
+        "f",
+        [v],
+        [
+            casadi.vertcat(
+                sym.rate_limited(v[0], v[1], 0.2),
+                sym.toward(v[0], v[2], v[3]),
+                sym.with_friction(v[0], 0.01, casadi.sign(v[1]), 1e-4, v[1]),
+            )
+        ],
+    )
+    for i in range(len(c)):
+        got = np.asarray(f([c[i], last[i], y0[i], w[i]])).ravel()
+        expect = [want[i, 1], want[i, 2], vec.with_friction(c[i], 0.01, np.sign(last[i]), 1e-4, last[i])]
+        np.testing.assert_allclose(got, expect, rtol=0, atol=1e-15)
+    with pytest.raises(ValueError, match="round"):
+        sym.quantized(v[0], 0.01, 1.5)

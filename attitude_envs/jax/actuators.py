@@ -1,16 +1,16 @@
 """The flight conditions' delay and actuator dynamics (:mod:`attitude_envs.actuator_dynamics`)
 as arrays, for the JAX plants.
 
-:meth:`attitude_envs.actuator_dynamics.ActuatorChain.deliver` in JAX: the delay line, the
-command resolution, the rate limit, (the plant's faults), the first-order lag as the period
-mean of its exact response, the gain times the duty cycle and the wheel friction, in that
-order and with the same floating-point operations (``np.round`` and ``jnp.round`` both round
-half to even; the lag's weights ``φ`` and ``e^{−Δt/τ}`` and the rate limiter's step
-``rate_limit · Δt`` are computed with numpy when the params are built, so they are the
-chain's numbers bit for bit).
+:meth:`attitude_envs.actuator_dynamics.ActuatorChain.deliver` in JAX: the delay line, then the
+stages written once in :func:`attitude_envs.actuator_dynamics.define_chain` (the command
+resolution, the rate limit; after the plant's faults the first-order lag as the period mean
+of its exact response, the gain times the duty cycle and the wheel friction), traced with
+``jax.numpy`` (``np.round`` and ``jnp.round`` both round half to even; the lag's weights ``φ``
+and ``e^{−Δt/τ}`` and the rate limiter's step ``rate_limit · Δt`` are the numpy chain's
+:func:`~attitude_envs.actuator_dynamics.numbers_of`, bit for bit).
 
-What fixes the compiled program is an :class:`ActuatorLayout` (static: the delay's length and
-which stages are on, as the numba chain's ``.any()`` tests skip stages); the numbers are an
+What fixes the compiled program is an :class:`~attitude_envs.actuator_dynamics.ActuatorLayout`
+(static: the delay's length and which stages are on); the numbers are an
 :class:`ActuatorParams` pytree and the runtime state (the delay line, the rate limiter's last
 output and the lag's state) an :class:`ActuatorState`, carried in the env state.
 """
@@ -18,7 +18,6 @@ output and the lag's state) an :class:`ActuatorState`, carried in the env state.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any
 
 import jax
@@ -26,7 +25,8 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from attitude_envs.actuator_dynamics import ActuatorChain, ActuatorModel
+from attitude_envs.actuator_dynamics import ActuatorLayout, ActuatorModel, define_chain, layout_of, numbers_of
+from attitude_envs.jax.ops import JAX
 
 #: folded into a plant's reset key for its flight draws (the true plant, the actuator gains),
 #: so a flight episode's start, target and faults are the lab episode's of the same key (as
@@ -34,21 +34,7 @@ from attitude_envs.actuator_dynamics import ActuatorChain, ActuatorModel
 FLIGHT_STREAM = 0x464C54
 
 
-@dataclass(frozen=True)
-class ActuatorLayout:
-    """The static shape of an actuator chain: ``delay_steps`` (control periods), ``model``
-    (actuator dynamics on) and, with a model, which of its stages act (``resolution``,
-    ``rate``, ``lag``, ``friction``; the numba chain skips a stage none of whose actuators
-    has it). ``gain``: the output is multiplied by the episode's scale-factor gains even
-    without a model (drawn parameters)."""
-
-    delay_steps: int = 0
-    model: bool = False
-    resolution: bool = False
-    rate: bool = False
-    lag: bool = False
-    friction: bool = False
-    gain: bool = False
+_CHAIN = define_chain(JAX)
 
 
 @struct.dataclass
@@ -68,6 +54,10 @@ class ActuatorParams:
     viscous: jax.Array
 
 
+#: the float fields of :class:`ActuatorParams` (``lag_on`` is boolean)
+_FIELDS = ("limits", "resolution", "rate_step", "mean_weight", "decay", "duty", "coulomb", "viscous")
+
+
 @struct.dataclass
 class ActuatorState:
     """The chain's runtime state: ``queue`` (``delay_steps`` × N, oldest first: the commands
@@ -76,21 +66,6 @@ class ActuatorState:
     queue: jax.Array
     last: jax.Array
     lagged: jax.Array
-
-
-def layout_of(model: ActuatorModel | None, delay_steps: int, gain: bool) -> ActuatorLayout:
-    """The static layout of a chain of ``model`` (None: no actuator dynamics) and ``delay_steps``."""
-    if model is None:
-        return ActuatorLayout(delay_steps=int(delay_steps), gain=bool(gain))
-    return ActuatorLayout(
-        delay_steps=int(delay_steps),
-        model=True,
-        resolution=bool(model.resolution.any()),
-        rate=bool(np.isfinite(model.rate_limit).any()),
-        lag=bool(model.lag_s.any()),
-        friction=bool(model.coulomb.any() or model.viscous.any()),
-        gain=bool(gain),
-    )
 
 
 def chain_layout(layers: Any) -> ActuatorLayout:
@@ -110,26 +85,11 @@ def chain_params(layers: Any, n: int, dt_s: float, dtype) -> ActuatorParams:
 
 def params_of(model: ActuatorModel | None, n: int, dt_s: float, dtype) -> ActuatorParams:
     """The arrays of ``model`` (``n`` actuators; None: neutral entries) at the control period
-    ``dt_s``, with the lag's weights from :class:`ActuatorChain` itself (its numbers, bit for bit)."""
-    if model is None:
-        model = ActuatorModel.build(np.ones(n))
-    chain = ActuatorChain(model, 0, dt_s)
-    mean_weight, decay = chain.lag_weights
-
-    def f(v):
-        return jnp.asarray(np.asarray(v, dtype=float), dtype=dtype)
-
-    return ActuatorParams(
-        limits=f(model.limits),
-        resolution=f(model.resolution),
-        rate_step=f(model.rate_limit * chain.dt_s),
-        lag_on=jnp.asarray(model.lag_s > 0),
-        mean_weight=f(mean_weight),
-        decay=f(decay),
-        duty=f(model.duty),
-        coulomb=f(model.coulomb),
-        viscous=f(model.viscous),
-    )
+    ``dt_s``: :func:`attitude_envs.actuator_dynamics.numbers_of`, the numpy chain's numbers bit
+    for bit."""
+    numbers = numbers_of(model, n, dt_s)
+    arrays = {k: jnp.asarray(np.asarray(getattr(numbers, k), dtype=float), dtype=dtype) for k in _FIELDS}
+    return ActuatorParams(**arrays, lag_on=jnp.asarray(numbers.lag_on))
 
 
 def initial_state(layout: ActuatorLayout, n: int, dtype) -> ActuatorState:
@@ -145,19 +105,13 @@ def command(
     layout: ActuatorLayout, p: ActuatorParams, state: ActuatorState, commanded: jax.Array
 ) -> tuple[jax.Array, ActuatorState]:
     """Stages 1–3 (:meth:`ActuatorChain.command`): the command the actuators act on this
-    period (delayed, quantized, rate limited) and the next state."""
-    c = commanded
-    queue, last = state.queue, state.last
+    period (delayed, then :func:`~attitude_envs.actuator_dynamics.define_chain`'s ``command``)
+    and the next state."""
+    c, queue = commanded, state.queue
     if layout.delay_steps:
         queue = jnp.concatenate([queue, c[None]], axis=0)
         c, queue = queue[0], queue[1:]
-    if layout.model and layout.resolution:
-        on = p.resolution > 0
-        q = jnp.where(on, p.resolution, 1.0)
-        c = jnp.where(on, jnp.clip(jnp.round(c / q) * q, -p.limits, p.limits), c)
-    if layout.model and layout.rate:
-        c = jnp.clip(c, last - p.rate_step, last + p.rate_step)
-        last = c
+    c, last = _CHAIN.command(layout, p, state.last, c)
     return c, state.replace(queue=queue, last=last)
 
 
@@ -172,19 +126,7 @@ def output(
     """Stages 5–7 (:meth:`ActuatorChain.output`, then the env's gain without a model): the
     output held over the period, from the faulted command, this episode's ``gain`` (None:
     ones) and the wheel speeds at the period's start; and the next state."""
-    y = faulted
-    lagged = state.lagged
-    if layout.model:
-        if layout.lag:
-            y0 = lagged
-            y = jnp.where(p.lag_on, faulted + (y0 - faulted) * p.mean_weight, faulted)
-            lagged = jnp.where(p.lag_on, faulted + (y0 - faulted) * p.decay, faulted)
-        g = jnp.ones_like(y) if gain is None else gain
-        y = y * (g * p.duty)
-        if layout.friction:
-            y = y - p.coulomb * jnp.sign(speeds) - p.viscous * speeds
-    elif gain is not None:
-        y = y * gain
+    y, lagged = _CHAIN.output(layout, p, state.lagged, faulted, gain, speeds)
     return y, state.replace(lagged=lagged)
 
 

@@ -8,4 +8,15 @@ import jax.numpy as jnp
 from attitude_envs.plants.ops import Ops
 
 #: traced ``jax.numpy``
-JAX = Ops("jax", sin=jnp.sin, cos=jnp.cos, sqrt=jnp.sqrt, fabs=jnp.abs, where=jnp.where)
+JAX = Ops(
+    "jax",
+    sin=jnp.sin,
+    cos=jnp.cos,
+    sqrt=jnp.sqrt,
+    fabs=jnp.abs,
+    where=jnp.where,
+    fmin=jnp.minimum,
+    fmax=jnp.maximum,
+    round=jnp.round,
+    sign=jnp.sign,
+)

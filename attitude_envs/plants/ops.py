@@ -36,9 +36,10 @@ class Ops:
     """The non-arithmetic operations of a plant definition.
 
     ``sin``, ``cos``, ``sqrt``, ``fabs`` act on one scalar (or elementwise);
-    ``where(c, a, b)`` selects elementwise; ``compile`` wraps each helper a definition
-    defines, so helpers can call each other (``numba.njit`` for numba, the identity for the
-    tracing executors)."""
+    ``where(c, a, b)`` selects elementwise; ``fmin``, ``fmax`` (the smaller, the larger of
+    two), ``round`` (to the nearest integer, half to even) and ``sign`` (−1, 0 or 1) act
+    elementwise; ``compile`` wraps each helper a definition defines, so helpers can call each
+    other (``numba.njit`` for numba, the identity for the tracing executors)."""
 
     name: str
     sin: Callable
@@ -46,6 +47,10 @@ class Ops:
     sqrt: Callable
     fabs: Callable
     where: Callable
+    fmin: Callable
+    fmax: Callable
+    round: Callable
+    sign: Callable
     compile: Callable[[Callable], Callable] = _identity
 
 
@@ -63,15 +68,41 @@ NUMBA = Ops(
     sqrt=math.sqrt,
     fabs=math.fabs,
     where=_select,
+    fmin=np.minimum,
+    fmax=np.maximum,
+    round=np.round,
+    sign=np.sign,
     compile=njit(cache=True, error_model="numpy", inline="always"),
 )
 
 #: plain numpy, uncompiled: vectorized when the entries are arrays (a batch along the last axis)
-NUMPY = Ops("numpy", sin=np.sin, cos=np.cos, sqrt=np.sqrt, fabs=np.abs, where=np.where)
+NUMPY = Ops(
+    "numpy",
+    sin=np.sin,
+    cos=np.cos,
+    sqrt=np.sqrt,
+    fabs=np.abs,
+    where=np.where,
+    fmin=np.minimum,
+    fmax=np.maximum,
+    round=np.round,
+    sign=np.sign,
+)
 
 
 #: plain Python on floats, uncompiled: the cheapest for a few scalars per call from Python code
-PYTHON = Ops("python", sin=math.sin, cos=math.cos, sqrt=math.sqrt, fabs=math.fabs, where=_select.py_func)
+PYTHON = Ops(
+    "python",
+    sin=math.sin,
+    cos=math.cos,
+    sqrt=math.sqrt,
+    fabs=math.fabs,
+    where=_select.py_func,
+    fmin=min,
+    fmax=max,
+    round=lambda x: float(round(x)),
+    sign=lambda x: 1.0 if x > 0 else -1.0 if x < 0 else x * 0.0,  # NaN stays NaN, as np.sign
+)
 
 
 def define_quad_form(ops: Ops) -> Callable:

@@ -13,10 +13,13 @@ from dataclasses import dataclass
 import casadi
 import numpy as np
 
+from attitude_envs.actuator_dynamics import define_chain
 from attitude_envs.faults import KIND_CODES, define_effect
 from attitude_envs.symbolic.ops import CASADI
 
 _effect = define_effect(CASADI)
+#: the actuator chain's stages (:func:`attitude_envs.actuator_dynamics.define_chain`) on CasADi scalars
+_STAGES = define_chain(CASADI)
 
 #: fault kinds the symbolic model represents (deterministic given the episode's draws)
 SUPPORTED = ("loss_of_effectiveness", "effectiveness", "bias", "drift", "stuck", "outage", "saturation")
@@ -225,9 +228,7 @@ def chain_command(spec: ChainSpec, commanded, extra):
     elif spec.has_rate:
         last = extra[d * n : d * n + n]
         c = [
-            clip(c[i], last[i] - float(spec.rate_step[i]), last[i] + float(spec.rate_step[i]))
-            if np.isfinite(spec.rate_step[i])
-            else c[i]
+            _STAGES.rate_limited(c[i], last[i], float(spec.rate_step[i])) if np.isfinite(spec.rate_step[i]) else c[i]
             for i in range(n)
         ]
         new += c
@@ -250,8 +251,8 @@ def chain_output(spec: ChainSpec, faulted, extra, speeds, signs=None):
         mean, dec = [], []
         for i in range(n):
             if spec.lag[i] > 0:
-                mean.append(y[i] + (lag0[i] - y[i]) * float(spec.mean_weight[i]))
-                dec.append(y[i] + (lag0[i] - y[i]) * float(spec.decay[i]))
+                mean.append(_STAGES.toward(y[i], lag0[i], float(spec.mean_weight[i])))
+                dec.append(_STAGES.toward(y[i], lag0[i], float(spec.decay[i])))
             else:
                 mean.append(y[i])
                 dec.append(y[i])
@@ -260,9 +261,13 @@ def chain_output(spec: ChainSpec, faulted, extra, speeds, signs=None):
     if spec.has_friction:
         eps = float(spec.friction_eps)
         y = [
-            y[i]
-            - float(spec.coulomb[i]) * (casadi.tanh(speeds[i] / eps) if signs is None else signs[i])
-            - float(spec.viscous[i]) * speeds[i]
+            _STAGES.with_friction(
+                y[i],
+                float(spec.coulomb[i]),
+                casadi.tanh(speeds[i] / eps) if signs is None else signs[i],
+                float(spec.viscous[i]),
+                speeds[i],
+            )
             for i in range(n)
         ]
     return y, new

@@ -7,5 +7,22 @@ import casadi
 
 from attitude_envs.plants.ops import Ops
 
-#: CasADi: symbolic ``sin``/``cos``/``sqrt``/``fabs``, ``if_else`` for ``where``; helpers stay Python
-CASADI = Ops("casadi", sin=casadi.sin, cos=casadi.cos, sqrt=casadi.sqrt, fabs=casadi.fabs, where=casadi.if_else)
+
+def _no_round(x):
+    raise ValueError("round has no smooth CasADi expression: an optimal-control problem relaxes it (see the caller)")
+
+
+#: CasADi: symbolic ``sin``/``cos``/``sqrt``/``fabs``/``fmin``/``fmax``/``sign``, ``if_else`` for
+#: ``where``, no ``round`` (a quantized command is relaxed); helpers stay Python
+CASADI = Ops(
+    "casadi",
+    sin=casadi.sin,
+    cos=casadi.cos,
+    sqrt=casadi.sqrt,
+    fabs=casadi.fabs,
+    where=casadi.if_else,
+    fmin=casadi.fmin,
+    fmax=casadi.fmax,
+    round=_no_round,
+    sign=casadi.sign,
+)
