@@ -62,6 +62,34 @@ CONFIGS = {
         5,
         "reset",
     ),
+    # the flight cells' sensor faults and the others, on the noiseless sensors: a gyro bias jump,
+    # a magnetometer outage holding its last sample, a stuck star tracker and a tachometer drift
+    "Magnetorquer-v0 flight, noiseless sensors, sensor faults": (
+        "Magnetorquer-v0",
+        {
+            "conditions": "flight",
+            "sensors": NOISELESS,
+            "observe_field": True,
+            "orbit": {"mean_anomaly_deg": 30.0},
+            "episode_duration_s": 6.0,
+            "faults": [
+                {"kind": "bias", "target": "sensor", "sensor": "gyro", "index": 0, "value": 1e-3, "onset_s": 1.0},
+                {
+                    "kind": "dropout",
+                    "target": "sensor",
+                    "sensor": "magnetometer",
+                    "index": "all",
+                    "mode": "hold",
+                    "onset_s": 2.0,
+                    "duration_s": 2.0,
+                },
+                {"kind": "stuck", "target": "sensor", "sensor": "star_tracker", "index": "all", "onset_s": 3.0},
+                {"kind": "drift", "target": "sensor", "sensor": "tachometer", "index": 0, "value": 0.5, "onset_s": 1.5},
+            ],
+        },
+        5,
+        "reset",
+    ),
 }
 RTOL = 1e-12
 
@@ -318,11 +346,13 @@ def test_autoreset_redraws_the_gains_and_rests_the_chain():
 def test_make_refuses_flight_features_not_modeled():
     with pytest.raises(ValueError, match="only as flight conditions' sensors"):
         make("Magnetorquer-v1", sensors={"gyro": {"noise_std": 1e-5}})
-    with pytest.raises(ValueError, match="target .sensor."):
+    with pytest.raises(ValueError, match="draws its value"):
         make(
             "Magnetorquer-v1",
             conditions="flight",
-            faults=[{"kind": "bias", "target": "sensor", "sensor": "gyro", "index": 0, "value": 0.1}],
+            faults=[
+                {"kind": "bias", "target": "sensor", "sensor": "gyro", "index": 0, "value": {"uniform": [0.0, 0.1]}}
+            ],
         )
     with pytest.raises(ValueError, match="indefinite"):
         make("Magnetorquer-v1", conditions={"parameters": 10}, time_varying_inertia={"amplitude_kg_m2": [0.5] * 3})

@@ -356,9 +356,9 @@ def test_state_sensor_errors_follow_the_numba_law(name):
             "LinearSystem-v0",
             {
                 "conditions": "flight",
-                "faults": [{"kind": "bias", "target": "sensor", "sensor": "state", "index": 0, "value": 0.1}],
+                "faults": [{"kind": "bias", "target": "sensor", "sensor": "state", "index": "random", "value": 0.1}],
             },
-            "target 'sensor'",
+            "draws its index",
         ),
         ("FuelSlosh-v0", {"conditions": {"parameters": 7.0}}, "below 90 %"),
     ],

@@ -406,7 +406,7 @@ def test_random_walk_disturbance_increments():
         ({"sensors": {"gyro": {"noise_std": 1e-5}}}, "sensors"),
         (
             {"faults": [{"kind": "bias", "target": "sensor", "sensor": "gyro", "index": 0, "value": 0.1}]},
-            "target .sensor.",
+            "flight conditions' sensors",
         ),
         ({"field_model": "igrf"}, "field_model"),
         (

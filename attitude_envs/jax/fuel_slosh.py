@@ -671,7 +671,8 @@ def params_of(
         )
         config = layers.sensor_layer.config.get("state")
         n_obs = len(OBS_INDEX if cfg.observe_slosh else OBS_INDEX_NO_SLOSH)
-        sensors = None if config is None else jsens.params_of(config, n_obs, dtype)
+        sensor_faults = jsens.channel_faults(layers.sensor_layer, dtype, "FuelSlosh JAX plant", layers.fault_hint)
+        sensors = None if config is None else jsens.params_of(config, n_obs, dtype, sensor_faults.get("state"))
     return EnvParams(
         plant=PlantParams(**physical, actuator_limits=f([cfg.model.max_gimbal_rad, cfg.model.max_moment_nm])),
         timing=TimingParams(control_dt_s=f(cfg.control_dt_s), integrator_dt_s=f(cfg.integrator_dt_s)),
@@ -699,7 +700,8 @@ def params_of(
 def from_keywords(plant: str, kwargs: dict[str, Any]) -> tuple[FuelSloshEnv, EnvParams]:
     """The JAX ``plant`` and its ``EnvParams`` for the numba env's keywords ``kwargs``, validated
     as the numba env validates them (no numba env is built). A ``ValueError`` names what the
-    JAX plant does not model (``sensors`` in the lab, sensor faults)."""
+    JAX plant does not model (``sensors`` or sensor faults in the lab, sensor faults drawn per
+    episode or with ``fault_hint``)."""
     check_keywords(NumbaFuelSloshEnv, kwargs)
     cfg = configure({**keyword_defaults(NumbaFuelSloshEnv), **kwargs})
     obs_index = OBS_INDEX if cfg.observe_slosh else OBS_INDEX_NO_SLOSH

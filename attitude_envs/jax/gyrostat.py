@@ -51,7 +51,8 @@ and state). Per-episode plants in the state cost speed: each env's RK4 reads its
 Modeled: every keyword of ReactionWheel-v0/-v1 and AirBearing-v0/-v1 but these, for which
 :func:`from_keywords` (and :func:`attitude_envs.jax.make`) raises a one-line ``ValueError``
 naming them: a ``sensors`` keyword in the lab (sensors only as flight conditions' sensors,
-which an explicit ``sensors`` dict may replace), sensor faults; a ``disturbance`` other than ``"constant"``
+which an explicit ``sensors`` dict may replace), sensor faults in the lab, or drawn per episode, or
+with ``fault_hint`` (:func:`attitude_envs.jax.sensors.channel_faults`); a ``disturbance`` other than ``"constant"``
 (sinusoidal, random walk); ``inertia_uncertainty`` of kind ``"random"`` (``"fixed"`` is
 modeled; vmap over :func:`with_inertia` instead); ``render_mode``.
 """
@@ -973,10 +974,13 @@ def _frozen(value: Any) -> Any:
 
 def _check_layers(sensor_layer: Any, conditions: Any, disturbance: Any) -> None:
     """A one-line ``ValueError`` naming the first of an env's layers' configuration that the
-    JAX gyrostat does not model: sensor faults, sensors in the lab, a disturbance other than
+    JAX gyrostat does not model: sensors or sensor faults in the lab, a disturbance other than
     constant."""
-    if sensor_layer.fault_configs or sensor_layer.realized:
-        raise ValueError("sensor faults are not modeled by the JAX gyrostat (its flight sensors' noise and bias are)")
+    if sensor_layer.fault_configs and conditions.sensors == 0:
+        raise ValueError(
+            "sensor faults are modeled by the JAX gyrostat only on flight conditions' sensors (conditions with "
+            "'sensors' > 0)"
+        )
     if sensor_layer.enabled and conditions.sensors == 0:
         raise ValueError(
             "sensors are modeled by the JAX gyrostat only as flight conditions' sensors (conditions with 'sensors' "
@@ -1031,7 +1035,8 @@ def _params_of(cfg: GyrostatConfig, cls: type[ReactionWheelEnv], euler_max_deg: 
         mode = START_AXIS_ANGLE
     sensor_config = layers.sensor_layer.config if layers.sensor_layer.enabled else {}
     axes = {name: (3 if name != "tachometer" else plant.n_wheels) for name in _SLICES}
-    sensor_params = jsens.suite_params(sensor_config, axes, dtype)
+    sensor_faults = jsens.channel_faults(layers.sensor_layer, dtype, "JAX gyrostat", layers.fault_hint)
+    sensor_params = jsens.suite_params(sensor_config, axes, dtype, sensor_faults)
     identity = np.array([0.0, 0.0, 0.0, 1.0])
     rate, target = cfg.initial_rate_rad_s, cfg.target_attitude
     return EnvParams(

@@ -480,7 +480,8 @@ def params_of(cfg: LinearSystemConfig, fault_configs: tuple[dict, ...] = (), lay
             given_gain=f(np.ones(m)),
         )
         config = layers.sensor_layer.config.get("state")
-        sensors = None if config is None else jsens.params_of(config, n, dtype)
+        sensor_faults = jsens.channel_faults(layers.sensor_layer, dtype, "LinearSystem JAX plant", layers.fault_hint)
+        sensors = None if config is None else jsens.params_of(config, n, dtype, sensor_faults.get("state"))
 
     return EnvParams(
         plant=PlantParams(A=f(model.A), B=f(model.B), dt_s=f(model.dt_s), action_scale=f(cfg.action_scale)),
@@ -510,7 +511,8 @@ def params_of(cfg: LinearSystemConfig, fault_configs: tuple[dict, ...] = (), lay
 def from_keywords(plant: str, kwargs: dict[str, Any]) -> tuple[LinearSystemEnv, EnvParams]:
     """The JAX ``plant`` and its ``EnvParams`` for the numba env's keywords ``kwargs``, validated
     as the numba env validates them (no numba env is built). A ``ValueError`` names what the
-    JAX plant does not model (``sensors`` in the lab, sensor faults)."""
+    JAX plant does not model (``sensors`` or sensor faults in the lab, sensor faults drawn per
+    episode or with ``fault_hint``)."""
     check_keywords(NumbaLinearSystemEnv, kwargs)
     cfg = configure({**keyword_defaults(NumbaLinearSystemEnv), **kwargs})
     n, m, k = cfg.model.n, cfg.model.m, cfg.decision_steps

@@ -1043,7 +1043,7 @@ def max_steps(duration_s: float, control_dt_s: float) -> int:
 
 def _check_modeled(cfg: MagnetorquerConfig) -> None:
     """A one-line ``ValueError`` for what the JAX plant does not model in ``cfg``: ``sensors``
-    in the lab (sensors only as flight conditions' sensors) and sensor faults,
+    or sensor faults in the lab (only on flight conditions' sensors),
     ``field_model='igrf'``, an ``inertia_uncertainty`` or flight inertia draw that could make
     ``I + ΔJ(t)`` indefinite (the numba env raises at such a reset)."""
     where = "Magnetorquer JAX plant"
@@ -1053,8 +1053,8 @@ def _check_modeled(cfg: MagnetorquerConfig) -> None:
             f"{where}: keyword 'sensors' is modeled only as flight conditions' sensors (conditions with "
             "'sensors' > 0); in the lab the true state is observed"
         )
-    if sensors.fault_configs:
-        raise ValueError(f"{where}: 'faults' with target 'sensor' are not modeled (actuator faults only)")
+    if sensors.fault_configs and conditions.sensors == 0:
+        raise ValueError(f"{where}: sensor faults are modeled only on flight conditions' sensors ('sensors' > 0)")
     if cfg.field.model == "igrf":
         raise ValueError(f"{where}: field_model='igrf' is not modeled (use 'dipole' or 'dipole-printed')")
     dist = cfg.layers.disturbance
@@ -1191,7 +1191,14 @@ def params_of(cfg: MagnetorquerConfig) -> EnvParams:
         faults=jfaults.from_realized(fault_layer.realized),
         max_steps_in_episode=jnp.asarray(max_steps(cfg.episode_duration_s, cfg.control_dt_s), jnp.int32),
         flight=_flight_params(cfg),
-        sensors=jsens.suite_params(layers.sensor_layer.config, _AXES, jnp.result_type(float)),
+        sensors=jsens.suite_params(
+            layers.sensor_layer.config,
+            _AXES,
+            jnp.result_type(float),
+            jsens.channel_faults(
+                layers.sensor_layer, jnp.result_type(float), "Magnetorquer JAX plant", layers.fault_hint
+            ),
+        ),
     )
 
 

@@ -67,7 +67,7 @@ def state_layers(
     envs' own :func:`~attitude_envs.envs.base.build_layers`. Under flight conditions with
     sensors on and no ``sensors=`` of its own, the channel is the env's flight ``state`` sensor
     ``flight_sensors`` (its ``sensors=`` entry, scaled to the plant); ``control_dt_s`` (s) is
-    the decision period. A ``ValueError`` for sensor faults, and for ``sensors`` without the
+    the decision period. A ``ValueError`` for sensor faults or ``sensors`` without the
     conditions' sensors, which the JAX ``plant`` does not model."""
     cond = cfg.conditions
     sensors = cfg.sensors
@@ -85,8 +85,11 @@ def state_layers(
         conditions=cond,
         control_dt_s=control_dt_s,
     )
-    if layers.sensor_layer.fault_configs:
-        raise ValueError(f"{plant} JAX plant: 'faults' with target 'sensor' are not modeled (actuator faults only)")
+    if layers.sensor_layer.fault_configs and cond.sensors == 0:
+        raise ValueError(
+            f"{plant} JAX plant: sensor faults are modeled only on flight conditions' sensors (conditions with "
+            "'sensors' > 0)"
+        )
     if layers.sensor_layer.config and cond.sensors == 0:
         raise ValueError(
             f"{plant} JAX plant: keyword 'sensors' is modeled only as flight conditions' sensors (conditions with "

@@ -2,7 +2,9 @@
 white noise, a bias drawn at reset, its random walk, and a sample period with
 sample-and-hold between samples (a star tracker slower than the control loop), for vector
 channels (additive errors) and attitude channels (``q_m = q ⊗ exp(e)``, ``e`` a body rotation
-vector). Sensor faults are not modeled here.
+vector), and the sensor faults of :mod:`attitude_envs.sensors` with fixed values (every kind:
+bias, drift, stuck, dropout, noise increase; the episode's faults are the same in every
+episode, so a fault whose axis, value, onset or duration is drawn is refused by name).
 
 :meth:`attitude_envs.sensors.SensorSuite.measure`'s law, step for step: a channel samples at
 the observation times; one with a ``period_s`` repeats its last sample until
@@ -15,6 +17,9 @@ come from JAX keys: the same law as the numba layer's numpy generator, not the s
 """
 
 from __future__ import annotations
+
+import copy
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -30,31 +35,59 @@ _PERIOD_MARGIN = 1.0 - 1e-9
 SENSOR_STREAM = 0x534E53
 
 
+#: the sensor fault kinds (:data:`attitude_envs.sensors.SENSOR_KINDS`) as codes
+FAULT_CODES = {"bias": 1, "drift": 2, "stuck": 3, "dropout": 4, "noise_increase": 5}
+
+
+@struct.dataclass
+class ChannelFaults:
+    """A channel's sensor faults, in the numba layer's order (its ``realized`` list), one entry
+    per fault: ``kind`` (:data:`FAULT_CODES`), ``index`` (an axis; −1: the whole reading),
+    ``value`` (channel units; NaN: a stuck reading holds the measurement at onset), ``onset_s``
+    and ``end_s`` (s; active for ``onset_s ≤ t < end_s``, inf: no end) and ``hold`` (a dropout
+    repeats the last delivered sample, else reads NaN)."""
+
+    kind: jax.Array
+    index: jax.Array
+    value: jax.Array
+    onset_s: jax.Array
+    end_s: jax.Array
+    hold: jax.Array
+
+
 @struct.dataclass
 class ChannelParams:
     """One channel's model (one entry per axis): ``noise_std``, ``bias_walk_std`` (per √s),
-    ``initial_bias``, ``initial_bias_std``; ``period_s`` (0: a sample at every observation)."""
+    ``initial_bias``, ``initial_bias_std``; ``period_s`` (0: a sample at every observation);
+    its sensor ``faults`` (None: none, and the compiled measurement is the fault-free one)."""
 
     noise_std: jax.Array
     bias_walk_std: jax.Array
     initial_bias: jax.Array
     initial_bias_std: jax.Array
     period_s: jax.Array
+    faults: ChannelFaults | None = None
 
 
 @struct.dataclass
 class ChannelState:
     """One channel's runtime state: its ``bias``, ``last`` sample (the channel's size: 4 for an
-    attitude), the time of its last sample ``sampled`` (s) and ``has_sampled``."""
+    attitude), the time of its last sample ``sampled`` (s) and ``has_sampled``; with faults
+    the stuck faults' ``held`` readings (faults × size) and ``latched`` flags, and whether a
+    sample was ``delivered`` yet (a dropout's hold repeats it)."""
 
     bias: jax.Array
     last: jax.Array
     sampled: jax.Array
     has_sampled: jax.Array
+    held: jax.Array | None = None
+    latched: jax.Array | None = None
+    delivered: jax.Array | None = None
 
 
-def params_of(config: dict, axes: int, dtype) -> ChannelParams:
-    """A channel's :class:`ChannelParams` from its validated ``SensorSuite.config`` entry."""
+def params_of(config: dict, axes: int, dtype, faults: ChannelFaults | None = None) -> ChannelParams:
+    """A channel's :class:`ChannelParams` from its validated ``SensorSuite.config`` entry and
+    its ``faults`` (:func:`channel_faults`)."""
 
     def f(key):
         return jnp.asarray(np.broadcast_to(np.asarray(config[key], dtype=float), (axes,)), dtype=dtype)
@@ -65,14 +98,107 @@ def params_of(config: dict, axes: int, dtype) -> ChannelParams:
         initial_bias=f("initial_bias"),
         initial_bias_std=f("initial_bias_std"),
         period_s=jnp.asarray(float(config["period_s"]), dtype=dtype),
+        faults=faults,
     )
+
+
+def _drawn(config: dict) -> str | None:
+    """The first entry of a sensor fault dict that is drawn per episode (None: every one fixed)."""
+    if config.get("index", "random") == "random":
+        return "index"
+    for key in ("value", "onset_s", "duration_s"):
+        if isinstance(config.get(key), dict):
+            return key
+    return None
+
+
+def channel_faults(suite: Any, dtype, where: str, fault_hint: bool = False) -> dict[str, ChannelFaults]:
+    """Each faulted channel's :class:`ChannelFaults` of a numba :class:`attitude_envs.sensors.SensorSuite`
+    ``suite`` (its configured sensor faults, realized once: they are fixed). A ``ValueError``
+    naming ``where`` (the plant) for a fault drawn per episode, on a channel without a sensor
+    model, or with ``fault_hint`` (the twins' observation holds no sensor fault flags)."""
+    if suite.fault_configs and fault_hint:
+        raise ValueError(f"{where}: sensor faults with fault_hint are not modeled (its sensor flags read 0)")
+    for i, c in enumerate(suite.fault_configs):
+        drawn = _drawn(c)
+        if drawn is not None:
+            raise ValueError(
+                f"{where}: sensor fault {i} ({c['kind']} on {c['sensor']}) draws its {drawn} per episode, which is "
+                "not modeled (give a fixed index, value, onset_s and duration_s)"
+            )
+        if c["sensor"] not in suite.config:
+            raise ValueError(
+                f"{where}: sensor fault {i} ({c['kind']}) is on {c['sensor']!r}, which has no sensor model here "
+                "(the flight conditions' sensors model every channel)"
+            )
+    if not suite.fault_configs:
+        return {}
+    realized = copy.deepcopy(suite)
+    realized.reset(np.random.default_rng(0))  # fixed faults: the draws do not enter
+    out = {}
+    for name in suite.channels:
+        faults = [f for f in realized.realized if f.sensor == name]
+        if not faults:
+            continue
+
+        def f(values, dt=dtype):
+            return jnp.asarray(np.asarray(values, dtype=float), dtype=dt)
+
+        out[name] = ChannelFaults(
+            kind=jnp.asarray([FAULT_CODES[x.kind] for x in faults], jnp.int32),
+            index=jnp.asarray([-1 if x.index == "all" else int(x.index) for x in faults], jnp.int32),
+            value=f([np.nan if x.value is None else x.value for x in faults]),
+            onset_s=f([x.onset_s for x in faults]),
+            end_s=f([np.inf if x.duration_s is None else x.onset_s + x.duration_s for x in faults]),
+            hold=jnp.asarray([x.kind == "dropout" and x.mode == "hold" for x in faults]),
+        )
+    return out
 
 
 def initial_state(key: jax.Array, p: ChannelParams, truth: jax.Array) -> ChannelState:
     """A channel at reset, before its first sample: its bias drawn, no sample yet."""
     bias = p.initial_bias + p.initial_bias_std * jax.random.normal(key, p.noise_std.shape, p.noise_std.dtype)
     zero = jnp.zeros((), dtype=truth.dtype)
-    return ChannelState(bias=bias, last=truth, sampled=zero, has_sampled=jnp.asarray(False))
+    state = ChannelState(bias=bias, last=truth, sampled=zero, has_sampled=jnp.asarray(False))
+    if p.faults is None:
+        return state
+    n = p.faults.kind.shape[0]
+    return state.replace(
+        held=jnp.zeros((n,) + truth.shape, truth.dtype), latched=jnp.zeros(n, bool), delivered=jnp.asarray(False)
+    )
+
+
+def _additive_faults(f: ChannelFaults, active: jax.Array, err: jax.Array, t_s) -> tuple[jax.Array, jax.Array]:
+    """The error with each active bias and drift added on its axis, and the noise scale of
+    the active noise increases (:meth:`SensorSuite.measure`'s order: the faults in turn)."""
+    axis = jnp.arange(err.shape[0])
+    scale = jnp.ones_like(err)
+    for i in range(f.kind.shape[0]):
+        on = active[i] & (axis == f.index[i])
+        err = jnp.where(on & (f.kind[i] == FAULT_CODES["bias"]), err + f.value[i], err)
+        err = jnp.where(on & (f.kind[i] == FAULT_CODES["drift"]), err + f.value[i] * (t_s - f.onset_s[i]), err)
+        scale = jnp.where(on & (f.kind[i] == FAULT_CODES["noise_increase"]), scale * f.value[i], scale)
+    return err, scale
+
+
+def _reading_faults(
+    f: ChannelFaults, active: jax.Array, s: ChannelState, m: jax.Array
+) -> tuple[jax.Array, jax.Array, jax.Array]:
+    """The reading ``m`` through the active stuck and dropout faults, in turn; the next held
+    readings and latches (a stuck fault latches the reading, or its value, when it becomes
+    active, and lets go when inactive)."""
+    entry = jnp.arange(m.shape[0])
+    held, latched = s.held, s.latched
+    for i in range(f.kind.shape[0]):
+        on = active[i] & ((entry == f.index[i]) | (f.index[i] < 0))
+        stuck = active[i] & (f.kind[i] == FAULT_CODES["stuck"])
+        h = jnp.where(latched[i], held[i], jnp.where(jnp.isnan(f.value[i]), m, f.value[i]))
+        m = jnp.where(on & stuck, h, m)
+        held = held.at[i].set(jnp.where(stuck, h, held[i]))
+        latched = latched.at[i].set(stuck)
+        dropout = on & (f.kind[i] == FAULT_CODES["dropout"])
+        m = jnp.where(dropout, jnp.where(f.hold[i], jnp.where(s.delivered, s.last, m), jnp.nan), m)
+    return m, held, latched
 
 
 def measure(
@@ -93,15 +219,29 @@ def measure(
     walk = jax.random.normal(k_walk, axes, dtype)
     noise = jax.random.normal(k_noise, axes, dtype)
     bias = jnp.where(dt > 0, s.bias + p.bias_walk_std * jnp.sqrt(jnp.maximum(dt, 0.0)) * walk, s.bias)
-    err = bias + p.noise_std * noise
+    faults = p.faults
+    if faults is None:
+        err = bias + p.noise_std * noise
+    else:
+        active = (faults.onset_s <= t_s) & (t_s < faults.end_s)
+        err, scale = _additive_faults(faults, active, bias, t_s)
+        err = err + p.noise_std * scale * noise
     m = jq.multiply(truth, jq.from_rotvec(err)) if attitude else truth + err
     sample = jnp.logical_not(hold)
-    return jnp.where(hold, s.last, m), ChannelState(
+    state = ChannelState(
         bias=jnp.where(hold, s.bias, bias),
-        last=jnp.where(hold, s.last, m),
+        last=s.last,
         sampled=jnp.where(periodic & sample, t_s, s.sampled),
         has_sampled=s.has_sampled | (periodic & sample),
     )
+    if faults is not None:
+        m, held, latched = _reading_faults(faults, active, s, m)
+        state = state.replace(
+            held=jnp.where(hold, s.held, held),
+            latched=jnp.where(hold, s.latched, latched),
+            delivered=s.delivered | sample,
+        )
+    return jnp.where(hold, s.last, m), state.replace(last=jnp.where(hold, s.last, m))
 
 
 @struct.dataclass
@@ -135,12 +275,16 @@ SUITE_CHANNELS = ("gyro", "star_tracker", "tachometer", "magnetometer")
 _ATTITUDE_CHANNELS = frozenset({"star_tracker"})
 
 
-def suite_params(config: dict, axes: dict[str, int], dtype) -> SuiteParams | None:
+def suite_params(
+    config: dict, axes: dict[str, int], dtype, faults: dict[str, ChannelFaults] | None = None
+) -> SuiteParams | None:
     """The :class:`SuiteParams` of a validated ``SensorSuite.config`` (None: no sensors);
-    ``axes``: each channel's error axes."""
+    ``axes``: each channel's error axes; ``faults``: the faulted channels' faults
+    (:func:`channel_faults`)."""
     if not config:
         return None
-    return SuiteParams(**{name: params_of(c, axes[name], dtype) for name, c in config.items()})
+    faults = faults or {}
+    return SuiteParams(**{name: params_of(c, axes[name], dtype, faults.get(name)) for name, c in config.items()})
 
 
 def start_suite(key: jax.Array, p: SuiteParams, truths: dict[str, jax.Array], t_s) -> SuiteState:
@@ -211,8 +355,11 @@ __all__ = [
     "StateSensor",
     "measure_state",
     "start_state_sensor",
+    "FAULT_CODES",
+    "ChannelFaults",
     "ChannelParams",
     "ChannelState",
+    "channel_faults",
     "initial_state",
     "measure",
     "params_of",

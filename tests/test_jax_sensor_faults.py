@@ -1,0 +1,202 @@
+"""Sensor faults in the JAX twins (:mod:`attitude_envs.jax.sensors`) against the numba
+sensor layer (:class:`attitude_envs.sensors.SensorSuite`): every kind, on a vector and an
+attitude channel, reading for reading under x64 (noise off, a sample period that holds
+readings between samples); the noise increase in distribution; and what is refused by name."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+jax = pytest.importorskip("jax")
+pytest.importorskip("flax")
+import jax.numpy as jnp  # noqa: E402
+
+from attitude_envs import quaternion  # noqa: E402
+from attitude_envs.jax import make  # noqa: E402
+from attitude_envs.jax import sensors as jsens  # noqa: E402
+from attitude_envs.sensors import Channel, SensorSuite  # noqa: E402
+
+VECTOR_FAULTS = [
+    {"kind": "bias", "target": "sensor", "sensor": "rate", "index": 0, "value": 0.1, "onset_s": 0.3},
+    {
+        "kind": "drift",
+        "target": "sensor",
+        "sensor": "rate",
+        "index": 1,
+        "value": 0.05,
+        "onset_s": 0.5,
+        "duration_s": 1.0,
+    },
+    {"kind": "stuck", "target": "sensor", "sensor": "rate", "index": 2, "onset_s": 0.7, "duration_s": 0.6},
+    {
+        "kind": "stuck",
+        "target": "sensor",
+        "sensor": "rate",
+        "index": 0,
+        "value": -2.0,
+        "onset_s": 2.0,
+        "duration_s": 0.3,
+    },
+    {"kind": "dropout", "target": "sensor", "sensor": "rate", "index": 1, "onset_s": 1.8, "duration_s": 0.4},
+    {"kind": "dropout", "target": "sensor", "sensor": "rate", "index": "all", "mode": "hold", "onset_s": 2.5},
+    {"kind": "bias", "target": "sensor", "sensor": "star", "index": 2, "value": 0.01, "onset_s": 0.2},
+    {"kind": "stuck", "target": "sensor", "sensor": "star", "index": "all", "onset_s": 0.9, "duration_s": 0.5},
+    {"kind": "dropout", "target": "sensor", "sensor": "star", "index": "all", "mode": "hold", "onset_s": 1.6},
+]
+CHANNELS = [Channel("rate", 3), Channel("star", 4, "attitude")]
+NOISELESS = {
+    "rate": {"noise_std": 0.0},
+    "star": {"noise_std": 0.0, "period_s": 0.2, "initial_bias": [1e-3, 0.0, -2e-3]},
+}
+
+
+def _truths(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``n`` times' rates (a smooth curve) and attitudes (a slow turn)."""
+    t = 0.1 * np.arange(n)
+    rates = np.stack([np.sin(t), np.cos(2 * t), 0.1 * t], axis=1)
+    attitudes = np.array([quaternion.from_rotvec(np.array([0.3, -0.2, 0.5]) * ti) for ti in t])
+    return rates, attitudes
+
+
+def test_every_fault_kind_reads_as_the_numba_layer():
+    """Bias, drift, stuck (at the reading and at a value), dropout
+    (NaN and hold) on a vector channel; bias, stuck and dropout hold of the whole attitude of
+    a star tracker sampling every other step: 36 observations, every vector reading equal (NaN
+    where the numba layer reads NaN), the attitudes to an ulp."""
+    n = 36
+    rates, attitudes = _truths(n)
+    suite = SensorSuite(NOISELESS, CHANNELS, VECTOR_FAULTS)
+    suite.reset(np.random.default_rng(0))
+    want = [
+        suite.measure({"rate": r, "star": q}, 0.1 * i) for i, (r, q) in enumerate(zip(rates, attitudes, strict=True))
+    ]
+    with jax.enable_x64(True):
+        faults = jsens.channel_faults(suite, jnp.float64, "test")
+        params = {
+            "rate": jsens.params_of(suite.config["rate"], 3, jnp.float64, faults["rate"]),
+            "star": jsens.params_of(suite.config["star"], 3, jnp.float64, faults["star"]),
+        }
+        key = jax.random.PRNGKey(0)
+        for name, truth, attitude in (("rate", rates, False), ("star", attitudes, True)):
+            p = params[name]
+            s = jsens.initial_state(key, p, jnp.asarray(truth[0]))
+            measure = jax.jit(lambda s, x, t, tl, p=p, a=attitude: jsens.measure(key, p, s, x, t, tl, a))
+            t_last = 0.0
+            for i in range(n):
+                m, s = measure(s, jnp.asarray(truth[i]), 0.1 * i, t_last)
+                t_last = 0.1 * i
+                if attitude:  # the quaternion product: XLA may order its sums otherwise (an ulp)
+                    np.testing.assert_allclose(
+                        np.asarray(m), want[i][name], rtol=1e-15, atol=1e-17, err_msg=f"step {i}"
+                    )
+                else:
+                    np.testing.assert_array_equal(np.asarray(m), want[i][name], err_msg=f"{name} at step {i}")
+    # the faults acted: a NaN, a stuck value, a held attitude
+    assert np.isnan(want[19]["rate"][1]) and want[20]["rate"][0] == -2.0
+    assert np.array_equal(want[10]["star"], want[12]["star"])
+
+
+def test_noise_increase_scales_the_noise_on_its_axis():
+    """``noise_increase`` of 3 on axis 1 from 0.5 s: that axis' noise three times the others'
+    (2,000 keys), before the onset all alike."""
+    config = {"rate": {"noise_std": 0.1}}
+    fault = [{"kind": "noise_increase", "target": "sensor", "sensor": "rate", "index": 1, "value": 3.0, "onset_s": 0.5}]
+    suite = SensorSuite(config, [Channel("rate", 3)], fault)
+    with jax.enable_x64(True):
+        p = jsens.params_of(
+            suite.config["rate"], 3, jnp.float64, jsens.channel_faults(suite, jnp.float64, "test")["rate"]
+        )
+        truth = jnp.zeros(3)
+
+        def reading(key, t):
+            s = jsens.initial_state(key, p, truth)
+            return jsens.measure(key, p, s, truth, t, 0.0, False)[0]
+
+        keys = jax.random.split(jax.random.PRNGKey(0), 2000)
+        before = np.asarray(jax.vmap(reading, in_axes=(0, None))(keys, 0.2))
+        after = np.asarray(jax.vmap(reading, in_axes=(0, None))(keys, 1.0))
+    np.testing.assert_allclose(before.std(axis=0), 0.1, rtol=0.06)
+    np.testing.assert_allclose(after.std(axis=0), [0.1, 0.3, 0.1], rtol=0.06)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "named"),
+    [
+        (
+            {"faults": [{"kind": "bias", "target": "sensor", "sensor": "state", "index": "random", "value": 0.1}]},
+            "draws its index",
+        ),
+        (
+            {
+                "faults": [
+                    {"kind": "bias", "target": "sensor", "sensor": "state", "index": 0, "value": {"uniform": [0, 1]}}
+                ]
+            },
+            "draws its value",
+        ),
+        (
+            {
+                "fault_hint": True,
+                "faults": [{"kind": "bias", "target": "sensor", "sensor": "state", "index": 0, "value": 0.1}],
+            },
+            "fault_hint",
+        ),
+        (
+            {
+                "conditions": {"base": "flight", "sensors": 0},
+                "faults": [{"kind": "bias", "target": "sensor", "sensor": "state", "index": 0, "value": 0.1}],
+            },
+            "flight conditions' sensors",
+        ),
+    ],
+)
+def test_make_names_the_sensor_faults_not_modeled(kwargs, named):
+    with pytest.raises(ValueError, match=named) as err:
+        make("LinearSystem-v1", **{"conditions": "flight", **kwargs})
+    assert "\n" not in str(err.value)
+
+
+def test_linear_system_flight_cell_faults_as_the_numba_env():
+    """LinearSystem-v1 under flight conditions with a noiseless state sensor, its flight cell's
+    outage (the state sensor holding its last sample for 100 s) and a bias on entry 3: from the
+    paper's start (the numba episode's drawn gains given to the JAX reset), every observation
+    of a whole episode equals the numba env's to float32 rounding (x64), and the outage held."""
+    from attitude_envs.jax import linear_system
+    from attitude_envs.jax.make import numba_env
+
+    faults = [
+        {
+            "kind": "dropout",
+            "target": "sensor",
+            "sensor": "state",
+            "index": "all",
+            "mode": "hold",
+            "onset_s": 50.0,
+            "duration_s": 100.0,
+        },
+        {"kind": "bias", "target": "sensor", "sensor": "state", "index": 3, "value": 0.01, "onset_s": 200.0},
+    ]
+    kwargs = {"conditions": "flight", "sensors": {"state": {"noise_std": 0.0}}, "faults": faults}
+    ne = numba_env("LinearSystem-v1", **kwargs)
+    obs0, _ = ne.reset(seed=0)
+    actions = np.random.default_rng(0).uniform(-1.0, 1.0, (80, ne.action_space.shape[0]))  # 400 s of 5 s decisions
+    want = [obs0]
+    for a in actions:
+        obs, _, terminated, truncated, _ = ne.step(a)
+        want.append(obs)
+        if terminated or truncated:
+            break
+    with jax.enable_x64(True):
+        env, params = make("LinearSystem-v1", **kwargs)
+        params = linear_system.with_drawn_parameters(params, ne.drawn_parameters())
+        o, s = env.reset(jax.random.PRNGKey(0), params)
+        step = jax.jit(env.step_env)
+        got = [np.asarray(o)]
+        for i, a in enumerate(actions[: len(want) - 1]):
+            o, s, *_ = step(jax.random.PRNGKey(i), s, jnp.asarray(a), params)
+            got.append(np.asarray(o))
+    want = np.array(want)
+    np.testing.assert_allclose(np.array(got), want, rtol=2.0**-23, atol=1e-12)
+    held = want[10:30]  # decisions every 5 s: the outage holds the reading of 45 s from 50 s to 150 s
+    assert np.all(held == want[9]) and not np.all(want[30] == want[9])
