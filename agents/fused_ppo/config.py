@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import ast
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
@@ -205,31 +206,46 @@ def _schedule(name: str, value: Any) -> tuple[str, float]:
     return "constant", _positive(name, value)
 
 
-def _literal(node: ast.AST) -> Any:
-    """A Zoo expression's value without ``eval``: literals, ``dict(...)``, ``nn.<Name>`` (its name)."""
-    if isinstance(node, ast.Constant):
-        return node.value
-    if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub):
-        return -_literal(node.operand)
-    if isinstance(node, ast.List | ast.Tuple):
-        return [_literal(e) for e in node.elts]
-    if isinstance(node, ast.Dict):
-        return {_literal(k): _literal(v) for k, v in zip(node.keys, node.values, strict=True)}
-    if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "dict" and not node.args:
-        return {kw.arg: _literal(kw.value) for kw in node.keywords}
-    if isinstance(node, ast.Attribute):
-        return node.attr  # nn.Tanh → "Tanh"
-    raise ValueError(f"unsupported expression {ast.unparse(node)!r}")
+def _literal(node: ast.AST, attribute: Callable[[ast.Attribute], Any], tuples: bool) -> Any:
+    def value(n: ast.AST) -> Any:
+        if isinstance(n, ast.Constant):
+            return n.value
+        if isinstance(n, ast.UnaryOp) and isinstance(n.op, ast.USub):
+            return -value(n.operand)
+        if isinstance(n, ast.List | ast.Tuple):
+            items = [value(e) for e in n.elts]
+            return tuple(items) if tuples and isinstance(n, ast.Tuple) else items
+        if isinstance(n, ast.Dict):
+            return {value(k): value(v) for k, v in zip(n.keys, n.values, strict=True)}
+        if isinstance(n, ast.Call) and isinstance(n.func, ast.Name) and n.func.id == "dict" and not n.args:
+            return {kw.arg: value(kw.value) for kw in n.keywords}
+        if isinstance(n, ast.Attribute):
+            found = attribute(n)
+            if found is not None:
+                return found
+        raise ValueError(f"unsupported expression {ast.unparse(n)!r}")
+
+    return value(node)
 
 
-def parse_literal(name: str, value: Any) -> Any:
-    """A Zoo string such as ``"dict(net_arch=[64], activation_fn=nn.Tanh)"`` → its value."""
+def parse_literal(
+    name: str,
+    value: Any,
+    attribute: Callable[[ast.Attribute], Any] | None = None,
+    tuples: bool = False,
+    accepted: str = "a literal or dict(...) expression",
+) -> Any:
+    """A Zoo string such as ``"dict(net_arch=[64], activation_fn=nn.Tanh)"`` → its value,
+    without ``eval``: literals, lists (tuples as lists unless ``tuples``), dicts, ``dict(...)``
+    and attributes, each ``nn.<Name>`` given by ``attribute(node)`` (default: its name, ``"Tanh"``;
+    None: not accepted). A ``ValueError`` naming ``name`` and what is ``accepted``."""
     if not isinstance(value, str):
         return value
+    resolve = attribute or (lambda node: node.attr)
     try:
-        return _literal(ast.parse(value, mode="eval").body)
+        return _literal(ast.parse(value, mode="eval").body, resolve, tuples)
     except (SyntaxError, ValueError) as exc:
-        raise ValueError(f"{name} must be a literal or dict(...) expression, got {value!r} ({exc})") from exc
+        raise ValueError(f"{name} must be {accepted}, got {value!r} ({exc})") from exc
 
 
 def activation_name(value: Any) -> str:

@@ -5,18 +5,7 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from attitude_envs.plants.ops import Ops
+from attitude_envs.plants.ops import array_ops
 
 #: traced ``jax.numpy``
-JAX = Ops(
-    "jax",
-    sin=jnp.sin,
-    cos=jnp.cos,
-    sqrt=jnp.sqrt,
-    fabs=jnp.abs,
-    where=jnp.where,
-    fmin=jnp.minimum,
-    fmax=jnp.maximum,
-    round=jnp.round,
-    sign=jnp.sign,
-)
+JAX = array_ops("jax", jnp)

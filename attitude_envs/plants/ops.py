@@ -75,19 +75,26 @@ NUMBA = Ops(
     compile=njit(cache=True, error_model="numpy", inline="always"),
 )
 
+
+def array_ops(name: str, xp) -> Ops:
+    """The executor of an array namespace ``xp`` with numpy's names (numpy, ``jax.numpy``):
+    elementwise, uncompiled (a tracing namespace traces the helpers)."""
+    return Ops(
+        name,
+        sin=xp.sin,
+        cos=xp.cos,
+        sqrt=xp.sqrt,
+        fabs=xp.abs,
+        where=xp.where,
+        fmin=xp.minimum,
+        fmax=xp.maximum,
+        round=xp.round,
+        sign=xp.sign,
+    )
+
+
 #: plain numpy, uncompiled: vectorized when the entries are arrays (a batch along the last axis)
-NUMPY = Ops(
-    "numpy",
-    sin=np.sin,
-    cos=np.cos,
-    sqrt=np.sqrt,
-    fabs=np.abs,
-    where=np.where,
-    fmin=np.minimum,
-    fmax=np.maximum,
-    round=np.round,
-    sign=np.sign,
-)
+NUMPY = array_ops("numpy", np)
 
 
 #: plain Python on floats, uncompiled: the cheapest for a few scalars per call from Python code

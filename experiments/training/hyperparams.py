@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from agents.fused_ppo.config import parse_literal
 from attitude_envs import validation
 from experiments.training.algorithm import Algorithm, check_algorithm
 
@@ -66,37 +67,23 @@ def _shipped(name: str) -> Path:
     return Path(str(resources.files("experiments.training") / "hyperparams" / f"{name}.yml"))
 
 
-def _safe_value(node: ast.AST) -> Any:
-    if isinstance(node, ast.Constant):
-        return node.value
-    if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub):
-        return -_safe_value(node.operand)
-    if isinstance(node, ast.List | ast.Tuple):
-        values = [_safe_value(e) for e in node.elts]
-        return values if isinstance(node, ast.List) else tuple(values)
-    if isinstance(node, ast.Dict):
-        return {_safe_value(k): _safe_value(v) for k, v in zip(node.keys, node.values, strict=True)}
-    if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "dict" and not node.args:
-        return {kw.arg: _safe_value(kw.value) for kw in node.keywords}
-    if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name | ast.Attribute):
-        import torch.nn as nn  # optional: the sb3 extra; only policy_kwargs with nn.<Activation> need it
+def _torch_module(node: ast.Attribute) -> Any:
+    """``nn.<Name>`` as the ``torch.nn`` module class (None for anything else)."""
+    if not isinstance(node.value, ast.Name | ast.Attribute):
+        return None
+    import torch.nn as nn  # optional: the sb3 extra; only policy_kwargs with nn.<Activation> need it
 
-        cls = getattr(nn, node.attr, None)
-        if isinstance(cls, type) and issubclass(cls, nn.Module):
-            return cls
-    raise ValueError(f"unsupported expression {ast.unparse(node)!r}")
+    cls = getattr(nn, node.attr, None)
+    return cls if isinstance(cls, type) and issubclass(cls, nn.Module) else None
 
 
 def parse_python_literal(name: str, text: Any) -> Any:
-    """A Zoo string such as ``"dict(net_arch=[64, 64])"`` → its value, without ``eval``."""
-    if not isinstance(text, str):
-        return text
-    try:
-        return _safe_value(ast.parse(text, mode="eval").body)
-    except (SyntaxError, ValueError) as exc:
-        raise ValueError(
-            f"{name} must be a literal, dict(...) or nn.<Activation> expression, got {text!r} ({exc})"
-        ) from exc
+    """A Zoo string such as ``"dict(net_arch=[64, 64])"`` → its value, without ``eval``
+    (:func:`agents.fused_ppo.config.parse_literal` with ``nn.<Activation>`` as the torch class
+    and tuples kept)."""
+    return parse_literal(
+        name, text, _torch_module, tuples=True, accepted="a literal, dict(...) or nn.<Activation> expression"
+    )
 
 
 class YamlLoader(yaml.SafeLoader):
