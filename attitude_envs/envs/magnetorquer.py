@@ -290,7 +290,6 @@ class MagnetorquerEnv(AttitudeEnv):
         preset: str | None = None,  # last: positional callers of the earlier signature keep working
     ) -> None:
         cfg = configure(type(self), preset, locals())
-        self.config = cfg
         self.preset = cfg.preset
         self.task = cfg.task
         self._orbit_cfg = cfg.orbit_config

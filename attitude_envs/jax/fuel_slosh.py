@@ -48,7 +48,8 @@ Modeled: every keyword of the numba env (``preset``/``params``, limits, periods,
 ``R``, ``observe_slosh``, ``initial_state``, ``randomize_initial_state``, the termination
 limits and ``termination_cost``, actuator ``faults`` with per-episode draws, ``fault_hint``,
 ``conditions``) except ``sensors`` in the lab (sensors only as flight conditions' sensors) and
-sensor-target faults, for which :func:`from_keywords` raises a ``ValueError`` naming them.
+sensor faults outside flight conditions' sensors, drawn per episode or with ``fault_hint``
+(:func:`attitude_envs.jax.sensors.channel_faults`; those with fixed values are modeled), for which :func:`from_keywords` raises a ``ValueError`` naming them.
 ``design_v_x_m_s`` only sets the nominal linear model (``numba_env.model``), not the step.
 """
 

@@ -33,7 +33,8 @@ layer's law, not its draws); the observation is then the measurement, as the num
 (``flight`` and ``sensors`` None in the env, its params and state).
 
 Modeled: every keyword of the numba env except ``sensors`` in the lab (sensors only as flight
-conditions' sensors) and sensor-target faults (a ``ValueError`` names them); actuator faults
+conditions' sensors) and sensor faults outside flight conditions' sensors, drawn per episode or with ``fault_hint``
+(:func:`attitude_envs.jax.sensors.channel_faults`; those with fixed values are modeled) (a ``ValueError`` names them); actuator faults
 (``faults``, per-episode draws included) and ``fault_hint``; process noise (the same law, draws
 from the step's key).
 """

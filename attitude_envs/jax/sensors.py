@@ -12,8 +12,12 @@ the observation times; one with a ``period_s`` repeats its last sample until
 the bias walks by ``bias_walk_std · √Δt · N(0, 1)`` over the time since the channel's previous
 sample (since the previous observation without a period), then the noise is drawn. In
 float32 the sample test allows the rounding of the times (16 ulp of ``t``): a period that is a
-multiple of the control period samples on the numba env's (float64) steps. The draws
-come from JAX keys: the same law as the numba layer's numpy generator, not the same numbers.
+multiple of the control period samples on the numba env's (float64) steps. A sensor fault
+is active for ``onset_s ≤ t < onset_s + duration_s`` at the float times, as the actuator faults
+(:mod:`attitude_envs.jax.faults`): in float32 an onset that is not a whole multiple of the
+control period may switch one decision away from the numba env's (x64: the numba test as is;
+the flight cells' onsets are whole seconds). The draws come from JAX keys: the same law as
+the numba layer's numpy generator, not the same numbers.
 """
 
 from __future__ import annotations

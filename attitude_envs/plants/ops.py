@@ -105,9 +105,9 @@ PYTHON = Ops(
     sqrt=math.sqrt,
     fabs=math.fabs,
     where=_select.py_func,
-    fmin=min,
-    fmax=max,
-    round=lambda x: float(round(x)),
+    fmin=lambda a, b: a if a != a or a <= b else b,  # NaN propagates, as np.minimum
+    fmax=lambda a, b: a if a != a or a >= b else b,
+    round=lambda x: float(round(x)) if math.isfinite(x) else x,
     sign=lambda x: 1.0 if x > 0 else -1.0 if x < 0 else x * 0.0,  # NaN stays NaN, as np.sign
 )
 
