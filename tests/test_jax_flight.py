@@ -275,9 +275,10 @@ def test_autoreset_redraws_the_plant_and_rests_the_chain():
             "AirBearing-v1",
             {
                 "conditions": "flight",
+                "fault_hint": True,
                 "faults": [{"kind": "bias", "target": "sensor", "sensor": "gyro", "index": "random", "value": 0.1}],
             },
-            "draws its index per episode",
+            "sensor faults with fault_hint",
         ),
         (
             "FuelSlosh-v0",

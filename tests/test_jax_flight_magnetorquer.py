@@ -346,13 +346,16 @@ def test_autoreset_redraws_the_gains_and_rests_the_chain():
 def test_make_refuses_flight_features_not_modeled():
     with pytest.raises(ValueError, match="only as flight conditions' sensors"):
         make("Magnetorquer-v1", sensors={"gyro": {"noise_std": 1e-5}})
-    with pytest.raises(ValueError, match="draws its value"):
+    with pytest.raises(ValueError, match="flight conditions' sensors"):
+        make(
+            "Magnetorquer-v1", faults=[{"kind": "bias", "target": "sensor", "sensor": "gyro", "index": 0, "value": 0.1}]
+        )
+    with pytest.raises(ValueError, match="fault_hint"):
         make(
             "Magnetorquer-v1",
             conditions="flight",
-            faults=[
-                {"kind": "bias", "target": "sensor", "sensor": "gyro", "index": 0, "value": {"uniform": [0.0, 0.1]}}
-            ],
+            fault_hint=True,
+            faults=[{"kind": "bias", "target": "sensor", "sensor": "gyro", "index": 0, "value": 0.1}],
         )
     with pytest.raises(ValueError, match="indefinite"):
         make("Magnetorquer-v1", conditions={"parameters": 10}, time_varying_inertia={"amplitude_kg_m2": [0.5] * 3})

@@ -356,9 +356,10 @@ def test_state_sensor_errors_follow_the_numba_law(name):
             "LinearSystem-v0",
             {
                 "conditions": "flight",
+                "fault_hint": True,
                 "faults": [{"kind": "bias", "target": "sensor", "sensor": "state", "index": "random", "value": 0.1}],
             },
-            "draws its index",
+            "fault_hint",
         ),
         ("FuelSlosh-v0", {"conditions": {"parameters": 7.0}}, "below 90 %"),
     ],

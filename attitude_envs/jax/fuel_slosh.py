@@ -48,8 +48,8 @@ Modeled: every keyword of the numba env (``preset``/``params``, limits, periods,
 ``R``, ``observe_slosh``, ``initial_state``, ``randomize_initial_state``, the termination
 limits and ``termination_cost``, actuator ``faults`` with per-episode draws, ``fault_hint``,
 ``conditions``) except ``sensors`` in the lab (sensors only as flight conditions' sensors) and
-sensor faults outside flight conditions' sensors, drawn per episode or with ``fault_hint``
-(:func:`attitude_envs.jax.sensors.channel_faults`; those with fixed values are modeled), for which :func:`from_keywords` raises a ``ValueError`` naming them.
+sensor faults outside flight conditions' sensors or with ``fault_hint``
+(:func:`attitude_envs.jax.sensors.channel_faults`; the others are modeled, draws included), for which :func:`from_keywords` raises a ``ValueError`` naming them.
 ``design_v_x_m_s`` only sets the nominal linear model (``numba_env.model``), not the step.
 """
 
@@ -701,8 +701,8 @@ def params_of(
 def from_keywords(plant: str, kwargs: dict[str, Any]) -> tuple[FuelSloshEnv, EnvParams]:
     """The JAX ``plant`` and its ``EnvParams`` for the numba env's keywords ``kwargs``, validated
     as the numba env validates them (no numba env is built). A ``ValueError`` names what the
-    JAX plant does not model (``sensors`` or sensor faults in the lab, sensor faults drawn per
-    episode or with ``fault_hint``)."""
+    JAX plant does not model (``sensors`` or sensor faults in the lab, sensor faults with
+    ``fault_hint``)."""
     check_keywords(NumbaFuelSloshEnv, kwargs)
     cfg = configure({**keyword_defaults(NumbaFuelSloshEnv), **kwargs})
     obs_index = OBS_INDEX if cfg.observe_slosh else OBS_INDEX_NO_SLOSH

@@ -51,7 +51,7 @@ and state). Per-episode plants in the state cost speed: each env's RK4 reads its
 Modeled: every keyword of ReactionWheel-v0/-v1 and AirBearing-v0/-v1 but these, for which
 :func:`from_keywords` (and :func:`attitude_envs.jax.make`) raises a one-line ``ValueError``
 naming them: a ``sensors`` keyword in the lab (sensors only as flight conditions' sensors,
-which an explicit ``sensors`` dict may replace), sensor faults in the lab, or drawn per episode, or
+which an explicit ``sensors`` dict may replace), sensor faults in the lab or
 with ``fault_hint`` (:func:`attitude_envs.jax.sensors.channel_faults`); a ``disturbance`` other than ``"constant"``
 (sinusoidal, random walk); ``inertia_uncertainty`` of kind ``"random"`` (``"fixed"`` is
 modeled; vmap over :func:`with_inertia` instead); ``render_mode``.

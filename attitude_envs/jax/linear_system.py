@@ -33,8 +33,8 @@ layer's law, not its draws); the observation is then the measurement, as the num
 (``flight`` and ``sensors`` None in the env, its params and state).
 
 Modeled: every keyword of the numba env except ``sensors`` in the lab (sensors only as flight
-conditions' sensors) and sensor faults outside flight conditions' sensors, drawn per episode or with ``fault_hint``
-(:func:`attitude_envs.jax.sensors.channel_faults`; those with fixed values are modeled) (a ``ValueError`` names them); actuator faults
+conditions' sensors) and sensor faults outside flight conditions' sensors or with ``fault_hint``
+(:func:`attitude_envs.jax.sensors.channel_faults`; the others are modeled, draws included) (a ``ValueError`` names them); actuator faults
 (``faults``, per-episode draws included) and ``fault_hint``; process noise (the same law, draws
 from the step's key).
 """
@@ -512,8 +512,8 @@ def params_of(cfg: LinearSystemConfig, fault_configs: tuple[dict, ...] = (), lay
 def from_keywords(plant: str, kwargs: dict[str, Any]) -> tuple[LinearSystemEnv, EnvParams]:
     """The JAX ``plant`` and its ``EnvParams`` for the numba env's keywords ``kwargs``, validated
     as the numba env validates them (no numba env is built). A ``ValueError`` names what the
-    JAX plant does not model (``sensors`` or sensor faults in the lab, sensor faults drawn per
-    episode or with ``fault_hint``)."""
+    JAX plant does not model (``sensors`` or sensor faults in the lab, sensor faults with
+    ``fault_hint``)."""
     check_keywords(NumbaLinearSystemEnv, kwargs)
     cfg = configure({**keyword_defaults(NumbaLinearSystemEnv), **kwargs})
     n, m, k = cfg.model.n, cfg.model.m, cfg.decision_steps

@@ -52,8 +52,8 @@ its state, and the compiled step is the lab's.
 
 Modeled: every keyword of the numba env except a ``sensors`` keyword in the lab (sensors
 only as flight conditions' sensors, which an explicit ``sensors`` dict may replace),
-sensor faults outside flight conditions' sensors, drawn per episode or with ``fault_hint``
-(:func:`attitude_envs.jax.sensors.channel_faults`; those with fixed values are modeled), ``field_model="igrf"`` (the IGRF table needs ``ppigrf`` on the host per
+sensor faults outside flight conditions' sensors or with ``fault_hint``
+(:func:`attitude_envs.jax.sensors.channel_faults`; the others are modeled, draws included), ``field_model="igrf"`` (the IGRF table needs ``ppigrf`` on the host per
 episode) and an ``inertia_uncertainty`` or flight inertia draw that could make ``I + ΔJ(t)``
 indefinite (the numba env raises at such a reset); :func:`from_keywords` raises a ``ValueError``
 naming them. Episode draws (orbit

@@ -2,9 +2,9 @@
 white noise, a bias drawn at reset, its random walk, and a sample period with
 sample-and-hold between samples (a star tracker slower than the control loop), for vector
 channels (additive errors) and attitude channels (``q_m = q ⊗ exp(e)``, ``e`` a body rotation
-vector), and the sensor faults of :mod:`attitude_envs.sensors` with fixed values (every kind:
-bias, drift, stuck, dropout, noise increase; the episode's faults are the same in every
-episode, so a fault whose axis, value, onset or duration is drawn is refused by name).
+vector), and the sensor faults of :mod:`attitude_envs.sensors` (every kind: bias, drift, stuck,
+dropout, noise increase; an axis, value, onset or duration given as a draw is drawn at each
+reset, :func:`realize`).
 
 :meth:`attitude_envs.sensors.SensorSuite.measure`'s law, step for step: a channel samples at
 the observation times; one with a ``period_s`` repeats its last sample until
@@ -22,7 +22,7 @@ the numba layer's numpy generator, not the same numbers.
 
 from __future__ import annotations
 
-import copy
+import math
 from typing import Any
 
 import jax
@@ -49,7 +49,9 @@ class ChannelFaults:
     per fault: ``kind`` (:data:`FAULT_CODES`), ``index`` (an axis; −1: the whole reading),
     ``value`` (channel units; NaN: a stuck reading holds the measurement at onset), ``onset_s``
     and ``end_s`` (s; active for ``onset_s ≤ t < end_s``, inf: no end) and ``hold`` (a dropout
-    repeats the last delivered sample, else reads NaN)."""
+    repeats the last delivered sample, else reads NaN); ``draws`` (:class:`FaultDraws`; None:
+    every fault fixed, the same in every episode) redraws the axis, value, onset and end of
+    each episode's faults at its reset, into the channel's state."""
 
     kind: jax.Array
     index: jax.Array
@@ -57,6 +59,28 @@ class ChannelFaults:
     onset_s: jax.Array
     end_s: jax.Array
     hold: jax.Array
+    draws: FaultDraws | None = None
+
+
+@struct.dataclass
+class FaultDraws:
+    """How a channel's sensor faults are drawn at each reset (:meth:`SensorSuite.reset`'s law),
+    one entry per fault: uniform ``value_low``/``value_high`` (NaN: no value),
+    ``onset_low``/``onset_high`` and ``duration_low``/``duration_high`` (s; ``has_end`` False:
+    no end), ``random_index`` (the axis uniform over the channel's ``axes``) and ``group`` (the
+    fault dict it came from, within the channel: one index, onset and duration per dict, one
+    value per entry). Equal bounds give the number itself."""
+
+    value_low: jax.Array
+    value_high: jax.Array
+    onset_low: jax.Array
+    onset_high: jax.Array
+    duration_low: jax.Array
+    duration_high: jax.Array
+    has_end: jax.Array
+    random_index: jax.Array
+    axes: jax.Array
+    group: jax.Array
 
 
 @struct.dataclass
@@ -78,7 +102,8 @@ class ChannelState:
     """One channel's runtime state: its ``bias``, ``last`` sample (the channel's size: 4 for an
     attitude), the time of its last sample ``sampled`` (s) and ``has_sampled``; with faults
     the stuck faults' ``held`` readings (faults × size) and ``latched`` flags, and whether a
-    sample was ``delivered`` yet (a dropout's hold repeats it)."""
+    sample was ``delivered`` yet (a dropout's hold repeats it); the episode's ``faults`` where
+    they are drawn per episode (None: the params' own)."""
 
     bias: jax.Array
     last: jax.Array
@@ -87,6 +112,7 @@ class ChannelState:
     held: jax.Array | None = None
     latched: jax.Array | None = None
     delivered: jax.Array | None = None
+    faults: ChannelFaults | None = None
 
 
 def params_of(config: dict, axes: int, dtype, faults: ChannelFaults | None = None) -> ChannelParams:
@@ -106,69 +132,135 @@ def params_of(config: dict, axes: int, dtype, faults: ChannelFaults | None = Non
     )
 
 
-def _drawn(config: dict) -> str | None:
-    """The first entry of a sensor fault dict that is drawn per episode (None: every one fixed)."""
-    if config.get("index", "random") == "random":
-        return "index"
-    for key in ("value", "onset_s", "duration_s"):
-        if isinstance(config.get(key), dict):
-            return key
-    return None
+def _bounds(spec) -> tuple[float, float]:
+    """``(low, high)`` of a validated number or ``{"uniform": [low, high]}`` (NaN, NaN: None)."""
+    if spec is None:
+        return math.nan, math.nan
+    if isinstance(spec, dict):
+        return float(spec["uniform"][0]), float(spec["uniform"][1])
+    return float(spec), float(spec)
 
 
 def channel_faults(suite: Any, dtype, where: str, fault_hint: bool = False) -> dict[str, ChannelFaults]:
     """Each faulted channel's :class:`ChannelFaults` of a numba :class:`attitude_envs.sensors.SensorSuite`
-    ``suite`` (its configured sensor faults, realized once: they are fixed). A ``ValueError``
-    naming ``where`` (the plant) for a fault drawn per episode, on a channel without a sensor
-    model, or with ``fault_hint`` (the twins' observation holds no sensor fault flags)."""
+    ``suite``: its validated sensor fault dicts expanded as its ``reset`` expands them (``index:
+    "all"`` one entry per axis, or one whole-reading entry for a stuck or dropped attitude), with
+    :class:`FaultDraws` where an axis, value, onset or duration is drawn per episode. A
+    ``ValueError`` naming ``where`` (the plant) for a fault on a channel without a sensor model,
+    or with ``fault_hint`` (the twins' observation holds no sensor fault flags)."""
     if suite.fault_configs and fault_hint:
         raise ValueError(f"{where}: sensor faults with fault_hint are not modeled (its sensor flags read 0)")
+    entries: dict[str, list[dict]] = {}
     for i, c in enumerate(suite.fault_configs):
-        drawn = _drawn(c)
-        if drawn is not None:
+        name, kind = c["sensor"], c["kind"]
+        if name not in suite.config:
             raise ValueError(
-                f"{where}: sensor fault {i} ({c['kind']} on {c['sensor']}) draws its {drawn} per episode, which is "
-                "not modeled (give a fixed index, value, onset_s and duration_s)"
-            )
-        if c["sensor"] not in suite.config:
-            raise ValueError(
-                f"{where}: sensor fault {i} ({c['kind']}) is on {c['sensor']!r}, which has no sensor model here "
+                f"{where}: sensor fault {i} ({kind}) is on {name!r}, which has no sensor model here "
                 "(the flight conditions' sensors model every channel)"
             )
-    if not suite.fault_configs:
-        return {}
-    realized = copy.deepcopy(suite)
-    realized.reset(np.random.default_rng(0))  # fixed faults: the draws do not enter
-    out = {}
-    for name in suite.channels:
-        faults = [f for f in realized.realized if f.sensor == name]
-        if not faults:
-            continue
+        channel = suite.channels[name]
+        index = c.get("index", "random")
+        if index == "all" and channel.kind == "attitude" and kind in ("stuck", "dropout"):
+            axes = [-1]
+        elif index == "all":
+            axes = list(range(channel.axes))
+        else:
+            axes = [0 if index == "random" else int(index)]
+        group = len({e["group"] for e in entries.get(name, [])})
+        onset, duration = _bounds(c.get("onset_s", 0.0)), _bounds(c.get("duration_s"))
+        for axis in axes:
+            entries.setdefault(name, []).append(
+                {
+                    "kind": FAULT_CODES[kind],
+                    "index": axis,
+                    "value": _bounds(c.get("value")),
+                    "onset": onset,
+                    "duration": duration,
+                    "random_index": index == "random",
+                    "axes": channel.axes,
+                    "group": group,
+                    "hold": kind == "dropout" and c.get("mode", "nan") == "hold",
+                }
+            )
+    return {name: _as_arrays(faults, dtype) for name, faults in entries.items()}
 
-        def f(values, dt=dtype):
-            return jnp.asarray(np.asarray(values, dtype=float), dtype=dt)
 
-        out[name] = ChannelFaults(
-            kind=jnp.asarray([FAULT_CODES[x.kind] for x in faults], jnp.int32),
-            index=jnp.asarray([-1 if x.index == "all" else int(x.index) for x in faults], jnp.int32),
-            value=f([np.nan if x.value is None else x.value for x in faults]),
-            onset_s=f([x.onset_s for x in faults]),
-            end_s=f([np.inf if x.duration_s is None else x.onset_s + x.duration_s for x in faults]),
-            hold=jnp.asarray([x.kind == "dropout" and x.mode == "hold" for x in faults]),
+def _as_arrays(faults: list[dict], dtype) -> ChannelFaults:
+    """One channel's expanded fault entries (:func:`channel_faults`) as arrays."""
+
+    def f(key, part):
+        return jnp.asarray(np.asarray([e[key][part] for e in faults], dtype=float), dtype=dtype)
+
+    def col(key, dt):
+        return jnp.asarray([e[key] for e in faults], dt)
+
+    fixed_end = all(math.isnan(e["duration"][0]) or e["duration"][0] == e["duration"][1] for e in faults)
+    fixed = fixed_end and not any(
+        e["random_index"] or e["value"][0] != e["value"][1] or e["onset"][0] != e["onset"][1] for e in faults
+    )
+    duration = f("duration", 0)
+    draws = None
+    if not fixed:
+        draws = FaultDraws(
+            value_low=f("value", 0),
+            value_high=f("value", 1),
+            onset_low=f("onset", 0),
+            onset_high=f("onset", 1),
+            duration_low=jnp.nan_to_num(duration),
+            duration_high=jnp.nan_to_num(f("duration", 1)),
+            has_end=jnp.logical_not(jnp.isnan(duration)),
+            random_index=col("random_index", bool),
+            axes=col("axes", jnp.int32),
+            group=col("group", jnp.int32),
         )
-    return out
+    return ChannelFaults(
+        kind=col("kind", jnp.int32),
+        index=col("index", jnp.int32),
+        value=f("value", 0),
+        onset_s=f("onset", 0),
+        end_s=f("onset", 0) + jnp.where(jnp.isnan(duration), jnp.inf, duration),
+        hold=col("hold", bool),
+        draws=draws,
+    )
+
+
+def realize(key: jax.Array, f: ChannelFaults) -> ChannelFaults:
+    """An episode's faults of ``f`` drawn from ``key`` (:class:`FaultDraws`; the numba layer's
+    law, not its draws): per fault dict one axis ``⌊U·axes⌋`` where drawn, one onset and one
+    duration ``low + (high − low)·U``; per fault one value."""
+    d = f.draws
+    n = f.kind.shape[0]
+    dtype = f.value.dtype
+    k_group, k_value = jax.random.split(key)
+    u = jax.random.uniform(k_group, (n, 3), dtype)[d.group]  # the groups' draws, per fault
+    axis = jnp.minimum(jnp.floor(u[:, 0] * d.axes).astype(jnp.int32), d.axes - 1)
+    onset = d.onset_low + (d.onset_high - d.onset_low) * u[:, 1]
+    duration = d.duration_low + (d.duration_high - d.duration_low) * u[:, 2]
+    value = d.value_low + (d.value_high - d.value_low) * jax.random.uniform(k_value, (n,), dtype)
+    return f.replace(
+        index=jnp.where(d.random_index, axis, f.index),
+        value=value,
+        onset_s=onset,
+        end_s=jnp.where(d.has_end, onset + duration, jnp.inf),
+        draws=None,
+    )
 
 
 def initial_state(key: jax.Array, p: ChannelParams, truth: jax.Array) -> ChannelState:
-    """A channel at reset, before its first sample: its bias drawn, no sample yet."""
+    """A channel at reset, before its first sample: its bias drawn (and its faults, where they
+    are drawn per episode: :func:`realize`, from ``key`` folded with 1), no sample yet."""
     bias = p.initial_bias + p.initial_bias_std * jax.random.normal(key, p.noise_std.shape, p.noise_std.dtype)
     zero = jnp.zeros((), dtype=truth.dtype)
     state = ChannelState(bias=bias, last=truth, sampled=zero, has_sampled=jnp.asarray(False))
     if p.faults is None:
         return state
     n = p.faults.kind.shape[0]
+    drawn = None if p.faults.draws is None else realize(jax.random.fold_in(key, 1), p.faults)
     return state.replace(
-        held=jnp.zeros((n,) + truth.shape, truth.dtype), latched=jnp.zeros(n, bool), delivered=jnp.asarray(False)
+        held=jnp.zeros((n,) + truth.shape, truth.dtype),
+        latched=jnp.zeros(n, bool),
+        delivered=jnp.asarray(False),
+        faults=drawn,
     )
 
 
@@ -223,7 +315,7 @@ def measure(
     walk = jax.random.normal(k_walk, axes, dtype)
     noise = jax.random.normal(k_noise, axes, dtype)
     bias = jnp.where(dt > 0, s.bias + p.bias_walk_std * jnp.sqrt(jnp.maximum(dt, 0.0)) * walk, s.bias)
-    faults = p.faults
+    faults = p.faults if s.faults is None else s.faults
     if faults is None:
         err = bias + p.noise_std * noise
     else:
@@ -232,9 +324,8 @@ def measure(
         err = err + p.noise_std * scale * noise
     m = jq.multiply(truth, jq.from_rotvec(err)) if attitude else truth + err
     sample = jnp.logical_not(hold)
-    state = ChannelState(
+    state = s.replace(
         bias=jnp.where(hold, s.bias, bias),
-        last=s.last,
         sampled=jnp.where(periodic & sample, t_s, s.sampled),
         has_sampled=s.has_sampled | (periodic & sample),
     )
