@@ -274,20 +274,15 @@ def test_autoreset_redraws_the_plant_and_rests_the_chain():
         (
             "AirBearing-v1",
             {
-                "conditions": "flight",
-                "fault_hint": True,
+                "conditions": {"base": "flight", "sensors": 0},
                 "faults": [{"kind": "bias", "target": "sensor", "sensor": "gyro", "index": "random", "value": 0.1}],
             },
-            "sensor faults with fault_hint",
+            "only on flight conditions' sensors",
         ),
         (
             "FuelSlosh-v0",
-            {
-                "conditions": "flight",
-                "fault_hint": True,
-                "faults": [{"kind": "bias", "target": "sensor", "sensor": "state", "index": 2, "value": 1e-3}],
-            },
-            "sensor faults with fault_hint",
+            {"faults": [{"kind": "bias", "target": "sensor", "sensor": "state", "index": 2, "value": 1e-3}]},
+            "only on flight conditions' sensors",
         ),
         ("LinearSystem-v0", {"sensors": {"state": {"noise_std": 1e-3}}}, "only as flight conditions' sensors"),
     ],

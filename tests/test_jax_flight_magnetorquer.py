@@ -63,7 +63,8 @@ CONFIGS = {
         "reset",
     ),
     # the flight cells' sensor faults and the others, on the noiseless sensors: a gyro bias jump,
-    # a magnetometer outage holding its last sample, a stuck star tracker and a tachometer drift
+    # a magnetometer outage holding its last sample, a stuck star tracker and a tachometer drift,
+    # with the fault flags in the observation
     "Magnetorquer-v0 flight, noiseless sensors, sensor faults": (
         "Magnetorquer-v0",
         {
@@ -72,6 +73,7 @@ CONFIGS = {
             "observe_field": True,
             "orbit": {"mean_anomaly_deg": 30.0},
             "episode_duration_s": 6.0,
+            "fault_hint": True,
             "faults": [
                 {"kind": "bias", "target": "sensor", "sensor": "gyro", "index": 0, "value": 1e-3, "onset_s": 1.0},
                 {
@@ -349,13 +351,6 @@ def test_make_refuses_flight_features_not_modeled():
     with pytest.raises(ValueError, match="flight conditions' sensors"):
         make(
             "Magnetorquer-v1", faults=[{"kind": "bias", "target": "sensor", "sensor": "gyro", "index": 0, "value": 0.1}]
-        )
-    with pytest.raises(ValueError, match="fault_hint"):
-        make(
-            "Magnetorquer-v1",
-            conditions="flight",
-            fault_hint=True,
-            faults=[{"kind": "bias", "target": "sensor", "sensor": "gyro", "index": 0, "value": 0.1}],
         )
     with pytest.raises(ValueError, match="indefinite"):
         make("Magnetorquer-v1", conditions={"parameters": 10}, time_varying_inertia={"amplitude_kg_m2": [0.5] * 3})

@@ -355,11 +355,10 @@ def test_state_sensor_errors_follow_the_numba_law(name):
         (
             "LinearSystem-v0",
             {
-                "conditions": "flight",
-                "fault_hint": True,
+                "conditions": {"base": "flight", "sensors": 0},
                 "faults": [{"kind": "bias", "target": "sensor", "sensor": "state", "index": "random", "value": 0.1}],
             },
-            "fault_hint",
+            "only on flight conditions' sensors",
         ),
         ("FuelSlosh-v0", {"conditions": {"parameters": 7.0}}, "below 90 %"),
     ],

@@ -200,13 +200,6 @@ def test_faults_drawn_per_episode_follow_the_numba_law():
     [
         (
             {
-                "fault_hint": True,
-                "faults": [{"kind": "bias", "target": "sensor", "sensor": "state", "index": 0, "value": 0.1}],
-            },
-            "fault_hint",
-        ),
-        (
-            {
                 "conditions": {"base": "flight", "sensors": 0},
                 "faults": [{"kind": "bias", "target": "sensor", "sensor": "state", "index": 0, "value": 0.1}],
             },
@@ -220,11 +213,13 @@ def test_make_names_the_sensor_faults_not_modeled(kwargs, named):
     assert "\n" not in str(err.value)
 
 
-def test_linear_system_flight_cell_faults_as_the_numba_env():
+@pytest.mark.parametrize("fault_hint", [False, True])
+def test_linear_system_flight_cell_faults_as_the_numba_env(fault_hint):
     """LinearSystem-v1 under flight conditions with a noiseless state sensor, its flight cell's
     outage (the state sensor holding its last sample for 100 s) and a bias on entry 3: from the
     paper's start (the numba episode's drawn gains given to the JAX reset), every observation
-    of a whole episode equals the numba env's to float32 rounding (x64), and the outage held."""
+    of a whole episode equals the numba env's to float32 rounding (x64), and the outage held;
+    with ``fault_hint`` the sensor's flag among them."""
     from attitude_envs.jax import linear_system
     from attitude_envs.jax.make import numba_env
 
@@ -240,7 +235,12 @@ def test_linear_system_flight_cell_faults_as_the_numba_env():
         },
         {"kind": "bias", "target": "sensor", "sensor": "state", "index": 3, "value": 0.01, "onset_s": 200.0},
     ]
-    kwargs = {"conditions": "flight", "sensors": {"state": {"noise_std": 0.0}}, "faults": faults}
+    kwargs = {
+        "conditions": "flight",
+        "sensors": {"state": {"noise_std": 0.0}},
+        "faults": faults,
+        "fault_hint": fault_hint,
+    }
     ne = numba_env("LinearSystem-v1", **kwargs)
     obs0, _ = ne.reset(seed=0)
     actions = np.random.default_rng(0).uniform(-1.0, 1.0, (80, ne.action_space.shape[0]))  # 400 s of 5 s decisions
@@ -261,5 +261,8 @@ def test_linear_system_flight_cell_faults_as_the_numba_env():
             got.append(np.asarray(o))
     want = np.array(want)
     np.testing.assert_allclose(np.array(got), want, rtol=2.0**-23, atol=1e-12)
-    held = want[10:30]  # decisions every 5 s: the outage holds the reading of 45 s from 50 s to 150 s
-    assert np.all(held == want[9]) and not np.all(want[30] == want[9])
+    n = want.shape[1] - (ne.n_hint_flags if fault_hint else 0)
+    held = want[10:30, :n]  # decisions every 5 s: the outage holds the reading of 45 s from 50 s to 150 s
+    assert np.all(held == want[9, :n]) and not np.all(want[30, :n] == want[9, :n])
+    if fault_hint:  # the state sensor's flag: on through the outage and from the bias on
+        np.testing.assert_array_equal(want[:, -1], [1.0 if 10 <= k < 30 or k >= 40 else 0.0 for k in range(len(want))])

@@ -48,8 +48,8 @@ Modeled: every keyword of the numba env (``preset``/``params``, limits, periods,
 ``R``, ``observe_slosh``, ``initial_state``, ``randomize_initial_state``, the termination
 limits and ``termination_cost``, actuator ``faults`` with per-episode draws, ``fault_hint``,
 ``conditions``) except ``sensors`` in the lab (sensors only as flight conditions' sensors) and
-sensor faults outside flight conditions' sensors or with ``fault_hint``
-(:func:`attitude_envs.jax.sensors.channel_faults`; the others are modeled, draws included), for which :func:`from_keywords` raises a ``ValueError`` naming them.
+sensor faults outside flight conditions' sensors
+(:func:`attitude_envs.jax.sensors.channel_faults`; the others are modeled, draws and ``fault_hint`` flags included), for which :func:`from_keywords` raises a ``ValueError`` naming them.
 ``design_v_x_m_s`` only sets the nominal linear model (``numba_env.model``), not the step.
 """
 
@@ -370,14 +370,25 @@ class FuelSloshEnv(Environment):
         return "FuelSlosh"
 
     # ------------------------------------------------------------------ dynamics
-    def _observe(self, y: jax.Array, faults: jfaults.FaultParams, t_s, measured: jax.Array | None = None) -> jax.Array:
+    def _observe(
+        self,
+        y: jax.Array,
+        faults: jfaults.FaultParams,
+        t_s,
+        measured: jax.Array | None = None,
+        sensor_flag: jax.Array | None = None,
+    ) -> jax.Array:
         """The observation of the full state ``y`` at ``t_s`` (s), or of the sensors'
-        ``measured`` entries (the unmeasured ones then read 0), with the hint flags."""
+        ``measured`` entries (the unmeasured ones then read 0), with the hint flags (the
+        ``state`` sensor's ``sensor_flag``: None, 0)."""
         obs = _take(y, self.obs_index) if measured is None else self._reading(measured)
         if not self.fault_hint:
             return obs
         flags = jfaults.active_flags(faults, t_s, N_ACTUATORS).astype(y.dtype)
-        return jnp.concatenate([obs, flags, jnp.zeros(self.n_hint_flags - N_ACTUATORS, y.dtype)])
+        rest = jnp.zeros(self.n_hint_flags - N_ACTUATORS, y.dtype)
+        if sensor_flag is not None:
+            rest = rest.at[0].set(sensor_flag)
+        return jnp.concatenate([obs, flags, rest])
 
     def step_env(self, key: jax.Array, state: EnvState, action: jax.Array, params: EnvParams):
         """One decision: clip the action to [-1, 1], scale it to ``[δ (rad), M_c (N·m)]``,
@@ -433,7 +444,7 @@ class FuelSloshEnv(Environment):
             key_sensor = jax.random.fold_in(key, jsens.SENSOR_STREAM)
             truth = _take(y, self.obs_index)
             m, measured = jsens.measure_state(key_sensor, params.sensors, state.sensors, truth, t_next)
-            obs = self._observe(y, state.faults, t_next, m)
+            obs = self._observe(y, state.faults, t_next, m, jsens.state_flag(params.sensors, measured, t_next, y.dtype))
             sensors = jax.tree.map(lambda a, b: jnp.where(finite, a, b), measured, state.sensors)
         obs = jnp.where(finite, obs, jnp.zeros_like(obs))
         new_state = EnvState(
@@ -483,7 +494,8 @@ class FuelSloshEnv(Environment):
             return self._observe(y, faults, zero), state
         key_sensor = jax.random.fold_in(key, jsens.SENSOR_STREAM)
         m, sensors = jsens.start_state_sensor(key_sensor, params.sensors, _take(y, self.obs_index))
-        return self._observe(y, faults, zero, m), state.replace(sensors=sensors)
+        flag = jsens.state_flag(params.sensors, sensors, zero, dtype)
+        return self._observe(y, faults, zero, m, flag), state.replace(sensors=sensors)
 
     def _faulted(self, key: jax.Array, state: EnvState, c: jax.Array, t_s, limits: jax.Array):
         """The episode's actuator faults on ``c`` (``[δ rad, M_c N·m]``) at ``t_s`` (s):
@@ -672,7 +684,7 @@ def params_of(
         )
         config = layers.sensor_layer.config.get("state")
         n_obs = len(OBS_INDEX if cfg.observe_slosh else OBS_INDEX_NO_SLOSH)
-        sensor_faults = jsens.channel_faults(layers.sensor_layer, dtype, "FuelSlosh JAX plant", layers.fault_hint)
+        sensor_faults = jsens.channel_faults(layers.sensor_layer, dtype, "FuelSlosh JAX plant")
         sensors = None if config is None else jsens.params_of(config, n_obs, dtype, sensor_faults.get("state"))
     return EnvParams(
         plant=PlantParams(**physical, actuator_limits=f([cfg.model.max_gimbal_rad, cfg.model.max_moment_nm])),
@@ -701,8 +713,7 @@ def params_of(
 def from_keywords(plant: str, kwargs: dict[str, Any]) -> tuple[FuelSloshEnv, EnvParams]:
     """The JAX ``plant`` and its ``EnvParams`` for the numba env's keywords ``kwargs``, validated
     as the numba env validates them (no numba env is built). A ``ValueError`` names what the
-    JAX plant does not model (``sensors`` or sensor faults in the lab, sensor faults with
-    ``fault_hint``)."""
+    JAX plant does not model (``sensors`` or sensor faults in the lab)."""
     check_keywords(NumbaFuelSloshEnv, kwargs)
     cfg = configure({**keyword_defaults(NumbaFuelSloshEnv), **kwargs})
     obs_index = OBS_INDEX if cfg.observe_slosh else OBS_INDEX_NO_SLOSH

@@ -51,8 +51,8 @@ and state). Per-episode plants in the state cost speed: each env's RK4 reads its
 Modeled: every keyword of ReactionWheel-v0/-v1 and AirBearing-v0/-v1 but these, for which
 :func:`from_keywords` (and :func:`attitude_envs.jax.make`) raises a one-line ``ValueError``
 naming them: a ``sensors`` keyword in the lab (sensors only as flight conditions' sensors,
-which an explicit ``sensors`` dict may replace), sensor faults in the lab or
-with ``fault_hint`` (:func:`attitude_envs.jax.sensors.channel_faults`); a ``disturbance`` other than ``"constant"``
+which an explicit ``sensors`` dict may replace), sensor faults in the lab
+(:func:`attitude_envs.jax.sensors.channel_faults`); a ``disturbance`` other than ``"constant"``
 (sinusoidal, random walk); ``inertia_uncertainty`` of kind ``"random"`` (``"fixed"`` is
 modeled; vmap over :func:`with_inertia` instead); ``render_mode``.
 """
@@ -633,9 +633,18 @@ class GyrostatEnv(Environment):
         aug, applied = jax.lax.fori_loop(0, n_sub, substep, (aug0, (zero,) * n))
         return jnp.stack(aug[:-1]), aug[-1], jnp.stack(applied)
 
-    def _observe(self, y: jax.Array, target: jax.Array, faults: jfaults.FaultParams, t_s, params: EnvParams):
-        """The observation of state ``y`` at ``t_s`` (s) under the episode's ``faults``, the
-        error state ``x`` and ``q_e,w``."""
+    def _observe(
+        self,
+        y: jax.Array,
+        target: jax.Array,
+        faults: jfaults.FaultParams,
+        t_s,
+        params: EnvParams,
+        sensors: jsens.SuiteState | None = None,
+    ):
+        """The observation of state ``y`` at ``t_s`` (s) under the episode's ``faults`` (and,
+        for the ``fault_hint`` flags, the faults of the ``sensors``), the error state ``x`` and
+        ``q_e,w``."""
         y_s, target_s = tuple(y[i] for i in range(7 + self.n_wheels)), tuple(target[i] for i in range(4))
         # the error state reads only J_s of the constants: a C of that one scalar (offset 0)
         x, qe_w = _error_state(
@@ -653,7 +662,7 @@ class GyrostatEnv(Environment):
             parts.append(y[7:] / params.plant.max_wheel_speed_rad_s)
         if self.fault_hint:
             flags = jfaults.active_flags(faults, t_s, self.n_wheels).astype(y.dtype)
-            parts += [flags, jnp.zeros(_N_SENSOR_CHANNELS, dtype=y.dtype)]
+            parts += [flags, jsens.suite_flags(params.sensors, sensors, tuple(_SLICES), t_s, y.dtype)]
         return jnp.concatenate(parts), x, qe_w
 
     def step_env(self, key: jax.Array, state: EnvState, action: jax.Array, params: EnvParams):
@@ -698,7 +707,7 @@ class GyrostatEnv(Environment):
             y_m, measured_state = self._measure(
                 jax.random.fold_in(key, jsens.SENSOR_STREAM), p, state.sensors, y_new, t1
             )
-            obs = self._observe(y_m, state.target_attitude, state.faults, t1, p)[0]
+            obs = self._observe(y_m, state.target_attitude, state.faults, t1, p, measured_state)[0]
             sensor_state = jax.tree.map(lambda a, b: jnp.where(finite, a, b), measured_state, state.sensors)
         rate = jnp.max(jnp.abs(y_new[4:7]))
         tilt = _G.tilt_lane(y_new[0], y_new[1], y_new[2], y_new[3], p.cost.tilt_sin, p.cost.tilt_cos)
@@ -847,7 +856,7 @@ class GyrostatEnv(Environment):
         """The observation of ``state`` (the error state, wheel speeds, fault flags)."""
         y = self.measured_row(state)
         t_s = state.time.astype(y.dtype) * params.timing.control_dt_s
-        return self._observe(y, state.target_attitude, state.faults, t_s, params)[0]
+        return self._observe(y, state.target_attitude, state.faults, t_s, params, state.sensors)[0]
 
     # ------------------------------------------------------------------ from the numba env
     def state_from(
@@ -1035,7 +1044,7 @@ def _params_of(cfg: GyrostatConfig, cls: type[ReactionWheelEnv], euler_max_deg: 
         mode = START_AXIS_ANGLE
     sensor_config = layers.sensor_layer.config if layers.sensor_layer.enabled else {}
     axes = {name: (3 if name != "tachometer" else plant.n_wheels) for name in _SLICES}
-    sensor_faults = jsens.channel_faults(layers.sensor_layer, dtype, "JAX gyrostat", layers.fault_hint)
+    sensor_faults = jsens.channel_faults(layers.sensor_layer, dtype, "JAX gyrostat")
     sensor_params = jsens.suite_params(sensor_config, axes, dtype, sensor_faults)
     identity = np.array([0.0, 0.0, 0.0, 1.0])
     rate, target = cfg.initial_rate_rad_s, cfg.target_attitude

@@ -33,8 +33,8 @@ layer's law, not its draws); the observation is then the measurement, as the num
 (``flight`` and ``sensors`` None in the env, its params and state).
 
 Modeled: every keyword of the numba env except ``sensors`` in the lab (sensors only as flight
-conditions' sensors) and sensor faults outside flight conditions' sensors or with ``fault_hint``
-(:func:`attitude_envs.jax.sensors.channel_faults`; the others are modeled, draws included) (a ``ValueError`` names them); actuator faults
+conditions' sensors) and sensor faults outside flight conditions' sensors
+(:func:`attitude_envs.jax.sensors.channel_faults`; the others are modeled, draws and ``fault_hint`` flags included) (a ``ValueError`` names them); actuator faults
 (``faults``, per-episode draws included) and ``fault_hint``; process noise (the same law, draws
 from the step's key).
 """
@@ -252,11 +252,16 @@ class LinearSystemEnv(Environment):
         x_next, stages = jax.lax.scan(one, x, noise)
         return x_next, jnp.sum(stages)
 
-    def _observe(self, x: jax.Array, faults: jfaults.FaultParams, t_s) -> jax.Array:
+    def _observe(
+        self, x: jax.Array, faults: jfaults.FaultParams, t_s, sensor_flag: jax.Array | None = None
+    ) -> jax.Array:
+        """The observation ``x`` with the ``fault_hint`` flags: the actuators', then the ``state``
+        sensor's ``sensor_flag`` (None: 0)."""
         if not self.fault_hint:
             return x
         flags = jfaults.active_flags(faults, t_s, self.m).astype(x.dtype)
-        return jnp.concatenate([x, flags, jnp.zeros(1, x.dtype)])
+        sensor = jnp.zeros(1, x.dtype) if sensor_flag is None else sensor_flag[None].astype(x.dtype)
+        return jnp.concatenate([x, flags, sensor])
 
     def _faulted(self, key: jax.Array, state: EnvState, c: jax.Array, t_s, params: EnvParams):
         """The episode's actuator faults on the inputs ``c`` at ``t_s`` (s): ``(u, fault state)``."""
@@ -309,7 +314,9 @@ class LinearSystemEnv(Environment):
         if self.sensors:  # sampled at the step's end when the state is finite (as the numba env)
             key_sensor = jax.random.fold_in(key, jsens.SENSOR_STREAM)
             m, measured = jsens.measure_state(key_sensor, params.sensors, state.sensors, x_next, t_next)
-            obs = self._observe(m, state.faults, t_next)
+            obs = self._observe(
+                m, state.faults, t_next, jsens.state_flag(params.sensors, measured, t_next, x_next.dtype)
+            )
             sensors = jax.tree.map(lambda a, b: jnp.where(finite, a, b), measured, state.sensors)
         obs = jnp.where(finite, obs, jnp.zeros_like(obs))
         new_state = EnvState(
@@ -350,7 +357,9 @@ class LinearSystemEnv(Environment):
         if not self.sensors:
             return self._observe(x0, faults, zero), state
         m, sensors = jsens.start_state_sensor(jax.random.fold_in(key, jsens.SENSOR_STREAM), params.sensors, x0)
-        return self._observe(m, faults, zero), state.replace(sensors=sensors)
+        return self._observe(m, faults, zero, jsens.state_flag(params.sensors, sensors, zero, dtype)), state.replace(
+            sensors=sensors
+        )
 
     def _draw_flight(self, key: jax.Array, params: EnvParams) -> FlightState:
         """An episode's flight state: the actuator chain at rest and, with the gains drawn,
@@ -481,7 +490,7 @@ def params_of(cfg: LinearSystemConfig, fault_configs: tuple[dict, ...] = (), lay
             given_gain=f(np.ones(m)),
         )
         config = layers.sensor_layer.config.get("state")
-        sensor_faults = jsens.channel_faults(layers.sensor_layer, dtype, "LinearSystem JAX plant", layers.fault_hint)
+        sensor_faults = jsens.channel_faults(layers.sensor_layer, dtype, "LinearSystem JAX plant")
         sensors = None if config is None else jsens.params_of(config, n, dtype, sensor_faults.get("state"))
 
     return EnvParams(
@@ -512,8 +521,7 @@ def params_of(cfg: LinearSystemConfig, fault_configs: tuple[dict, ...] = (), lay
 def from_keywords(plant: str, kwargs: dict[str, Any]) -> tuple[LinearSystemEnv, EnvParams]:
     """The JAX ``plant`` and its ``EnvParams`` for the numba env's keywords ``kwargs``, validated
     as the numba env validates them (no numba env is built). A ``ValueError`` names what the
-    JAX plant does not model (``sensors`` or sensor faults in the lab, sensor faults with
-    ``fault_hint``)."""
+    JAX plant does not model (``sensors`` or sensor faults in the lab)."""
     check_keywords(NumbaLinearSystemEnv, kwargs)
     cfg = configure({**keyword_defaults(NumbaLinearSystemEnv), **kwargs})
     n, m, k = cfg.model.n, cfg.model.m, cfg.decision_steps

@@ -52,8 +52,8 @@ its state, and the compiled step is the lab's.
 
 Modeled: every keyword of the numba env except a ``sensors`` keyword in the lab (sensors
 only as flight conditions' sensors, which an explicit ``sensors`` dict may replace),
-sensor faults outside flight conditions' sensors or with ``fault_hint``
-(:func:`attitude_envs.jax.sensors.channel_faults`; the others are modeled, draws included), ``field_model="igrf"`` (the IGRF table needs ``ppigrf`` on the host per
+sensor faults outside flight conditions' sensors
+(:func:`attitude_envs.jax.sensors.channel_faults`; the others are modeled, draws and ``fault_hint`` flags included), ``field_model="igrf"`` (the IGRF table needs ``ppigrf`` on the host per
 episode) and an ``inertia_uncertainty`` or flight inertia draw that could make ``I + ΔJ(t)``
 indefinite (the numba env raises at such a reset); :func:`from_keywords` raises a ``ValueError``
 naming them. Episode draws (orbit
@@ -93,7 +93,7 @@ from attitude_envs.plants.magnetorquer_definition import COMPACT_LAYOUT, define
 
 N_ACTUATORS = 4  # m_x, m_y, m_z (A·m²), wheel torque (N·m)
 _PLANT = define(JAX)
-N_SENSOR_FLAGS = 4  # gyro, star tracker, tachometer, magnetometer: never faulted here
+N_SENSOR_FLAGS = 4  # gyro, star tracker, tachometer, magnetometer
 _UNCERTAINTY_CODES = {None: 0, "fixed": 1, "random": 2}
 #: the sensor channels, in the numba env's order: name → axes of its error
 _AXES = {"gyro": 3, "star_tracker": 3, "tachometer": 1, "magnetometer": 3}
@@ -616,11 +616,19 @@ class MagnetorquerEnv(Environment):
 
     # ------------------------------------------------------------------ observation
     def _observe(
-        self, state: EnvState, q_d: jax.Array, w_d: jax.Array, field, t_s: jax.Array, body_field=None
+        self,
+        state: EnvState,
+        q_d: jax.Array,
+        w_d: jax.Array,
+        field,
+        t_s: jax.Array,
+        body_field=None,
+        sensor_params: jsens.SuiteParams | None = None,
     ) -> jax.Array:
         """The observation of ``state`` at ``t_s`` with the reference ``q_d``, ``w_d`` and the
         orbital-frame ``field`` (T; read with ``observe_field`` only) of that time, or the
-        ``body_field`` (T) when given (a magnetometer's reading)."""
+        ``body_field`` (T) when given (a magnetometer's reading); the ``fault_hint`` flags of
+        the sensors' faults from ``sensor_params`` and the state's sensors."""
         x, _ = error_state(state.attitude, state.rate_rad_s, q_d, w_d)
         parts = [x, state.wheel_speed_rad_s / K.WHEEL_SPEED_SCALE_RAD_S]
         if self.observe_field:
@@ -632,7 +640,7 @@ class MagnetorquerEnv(Environment):
             parts.append(b / K.FIELD_SCALE_T)
         if self.fault_hint:
             flags = jfaults.active_flags(state.faults, t_s, N_ACTUATORS).astype(x.dtype)
-            parts += [flags, jnp.zeros(N_SENSOR_FLAGS, x.dtype)]
+            parts += [flags, jsens.suite_flags(sensor_params, state.sensors, jsens.SUITE_CHANNELS, t_s, x.dtype)]
         return jnp.concatenate(parts)
 
     def observation(self, state: EnvState, params: EnvParams) -> jax.Array:
@@ -642,7 +650,8 @@ class MagnetorquerEnv(Environment):
         q_d, w_d = reference(params.start.reference, t_s)
         if self.sensors:
             rate, _, _, field = orbit_field(params, state.mean_anomaly0_rad, t_s)
-            return self._observe_readings(state, self.readings(state, rate, field), q_d, w_d, rate, t_s)
+            readings = self.readings(state, rate, field)
+            return self._observe_readings(state, readings, q_d, w_d, rate, t_s, params.sensors)
         field = orbit_field(params, state.mean_anomaly0_rad, t_s)[3] if self.observe_field else None
         return self._observe(state, q_d, w_d, field, t_s)
 
@@ -679,6 +688,7 @@ class MagnetorquerEnv(Environment):
         w_d: jax.Array,
         orbit_rate: jax.Array,
         t_s: jax.Array,
+        sensor_params: jsens.SuiteParams | None = None,
     ) -> jax.Array:
         """The observation built from sensor ``readings`` as the numba env's: the error state of
         the star tracker's attitude and ``ω_bo = gyro − R(q_m) ω_oi`` (ν̇ ``orbit_rate``), the
@@ -686,7 +696,7 @@ class MagnetorquerEnv(Environment):
         q_m = readings["star_tracker"]
         rate = readings["gyro"] - _orbit_rate_in_body(q_m, orbit_rate)
         measured = state.replace(attitude=q_m, rate_rad_s=rate, wheel_speed_rad_s=readings["tachometer"])
-        return self._observe(measured, q_d, w_d, None, t_s, body_field=readings["magnetometer"])
+        return self._observe(measured, q_d, w_d, None, t_s, readings["magnetometer"], sensor_params)
 
     # ------------------------------------------------------------------ dynamics
     def control_step(
@@ -808,7 +818,9 @@ class MagnetorquerEnv(Environment):
                 sensors=jax.tree.map(lambda a, b: jnp.where(finite, a, b), sampled, state.sensors)
             )
             readings = self.readings(new_state, ctx_end.rate, ctx_end.field)
-            obs = self._observe_readings(new_state, readings, ctx_end.q_d, ctx_end.w_d, ctx_end.rate, t1)
+            obs = self._observe_readings(
+                new_state, readings, ctx_end.q_d, ctx_end.w_d, ctx_end.rate, t1, params.sensors
+            )
         crossed = jnp.any(jnp.stack(_PLANT.limit_rows(y[4], y[5], y[6], params.cost.max_rate_rad_s)) > 0.0)
         terminated = jnp.logical_not(finite) | crossed
         x_end, _ = error_state(new_state.attitude, new_state.rate_rad_s, ctx_end.q_d, ctx_end.w_d)
@@ -869,7 +881,7 @@ class MagnetorquerEnv(Environment):
             start = jsens.start_suite(k_bias, params.sensors, truths, t0)
             state = state.replace(sensors=jsens.measure_suite(k_measure, params.sensors, start, truths, t0)[1])
             readings = self.readings(state, orbit_rate, field)
-            return self._observe_readings(state, readings, held[:4], held[4:], orbit_rate, t0), state
+            return self._observe_readings(state, readings, held[:4], held[4:], orbit_rate, t0, params.sensors), state
         field = orbit_field(params, state.mean_anomaly0_rad, t0)[3] if self.observe_field else None
         return self._observe(state, held[:4], held[4:], field, t0), state
 
@@ -1196,9 +1208,7 @@ def params_of(cfg: MagnetorquerConfig) -> EnvParams:
             layers.sensor_layer.config,
             _AXES,
             jnp.result_type(float),
-            jsens.channel_faults(
-                layers.sensor_layer, jnp.result_type(float), "Magnetorquer JAX plant", layers.fault_hint
-            ),
+            jsens.channel_faults(layers.sensor_layer, jnp.result_type(float), "Magnetorquer JAX plant"),
         ),
     )
 

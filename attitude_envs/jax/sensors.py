@@ -141,15 +141,12 @@ def _bounds(spec) -> tuple[float, float]:
     return float(spec), float(spec)
 
 
-def channel_faults(suite: Any, dtype, where: str, fault_hint: bool = False) -> dict[str, ChannelFaults]:
+def channel_faults(suite: Any, dtype, where: str) -> dict[str, ChannelFaults]:
     """Each faulted channel's :class:`ChannelFaults` of a numba :class:`attitude_envs.sensors.SensorSuite`
     ``suite``: its validated sensor fault dicts expanded as its ``reset`` expands them (``index:
     "all"`` one entry per axis, or one whole-reading entry for a stuck or dropped attitude), with
     :class:`FaultDraws` where an axis, value, onset or duration is drawn per episode. A
-    ``ValueError`` naming ``where`` (the plant) for a fault on a channel without a sensor model,
-    or with ``fault_hint`` (the twins' observation holds no sensor fault flags)."""
-    if suite.fault_configs and fault_hint:
-        raise ValueError(f"{where}: sensor faults with fault_hint are not modeled (its sensor flags read 0)")
+    ``ValueError`` naming ``where`` (the plant) for a fault on a channel without a sensor model."""
     entries: dict[str, list[dict]] = {}
     for i, c in enumerate(suite.fault_configs):
         name, kind = c["sensor"], c["kind"]
@@ -339,6 +336,15 @@ def measure(
     return jnp.where(hold, s.last, m), state.replace(last=jnp.where(hold, s.last, m))
 
 
+def active_flag(p: ChannelParams | None, s: ChannelState | None, t_s, dtype) -> jax.Array:
+    """1.0 when a fault of the channel (its episode's, else the params') is active at ``t_s``
+    (s), else 0.0: :meth:`SensorSuite.active_flags` of one channel."""
+    if p is None or p.faults is None:
+        return jnp.zeros((), dtype)
+    f = p.faults if s is None or s.faults is None else s.faults
+    return jnp.any((f.onset_s <= t_s) & (t_s < f.end_s)).astype(dtype)
+
+
 @struct.dataclass
 class SuiteParams:
     """An attitude plant's modeled sensors: one :class:`ChannelParams` per configured channel
@@ -412,6 +418,17 @@ def measure_suite(
     return readings, s.replace(t_last=t_s)
 
 
+def suite_flags(p: SuiteParams | None, s: SuiteState | None, names: tuple[str, ...], t_s, dtype) -> jax.Array:
+    """The ``fault_hint`` flags of the channels ``names`` (the numba env's channel order): 1.0
+    where a fault of the channel is active at ``t_s`` (s)."""
+    return jnp.stack(
+        [
+            active_flag(None if p is None else getattr(p, n), None if s is None else getattr(s, n), t_s, dtype)
+            for n in names
+        ]
+    )
+
+
 @struct.dataclass
 class StateSensor:
     """A plant's one ``state`` sensor channel (LinearSystem's, FuelSlosh's) at runtime: the
@@ -419,6 +436,11 @@ class StateSensor:
 
     channel: ChannelState
     t_last: jax.Array
+
+
+def state_flag(p: ChannelParams | None, s: StateSensor | None, t_s, dtype) -> jax.Array:
+    """The ``fault_hint`` flag of a plant's ``state`` sensor: 1.0 with a fault active at ``t_s`` (s)."""
+    return active_flag(p, None if s is None else s.channel, t_s, dtype)
 
 
 def start_state_sensor(key: jax.Array, p: ChannelParams, truth: jax.Array) -> tuple[jax.Array, StateSensor]:
@@ -457,5 +479,8 @@ __all__ = [
     "channel_faults",
     "initial_state",
     "measure",
+    "active_flag",
+    "state_flag",
+    "suite_flags",
     "params_of",
 ]
