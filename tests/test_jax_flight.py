@@ -2,7 +2,7 @@
 numba ReactionWheel and AirBearing envs: the delay and the actuator chain step for step (x64,
 whole episodes, the numba episode's drawn plant given to the JAX reset), the per-episode
 parameter draws in distribution (two-sample Kolmogorov–Smirnov tests against the numba
-env's draws), and what is not modeled yet (sensor faults drawn per episode, sensors outside flight conditions)
+env's draws), and what is not modeled (sensors or sensor faults outside flight conditions' sensors)
 refused by name."""
 
 from __future__ import annotations

@@ -266,3 +266,35 @@ def test_linear_system_flight_cell_faults_as_the_numba_env(fault_hint):
     assert np.all(held == want[9, :n]) and not np.all(want[30, :n] == want[9, :n])
     if fault_hint:  # the state sensor's flag: on through the outage and from the bias on
         np.testing.assert_array_equal(want[:, -1], [1.0 if 10 <= k < 30 or k >= 40 else 0.0 for k in range(len(want))])
+
+
+def test_drawn_faults_hold_through_an_episode_and_redraw_at_autoreset():
+    """LinearSystem-v1 under flight conditions with a drawn state-sensor outage: each env's
+    onset is fixed through its episode (80 decisions), differs between envs and is drawn anew
+    by the autoreset; a fixed outage stays in the params (no per-episode state)."""
+    drawn = {
+        "kind": "dropout",
+        "target": "sensor",
+        "sensor": "state",
+        "index": "all",
+        "mode": "hold",
+        "onset_s": {"uniform": [10.0, 300.0]},
+        "duration_s": 50.0,
+    }
+    with jax.enable_x64(True):
+        env, params = make("LinearSystem-v1", conditions="flight", faults=[drawn])
+        keys = jax.random.split(jax.random.PRNGKey(0), 3)
+        _, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
+        step = jax.jit(jax.vmap(env.step, in_axes=(0, 0, 0, None)))
+        onsets = [np.asarray(state.sensors.channel.faults.onset_s[:, 0])]
+        for i in range(int(params.max_steps_in_episode)):
+            obs, state, *_ = step(
+                jax.random.split(jax.random.PRNGKey(i + 1), 3), state, jnp.zeros((3, env.num_actions)), params
+            )
+            onsets.append(np.asarray(state.sensors.channel.faults.onset_s[:, 0]))
+        _, fixed_params = make("LinearSystem-v1", conditions="flight", faults=[{**drawn, "onset_s": 50.0}])
+    onsets = np.array(onsets)
+    assert np.all(onsets[:-1] == onsets[0]) and len(set(onsets[0])) == 3  # fixed per episode, differ between envs
+    assert np.all(onsets[-1] != onsets[0])  # the autoreset drew them anew
+    assert np.all((onsets >= 10.0) & (onsets <= 300.0)) and bool(jnp.all(jnp.isfinite(obs)))
+    assert fixed_params.sensors.faults is not None and fixed_params.sensors.faults.draws is None

@@ -182,8 +182,15 @@ def channel_faults(suite: Any, dtype, where: str) -> dict[str, ChannelFaults]:
     return {name: _as_arrays(faults, dtype) for name, faults in entries.items()}
 
 
+def _same(bounds: tuple[float, float]) -> bool:
+    """A fixed number (equal bounds, or both NaN: none)."""
+    low, high = bounds
+    return low == high or (math.isnan(low) and math.isnan(high))
+
+
 def _as_arrays(faults: list[dict], dtype) -> ChannelFaults:
-    """One channel's expanded fault entries (:func:`channel_faults`) as arrays."""
+    """One channel's expanded fault entries (:func:`channel_faults`) as arrays; the end of a
+    fixed window summed in float64 as the numba layer sums it, then cast."""
 
     def f(key, part):
         return jnp.asarray(np.asarray([e[key][part] for e in faults], dtype=float), dtype=dtype)
@@ -191,11 +198,11 @@ def _as_arrays(faults: list[dict], dtype) -> ChannelFaults:
     def col(key, dt):
         return jnp.asarray([e[key] for e in faults], dt)
 
-    fixed_end = all(math.isnan(e["duration"][0]) or e["duration"][0] == e["duration"][1] for e in faults)
-    fixed = fixed_end and not any(
-        e["random_index"] or e["value"][0] != e["value"][1] or e["onset"][0] != e["onset"][1] for e in faults
+    fixed = not any(
+        e["random_index"] or not (_same(e["value"]) and _same(e["onset"]) and _same(e["duration"])) for e in faults
     )
-    duration = f("duration", 0)
+    duration = np.asarray([e["duration"][0] for e in faults], dtype=float)
+    end = np.asarray([e["onset"][0] for e in faults], dtype=float) + np.where(np.isnan(duration), np.inf, duration)
     draws = None
     if not fixed:
         draws = FaultDraws(
@@ -203,9 +210,9 @@ def _as_arrays(faults: list[dict], dtype) -> ChannelFaults:
             value_high=f("value", 1),
             onset_low=f("onset", 0),
             onset_high=f("onset", 1),
-            duration_low=jnp.nan_to_num(duration),
+            duration_low=jnp.asarray(np.nan_to_num(duration), dtype=dtype),
             duration_high=jnp.nan_to_num(f("duration", 1)),
-            has_end=jnp.logical_not(jnp.isnan(duration)),
+            has_end=jnp.asarray(~np.isnan(duration)),
             random_index=col("random_index", bool),
             axes=col("axes", jnp.int32),
             group=col("group", jnp.int32),
@@ -215,7 +222,7 @@ def _as_arrays(faults: list[dict], dtype) -> ChannelFaults:
         index=col("index", jnp.int32),
         value=f("value", 0),
         onset_s=f("onset", 0),
-        end_s=f("onset", 0) + jnp.where(jnp.isnan(duration), jnp.inf, duration),
+        end_s=jnp.asarray(end, dtype=dtype),
         hold=col("hold", bool),
         draws=draws,
     )
@@ -234,11 +241,13 @@ def realize(key: jax.Array, f: ChannelFaults) -> ChannelFaults:
     onset = d.onset_low + (d.onset_high - d.onset_low) * u[:, 1]
     duration = d.duration_low + (d.duration_high - d.duration_low) * u[:, 2]
     value = d.value_low + (d.value_high - d.value_low) * jax.random.uniform(k_value, (n,), dtype)
+    fixed_window = (d.onset_low == d.onset_high) & (d.duration_low == d.duration_high)
     return f.replace(
         index=jnp.where(d.random_index, axis, f.index),
         value=value,
         onset_s=onset,
-        end_s=jnp.where(d.has_end, onset + duration, jnp.inf),
+        # a fixed window keeps its end summed in float64 (the numba layer's)
+        end_s=jnp.where(fixed_window, f.end_s, jnp.where(d.has_end, onset + duration, jnp.inf)),
         draws=None,
     )
 
