@@ -32,6 +32,14 @@ NOISELESS = {
     "tachometer": {"noise_std": 0.0},
     "magnetometer": {"noise_std": 0.0, "period_s": 0.1},
 }
+#: tracking from a fixed orbit phase on the noiseless sensors, the field observed
+NOISELESS_TRACKING = {
+    "conditions": "flight",
+    "sensors": NOISELESS,
+    "observe_field": True,
+    "orbit": {"mean_anomaly_deg": 30.0},
+    "episode_duration_s": 6.0,
+}
 # id: (env id, keywords, seed, JAX start: "state_from" or "reset" with the numba draws given)
 CONFIGS = {
     "Magnetorquer-v1 flight": ("Magnetorquer-v1", {"conditions": NO_SENSORS}, 3, "state_from"),
@@ -50,29 +58,14 @@ CONFIGS = {
     ),
     # tracking from a fixed orbit phase: a deterministic start, so the JAX reset (with the
     # numba episode's inertia and gains given) is the numba episode's start
-    "Magnetorquer-v0 flight, noiseless sensors": (
-        "Magnetorquer-v0",
-        {
-            "conditions": "flight",
-            "sensors": NOISELESS,
-            "observe_field": True,
-            "orbit": {"mean_anomaly_deg": 30.0},
-            "episode_duration_s": 6.0,
-        },
-        5,
-        "reset",
-    ),
+    "Magnetorquer-v0 flight, noiseless sensors": ("Magnetorquer-v0", NOISELESS_TRACKING, 5, "reset"),
     # the flight cells' sensor faults and the others, on the noiseless sensors: a gyro bias jump,
     # a magnetometer outage holding its last sample, a stuck star tracker and a tachometer drift,
     # with the fault flags in the observation
     "Magnetorquer-v0 flight, noiseless sensors, sensor faults": (
         "Magnetorquer-v0",
         {
-            "conditions": "flight",
-            "sensors": NOISELESS,
-            "observe_field": True,
-            "orbit": {"mean_anomaly_deg": 30.0},
-            "episode_duration_s": 6.0,
+            **NOISELESS_TRACKING,
             "fault_hint": True,
             "faults": [
                 {"kind": "bias", "target": "sensor", "sensor": "gyro", "index": 0, "value": 1e-3, "onset_s": 1.0},
