@@ -298,3 +298,49 @@ def test_drawn_faults_hold_through_an_episode_and_redraw_at_autoreset():
     assert np.all(onsets[-1] != onsets[0])  # the autoreset drew them anew
     assert np.all((onsets >= 10.0) & (onsets <= 300.0)) and bool(jnp.all(jnp.isfinite(obs)))
     assert fixed_params.sensors.faults is not None and fixed_params.sensors.faults.draws is None
+
+
+def test_fuel_slosh_hint_flags_as_the_numba_env():
+    """FuelSlosh-v1 under flight conditions from its fixed start, a noiseless state sensor and
+    ``fault_hint``: an actuator bias and a bias on the pitch rate's reading each raise their
+    flag when the numba env's do (the hint's last entry is the state sensor's), every
+    observation equal to float32 rounding (x64)."""
+    from attitude_envs.jax import fuel_slosh
+    from attitude_envs.jax.make import numba_env
+
+    faults = [
+        {"kind": "bias", "target": "actuator", "index": 1, "value": 50.0, "onset_s": 2.0, "duration_s": 3.0},
+        {"kind": "bias", "target": "sensor", "sensor": "state", "index": 2, "value": 1e-3, "onset_s": 4.0},
+    ]
+    kwargs = {
+        "conditions": "flight",
+        "sensors": {"state": {"noise_std": 0.0}},
+        "randomize_initial_state": False,
+        "episode_duration_s": 8.0,
+        "fault_hint": True,
+        "faults": faults,
+    }
+    ne = numba_env("FuelSlosh-v1", **kwargs)
+    obs0, _ = ne.reset(seed=0)
+    actions = np.diff(np.random.default_rng(0).uniform(-0.3, 0.3, (33, 2)), axis=0)
+    want = [obs0]
+    for a in actions:
+        obs, _, terminated, truncated, _ = ne.step(a)
+        want.append(obs)
+        if terminated or truncated:
+            break
+    with jax.enable_x64(True):
+        env, params = make("FuelSlosh-v1", **kwargs)
+        params = fuel_slosh.with_drawn_parameters(params, ne.drawn_parameters())
+        o, s = env.reset(jax.random.PRNGKey(0), params)
+        step = jax.jit(env.step_env)
+        got = [np.asarray(o)]
+        for i, a in enumerate(actions[: len(want) - 1]):
+            o, s, *_ = step(jax.random.PRNGKey(i), s, jnp.asarray(a), params)
+            got.append(np.asarray(o))
+    want = np.array(want)
+    np.testing.assert_allclose(np.array(got), want, rtol=2.0**-23, atol=1e-12)
+    flags = want[:, -ne.n_hint_flags :]
+    t = 0.25 * np.arange(len(want))
+    np.testing.assert_array_equal(flags[:, 1], (t >= 2.0) & (t < 5.0))
+    np.testing.assert_array_equal(flags[:, -1], t >= 4.0)
