@@ -344,3 +344,63 @@ def test_fuel_slosh_hint_flags_as_the_numba_env():
     t = 0.25 * np.arange(len(want))
     np.testing.assert_array_equal(flags[:, 1], (t >= 2.0) & (t < 5.0))
     np.testing.assert_array_equal(flags[:, -1], t >= 4.0)
+
+
+def test_reaction_wheel_hint_flags_as_the_numba_env():
+    """ReactionWheel-v1 under flight conditions from a fixed start and target, noiseless
+    sensors and ``fault_hint``: a wheel's loss of effectiveness, a gyro bias jump and a star
+    tracker outage raise their flags (the actuators', then gyro, star tracker, tachometer)
+    when the numba env's do, every observation equal to float32 rounding (x64)."""
+    from attitude_envs.jax import gyrostat
+    from attitude_envs.jax.make import numba_env
+
+    faults = [
+        {"kind": "loss_of_effectiveness", "index": 0, "value": 0.5, "onset_s": 1.0},
+        {"kind": "bias", "target": "sensor", "sensor": "gyro", "index": 2, "value": 1e-3, "onset_s": 2.0},
+        {
+            "kind": "dropout",
+            "target": "sensor",
+            "sensor": "star_tracker",
+            "index": "all",
+            "mode": "hold",
+            "onset_s": 3.0,
+            "duration_s": 2.0,
+        },
+    ]
+    noiseless = {name: {"noise_std": 0.0} for name in ("gyro", "star_tracker", "tachometer")}
+    kwargs = {
+        "conditions": "flight",
+        "sensors": noiseless,
+        "initial_attitude": [0.1, -0.2, 0.05, 0.9733961166965892],
+        "initial_rate_rad_s": [0.01, 0.0, -0.01],
+        "target_attitude": [0.0, 0.0, 0.0, 1.0],
+        "fault_hint": True,
+        "faults": faults,
+    }
+    ne = numba_env("ReactionWheel-v1", **kwargs)
+    obs0, _ = ne.reset(seed=0)
+    actions = np.random.default_rng(0).uniform(-0.5, 0.5, (60, ne.action_space.shape[0]))
+    want = [obs0]
+    for a in actions:
+        obs, _, terminated, truncated, _ = ne.step(a)
+        want.append(obs)
+        if terminated or truncated:
+            break
+    with jax.enable_x64(True):
+        env, params = make("ReactionWheel-v1", **kwargs)
+        params = gyrostat.with_drawn_parameters(params, ne.drawn_parameters())
+        o, s = env.reset(jax.random.PRNGKey(0), params)
+        step = jax.jit(env.step_env)
+        got = [np.asarray(o)]
+        for i, a in enumerate(actions[: len(want) - 1]):
+            o, s, *_ = step(jax.random.PRNGKey(i), s, jnp.asarray(a), params)
+            got.append(np.asarray(o))
+    want = np.array(want)
+    np.testing.assert_allclose(np.array(got), want, rtol=2.0**-23, atol=1e-12)
+    flags = want[:, -ne.n_hint_flags :]
+    t = ne.control_dt_s * np.arange(len(want))
+    assert t[-1] >= 5.9  # every window opened and closed within the episode
+    np.testing.assert_array_equal(flags[:, 0], t >= 1.0)
+    np.testing.assert_array_equal(flags[:, -3], t >= 2.0)  # gyro
+    np.testing.assert_array_equal(flags[:, -2], (t >= 3.0) & (t < 5.0))  # star tracker
+    np.testing.assert_array_equal(flags[:, -1], 0.0)  # tachometer
