@@ -45,6 +45,8 @@ VECTOR_FAULTS = [
     {"kind": "dropout", "target": "sensor", "sensor": "star", "index": "all", "mode": "hold", "onset_s": 1.6},
 ]
 CHANNELS = [Channel("rate", 3), Channel("star", 4, "attitude")]
+#: the action sizes of the envs whose episodes the observation tests play
+ACTIONS = {"LinearSystem-v1": 3, "FuelSlosh-v1": 2, "ReactionWheel-v1": 4}
 NOISELESS = {
     "rate": {"noise_std": 0.0},
     "star": {"noise_std": 0.0, "period_s": 0.2, "initial_bias": [1e-3, 0.0, -2e-3]},
@@ -57,6 +59,32 @@ def _truths(n: int) -> tuple[np.ndarray, np.ndarray]:
     rates = np.stack([np.sin(t), np.cos(2 * t), 0.1 * t], axis=1)
     attitudes = np.array([quaternion.from_rotvec(np.array([0.3, -0.2, 0.5]) * ti) for ti in t])
     return rates, attitudes
+
+
+def _observations(env_id: str, kwargs: dict, module, actions: np.ndarray):
+    """The numba env's observations of one episode from seed 0 under ``actions`` (until it
+    ends) and the JAX twin's from its reset, given the numba episode's drawn parameters
+    (``module.with_drawn_parameters``): ``(numba (k, n), JAX (k, n), the numba env)``, x64."""
+    from attitude_envs.jax.make import numba_env
+
+    ne = numba_env(env_id, **kwargs)
+    obs0, _ = ne.reset(seed=0)
+    want = [obs0]
+    for a in actions:
+        obs, _, terminated, truncated, _ = ne.step(a)
+        want.append(obs)
+        if terminated or truncated:
+            break
+    with jax.enable_x64(True):
+        env, params = make(env_id, **kwargs)
+        params = module.with_drawn_parameters(params, ne.drawn_parameters())
+        o, s = env.reset(jax.random.PRNGKey(0), params)
+        step = jax.jit(env.step_env)
+        got = [np.asarray(o)]
+        for i, a in enumerate(actions[: len(want) - 1]):
+            o, s, *_ = step(jax.random.PRNGKey(i), s, jnp.asarray(a), params)
+            got.append(np.asarray(o))
+    return np.array(want), np.array(got), ne
 
 
 def test_every_fault_kind_reads_as_the_numba_layer():
@@ -221,7 +249,6 @@ def test_linear_system_flight_cell_faults_as_the_numba_env(fault_hint):
     of a whole episode equals the numba env's to float32 rounding (x64), and the outage held;
     with ``fault_hint`` the sensor's flag among them."""
     from attitude_envs.jax import linear_system
-    from attitude_envs.jax.make import numba_env
 
     faults = [
         {
@@ -241,26 +268,9 @@ def test_linear_system_flight_cell_faults_as_the_numba_env(fault_hint):
         "faults": faults,
         "fault_hint": fault_hint,
     }
-    ne = numba_env("LinearSystem-v1", **kwargs)
-    obs0, _ = ne.reset(seed=0)
-    actions = np.random.default_rng(0).uniform(-1.0, 1.0, (80, ne.action_space.shape[0]))  # 400 s of 5 s decisions
-    want = [obs0]
-    for a in actions:
-        obs, _, terminated, truncated, _ = ne.step(a)
-        want.append(obs)
-        if terminated or truncated:
-            break
-    with jax.enable_x64(True):
-        env, params = make("LinearSystem-v1", **kwargs)
-        params = linear_system.with_drawn_parameters(params, ne.drawn_parameters())
-        o, s = env.reset(jax.random.PRNGKey(0), params)
-        step = jax.jit(env.step_env)
-        got = [np.asarray(o)]
-        for i, a in enumerate(actions[: len(want) - 1]):
-            o, s, *_ = step(jax.random.PRNGKey(i), s, jnp.asarray(a), params)
-            got.append(np.asarray(o))
-    want = np.array(want)
-    np.testing.assert_allclose(np.array(got), want, rtol=2.0**-23, atol=1e-12)
+    actions = np.random.default_rng(0).uniform(-1.0, 1.0, (80, ACTIONS["LinearSystem-v1"]))  # 400 s of 5 s decisions
+    want, got, ne = _observations("LinearSystem-v1", kwargs, linear_system, actions)
+    np.testing.assert_allclose(got, want, rtol=2.0**-23, atol=1e-12)
     n = want.shape[1] - (ne.n_hint_flags if fault_hint else 0)
     held = want[10:30, :n]  # decisions every 5 s: the outage holds the reading of 45 s from 50 s to 150 s
     assert np.all(held == want[9, :n]) and not np.all(want[30, :n] == want[9, :n])
@@ -306,7 +316,6 @@ def test_fuel_slosh_hint_flags_as_the_numba_env():
     flag when the numba env's do (the hint's last entry is the state sensor's), every
     observation equal to float32 rounding (x64)."""
     from attitude_envs.jax import fuel_slosh
-    from attitude_envs.jax.make import numba_env
 
     faults = [
         {"kind": "bias", "target": "actuator", "index": 1, "value": 50.0, "onset_s": 2.0, "duration_s": 3.0},
@@ -320,26 +329,9 @@ def test_fuel_slosh_hint_flags_as_the_numba_env():
         "fault_hint": True,
         "faults": faults,
     }
-    ne = numba_env("FuelSlosh-v1", **kwargs)
-    obs0, _ = ne.reset(seed=0)
     actions = np.diff(np.random.default_rng(0).uniform(-0.3, 0.3, (33, 2)), axis=0)
-    want = [obs0]
-    for a in actions:
-        obs, _, terminated, truncated, _ = ne.step(a)
-        want.append(obs)
-        if terminated or truncated:
-            break
-    with jax.enable_x64(True):
-        env, params = make("FuelSlosh-v1", **kwargs)
-        params = fuel_slosh.with_drawn_parameters(params, ne.drawn_parameters())
-        o, s = env.reset(jax.random.PRNGKey(0), params)
-        step = jax.jit(env.step_env)
-        got = [np.asarray(o)]
-        for i, a in enumerate(actions[: len(want) - 1]):
-            o, s, *_ = step(jax.random.PRNGKey(i), s, jnp.asarray(a), params)
-            got.append(np.asarray(o))
-    want = np.array(want)
-    np.testing.assert_allclose(np.array(got), want, rtol=2.0**-23, atol=1e-12)
+    want, got, ne = _observations("FuelSlosh-v1", kwargs, fuel_slosh, actions)
+    np.testing.assert_allclose(got, want, rtol=2.0**-23, atol=1e-12)
     flags = want[:, -ne.n_hint_flags :]
     t = 0.25 * np.arange(len(want))
     np.testing.assert_array_equal(flags[:, 1], (t >= 2.0) & (t < 5.0))
@@ -352,7 +344,6 @@ def test_reaction_wheel_hint_flags_as_the_numba_env():
     tracker outage raise their flags (the actuators', then gyro, star tracker, tachometer)
     when the numba env's do, every observation equal to float32 rounding (x64)."""
     from attitude_envs.jax import gyrostat
-    from attitude_envs.jax.make import numba_env
 
     faults = [
         {"kind": "loss_of_effectiveness", "index": 0, "value": 0.5, "onset_s": 1.0},
@@ -377,26 +368,9 @@ def test_reaction_wheel_hint_flags_as_the_numba_env():
         "fault_hint": True,
         "faults": faults,
     }
-    ne = numba_env("ReactionWheel-v1", **kwargs)
-    obs0, _ = ne.reset(seed=0)
-    actions = np.random.default_rng(0).uniform(-0.5, 0.5, (60, ne.action_space.shape[0]))
-    want = [obs0]
-    for a in actions:
-        obs, _, terminated, truncated, _ = ne.step(a)
-        want.append(obs)
-        if terminated or truncated:
-            break
-    with jax.enable_x64(True):
-        env, params = make("ReactionWheel-v1", **kwargs)
-        params = gyrostat.with_drawn_parameters(params, ne.drawn_parameters())
-        o, s = env.reset(jax.random.PRNGKey(0), params)
-        step = jax.jit(env.step_env)
-        got = [np.asarray(o)]
-        for i, a in enumerate(actions[: len(want) - 1]):
-            o, s, *_ = step(jax.random.PRNGKey(i), s, jnp.asarray(a), params)
-            got.append(np.asarray(o))
-    want = np.array(want)
-    np.testing.assert_allclose(np.array(got), want, rtol=2.0**-23, atol=1e-12)
+    actions = np.random.default_rng(0).uniform(-0.5, 0.5, (60, ACTIONS["ReactionWheel-v1"]))
+    want, got, ne = _observations("ReactionWheel-v1", kwargs, gyrostat, actions)
+    np.testing.assert_allclose(got, want, rtol=2.0**-23, atol=1e-12)
     flags = want[:, -ne.n_hint_flags :]
     t = ne.control_dt_s * np.arange(len(want))
     assert t[-1] >= 5.9  # every window opened and closed within the episode
