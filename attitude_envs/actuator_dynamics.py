@@ -287,7 +287,8 @@ class ActuatorChain:
             self._queue.append(c.copy())
             c = self._queue.pop(0)
         c, last = _NUMPY_CHAIN.command(self._layout, self._numbers, self._last, c)
-        self._last = np.array(last, copy=True)
+        if last is not self._last:  # the rate limiter acted: keep its output apart from the command
+            self._last = last.copy()
         return c
 
     def output(self, faulted: np.ndarray, speeds: np.ndarray | None = None) -> np.ndarray:

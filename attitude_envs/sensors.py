@@ -118,6 +118,18 @@ def _std(name: str, value, axes: int) -> float | np.ndarray:
     return arr
 
 
+def fault_axes(config: dict, channel: Channel) -> list[int | str]:
+    """The axes a validated sensor fault dict ``config`` acts on in ``channel``, as an episode
+    realizes them: ``["all"]`` (a stuck or dropped attitude: the whole reading), every axis
+    (``index: "all"`` otherwise), ``["random"]`` (one axis, drawn per episode) or the one given."""
+    index = config.get("index", "random")
+    if index == "all" and channel.kind == "attitude" and config["kind"] in _WHOLE_SENSOR:
+        return ["all"]
+    if index == "all":
+        return list(range(channel.axes))
+    return ["random"] if index == "random" else [int(index)]
+
+
 def sensor_faults_of(configs: list[dict] | None) -> list[tuple[int, dict]]:
     """The ``(position, dict)`` entries of a fault list that target a sensor."""
     if configs is None:
@@ -230,15 +242,9 @@ class SensorSuite:
             where = f"faults[{i}]"
             kind, name = c["kind"], c["sensor"]
             channel = self.channels[name]
-            index = c.get("index", "random")
-            if index == "all" and channel.kind == "attitude" and kind in _WHOLE_SENSOR:
-                indices: list = ["all"]
-            elif index == "all":
-                indices = list(range(channel.axes))
-            elif index == "random":
+            indices = fault_axes(c, channel)
+            if indices == ["random"]:
                 indices = [int(rng_s.integers(channel.axes))]
-            else:
-                indices = [int(index)]
             onset = _draw(f"{where}.onset_s", c.get("onset_s", 0.0), rng_s, 0.0)
             duration = (
                 None if c.get("duration_s") is None else _draw(f"{where}.duration_s", c["duration_s"], rng_s, 0.0)

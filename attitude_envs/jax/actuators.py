@@ -22,7 +22,6 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
-import numpy as np
 from flax import struct
 
 from attitude_envs.actuator_dynamics import ActuatorLayout, ActuatorModel, define_chain, layout_of, numbers_of
@@ -54,10 +53,6 @@ class ActuatorParams:
     viscous: jax.Array
 
 
-#: the float fields of :class:`ActuatorParams` (``lag_on`` is boolean)
-_FIELDS = ("limits", "resolution", "rate_step", "mean_weight", "decay", "duty", "coulomb", "viscous")
-
-
 @struct.dataclass
 class ActuatorState:
     """The chain's runtime state: ``queue`` (``delay_steps`` × N, oldest first: the commands
@@ -87,9 +82,10 @@ def params_of(model: ActuatorModel | None, n: int, dt_s: float, dtype) -> Actuat
     """The arrays of ``model`` (``n`` actuators; None: neutral entries) at the control period
     ``dt_s``: :func:`attitude_envs.actuator_dynamics.numbers_of`, the numpy chain's numbers bit
     for bit."""
-    numbers = numbers_of(model, n, dt_s)
-    arrays = {k: jnp.asarray(np.asarray(getattr(numbers, k), dtype=float), dtype=dtype) for k in _FIELDS}
-    return ActuatorParams(**arrays, lag_on=jnp.asarray(numbers.lag_on))
+    numbers = vars(numbers_of(model, n, dt_s))  # booleans (lag_on) as they are, numbers in ``dtype``
+    return ActuatorParams(
+        **{k: jnp.asarray(v) if v.dtype == bool else jnp.asarray(v, dtype=dtype) for k, v in numbers.items()}
+    )
 
 
 def initial_state(layout: ActuatorLayout, n: int, dtype) -> ActuatorState:

@@ -31,6 +31,7 @@ import numpy as np
 from flax import struct
 
 from attitude_envs.jax import quaternion as jq
+from attitude_envs.sensors import fault_axes
 
 #: the relative margin of the sample-period test (:meth:`SensorSuite.measure`'s)
 _PERIOD_MARGIN = 1.0 - 1e-9
@@ -156,24 +157,18 @@ def channel_faults(suite: Any, dtype, where: str) -> dict[str, ChannelFaults]:
                 "(the flight conditions' sensors model every channel)"
             )
         channel = suite.channels[name]
-        index = c.get("index", "random")
-        if index == "all" and channel.kind == "attitude" and kind in ("stuck", "dropout"):
-            axes = [-1]
-        elif index == "all":
-            axes = list(range(channel.axes))
-        else:
-            axes = [0 if index == "random" else int(index)]
+        axes = fault_axes(c, channel)
         group = len({e["group"] for e in entries.get(name, [])})
         onset, duration = _bounds(c.get("onset_s", 0.0)), _bounds(c.get("duration_s"))
         for axis in axes:
             entries.setdefault(name, []).append(
                 {
                     "kind": FAULT_CODES[kind],
-                    "index": axis,
+                    "index": {"all": -1, "random": 0}.get(axis, axis),
                     "value": _bounds(c.get("value")),
                     "onset": onset,
                     "duration": duration,
-                    "random_index": index == "random",
+                    "random_index": axis == "random",
                     "axes": channel.axes,
                     "group": group,
                     "hold": kind == "dropout" and c.get("mode", "nan") == "hold",
@@ -270,6 +265,16 @@ def initial_state(key: jax.Array, p: ChannelParams, truth: jax.Array) -> Channel
     )
 
 
+def _episode_faults(p: ChannelParams, s: ChannelState | None) -> ChannelFaults | None:
+    """The channel's faults this episode: drawn at its reset (in the state), else the params'."""
+    return p.faults if s is None or s.faults is None else s.faults
+
+
+def _active(f: ChannelFaults, t_s) -> jax.Array:
+    """Per fault: active at ``t_s`` (s), ``onset_s ≤ t < end_s``."""
+    return (f.onset_s <= t_s) & (t_s < f.end_s)
+
+
 def _additive_faults(f: ChannelFaults, active: jax.Array, err: jax.Array, t_s) -> tuple[jax.Array, jax.Array]:
     """The error with each active bias and drift added on its axis, and the noise scale of
     the active noise increases (:meth:`SensorSuite.measure`'s order: the faults in turn)."""
@@ -321,11 +326,11 @@ def measure(
     walk = jax.random.normal(k_walk, axes, dtype)
     noise = jax.random.normal(k_noise, axes, dtype)
     bias = jnp.where(dt > 0, s.bias + p.bias_walk_std * jnp.sqrt(jnp.maximum(dt, 0.0)) * walk, s.bias)
-    faults = p.faults if s.faults is None else s.faults
+    faults = _episode_faults(p, s)
     if faults is None:
         err = bias + p.noise_std * noise
     else:
-        active = (faults.onset_s <= t_s) & (t_s < faults.end_s)
+        active = _active(faults, t_s)
         err, scale = _additive_faults(faults, active, bias, t_s)
         err = err + p.noise_std * scale * noise
     m = jq.multiply(truth, jq.from_rotvec(err)) if attitude else truth + err
@@ -348,10 +353,8 @@ def measure(
 def active_flag(p: ChannelParams | None, s: ChannelState | None, t_s, dtype) -> jax.Array:
     """1.0 when a fault of the channel (its episode's, else the params') is active at ``t_s``
     (s), else 0.0: :meth:`SensorSuite.active_flags` of one channel."""
-    if p is None or p.faults is None:
-        return jnp.zeros((), dtype)
-    f = p.faults if s is None or s.faults is None else s.faults
-    return jnp.any((f.onset_s <= t_s) & (t_s < f.end_s)).astype(dtype)
+    f = None if p is None else _episode_faults(p, s)
+    return jnp.zeros((), dtype) if f is None else jnp.any(_active(f, t_s)).astype(dtype)
 
 
 @struct.dataclass
