@@ -5,12 +5,25 @@ A controller that uses these sees only the *nominal* model (DESIGN "Truth vs. no
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
 
 from attitude_envs.lqr import dlqr, lqr
+
+
+def complex_step_jacobian(f: Callable[[np.ndarray], np.ndarray], x0: np.ndarray, step: float = 1e-20) -> np.ndarray:
+    """``∂f/∂x`` at ``x0`` to rounding, by the complex step ``Im f(x0 + i h e_k) / h`` (Squire &
+    Trapp 1998: no difference is taken, so no cancellation). ``f`` maps states stacked as the
+    columns of an ``(n, k)`` array to ``(m, k)`` and is written with analytic operations only
+    (a plant definition on :data:`~attitude_envs.plants.ops.NUMPY`); it is called once, on
+    the ``n`` perturbed columns."""
+    x0 = np.asarray(x0, dtype=float)
+    z = np.repeat(x0[:, None], x0.size, axis=1).astype(complex)
+    z[np.arange(x0.size), np.arange(x0.size)] += 1j * step
+    return np.imag(np.asarray(f(z))) / step
 
 
 def zoh(A: np.ndarray, B: np.ndarray, dt_s: float) -> tuple[np.ndarray, np.ndarray]:

@@ -6,7 +6,7 @@ import pytest
 from conftest import asymmetric_inertia
 from scipy.integrate import quad_vec, solve_ivp
 
-from attitude_envs.linearization import LinearModel, zoh, zoh_cost
+from attitude_envs.linearization import LinearModel, complex_step_jacobian, zoh, zoh_cost
 
 
 def model_of(**kwargs):
@@ -107,3 +107,41 @@ def test_linear_model_rejects_double_discretization():
     lin = LinearModel(np.zeros((2, 2)), np.eye(2), np.eye(2), np.eye(2))
     with pytest.raises(ValueError, match="already discrete"):
         lin.discretize(0.1).discretize(0.1)
+
+
+def test_complex_step_jacobian_is_exact_to_rounding():
+    def f(z):  # analytic: sin, sqrt, products
+        return np.array([np.sin(z[0]) * z[1], np.sqrt(1.0 + z[0] * z[0]) - z[2] / z[1]])
+
+    x0 = np.array([0.7, -1.3, 2.1])
+    expected = np.array(
+        [
+            [np.cos(x0[0]) * x0[1], np.sin(x0[0]), 0.0],
+            [x0[0] / np.sqrt(1.0 + x0[0] ** 2), x0[2] / x0[1] ** 2, -1.0 / x0[1]],
+        ]
+    )
+    assert np.allclose(complex_step_jacobian(f, x0), expected, rtol=1e-15, atol=1e-16)
+
+
+@pytest.mark.parametrize("momentum", [False, True])
+def test_linearization_has_the_closed_form_of_the_gyrostat(momentum):
+    """The definition's Jacobians at rest against their closed form: q̇_e = ½ω, I_eff ω̇ =
+    h₀ × ω − A u (h₀ = J_s A Ω), and ḣ_w = u − J_s Aᵀ ω̇ when the wheel momentum is in x."""
+    model = model_of(
+        inertia_kg_m2=asymmetric_inertia(), cost_input="wheel", R=np.eye(4), wheel_momentum_weight=float(momentum)
+    )
+    p = model.params
+    wheel = np.array([300.0, -150.0, 80.0, 20.0])
+    lin = model.linearize(wheel_speed_rad_s=wheel, input="wheel")
+    h0 = p.wheel_inertia_kg_m2 * p.wheel_axes @ wheel
+    skew = np.array([[0.0, -h0[2], h0[1]], [h0[2], 0.0, -h0[0]], [-h0[1], h0[0], 0.0]])
+    A = np.zeros((model.n_state, model.n_state))
+    B = np.zeros((model.n_state, 4))
+    A[:3, 3:6] = 0.5 * np.eye(3)
+    A[3:6, 3:6] = p.inertia_eff_inv @ skew
+    B[3:6] = -p.inertia_eff_inv @ p.wheel_axes
+    if momentum:
+        A[6:, 3:6] = -p.wheel_inertia_kg_m2 * p.wheel_axes.T @ A[3:6, 3:6]
+        B[6:] = np.eye(4) - p.wheel_inertia_kg_m2 * p.wheel_axes.T @ B[3:6]
+    assert np.allclose(lin.A, A, rtol=1e-14, atol=1e-16)
+    assert np.allclose(lin.B, B, rtol=1e-14, atol=1e-16)

@@ -15,9 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from attitude_envs import quaternion
 from attitude_envs.cost import QuadraticCost
-from attitude_envs.linearization import LinearModel
+from attitude_envs.linearization import LinearModel, complex_step_jacobian
 from attitude_envs.plants import gyrostat_kernels as kernels
 from attitude_envs.plants.gyrostat import GyrostatParams
 from attitude_envs.plants.gyrostat_definition import MAT_ROWS, N_SCALARS, define
@@ -66,58 +65,57 @@ class ReactionWheelModel:
         """``ẋ`` of the nonlinear plant in error coordinates (the target is inertially fixed, so
         ``q̇_e = ½ q_e ⊗ [ω, 0]``: the plant definition's derivative at ``q = q_e``).
 
-        When wheel momentum is not part of ``x`` the wheels sit at ``wheel_speed_rad_s``
-        (zero by default); used for finite-difference checks of :meth:`linearize`.
+        When wheel momentum is not part of ``x`` the wheels sit at ``wheel_speed_rad_s`` (rad/s,
+        zero by default). ``x`` and ``motor_torque_nm`` (N·m) may hold one state per column, real
+        or complex (:meth:`linearize` differentiates this by the complex step).
         """
         p = self.params
         n, j_s = p.n_wheels, p.wheel_inertia_kg_m2
-        v, w = np.asarray(x[:3], dtype=float), np.asarray(x[3:6], dtype=float)
+        x, u = np.asarray(x), np.asarray(motor_torque_nm)
+        v, w = x[:3], x[3:6]
         if self.include_wheel_momentum:
-            wheel = np.asarray(x[6:], dtype=float) / j_s
+            wheel = x[6:] / j_s
         else:
             wheel = np.zeros(n) if wheel_speed_rad_s is None else np.asarray(wheel_speed_rad_s, dtype=float)
-        u = np.asarray(motor_torque_nm, dtype=float)
-        y = [*v, float(np.sqrt(max(0.0, 1.0 - v @ v))), *w, *wheel]
+            wheel = np.broadcast_to(wheel.reshape((n,) + (1,) * (x.ndim - 1)), (n,) + x.shape[1:])
+        s = 1.0 - (v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+        y = [*v, np.sqrt(np.where(np.real(s) < 0.0, 0.0, s)), *w, *wheel]
         constants = kernels.pack_constants(p.wheel_axes, np.zeros(0), np.zeros(0), j_s, 0.0, np.inf, 0.0, np.zeros(3))
         sc = constants.shape[0] - N_SCALARS
         mats = kernels.pack_matrices(p.inertia_kg_m2, p.inertia_eff_inv)
         rows = [*y, *u, *(u / j_s), 0.0, 0.0, 0.0, *mats] + [0.0] * (7 + n)
         out = 7 + 3 * n + 3 + MAT_ROWS
         _PLANT.derivative_lane(rows, constants, 0, 1, n, False, 0, 7 + n, 7 + 2 * n, 7 + 3 * n, 10 + 3 * n, out, 0, sc)
-        dy = np.array(rows[out : out + 7 + n])
-        parts = [dy[0:3], dy[4:7]]
+        dy = rows[out : out + 7 + n]
+        parts = [*dy[0:3], *dy[4:7]]
         if self.include_wheel_momentum:
-            parts.append(j_s * dy[7:])
-        return np.concatenate(parts)
+            parts += [j_s * d for d in dy[7:]]
+        return np.array(parts)
 
     def linearize(self, wheel_speed_rad_s: np.ndarray | None = None, input: str | None = None) -> LinearModel:
         """Continuous linearization about the target at rest (``x = 0``), wheels at
-        ``wheel_speed_rad_s`` (default zero). ``input`` is ``"body"`` or ``"wheel"``
-        (default: the cost's input); ``Q`` and ``R`` are the cost's when ``input`` is the
-        cost's input, else ``R`` is mapped (``R_wheel = AᵀR_body A`` is singular for N > 3:
-        use it only with ``input="wheel"`` costs)."""
+        ``wheel_speed_rad_s`` (default zero): the Jacobians of the plant definition's
+        :meth:`error_derivative`, exact to rounding (complex step). ``input`` is ``"body"`` or
+        ``"wheel"`` (default: the cost's input); ``Q`` and ``R`` are the cost's when ``input``
+        is the cost's input, else ``R`` is mapped (``R_wheel = AᵀR_body A`` is singular for
+        N > 3: use it only with ``input="wheel"`` costs)."""
         p = self.params
         input = self.cost_input if input is None else input
+        if input not in ("body", "wheel"):
+            raise ValueError(f"input must be one of ['body', 'wheel'], got {input!r}")
         wheel = np.zeros(p.n_wheels) if wheel_speed_rad_s is None else np.asarray(wheel_speed_rad_s, dtype=float)
-        h0 = p.wheel_inertia_kg_m2 * p.wheel_axes @ wheel
         n = self.n_state
-        A = np.zeros((n, n))
-        A[:3, 3:6] = 0.5 * np.eye(3)
-        A[3:6, 3:6] = p.inertia_eff_inv @ quaternion.skew(h0)
-        b_wheel = np.zeros((n, p.n_wheels))
-        b_wheel[3:6] = -p.inertia_eff_inv @ p.wheel_axes
+        z0 = np.zeros(n + p.n_wheels)
         if self.include_wheel_momentum:
-            A[6:, 3:6] = -p.wheel_inertia_kg_m2 * p.wheel_axes.T @ A[3:6, 3:6]
-            b_wheel[6:] = np.eye(p.n_wheels) - p.wheel_inertia_kg_m2 * p.wheel_axes.T @ b_wheel[3:6]
+            z0[6:n] = p.wheel_inertia_kg_m2 * wheel
+        jacobian = complex_step_jacobian(lambda z: self.error_derivative(z[:n], z[n:], wheel), z0)
+        A, b_wheel = jacobian[:, :n], jacobian[:, n:]
         if input == "wheel":
             B = b_wheel
             R = self.cost.R if self.cost_input == "wheel" else p.wheel_axes.T @ self.cost.R @ p.wheel_axes
-        elif input == "body":
-            # body torque T enters as u = A⁺(−T)... i.e. through the minimum-norm allocation
+        else:  # the body torque T enters through the minimum-norm allocation u = A⁺(−T)
             B = b_wheel @ self.allocation
             R = self.cost.R if self.cost_input == "body" else self.allocation.T @ self.cost.R @ self.allocation
-        else:
-            raise ValueError(f"input must be one of ['body', 'wheel'], got {input!r}")
         return LinearModel(A, B, self.cost.Q, R)
 
     def discrete(self, dt_s: float | None = None, **kwargs) -> LinearModel:
