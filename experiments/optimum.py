@@ -158,6 +158,12 @@ def conditions_of(env_kwargs: dict | None) -> dict | None:
     return None if cond.is_lab else cond.as_dict()
 
 
+def _array_digest(actions) -> str:
+    """SHA-256 of an actions array's float64 values and shape."""
+    a = np.ascontiguousarray(np.asarray(actions, dtype=float))
+    return hashlib.sha256(repr(a.shape).encode() + a.tobytes()).hexdigest()
+
+
 def _cache_key(env_id, env_kwargs, seed, options, settings) -> str:
     payload = {
         "env_id": env_name(env_id),
@@ -429,14 +435,16 @@ def solve_episode(
     where one applies, rolled out on the same episode), ``"best"`` (the cheapest of the
     env's baselines), None (zero actions) or an (n_steps, n_u) actions array; states and
     actions are initialized from that rollout. ``max_iter``, ``tol``: IPOPT's. ``cache``:
-    read and write the on-disk cache (:func:`cache_dir`; array warm starts are not cached).
+    read and write the on-disk cache (:func:`cache_dir`; an array warm start by its content).
     ``jit``: compile the step (see :func:`solve_problem`; the result is the same).
     Raises ValueError for an env, fault or disturbance without a symbolic model."""
     check_env(env_id)
     env_kwargs = dict(env_kwargs or {})
-    settings = {"warm_start": warm_start, "max_iter": int(max_iter), "tol": float(tol)}
-    use_cache = cache and (warm_start is None or isinstance(warm_start, str))
-    path = cache_dir() / f"{_cache_key(env_id, env_kwargs, seed, options, settings)}.json" if use_cache else None
+    named = warm_start is None or isinstance(warm_start, str)
+    # an actions array is keyed by its content: the same warm start finds the same entry
+    warm_key = warm_start if named else {"actions_sha256": _array_digest(warm_start)}
+    settings = {"warm_start": warm_key, "max_iter": int(max_iter), "tol": float(tol)}
+    path = cache_dir() / f"{_cache_key(env_id, env_kwargs, seed, options, settings)}.json" if cache else None
     if path is not None and path.is_file():
         found = _read_cache(path)
         if found is not None:

@@ -174,3 +174,15 @@ def test_cli_writes_optimum_json(tmp_path, capsys):
     assert exc.value.code == 2 and "argument --seeds: must be a count N" in capsys.readouterr().err
     (tmp_path / "file").write_text("")
     assert main(["optimum", "--env", "LinearSystem-v0", "--out", str(tmp_path / "file")]) == 2
+
+
+def test_an_actions_warm_start_is_cached_by_its_content():
+    kwargs = {"episode_steps": 15}
+    first = optimum.solve_episode("LinearSystem-v0", kwargs, seed=0)
+    warm = first.actions.copy()
+    result = optimum.solve_episode("LinearSystem-v0", kwargs, seed=0, warm_start=warm)
+    assert not result.cached and result.warm_start == "actions"
+    again = optimum.solve_episode("LinearSystem-v0", kwargs, seed=0, warm_start=warm.copy())
+    assert again.cached and again.j_star == result.j_star
+    warm[0, 0] += 1e-3  # another warm start: another entry
+    assert not optimum.solve_episode("LinearSystem-v0", kwargs, seed=0, warm_start=warm).cached

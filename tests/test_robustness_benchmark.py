@@ -6,6 +6,7 @@ import csv
 import json
 import shutil
 from pathlib import Path
+from types import SimpleNamespace
 
 import gymnasium as gym
 import numpy as np
@@ -270,3 +271,32 @@ def test_the_page_names_each_plants_parameter_and_periods():
     assert "the true inertia drawn within ± that relative error" in text
     assert "draws an actuator's gain down to zero" in text
     assert "3 s for `mpc` (Magnetorquer-v0)" in text
+
+
+def test_delayed_and_held_out_optima_start_from_the_point_before(monkeypatch):
+    """Delay d ≥ 2 starts from the d − 1 optimum's commands one period earlier; a held-out
+    scale k > 1 from the optimum at k / 2, down to the flight cell's."""
+    calls = []
+
+    def solve(env_id, kwargs, seed, warm_start="lqr"):
+        conditions = kwargs["conditions"]
+        calls.append((conditions, None if isinstance(warm_start, str) else warm_start.copy()))
+        level = len(calls)  # each solve's actions: its call number, step by step
+        return SimpleNamespace(actions=np.arange(4.0)[:, None] + 10 * level, j_star=float(level))
+
+    monkeypatch.setattr(robustness.optimum, "solve_episode", solve)
+    env = robustness.PLANTS["slosh"]
+    plant = robustness.Conditions.from_config({"delay_steps": 3}).as_dict()
+    assert robustness._optimum(env, {"conditions": plant}, 0).j_star == 3.0
+    assert [c["delay_steps"] for c, _ in calls] == [1, 2, 3]
+    assert calls[0][1] is None
+    np.testing.assert_array_equal(calls[1][1][:, 0], [11.0, 12.0, 13.0, 13.0])  # shifted one period
+    np.testing.assert_array_equal(calls[2][1][:, 0], [21.0, 22.0, 23.0, 23.0])
+    calls.clear()
+    held_out = robustness.Conditions.from_config({"base": "flight", "parameters": 4.0}).as_dict()
+    robustness._optimum(env, {"conditions": held_out}, 0)
+    assert [c if isinstance(c, str) else c["parameters"] for c, _ in calls] == ["flight", 2.0, 4.0]
+    np.testing.assert_array_equal(calls[1][1][:, 0], [10.0, 11.0, 12.0, 13.0])  # not shifted
+    calls.clear()
+    robustness._optimum(env, {"conditions": robustness.Conditions.from_config({"parameters": 2.0}).as_dict()}, 0)
+    assert len(calls) == 1 and calls[0][1] is None  # the parameters axis: the default warm start
