@@ -47,9 +47,9 @@ import numpy as np
 
 from attitude_envs import quaternion, validation
 from attitude_envs.envs.constrained_slew import CONE_FEATURES, CONE_KINDS, MAX_CONES
-from attitude_envs.info import policy_view
 from attitude_envs.quaternion import cross
 from baselines.measured import MeasuredState
+from baselines.played_action import PlayedActionWrapper
 
 __all__ = ["CBFSafetyFilterPolicy", "CBFShield", "EigenaxisResidual", "EigenaxisSlewPolicy", "Shielded", "WithResidual"]
 
@@ -155,38 +155,7 @@ class WithResidual:
         return self.combine(self.policy.act(obs, info), obs, info)
 
 
-class _PlayedActionWrapper(gym.Wrapper):
-    """A wrapper that changes each action as its policy-side twin would: :meth:`transform` gets
-    the action with the observation and :func:`~attitude_envs.info.policy_view` of the info that
-    preceded it (what the policy saw), so a model trained behind the wrapper plays exactly the
-    same behind the twin (``wrap_policy``)."""
-
-    _last: tuple[np.ndarray, dict[str, Any]] | None = None
-
-    def transform(self, action: Any, obs: np.ndarray, info: dict[str, Any]) -> tuple[np.ndarray, dict[str, Any]]:
-        """The action the env receives, and entries for the step's info."""
-        raise NotImplementedError
-
-    def on_reset(self) -> None:
-        """Called at every reset."""
-
-    def reset(self, **kwargs: Any):
-        obs, info = self.env.reset(**kwargs)
-        self.on_reset()
-        self._last = (obs, policy_view(info))
-        return obs, info
-
-    def step(self, action: Any):
-        if self._last is None:
-            raise RuntimeError(f"{type(self).__name__}: call reset() before step()")
-        applied, extra = self.transform(action, *self._last)
-        obs, reward, terminated, truncated, info = self.env.step(applied)
-        info.update(extra)
-        self._last = (obs, policy_view(info))
-        return obs, reward, terminated, truncated, info
-
-
-class EigenaxisResidual(_PlayedActionWrapper, gym.utils.RecordConstructorArgs):
+class EigenaxisResidual(PlayedActionWrapper, gym.utils.RecordConstructorArgs):
     """A learner's env whose action is a residual on the eigenaxis slew (:class:`WithResidual`'s
     ``scale`` and nominal keywords): each action becomes ``clip(a_slew + scale · a, −1, 1)``, as
     :class:`WithResidual` plays it. The Zoo's ``env_wrapper: baselines.cbf.EigenaxisResidual``;
@@ -378,7 +347,7 @@ class Shielded:
         return self.filter.filter_action(self.policy.act(obs, info), obs, info)
 
 
-class CBFShield(_PlayedActionWrapper, gym.utils.RecordConstructorArgs):
+class CBFShield(PlayedActionWrapper, gym.utils.RecordConstructorArgs):
     """A learner's env behind the CBF filter (``filter_params``: :class:`CBFSafetyFilterPolicy`'s
     keywords): each action is filtered as :class:`Shielded` filters it at evaluation.
     ``info["shield_changed"]``: whether the filter changed this step's action. The reward and the

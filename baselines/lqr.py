@@ -27,6 +27,10 @@ class LQRPolicy:
     ``p₁`` (the ZOH cost's ``Q``, ``N``, ``R``) plus ``10⁻⁸ R`` on the new command so the
     Riccati equation is regular; the policy remembers its last ``d`` commands. 0 (default):
     the nominal LQR, which ignores any delay.
+
+    Without a delay the action is ``clip(((x @ −Kᵀ) @ Tᵀ) / u_max, −1, 1)`` on the first
+    ``n_state`` observation entries ``x``, with ``gain`` ``K``, ``to_motor`` ``T`` (the
+    allocation, or the identity) and ``max_torque`` ``u_max`` (N·m).
     """
 
     def __init__(
@@ -50,19 +54,19 @@ class LQRPolicy:
             self.linear_model.lqr_gain() if not self.delay_steps else _delay_gain(self.linear_model, self.delay_steps)
         )
         self._pending = np.zeros((self.delay_steps, lin.m))
-        self._n = lin.n
+        self.n_state = lin.n
         body_action = getattr(env.unwrapped, "action_frame", "wheel") == "body"
         if body_action and model.cost_input != "body":
             raise ValueError("action_frame='body' needs cost_input='body' for the LQR (its input is the body torque)")
-        self._to_motor = model.allocation if model.cost_input == "body" and not body_action else np.eye(lin.m)
-        self._max_torque = model.params.max_wheel_torque_nm
+        self.to_motor = model.allocation if model.cost_input == "body" and not body_action else np.eye(lin.m)
+        self.max_torque = model.params.max_wheel_torque_nm
 
     def reset(self, seed: int | None = None) -> None:
         self._pending[:] = 0.0
 
     def act(self, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
         """Normalized wheel torques for one observation (n,) or a batch (E, n; without a delay)."""
-        x = np.asarray(obs, dtype=float)[..., : self._n]
+        x = np.asarray(obs, dtype=float)[..., : self.n_state]
         if self.delay_steps:
             if x.ndim != 1:
                 raise ValueError(
@@ -70,10 +74,10 @@ class LQRPolicy:
                 )
             u = -self.gain @ np.concatenate([x, self._pending.ravel()])
             self._pending = np.vstack([self._pending[1:], u])
-            motor = u @ self._to_motor.T
+            motor = u @ self.to_motor.T
         else:
-            motor = (x @ -self.gain.T) @ self._to_motor.T
-        return np.clip(motor / self._max_torque, -1.0, 1.0).astype(np.float32)
+            motor = (x @ -self.gain.T) @ self.to_motor.T
+        return np.clip(motor / self.max_torque, -1.0, 1.0).astype(np.float32)
 
 
 def _delay_gain(model, d: int) -> np.ndarray:

@@ -36,8 +36,10 @@ from attitude_envs.jax.environment import Environment
 from attitude_envs.jax.spaces import Box
 
 
-class _Wrapper:
-    """A JAX plant ``env`` wrapped: anything not defined here is read through to it."""
+class Wrapper:
+    """A JAX plant ``env`` wrapped: anything not defined here is read through to it (the base of
+    the wrappers here and of the JAX twins of training wrappers elsewhere,
+    :class:`baselines.residual_jax.LQRResidual`)."""
 
     def __init__(self, env: Environment) -> None:
         if not isinstance(env, Environment):
@@ -58,7 +60,7 @@ class _Wrapper:
         return self.env.default_params
 
 
-class DoneStep(_Wrapper):
+class DoneStep(Wrapper):
     """``env`` (a JAX plant, :func:`attitude_envs.jax.make`) with gymnax 0.0.x's
     ``step -> (obs, state, reward, done, info)``; see the module docstring.
 
@@ -108,7 +110,7 @@ class LastActionState:
     last_action: jax.Array
 
 
-class LastAction(_Wrapper, Environment):
+class LastAction(Wrapper, Environment):
     """``env`` whose observation ends with the previous action, clipped to the action box (zeros
     at an episode's start): the JAX twin of :class:`attitude_envs.wrappers.LastAction`, equal to
     it step for step. Under a command delay of one control period the command in flight is

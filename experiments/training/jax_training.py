@@ -150,7 +150,9 @@ def wrapped_plant(env_id: str, env_kwargs: dict[str, Any], wrappers=()):
     except ModuleNotFoundError as exc:
         raise ValueError(f"backend 'jax': {env_id} has no JAX plant yet ({exc})") from exc
     for path, kwargs in wrappers:
-        env = import_dotted(path)(env, **json.loads(kwargs))
+        twin, kw = import_dotted(path), json.loads(kwargs)
+        # a twin that needs the plant's own model (baselines.residual_jax.LQRResidual) is built from its keywords
+        env = twin.for_plant(env, env_id, env_kwargs, **kw) if hasattr(twin, "for_plant") else twin(env, **kw)
     return env, env_params
 
 

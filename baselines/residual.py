@@ -1,0 +1,87 @@
+"""Residual reinforcement learning on the LQR: the learner's action corrects the LQR's command.
+
+The env receives ``clip(u_LQR(o) + scale · clip(a, −1, 1), −1, 1)``: ``u_LQR(o)`` the
+:class:`baselines.lqr.LQRPolicy` command for the observation ``o`` that the learner sees too,
+``a`` the learner's action (Johannink et al. 2019, "Residual reinforcement learning for robot
+control", ICRA; Silver et al. 2018, "Residual policy learning"). The learner starts from the
+analytic controller and learns what to change: here what the LQR's linear, nominal, undelayed
+model leaves out (the drawn plant, the actuators' dynamics, the computation delay, the
+air-bearing table's offset torque).
+
+:class:`LQRResidual` is the training-side wrapper (the Zoo's ``env_wrapper``),
+:class:`WithLQR` its playing-side twin, and :class:`baselines.residual_jax.LQRResidual` the JAX
+plants' twin for the fused trainer; the three compute the same command. The LQR is the
+gyrostat's (ReactionWheel, AirBearing) without a delay: a memoryless linear feedback.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from attitude_envs import validation
+from baselines.lqr import LQRPolicy
+from baselines.played_action import PlayedActionWrapper
+
+
+def base_lqr(env: gym.Env, **lqr: Any) -> LQRPolicy:
+    """The memoryless :class:`~baselines.lqr.LQRPolicy` of ``env`` with keywords ``lqr`` that a
+    residual corrects; ``ValueError`` for a delay-compensating one (it remembers its commands)."""
+    if lqr.get("delay_steps", 0) not in (0, None):
+        raise ValueError(f"a residual corrects the memoryless LQR: delay_steps must be 0, got {lqr['delay_steps']!r}")
+    return LQRPolicy(env, **lqr)
+
+
+def check_scale(scale: Any) -> float:
+    """The residual's ``scale``: a number in (0, 2], the largest correction in action units."""
+    return validation.in_range("scale", scale, 0.0, 2.0, open_low=True)
+
+
+class WithLQR:
+    """``policy``'s action as a correction to the LQR's on ``env`` (keywords ``lqr``):
+    ``clip(u_LQR + scale · clip(a, −1, 1), −1, 1)``. The name gains ``+lqr``."""
+
+    def __init__(self, policy, env: gym.Env, scale: float = 0.25, **lqr: Any) -> None:
+        self.policy = policy
+        self.base = base_lqr(env, **lqr)
+        self.scale = check_scale(scale)
+        self.name = f"{getattr(policy, 'name', type(policy).__name__)}+lqr"
+
+    def reset(self, seed: int | None = None) -> None:
+        self.policy.reset(seed)
+        self.base.reset(seed)
+
+    def combine(self, action: Any, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
+        """The env's action for the residual ``action`` given what the policy saw."""
+        base = self.base.act(obs, info)
+        residual = np.clip(np.asarray(action, dtype=float).reshape(base.shape), -1.0, 1.0)
+        return np.clip(base + self.scale * residual, -1.0, 1.0).astype(np.float32)
+
+    def act(self, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
+        return self.combine(self.policy.act(obs, info), obs, info)
+
+
+class LQRResidual(PlayedActionWrapper, gym.utils.RecordConstructorArgs):
+    """A learner's env whose action is a residual on the LQR (:class:`WithLQR`'s ``scale`` and
+    LQR keywords). The Zoo's ``env_wrapper: {baselines.residual.LQRResidual: {scale: 0.25}}``."""
+
+    #: the JAX plants' twin, which the fused trainer applies in its place
+    jax_twin = "baselines.residual_jax.LQRResidual"
+
+    def __init__(self, env: gym.Env, scale: float = 0.25, **lqr: Any) -> None:
+        gym.utils.RecordConstructorArgs.__init__(self, scale=scale, **lqr)
+        gym.Wrapper.__init__(self, env)
+        self.residual = WithLQR(None, env, scale, **lqr)
+
+    @staticmethod
+    def wrap_policy(policy, env: gym.Env, **kwargs: Any) -> WithLQR:
+        """The playing-side twin of this wrapper: ``policy`` as a residual on the LQR."""
+        return WithLQR(policy, env, **kwargs)
+
+    def on_reset(self) -> None:
+        self.residual.base.reset()
+
+    def transform(self, action: Any, obs: np.ndarray, info: dict[str, Any]) -> tuple[np.ndarray, dict[str, Any]]:
+        return self.residual.combine(action, obs, info), {}

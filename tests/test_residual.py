@@ -1,0 +1,136 @@
+"""Residual RL on the LQR (baselines.residual): the untrained residual is the LQR, the training
+wrapper and the policy-side twin give the same commands, the JAX twin equals the wrapper step for
+step (x64, under flight's delay and actuators), and a model trained on the fused trainer plays
+behind the policy-side twin as its training evaluated it."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import attitude_envs  # noqa: F401
+from attitude_envs.evaluation.rollout import rollout
+from baselines.lqr import LQRPolicy
+from baselines.residual import LQRResidual, WithLQR
+
+AB = "attitude_envs/AirBearing-v1"
+#: the delay and the actuators' dynamics, without sensors or drawn parameters
+NO_NOISE = {"base": "flight", "sensors": 0, "parameters": 0}
+
+
+class Constant:
+    """A policy that plays the given actions in turn."""
+
+    def __init__(self, actions):
+        self.actions, self.i = actions, 0
+
+    def reset(self, seed=None):
+        self.i = 0
+
+    def act(self, obs, info):
+        self.i += 1
+        return self.actions[self.i - 1]
+
+
+def test_the_untrained_residual_is_the_lqr_and_the_sum_is_clipped():
+    env = gym.make(AB)
+    zero = WithLQR(Constant(np.zeros((400, 3), np.float32)), env, scale=0.5)
+    lqr = LQRPolicy(env)
+    assert rollout(env, zero, seed=4)["J"] == rollout(env, lqr, seed=4)["J"]
+    obs, info = env.reset(seed=4)
+    full = WithLQR(Constant(np.full((1, 3), 7.0)), env, scale=0.5).act(obs, info)
+    np.testing.assert_array_equal(full, np.clip(lqr.act(obs, info) + 0.5, -1.0, 1.0))
+    assert zero.name == "Constant+lqr"
+
+
+def test_the_wrapper_and_the_policy_twin_give_the_same_episode():
+    actions = np.random.default_rng(1).uniform(-1.2, 1.2, (400, 3)).astype(np.float32)
+    env = gym.make(AB, conditions=NO_NOISE)
+    played = rollout(env, WithLQR(Constant(actions), env, scale=0.3), seed=2)["J"]
+    wrapped = LQRResidual(gym.make(AB, conditions=NO_NOISE), scale=0.3)
+    wrapped.reset(seed=2)
+    total, i = 0.0, 0
+    while True:
+        _, r, term, trunc, _ = wrapped.step(actions[i])
+        total, i = total - r, i + 1
+        if term or trunc:
+            break
+    assert total == pytest.approx(played, rel=1e-12)
+
+
+@pytest.mark.parametrize("bad", [{"scale": 0.0}, {"scale": 3.0}, {"delay_steps": 1}])
+def test_bad_settings_are_named(bad):
+    with pytest.raises(ValueError, match="scale|delay_steps"):
+        LQRResidual(gym.make(AB), **bad)
+
+
+def test_the_jax_twin_equals_the_wrapper_step_for_step():
+    jax = pytest.importorskip("jax")
+    pytest.importorskip("flax")
+    import jax.numpy as jnp
+
+    from attitude_envs.jax import make
+    from attitude_envs.jax.make import numba_env
+    from baselines.residual_jax import LQRResidual as JaxLQRResidual
+    from baselines.residual_jax import ResidualState
+
+    actions = np.random.default_rng(0).uniform(-1.5, 1.5, (60, 3)).astype(np.float32)
+    with jax.enable_x64(True):
+        plant, params = make("AirBearing-v1", conditions=NO_NOISE)
+        env = JaxLQRResidual.for_plant(plant, "AirBearing-v1", {"conditions": NO_NOISE}, scale=0.3)
+        wrapped = LQRResidual(numba_env("AirBearing-v1", conditions=NO_NOISE), scale=0.3)
+        wrapped.reset(seed=3)
+        state = env.state_from(wrapped)
+        assert isinstance(state, ResidualState)
+        step = jax.jit(env.step_env)
+        key = jax.random.PRNGKey(0)
+        for i, a in enumerate(actions):
+            obs_j, state, reward, terminated, _ = step(key, state, jnp.asarray(a, jnp.float64), params)
+            obs, r, term, trunc, _ = wrapped.step(a)
+            # the numba env observes in float32: equal to its rounding
+            np.testing.assert_allclose(np.asarray(obs_j, np.float32), obs, rtol=2e-7, atol=1e-9, err_msg=str(i))
+            assert float(reward) == pytest.approx(r, rel=1e-10) and bool(terminated) == term
+            if term or trunc:
+                break
+        assert i >= 20  # a whole episode: the delay and the actuators acted
+    with pytest.raises(ValueError, match="wrapped in baselines.residual.LQRResidual"):
+        env.state_from(numba_env("AirBearing-v1"))
+
+
+def test_the_fused_trainer_trains_behind_the_twin_and_the_model_plays_behind_the_policy_twin(tmp_path, monkeypatch):
+    pytest.importorskip("jax")
+    pytest.importorskip("flax")
+    pytest.importorskip("optax")
+    from experiments.policies import build_policy
+    from experiments.training.jax_training import FAST_COMPILE_ENV
+    from experiments.training.training import train
+
+    monkeypatch.setenv(FAST_COMPILE_ENV, "1")
+    kwargs = {"episode_duration_s": 4.0}
+    overrides = {
+        "n_envs": 2,
+        "n_steps": 8,
+        "batch_size": 16,
+        "n_epochs": 1,
+        "gamma": 0.875,
+        "backend": "jax",
+        "env_wrapper": {"baselines.residual.LQRResidual": {"scale": 0.3}},
+    }
+    result = train(
+        "ppo",
+        AB,
+        tmp_path / "run",
+        env_kwargs=kwargs,
+        total_timesteps=32,
+        overrides=overrides,
+        eval_episodes=2,
+        eval_freq=16,
+    )
+    assert result.timesteps == 32
+    env = gym.make(AB, **kwargs)
+    policy = build_policy({"policy": "sb3", "model": str(tmp_path / "run")}, env)
+    assert isinstance(policy, WithLQR) and policy.scale == 0.3
+    last_eval = float((tmp_path / "run" / "evaluations.csv").read_text().splitlines()[-1].split(",")[1])
+    played = np.mean([rollout(env, policy, seed=s)["J"] for s in (10_000, 10_001)])
+    assert played == pytest.approx(last_eval, rel=1e-5)  # the training's evaluation, behind the wrapper
