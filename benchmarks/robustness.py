@@ -26,7 +26,8 @@ the campaign's cell. The oracle knows the true state, so sensors do not change i
 solved without them. Rows are ``agent, axis, level, j_over_j_star, cvar10, seeds``: ΣJ/ΣJ*
 over the seeds and the CVaR₀.₁ of the per-episode J/J* (the mean of its worst tenth). Every
 episode is appended to ``<out>.episodes.jsonl`` as it finishes, so an interrupted run resumes
-where it stopped.
+where it stopped; ``--recorded`` writes the curves of the points already complete in it, and
+the page names the others.
 
     python -m benchmarks.robustness --plant wheel --seeds 20 --out docs/campaigns/wheel/robustness.csv
 """
@@ -428,11 +429,13 @@ def run(
     models: Path | None = None,
     axes_chosen: list[str] | None = None,
     env_kwargs: dict | None = None,
+    recorded: bool = False,
 ) -> list[dict]:
     """Every point of ``plant``'s curves over ``seeds`` episodes of its campaign cell (its
     keywords, ``env_kwargs`` over them); the learned agents' from the campaign results
     directory ``models`` (None: the analytic ones only); rows written to ``out``. An
-    episode's J* is solved once, whichever agent plays it."""
+    episode's J* is solved once, whichever agent plays it. ``recorded``: play and solve
+    nothing, rows only for the agents' points whose episodes are all in the record."""
     env_id = PLANTS[check_plant(plant)]
     kwargs = {**cell_kwargs(plant), **dict(env_kwargs or {})}
     log = out.with_suffix(".episodes.jsonl")
@@ -445,6 +448,9 @@ def run(
             if axes_chosen and axis not in axes_chosen:
                 continue
             for name, agent_players in chosen.items():
+                keys = [(name, axis, level, seed, p.train_seed) for p in agent_players for seed in range(seeds)]
+                if recorded and not all(key in done for key in keys):
+                    continue
                 episodes = []
                 for player in agent_players:
                     env = policy = None  # built for the first episode not in the record
@@ -675,9 +681,21 @@ def _minutes(table: dict[str, int], plant: str, what: str = "") -> str:
     return f"≈ {table[plant]} min on 2 cores{what}" if plant in table else "its time is not measured yet"
 
 
-def page(rows: list[dict], plant: str, episodes: list[dict]) -> str:
-    """The Markdown page of the curves: the figure, the table, what the points are, the
-    episode of least J* (which the CVaR of J/J* follows), and how to reproduce it."""
+def _missing_text(missing: list[tuple[str, float]]) -> str:
+    if not missing:
+        return ""
+    points = ", ".join(f"{axis} {AXIS_LEVEL[axis](level)}" for axis, level in missing)
+    return (
+        "\n"
+        + _wrap(f"Not measured yet: {points}. The run stopped before them; rerunning the command below resumes it.")
+        + "\n"
+    )
+
+
+def page(rows: list[dict], plant: str, episodes: list[dict], missing: list[tuple[str, float]] = ()) -> str:
+    """The Markdown page of the curves: the figure, the table, the points not measured yet
+    (``missing``: axis and level), what the points are, the episode of least J* (which the
+    CVaR of J/J* follows), and how to reproduce it."""
     env_name = PLANTS[check_plant(plant)].split("/")[1]
     agents_seen = list(dict.fromkeys(r["agent"] for r in rows))
     seeds = rows[0]["seeds"]
@@ -693,7 +711,7 @@ def page(rows: list[dict], plant: str, episodes: list[dict]) -> str:
 ![robustness curves](figures/robustness.png)
 
 {chr(10).join(_table(rows, agents_seen))}
-
+{_missing_text(list(missing))}
 Each point covers the {seeds} episodes (seeds 0–{seeds - 1}) of the {plant} campaign's cell
 (`{json.dumps(cell_kwargs(plant))}`), with the flight sensors on (`attitude_envs.conditions`).
 One more feature is switched on per axis:
@@ -734,6 +752,11 @@ def main(argv: list[str] | None = None) -> list[dict]:
         "--models", default=None, help="a campaign results directory: its learned agents join the curves"
     )
     parser.add_argument("--axes", nargs="*", choices=AXES, default=None, help="axes to run (default: all)")
+    parser.add_argument(
+        "--recorded",
+        action="store_true",
+        help="play and solve nothing: the curves of the points whose episodes are all in the record",
+    )
     parser.add_argument("--out", default=None, help="CSV (default docs/campaigns/<plant>/robustness.csv)")
     args = parser.parse_args(argv)
     if args.seeds < 1:
@@ -742,11 +765,15 @@ def main(argv: list[str] | None = None) -> list[dict]:
     models = Path(args.models) if args.models else None
     if models is not None and not models.is_dir():
         parser.error(f"--models must be a campaign results directory, got {args.models!r}")
-    rows = run(args.plant, args.seeds, out, args.agents, models, args.axes)
+    rows = run(args.plant, args.seeds, out, args.agents, models, args.axes, recorded=args.recorded)
+    if not rows:
+        parser.error(f"no point of {args.plant}'s curves has all its episodes in {out.with_suffix('.episodes.jsonl')}")
     figure(rows, args.plant, out.parent / "figures" / "robustness.png")
     log = out.with_suffix(".episodes.jsonl")
     episodes = [json.loads(line) for line in log.read_text().splitlines() if line.strip()]
-    out.with_suffix(".md").write_text(page(rows, args.plant, episodes), encoding="utf-8")
+    measured = {(r["axis"], r["level"]) for r in rows}
+    missing = [(a, v) for a, v, _ in axes(args.plant) if (not args.axes or a in args.axes) and (a, v) not in measured]
+    out.with_suffix(".md").write_text(page(rows, args.plant, episodes, missing), encoding="utf-8")
     return rows
 
 

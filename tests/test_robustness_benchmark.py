@@ -300,3 +300,41 @@ def test_delayed_and_held_out_optima_start_from_the_point_before(monkeypatch):
     calls.clear()
     robustness._optimum(env, {"conditions": robustness.Conditions.from_config({"parameters": 2.0}).as_dict()}, 0)
     assert len(calls) == 1 and calls[0][1] is None  # the parameters axis: the default warm start
+
+
+def test_recorded_curves_leave_out_the_points_not_all_recorded(tmp_path, monkeypatch):
+    """``--recorded`` plays and solves nothing: a point whose episodes are not all in the record
+    is left out of the rows and named on the page."""
+    monkeypatch.setattr(robustness, "j_star", lambda env_id, conditions, seed, kwargs: 1.0)
+    name, kwargs = SHORT["linear"]
+    out = tmp_path / "robustness.csv"
+    full = robustness.run("linear", 2, out, [name], env_kwargs=kwargs)
+    record = out.with_suffix(".episodes.jsonl")
+    lines = record.read_text().splitlines()
+    kept = [line for line in lines if not (json.loads(line)["axis"] == "delay" and json.loads(line)["seed"] == 1)]
+    record.write_text("\n".join(kept) + "\n")
+    monkeypatch.setattr(robustness, "rollout", lambda *a, **k: pytest.fail("a recorded run played an episode"))
+    rows = robustness.run("linear", 2, out, [name], env_kwargs=kwargs, recorded=True)
+    assert [(r["axis"], r["level"]) for r in rows] == [(r["axis"], r["level"]) for r in full if r["axis"] != "delay"]
+    missing = [("delay", float(d)) for d in robustness.DELAY_LEVELS]
+    text = robustness.page(rows, "linear", [json.loads(line) for line in kept], missing)
+    assert "Not measured yet: delay 0, delay 1, delay 2, delay 3." in text
+
+
+def test_every_committed_record_reads_back_its_rows(tmp_path):
+    """Each plant page's record gives its committed rows again without playing or solving."""
+    for csv_path in sorted(DOCS.glob("*/robustness.csv")):
+        plant = csv_path.parent.name
+        out = tmp_path / plant / "robustness.csv"
+        out.parent.mkdir()
+        shutil.copy(csv_path.with_suffix(".episodes.jsonl"), out.with_suffix(".episodes.jsonl"))
+        committed = list(csv.DictReader(csv_path.open()))
+        names = list(dict.fromkeys(r["agent"] for r in committed))
+        for name in set(names) & set(robustness.learned_agents(plant)):
+            _fake_models(tmp_path / plant, robustness.training_entry(plant, name), name)
+        rows = robustness.run(plant, int(committed[0]["seeds"]), out, names, models=tmp_path / plant, recorded=True)
+        assert [(r["agent"], r["axis"], float(r["level"])) for r in committed] == [
+            (r["agent"], r["axis"], r["level"]) for r in rows
+        ], plant
+        for old, new in zip(committed, rows, strict=True):
+            assert float(old["j_over_j_star"]) == pytest.approx(new["j_over_j_star"], rel=1e-12)
