@@ -158,15 +158,6 @@ class KeepOutCone(Constraint):
         q = split_state(state)[0]
         return quaternion.to_matrix(q).T @ self.inertial_direction
 
-    def barrier_terms(self, state: Any) -> tuple[float, np.ndarray, np.ndarray]:
-        """``(g, ġ, c)`` for a control barrier function: ``g``, its rate ``ġ = ω · (b × s_B)``
-        (``s_B`` the direction in body axes) and ``c = b × s_B``, so that
-        ``g̈ = ω̇ · c + ω · (b × (s_B × ω))`` (the kinematics ``ṡ_B = −ω × s_B``)."""
-        _, w, _ = split_state(state)
-        s_b = self.direction_in_body(state)
-        c = np.cross(self.body_axis, s_b)
-        return float(self.body_axis @ s_b) - self.cos_half_angle, float(w @ c), c
-
 
 class WheelSpeedLimit(Constraint):
     """Wheel speeds within ``limit_rad_s``: ``g = max_i |Ω_i| − limit`` (rad/s), or the

@@ -120,15 +120,6 @@ def save_policy(arrays: PolicyArrays, path: str | Path) -> Path:
     return path
 
 
-def is_policy_file(path: str | Path) -> bool:
-    """Whether ``path`` is a fused-PPO model file."""
-    try:
-        with zipfile.ZipFile(path) as zf:
-            return json.loads(zf.read("data").decode("utf-8")).get("format") == FORMAT
-    except (OSError, zipfile.BadZipFile, KeyError, ValueError):
-        return False
-
-
 def load_policy(path: str | Path) -> PolicyArrays:
     """The :class:`PolicyArrays` of a model file; ``ValueError`` for another kind of file."""
     path = Path(path)

@@ -72,11 +72,6 @@ def igrf_ecef_t(position_ecef_m: np.ndarray, epoch: _dt.datetime) -> np.ndarray:
     return b.reshape(np.shape(position_ecef_m))
 
 
-def _rot_z(angle: float) -> np.ndarray:
-    c, s = np.cos(angle), np.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
 class FieldModel:
     """Field in the orbital frame along ``orbit``: :meth:`orbital_t` (tesla)."""
 
