@@ -10,7 +10,8 @@ air-bearing table's offset torque).
 
 :class:`LQRResidual` is the training-side wrapper (the Zoo's ``env_wrapper``),
 :class:`WithLQR` its playing-side twin, and :class:`baselines.residual_jax.LQRResidual` the JAX
-plants' twin for the fused trainer; the three compute the same command. The LQR is the
+plants' twin for the fused trainer; the three compute the same command (the JAX twin to rounding:
+its matrix products are XLA's). The LQR is the
 gyrostat's (ReactionWheel, AirBearing) without a delay: a memoryless linear feedback.
 """
 

@@ -72,7 +72,8 @@ class LQRResidual(Wrapper, Environment):
                 raise ValueError("state_from needs the numba env wrapped in baselines.residual.LQRResidual")
             wrapper = wrapper.env
         plant = self.env.state_from(wrapper.env, *args)
-        return ResidualState(plant, jnp.asarray(wrapper.last_observation))
+        # the numba env observes in float32; the JAX plant in its own float type
+        return ResidualState(plant, jnp.asarray(wrapper.last_observation, jnp.result_type(float)))
 
     def is_truncated(self, state: ResidualState, params: Any) -> jax.Array:
         return self.env.is_truncated(state.env_state, params)

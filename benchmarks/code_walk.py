@@ -5,16 +5,20 @@ room already visited: ``re-entries = stays − rooms``.
 
 Rooms are the product's modules (``attitude_envs``, ``baselines``, ``agents``,
 ``experiments``); library code, numba-compiled kernels and import-time code (module and class
-bodies) are not on the walk. Each function counts once, at its first call. The jobs are the
-quick campaign's: its training job (256 steps) and one episode of every analytic agent.
+bodies) are not on the walk. Each function counts once, at its first call (comprehensions and
+lambdas count as functions, as Python 3.11 runs them). The jobs are the quick campaign's: its
+training job (256 steps) and one episode of every analytic agent, each in a fresh interpreter
+so that no job finds another's caches filled.
 
-    python -m benchmarks.code_walk [--verbose]      # ≈ 1 min
+    python -m benchmarks.code_walk [--verbose]      # ≈ 1 min on 2 cores
 """
 
 from __future__ import annotations
 
 import argparse
 import inspect
+import json
+import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -83,16 +87,32 @@ def quick_jobs(out_dir: Path) -> dict[str, dict[str, Any]]:
     return jobs
 
 
+def _walk_alone(name: str) -> list[tuple[str, list[str]]]:
+    """The walk of the quick job ``name`` in a fresh interpreter: nothing cached by another job."""
+    out = subprocess.run(
+        [sys.executable, "-m", "benchmarks.code_walk", "--job", name],
+        capture_output=True,
+        text=True,
+        check=True,
+        cwd=ROOT,
+    ).stdout
+    return [tuple(stay) for stay in json.loads(out.splitlines()[-1])]
+
+
 def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.code_walk", description=__doc__.split("\n\n")[0])
     parser.add_argument("--verbose", action="store_true", help="print the longest walk, stay by stay")
+    parser.add_argument("--job", help="walk this one job here and print its stays as JSON (each job runs so, alone)")
     args = parser.parse_args(argv)
-    rows, walks = [], {}
     with tempfile.TemporaryDirectory() as tmp:
-        for name, job in quick_jobs(Path(tmp)).items():
-            walks[name] = walk(job)
-            rows.append({"job": name, **summary(walks[name])})
-    rows.sort(key=lambda r: -r["stays"])
+        jobs = quick_jobs(Path(tmp))
+        if args.job is not None:
+            if args.job not in jobs:
+                parser.error(f"--job must be one of {sorted(jobs)}, got {args.job!r}")
+            print(json.dumps(walk(jobs[args.job])))
+            return []
+    walks = {name: _walk_alone(name) for name in jobs}
+    rows = sorted(({"job": name, **summary(stays)} for name, stays in walks.items()), key=lambda r: -r["stays"])
     print(f"{'job':42s} {'functions':>9s} {'stays':>6s} {'rooms':>6s} {'re-entries':>10s}")
     for r in rows:
         print(f"{r['job']:42s} {r['functions']:9d} {r['stays']:6d} {r['rooms']:6d} {r['re_entries']:10d}")

@@ -35,6 +35,7 @@ the page names the others.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import json
 import textwrap
@@ -358,7 +359,7 @@ def players(plant: str, names: list[str] | None, models: Path | None, kwargs: di
 def j_star(env_id: str, conditions: dict | str, seed: int, env_kwargs: dict | None = None) -> float:
     """The oracle's J of the episode under ``conditions`` without the sensors (the oracle knows
     the true state; the lab's where nothing else is on): the shipped table's where it holds the
-    episode, else solved."""
+    episode, else solved; :class:`UnsolvedOptimum` when the solve ends without a solution."""
     from experiments.optimum_table import table_value
 
     kwargs = dict(env_kwargs or {})
@@ -370,7 +371,16 @@ def j_star(env_id: str, conditions: dict | str, seed: int, env_kwargs: dict | No
     if not plant.is_lab:
         kwargs["conditions"] = plant.as_dict()
     listed = table_value(env_id, kwargs, seed, None)  # the lab cell's, where only sensors are on
-    return float(listed) if listed is not None else _optimum(env_id, kwargs, seed).j_star
+    if listed is not None:
+        return float(listed)
+    result = _optimum(env_id, kwargs, seed)
+    if not result.solved:
+        raise UnsolvedOptimum(f"J* did not solve ({result.status} after {result.iterations} iterations)")
+    return result.j_star
+
+
+class UnsolvedOptimum(RuntimeError):
+    """The oracle's solve of an episode ended without a solution: its J is no J*."""
 
 
 def _optimum(env_id: str, kwargs: dict, seed: int) -> optimum.OptimumResult:
@@ -441,9 +451,10 @@ def run(
     log = out.with_suffix(".episodes.jsonl")
     done, j_stars = _read_log(log)
     chosen = players(plant, names, models, kwargs)
-    out.parent.mkdir(parents=True, exist_ok=True)
     rows = []
-    with log.open("a") as sink:
+    if not recorded:
+        out.parent.mkdir(parents=True, exist_ok=True)
+    with contextlib.nullcontext() if recorded else log.open("a") as sink:
         for axis, level, conditions in axes(plant):
             if axes_chosen and axis not in axes_chosen:
                 continue
@@ -462,7 +473,13 @@ def run(
                                 policy = player.factory(env)
                             episode = (axis, level, seed)
                             if episode not in j_stars:
-                                j_stars[episode] = j_star(env_id, conditions, seed, kwargs)
+                                try:
+                                    j_stars[episode] = j_star(env_id, conditions, seed, kwargs)
+                                except UnsolvedOptimum as exc:
+                                    print(f"{plant} {axis} {level:g} seed {seed}: {exc}; the point stays incomplete")
+                                    j_stars[episode] = None
+                            if j_stars[episode] is None:
+                                continue
                             done[key] = {
                                 "agent": name,
                                 "axis": axis,
@@ -478,6 +495,8 @@ def run(
                         episodes.append(done[key])
                     if env is not None:
                         env.close()
+                if len(episodes) < len(keys):  # an episode's J* did not solve
+                    continue
                 row = _row(name, axis, level, episodes, seeds)
                 rows.append(row)
                 print(
@@ -492,7 +511,8 @@ def run(
             writer.writeheader()
             writer.writerows(rows)
 
-    atomic_write(out, write_csv)
+    if rows:
+        atomic_write(out, write_csv)
     return rows
 
 
@@ -692,17 +712,25 @@ def _missing_text(missing: list[tuple[str, float]]) -> str:
     )
 
 
-def page(rows: list[dict], plant: str, episodes: list[dict], missing: list[tuple[str, float]] = ()) -> str:
+def page(
+    rows: list[dict],
+    plant: str,
+    episodes: list[dict],
+    missing: list[tuple[str, float]] = (),
+    requested: list[str] | None = None,
+) -> str:
     """The Markdown page of the curves: the figure, the table, the points not measured yet
     (``missing``: axis and level), what the points are, the episode of least J* (which the
-    CVaR of J/J* follows), and how to reproduce it."""
+    CVaR of J/J* follows), and how to reproduce it (the run of the ``requested`` agents, None:
+    those in ``rows``, and of the axes measured or missing)."""
     env_name = PLANTS[check_plant(plant)].split("/")[1]
     agents_seen = list(dict.fromkeys(r["agent"] for r in rows))
     seeds = rows[0]["seeds"]
-    run_axes = [a for a in AXES if any(r["axis"] == a for r in rows)]
+    run_axes = [a for a in AXES if any(r["axis"] == a for r in rows) or any(m[0] == a for m in missing)]
     axes_arg = "" if run_axes == list(AXES) else " --axes " + " ".join(run_axes)
     every = agents(plant) + learned_agents(plant)
-    agents_arg = "" if sorted(agents_seen) == sorted(every) else " --agents " + " ".join(agents_seen)
+    run_agents = agents_seen if requested is None else list(requested)
+    agents_arg = "" if sorted(run_agents) == sorted(every) else " --agents " + " ".join(run_agents)
     top = max([r["level"] for r in rows if r["axis"] == "parameters"] or [PARAMETER_LEVELS[-1]])
     return rf"""# {env_name}: robustness to flight conditions
 
@@ -773,7 +801,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     episodes = [json.loads(line) for line in log.read_text().splitlines() if line.strip()]
     measured = {(r["axis"], r["level"]) for r in rows}
     missing = [(a, v) for a, v, _ in axes(args.plant) if (not args.axes or a in args.axes) and (a, v) not in measured]
-    out.with_suffix(".md").write_text(page(rows, args.plant, episodes, missing), encoding="utf-8")
+    text = page(rows, args.plant, episodes, missing, args.agents)
+    out.with_suffix(".md").write_text(text, encoding="utf-8")
     return rows
 
 

@@ -83,6 +83,7 @@ def test_the_jax_twin_equals_the_wrapper_step_for_step():
         wrapped.reset(seed=3)
         state = env.state_from(wrapped)
         assert isinstance(state, ResidualState)
+        assert state.obs.dtype == env.reset_env(jax.random.PRNGKey(0), params)[0].dtype  # a scan carries it
         step = jax.jit(env.step_env)
         key = jax.random.PRNGKey(0)
         for i, a in enumerate(actions):
@@ -93,7 +94,7 @@ def test_the_jax_twin_equals_the_wrapper_step_for_step():
             assert float(reward) == pytest.approx(r, rel=1e-10) and bool(terminated) == term
             if term or trunc:
                 break
-        assert i >= 20  # a whole episode: the delay and the actuators acted
+        assert i >= 20  # to the episode's end: the delay and the actuators acted
     with pytest.raises(ValueError, match="wrapped in baselines.residual.LQRResidual"):
         env.state_from(numba_env("AirBearing-v1"))
 

@@ -319,6 +319,26 @@ def test_recorded_curves_leave_out_the_points_not_all_recorded(tmp_path, monkeyp
     missing = [("delay", float(d)) for d in robustness.DELAY_LEVELS]
     text = robustness.page(rows, "linear", [json.loads(line) for line in kept], missing)
     assert "Not measured yet: delay 0, delay 1, delay 2, delay 3." in text
+    assert "--axes" not in text  # the command that resumes it runs every axis, delay included
+    empty = tmp_path / "empty" / "robustness.csv"
+    assert robustness.run("linear", 2, empty, [name], env_kwargs=kwargs, recorded=True) == []
+    assert not empty.parent.exists()  # nothing written
+
+
+def test_an_episode_whose_optimum_did_not_solve_leaves_its_point_out(tmp_path, monkeypatch):
+    def j_star(env_id, conditions, seed, kwargs):
+        if conditions == {"sensors": 1.0, "delay_steps": 2} and seed == 1:
+            raise robustness.UnsolvedOptimum("J* did not solve (Maximum_Iterations_Exceeded after 1000 iterations)")
+        return 1.0
+
+    monkeypatch.setattr(robustness, "j_star", j_star)
+    name, kwargs = SHORT["linear"]
+    out = tmp_path / "robustness.csv"
+    rows = robustness.run("linear", 2, out, [name], env_kwargs=kwargs)
+    points = [(r["axis"], r["level"]) for r in rows]
+    assert ("delay", 2.0) not in points and ("delay", 3.0) in points
+    recorded = [json.loads(line) for line in out.with_suffix(".episodes.jsonl").read_text().splitlines()]
+    assert not any(r["axis"] == "delay" and r["level"] == 2 and r["seed"] == 1 for r in recorded)
 
 
 def test_every_committed_record_reads_back_its_rows(tmp_path):
