@@ -91,9 +91,15 @@ def from_euler_321_deg(roll_deg: float, pitch_deg: float, yaw_deg: float) -> np.
 
     Equals ``Rotation.from_euler('ZYX', [ψ, θ, φ], degrees=True).as_quat()`` (as for the targets of the feedback-linearization paper's Table 1).
     """
-    phi, theta, psi = np.radians([roll_deg, pitch_deg, yaw_deg]) * 0.5
-    sf, cf, st, ct, sp, cp = np.sin(phi), np.cos(phi), np.sin(theta), np.cos(theta), np.sin(psi), np.cos(psi)
-    return np.array(
+    return from_euler_321_half_angles(*(np.radians([roll_deg, pitch_deg, yaw_deg]) * 0.5))
+
+
+def from_euler_321_half_angles(phi, theta, psi, xp=np):
+    """The quaternion of 3-2-1 Euler half-angles ``φ/2, θ/2, ψ/2`` (rad) in the array namespace
+    ``xp`` (numpy, ``jax.numpy``): the one formula of :func:`from_euler_321_deg` and the JAX
+    plants' start attitudes."""
+    sf, cf, st, ct, sp, cp = xp.sin(phi), xp.cos(phi), xp.sin(theta), xp.cos(theta), xp.sin(psi), xp.cos(psi)
+    return xp.stack(
         [
             sf * ct * cp - cf * st * sp,
             cf * st * cp + sf * ct * sp,

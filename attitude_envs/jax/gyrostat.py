@@ -68,6 +68,7 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
+from attitude_envs import quaternion
 from attitude_envs.envs.air_bearing import AirBearingEnv, euler_max
 from attitude_envs.envs.base import check_keywords
 from attitude_envs.envs.reaction_wheel import GyrostatConfig, ReactionWheelEnv, configure
@@ -343,15 +344,7 @@ def _from_euler_321_deg(euler_deg: jax.Array) -> jax.Array:
     """The quaternion of 3-2-1 Euler angles [roll, pitch, yaw], deg
     (:func:`attitude_envs.quaternion.from_euler_321_deg`)."""
     phi, theta, psi = jnp.radians(euler_deg) * 0.5
-    sf, cf, st, ct, sp, cp = jnp.sin(phi), jnp.cos(phi), jnp.sin(theta), jnp.cos(theta), jnp.sin(psi), jnp.cos(psi)
-    return jnp.stack(
-        [
-            sf * ct * cp - cf * st * sp,
-            cf * st * cp + sf * ct * sp,
-            cf * ct * sp - sf * st * cp,
-            cf * ct * cp + sf * st * sp,
-        ]
-    )
+    return quaternion.from_euler_321_half_angles(phi, theta, psi, xp=jnp)
 
 
 def _to_matrix(q: jax.Array) -> jax.Array:

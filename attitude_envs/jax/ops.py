@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from attitude_envs.plants.ops import array_ops
+from attitude_envs.plants.ops import library_ops
 
 #: traced ``jax.numpy``
-JAX = array_ops("jax", jnp)
+JAX = library_ops("jax", jnp)

@@ -76,25 +76,32 @@ NUMBA = Ops(
 )
 
 
-def array_ops(name: str, xp) -> Ops:
-    """The executor of an array namespace ``xp`` with numpy's names (numpy, ``jax.numpy``):
-    elementwise, uncompiled (a tracing namespace traces the helpers)."""
-    return Ops(
-        name,
-        sin=xp.sin,
-        cos=xp.cos,
-        sqrt=xp.sqrt,
-        fabs=xp.abs,
-        where=xp.where,
-        fmin=xp.minimum,
-        fmax=xp.maximum,
-        round=xp.round,
-        sign=xp.sign,
-    )
+#: each operation's name in the array namespaces (numpy, ``jax.numpy``) and in CasADi (None: it
+#: has none); an operation added to :class:`Ops` gets its row here
+LIBRARY_NAMES = {
+    "sin": ("sin", "sin"),
+    "cos": ("cos", "cos"),
+    "sqrt": ("sqrt", "sqrt"),
+    "fabs": ("abs", "fabs"),
+    "where": ("where", "if_else"),
+    "fmin": ("minimum", "fmin"),
+    "fmax": ("maximum", "fmax"),
+    "round": ("round", None),
+    "sign": ("sign", "sign"),
+}
+
+
+def library_ops(name: str, module, library: str = "array", **given: Callable) -> Ops:
+    """The executor that takes its operations from ``module`` by their :data:`LIBRARY_NAMES`
+    (``library``: ``"array"`` for numpy's names, ``"casadi"``), uncompiled (a tracing library
+    traces the helpers); ``given`` supplies or replaces operations by member name."""
+    column = ("array", "casadi").index(library)
+    members = {op: given[op] if op in given else getattr(module, names[column]) for op, names in LIBRARY_NAMES.items()}
+    return Ops(name, **members)
 
 
 #: plain numpy, uncompiled: vectorized when the entries are arrays (a batch along the last axis)
-NUMPY = array_ops("numpy", np)
+NUMPY = library_ops("numpy", np)
 
 
 #: plain Python on floats, uncompiled: the cheapest for a few scalars per call from Python code

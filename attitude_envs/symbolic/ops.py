@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import casadi
 
-from attitude_envs.plants.ops import Ops
+from attitude_envs.plants.ops import library_ops
 
 
 def _no_round(x):
@@ -14,15 +14,4 @@ def _no_round(x):
 
 #: CasADi: symbolic ``sin``/``cos``/``sqrt``/``fabs``/``fmin``/``fmax``/``sign``, ``if_else`` for
 #: ``where``, no ``round`` (a quantized command is relaxed); helpers stay Python
-CASADI = Ops(
-    "casadi",
-    sin=casadi.sin,
-    cos=casadi.cos,
-    sqrt=casadi.sqrt,
-    fabs=casadi.fabs,
-    where=casadi.if_else,
-    fmin=casadi.fmin,
-    fmax=casadi.fmax,
-    round=_no_round,
-    sign=casadi.sign,
-)
+CASADI = library_ops("casadi", casadi, "casadi", round=_no_round)
