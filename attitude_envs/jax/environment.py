@@ -75,11 +75,17 @@ class EnvParams:
 
 
 class Environment:
-    """gymnax 1.0's environment API (see the module docstring)."""
+    """gymnax 1.0's environment API (see the module docstring). A plant sets
+    ``_default_params`` at construction; :attr:`default_params` returns it."""
+
+    _default_params: Any = None
 
     @property
     def default_params(self) -> Any:
-        raise NotImplementedError
+        """The params of the plant's keywords (:func:`attitude_envs.jax.make`)."""
+        if self._default_params is None:
+            raise NotImplementedError(f"{type(self).__name__} sets no default params")
+        return self._default_params
 
     @partial(jax.jit, static_argnames=("self",))
     def step(self, key: jax.Array, state: Any, action: jax.Array, params: Any = None):

@@ -362,10 +362,6 @@ class FuelSloshEnv(Environment):
         self._default_params = default_params
 
     @property
-    def default_params(self) -> EnvParams:
-        return self._default_params
-
-    @property
     def name(self) -> str:
         return "FuelSlosh"
 

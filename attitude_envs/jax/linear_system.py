@@ -226,10 +226,6 @@ class LinearSystemEnv(Environment):
         self._default_params = default_params
 
     @property
-    def default_params(self) -> EnvParams:
-        return self._default_params
-
-    @property
     def name(self) -> str:
         return "LinearSystem"
 

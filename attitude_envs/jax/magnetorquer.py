@@ -607,10 +607,6 @@ class MagnetorquerEnv(Environment):
         self._default_params = default_params
 
     @property
-    def default_params(self) -> EnvParams:
-        return self._default_params
-
-    @property
     def name(self) -> str:
         return "Magnetorquer"
 
