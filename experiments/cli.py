@@ -505,6 +505,20 @@ def _add_env_options(p: argparse.ArgumentParser, default: str = ENV_DEFAULT, ids
     p.add_argument("--faults", help="actuator faults as a YAML list (attitude_envs.faults), or @FILE")
 
 
+def _search_options(args: argparse.Namespace) -> dict:
+    """The keywords both hyperparameter searches (optuna's and the population's) take from ``tune``."""
+    return {
+        "env_kwargs": _env_kwargs(args),
+        "n_trials": args.trials,
+        "timesteps": args.timesteps,
+        "n_evaluations": args.evaluations,
+        "eval_episodes": args.eval_episodes,
+        "overrides": parse_overrides(args.params),
+        "seed": args.seed,
+        "sampler_seed": args.sampler_seed,
+    }
+
+
 def _tune(args: argparse.Namespace) -> int:
     if args.backend == "jax":  # a population search with the fused JAX trainer (no optuna)
         return _tune_population(args)
@@ -520,21 +534,7 @@ def _tune(args: argparse.Namespace) -> int:
             f"tune needs the package {exc.name or 'optuna'!r}: pip install -c constraints.txt 'attitude-envs[tune,sb3]'"
         ) from None
 
-    summary = tune(
-        args.algo,
-        args.env,
-        args.out,
-        env_kwargs=_env_kwargs(args),
-        n_trials=args.trials,
-        timesteps=args.timesteps,
-        n_evaluations=args.evaluations,
-        eval_episodes=args.eval_episodes,
-        overrides=parse_overrides(args.params),
-        backend=args.backend,
-        seed=args.seed,
-        sampler_seed=args.sampler_seed,
-        jobs=args.jobs,
-    )
+    summary = tune(args.algo, args.env, args.out, **_search_options(args), backend=args.backend, jobs=args.jobs)
     print(
         f"tuned {args.algo} on {args.env}: {summary['n_complete']} trials complete, {summary['n_pruned']} pruned; "
         f"trials: {Path(args.out) / 'trials.csv'}"
@@ -552,20 +552,7 @@ def _tune_population(args: argparse.Namespace) -> int:
     if args.jobs not in (None, 1):
         raise ValueError("--jobs: the population search (--backend jax) trains every setting in one process")
     check_out_dir(args.out)
-    summary = tune_population(
-        args.algo,
-        args.env,
-        args.out,
-        env_kwargs=_env_kwargs(args),
-        n_trials=args.trials,
-        timesteps=args.timesteps,
-        n_evaluations=args.evaluations,
-        eval_episodes=args.eval_episodes,
-        overrides=parse_overrides(args.params),
-        seed=args.seed,
-        sampler_seed=args.sampler_seed,
-        shape_groups=args.shape_groups,
-    )
+    summary = tune_population(args.algo, args.env, args.out, **_search_options(args), shape_groups=args.shape_groups)
     groups = summary["groups"]
     print(
         f"tuned {args.algo} (jax) on {args.env}: {summary['n_complete']} of {args.trials} settings in "
