@@ -142,7 +142,17 @@ PARAMETER_LEVELS = (0.0, 0.1, 0.25, 0.5)
 #: 15-19 s a parameters solve, 62-82 s a delay or held-out one), 230 s on LinearSystem (J* 106 s;
 #: the LQR's 40000-step episodes 2.6 s, through the Kalman filter 5.7 s; the whole LinearSystem
 #: run took 81 min of wall time, 2026-11-29, split by axis over up to three processes)
-RUN_MINUTES = {"wheel": 40, "air-bearing": 105, "magnetorquer": 170, "slosh": 140, "linear": 80}
+#: Magnetorquer's mpc and ppo-flight rows: 96 min of wall time, 2026-11-29, beside two FuelSlosh runs.
+#: FuelSlosh in full (2026-11-28 and -29): its delay and held-out solves take 2-5 min each from the
+#: chained warm start (``_optimum``) and up to 30 min from the LQR's; with three runs sharing 2 cores
+#: the page's points took more than 5 h, its held-out ×2 and ×4 unfinished (a time as text)
+RUN_MINUTES: dict[str, int | str] = {
+    "wheel": 40,
+    "air-bearing": 105,
+    "magnetorquer": "≈ 100 min on 2 cores shared with two other runs",
+    "slosh": "more than 5 h on 2 cores",
+    "linear": 80,
+}
 #: the plant campaign's wall time, min, with its flight cells (the sum of the runs in its page's
 #: runs.jsonl, 2026-11-26 to -29, shared cores)
 CAMPAIGN_MINUTES = {"wheel": 72, "air-bearing": 47, "magnetorquer": 60, "slosh": 60, "linear": 30}
@@ -696,9 +706,13 @@ with the maneuver. ΣJ/ΣJ\\* is the robust summary.
 _RUN_NOTE = " from nothing with every agent, most of it J\\*"
 
 
-def _minutes(table: dict[str, int], plant: str, what: str = "") -> str:
-    """``≈ N min on 2 cores`` (then ``what``) from a measured ``table``, or that it is not measured yet."""
-    return f"≈ {table[plant]} min on 2 cores{what}" if plant in table else "its time is not measured yet"
+def _minutes(table: dict[str, int | str], plant: str, what: str = "") -> str:
+    """``≈ N min on 2 cores`` (then ``what``) from a measured ``table`` (a text entry as it is),
+    or that it is not measured yet."""
+    if plant not in table:
+        return "its time is not measured yet"
+    time = table[plant]
+    return f"{time}{what}" if isinstance(time, str) else f"≈ {time} min on 2 cores{what}"
 
 
 def _missing_text(missing: list[tuple[str, float]]) -> str:
