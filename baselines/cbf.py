@@ -50,6 +50,7 @@ from attitude_envs.envs.constrained_slew import CONE_FEATURES, CONE_KINDS, MAX_C
 from attitude_envs.quaternion import cross
 from baselines.measured import MeasuredState
 from baselines.played_action import PlayedActionWrapper
+from baselines.residual import Residual, ResidualWrapper
 
 __all__ = ["CBFSafetyFilterPolicy", "CBFShield", "EigenaxisResidual", "EigenaxisSlewPolicy", "Shielded", "WithResidual"]
 
@@ -127,52 +128,31 @@ class EigenaxisSlewPolicy:
         return self.action(self.body_torque_nm(MeasuredState.from_info(info)))
 
 
-class WithResidual:
+class WithResidual(Residual):
     """``policy``'s action as a correction to the eigenaxis slew's (:class:`EigenaxisSlewPolicy`
     on ``env`` with ``nominal``, its keywords): ``clip(a_slew + scale · a, −1, 1)``, body-torque
     demands in units of the wheels' torque limit (residual RL: the learner starts from the
     analytic slew and learns what to change). The name gains ``+eigenaxis``."""
 
     def __init__(self, policy, env, scale: float = 0.5, **nominal: Any) -> None:
-        self.policy = policy
-        self.base = EigenaxisSlewPolicy(env, **nominal)
-        if self.base.action_frame != "body":
+        base = EigenaxisSlewPolicy(env, **nominal)
+        if base.action_frame != "body":
             raise ValueError(
-                f"the residual acts on body-torque actions: build the env with action_frame='body', got {self.base.action_frame!r}"
+                f"the residual acts on body-torque actions: build the env with action_frame='body', got {base.action_frame!r}"
             )
-        self.scale = validation.in_range("scale", scale, 0.0, 2.0, open_low=True)
-        self.name = f"{getattr(policy, 'name', type(policy).__name__)}+eigenaxis"
-
-    def reset(self, seed: int | None = None) -> None:
-        self.policy.reset(seed)
-
-    def combine(self, action: np.ndarray, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
-        """The env's action for the residual ``action`` (in [-1, 1]³) given what the policy saw."""
-        residual = np.clip(np.asarray(action, dtype=float).reshape(3), -1.0, 1.0)
-        return np.clip(self.base.act(obs, info) + self.scale * residual, -1.0, 1.0).astype(np.float32)
-
-    def act(self, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
-        return self.combine(self.policy.act(obs, info), obs, info)
+        super().__init__(policy, base, scale, "eigenaxis")
 
 
-class EigenaxisResidual(PlayedActionWrapper, gym.utils.RecordConstructorArgs):
+class EigenaxisResidual(ResidualWrapper):
     """A learner's env whose action is a residual on the eigenaxis slew (:class:`WithResidual`'s
     ``scale`` and nominal keywords): each action becomes ``clip(a_slew + scale · a, −1, 1)``, as
     :class:`WithResidual` plays it. The Zoo's ``env_wrapper: baselines.cbf.EigenaxisResidual``;
     listed after :class:`CBFShield` (outside it), the residual's sum is what the shield filters."""
 
+    twin = WithResidual
+
     def __init__(self, env: gym.Env, scale: float = 0.5, **nominal: Any) -> None:
-        gym.utils.RecordConstructorArgs.__init__(self, scale=scale, **nominal)
-        gym.Wrapper.__init__(self, env)
-        self.residual = WithResidual(None, env, scale, **nominal)
-
-    @staticmethod
-    def wrap_policy(policy, env, **kwargs: Any) -> WithResidual:
-        """The evaluation-side twin of this wrapper: ``policy`` as a residual on the slew."""
-        return WithResidual(policy, env, **kwargs)
-
-    def transform(self, action: Any, obs: np.ndarray, info: dict[str, Any]) -> tuple[np.ndarray, dict[str, Any]]:
-        return self.residual.combine(action, obs, info), {}
+        super().__init__(env, scale, **nominal)
 
 
 class CBFSafetyFilterPolicy(EigenaxisSlewPolicy):

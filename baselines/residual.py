@@ -8,8 +8,10 @@ analytic controller and learns what to change: here what the LQR's linear, nomin
 model leaves out (the drawn plant, the actuators' dynamics, the computation delay, the
 air-bearing table's offset torque).
 
-:class:`LQRResidual` is the training-side wrapper (the Zoo's ``env_wrapper``),
-:class:`WithLQR` its playing-side twin, and :class:`baselines.residual_jax.LQRResidual` the JAX
+:class:`Residual` and :class:`ResidualWrapper` combine any base policy with a learner's action
+(the eigenaxis slew's residual, :mod:`baselines.cbf`, is one). :class:`LQRResidual` is the
+training-side wrapper on the LQR (the Zoo's ``env_wrapper``), :class:`WithLQR` its playing-side
+twin, and :class:`baselines.residual_jax.LQRResidual` the JAX
 plants' twin for the fused trainer; the three compute the same command (the JAX twin to rounding:
 its matrix products are XLA's). The LQR is the
 gyrostat's (ReactionWheel, AirBearing) without a delay: a memoryless linear feedback.
@@ -40,15 +42,16 @@ def check_scale(scale: Any) -> float:
     return validation.in_range("scale", scale, 0.0, 2.0, open_low=True)
 
 
-class WithLQR:
-    """``policy``'s action as a correction to the LQR's on ``env`` (keywords ``lqr``):
-    ``clip(u_LQR + scale · clip(a, −1, 1), −1, 1)``. The name gains ``+lqr``."""
+class Residual:
+    """``policy``'s action as a correction to the ``base`` policy's:
+    ``clip(a_base + scale · clip(a, −1, 1), −1, 1)`` (residual RL: the learner starts from the
+    analytic controller and learns what to change). The name gains ``+suffix``."""
 
-    def __init__(self, policy, env: gym.Env, scale: float = 0.25, **lqr: Any) -> None:
+    def __init__(self, policy, base, scale: float, suffix: str) -> None:
         self.policy = policy
-        self.base = base_lqr(env, **lqr)
+        self.base = base
         self.scale = check_scale(scale)
-        self.name = f"{getattr(policy, 'name', type(policy).__name__)}+lqr"
+        self.name = f"{getattr(policy, 'name', type(policy).__name__)}+{suffix}"
 
     def reset(self, seed: int | None = None) -> None:
         self.policy.reset(seed)
@@ -64,25 +67,45 @@ class WithLQR:
         return self.combine(self.policy.act(obs, info), obs, info)
 
 
-class LQRResidual(PlayedActionWrapper, gym.utils.RecordConstructorArgs):
-    """A learner's env whose action is a residual on the LQR (:class:`WithLQR`'s ``scale`` and
-    LQR keywords). The Zoo's ``env_wrapper: {baselines.residual.LQRResidual: {scale: 0.25}}``."""
+class ResidualWrapper(PlayedActionWrapper, gym.utils.RecordConstructorArgs):
+    """A learner's env whose action is a residual on a base policy, combined as its playing-side
+    :attr:`twin` (a :class:`Residual` built from ``(policy, env, scale, **keywords)``) combines
+    it; the base policy is reset with the env."""
 
-    #: the JAX plants' twin, which the fused trainer applies in its place
-    jax_twin = "baselines.residual_jax.LQRResidual"
+    twin: type[Residual]
 
-    def __init__(self, env: gym.Env, scale: float = 0.25, **lqr: Any) -> None:
-        gym.utils.RecordConstructorArgs.__init__(self, scale=scale, **lqr)
+    def __init__(self, env: gym.Env, scale: float, **keywords: Any) -> None:
+        gym.utils.RecordConstructorArgs.__init__(self, scale=scale, **keywords)
         gym.Wrapper.__init__(self, env)
-        self.residual = WithLQR(None, env, scale, **lqr)
+        self.residual = self.twin(None, env, scale, **keywords)
 
-    @staticmethod
-    def wrap_policy(policy, env: gym.Env, **kwargs: Any) -> WithLQR:
-        """The playing-side twin of this wrapper: ``policy`` as a residual on the LQR."""
-        return WithLQR(policy, env, **kwargs)
+    @classmethod
+    def wrap_policy(cls, policy, env: gym.Env, **kwargs: Any) -> Residual:
+        """The playing-side twin of this wrapper: ``policy`` as a residual on the base."""
+        return cls.twin(policy, env, **kwargs)
 
     def on_reset(self) -> None:
         self.residual.base.reset()
 
     def transform(self, action: Any, obs: np.ndarray, info: dict[str, Any]) -> tuple[np.ndarray, dict[str, Any]]:
         return self.residual.combine(action, obs, info), {}
+
+
+class WithLQR(Residual):
+    """``policy``'s action as a correction to the LQR's on ``env`` (keywords ``lqr``):
+    ``clip(u_LQR + scale · clip(a, −1, 1), −1, 1)``. The name gains ``+lqr``."""
+
+    def __init__(self, policy, env: gym.Env, scale: float = 0.25, **lqr: Any) -> None:
+        super().__init__(policy, base_lqr(env, **lqr), scale, "lqr")
+
+
+class LQRResidual(ResidualWrapper):
+    """A learner's env whose action is a residual on the LQR (:class:`WithLQR`'s ``scale`` and
+    LQR keywords). The Zoo's ``env_wrapper: {baselines.residual.LQRResidual: {scale: 0.25}}``."""
+
+    twin = WithLQR
+    #: the JAX plants' twin, which the fused trainer applies in its place
+    jax_twin = "baselines.residual_jax.LQRResidual"
+
+    def __init__(self, env: gym.Env, scale: float = 0.25, **lqr: Any) -> None:
+        super().__init__(env, scale, **lqr)
