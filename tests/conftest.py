@@ -34,3 +34,42 @@ def rng():
 def asymmetric_inertia() -> np.ndarray:
     """A full (non-diagonal) inertia tensor meeting the triangle inequality, kg·m²."""
     return np.array([[4.0, 0.1, -0.05], [0.1, 3.5, 0.08], [-0.05, 0.08, 3.0]])
+
+
+def fused_model_plays_as_evaluated(
+    tmp_path, monkeypatch, env_id, overrides, total_timesteps, eval_freq, env_kwargs=None
+):
+    """PPO trained on the fused JAX trainer (fast compile, 2 evaluation episodes) with
+    ``overrides`` (its ``env_wrapper`` among them): ``(policy, env)``, the model as
+    ``build_policy`` plays it on ``env_id``, after checking that it plays the training's last
+    evaluation again (seeds 10000 and 10001), behind the wrappers' policy-side twins."""
+    pytest.importorskip("jax")
+    pytest.importorskip("flax")
+    pytest.importorskip("optax")
+    import gymnasium as gym
+
+    from attitude_envs.evaluation.rollout import rollout
+    from experiments.policies import build_policy
+    from experiments.training.jax_training import FAST_COMPILE_ENV
+    from experiments.training.training import train
+
+    monkeypatch.setenv(FAST_COMPILE_ENV, "1")
+    kwargs = dict(env_kwargs or {})
+    run = tmp_path / "run"
+    result = train(
+        "ppo",
+        env_id,
+        run,
+        env_kwargs=kwargs,
+        total_timesteps=total_timesteps,
+        overrides={**overrides, "backend": "jax"},
+        eval_episodes=2,
+        eval_freq=eval_freq,
+    )
+    assert result.timesteps == total_timesteps
+    env = gym.make(env_id, **kwargs)
+    policy = build_policy({"policy": "sb3", "model": str(run)}, env)
+    last_eval = float((run / "evaluations.csv").read_text().splitlines()[-1].split(",")[1])
+    played = np.mean([rollout(env, policy, seed=s)["J"] for s in (10_000, 10_001)])
+    assert played == pytest.approx(last_eval, rel=1e-5)  # the training's evaluation, behind the wrapper
+    return policy, env

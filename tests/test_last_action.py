@@ -10,6 +10,7 @@ import warnings
 import gymnasium as gym
 import numpy as np
 import pytest
+from conftest import fused_model_plays_as_evaluated
 from gymnasium.utils.env_checker import check_env
 
 import attitude_envs  # noqa: F401
@@ -122,33 +123,10 @@ def test_the_jax_twin_equals_the_wrapper_step_for_step_under_the_delay():
 
 
 def test_the_fused_trainer_trains_behind_the_twin_and_the_model_plays_behind_the_policy_twin(tmp_path, monkeypatch):
-    pytest.importorskip("jax")
-    pytest.importorskip("flax")
-    pytest.importorskip("optax")
-    from experiments.policies import build_policy
-    from experiments.training.jax_training import FAST_COMPILE_ENV
-    from experiments.training.training import train
-
-    monkeypatch.setenv(FAST_COMPILE_ENV, "1")
-    overrides = {
-        "n_envs": 2,
-        "n_steps": 80,
-        "batch_size": 80,
-        "n_epochs": 2,
-        "backend": "jax",
-        "env_wrapper": LAST_ACTION,
-    }
-    result = train(
-        "ppo", LS, tmp_path / "run", total_timesteps=320, overrides=overrides, eval_episodes=2, eval_freq=160
-    )
-    assert result.timesteps == 320
-    env = gym.make(LS)
-    policy = build_policy({"policy": "sb3", "model": str(tmp_path / "run")}, env)
+    overrides = {"n_envs": 2, "n_steps": 80, "batch_size": 80, "n_epochs": 2, "env_wrapper": LAST_ACTION}
+    policy, env = fused_model_plays_as_evaluated(tmp_path, monkeypatch, LS, overrides, 320, 160)
     assert isinstance(policy, WithLastAction)
     assert policy.policy.model.model.observation_space.shape == (env.observation_space.shape[0] + 3,)
-    last_eval = float((tmp_path / "run" / "evaluations.csv").read_text().splitlines()[-1].split(",")[1])
-    played = np.mean([rollout(env, policy, seed=s)["J"] for s in (10_000, 10_001)])
-    assert played == pytest.approx(last_eval, rel=1e-5)  # the training's evaluation, behind the wrapper
 
 
 def test_the_jax_backend_names_a_wrapper_without_a_twin_and_one_left_unapplied(tmp_path):

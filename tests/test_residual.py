@@ -8,6 +8,7 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 import pytest
+from conftest import fused_model_plays_as_evaluated
 
 import attitude_envs  # noqa: F401
 from attitude_envs.evaluation.rollout import rollout
@@ -100,38 +101,15 @@ def test_the_jax_twin_equals_the_wrapper_step_for_step():
 
 
 def test_the_fused_trainer_trains_behind_the_twin_and_the_model_plays_behind_the_policy_twin(tmp_path, monkeypatch):
-    pytest.importorskip("jax")
-    pytest.importorskip("flax")
-    pytest.importorskip("optax")
-    from experiments.policies import build_policy
-    from experiments.training.jax_training import FAST_COMPILE_ENV
-    from experiments.training.training import train
-
-    monkeypatch.setenv(FAST_COMPILE_ENV, "1")
-    kwargs = {"episode_duration_s": 4.0}
     overrides = {
         "n_envs": 2,
         "n_steps": 8,
         "batch_size": 16,
         "n_epochs": 1,
         "gamma": 0.875,
-        "backend": "jax",
         "env_wrapper": {"baselines.residual.LQRResidual": {"scale": 0.3}},
     }
-    result = train(
-        "ppo",
-        AB,
-        tmp_path / "run",
-        env_kwargs=kwargs,
-        total_timesteps=32,
-        overrides=overrides,
-        eval_episodes=2,
-        eval_freq=16,
+    policy, _ = fused_model_plays_as_evaluated(
+        tmp_path, monkeypatch, AB, overrides, 32, 16, env_kwargs={"episode_duration_s": 4.0}
     )
-    assert result.timesteps == 32
-    env = gym.make(AB, **kwargs)
-    policy = build_policy({"policy": "sb3", "model": str(tmp_path / "run")}, env)
     assert isinstance(policy, WithLQR) and policy.scale == 0.3
-    last_eval = float((tmp_path / "run" / "evaluations.csv").read_text().splitlines()[-1].split(",")[1])
-    played = np.mean([rollout(env, policy, seed=s)["J"] for s in (10_000, 10_001)])
-    assert played == pytest.approx(last_eval, rel=1e-5)  # the training's evaluation, behind the wrapper
