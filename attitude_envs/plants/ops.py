@@ -95,7 +95,10 @@ def library_ops(name: str, module, library: str = "array", **given: Callable) ->
     """The executor that takes its operations from ``module`` by their :data:`LIBRARY_NAMES`
     (``library``: ``"array"`` for numpy's names, ``"casadi"``), uncompiled (a tracing library
     traces the helpers); ``given`` supplies or replaces operations by member name."""
-    column = ("array", "casadi").index(library)
+    libraries = ("array", "casadi")
+    if library not in libraries:
+        raise ValueError(f"library must be one of {list(libraries)}, got {library!r}")
+    column = libraries.index(library)
     members = {op: given[op] if op in given else getattr(module, names[column]) for op, names in LIBRARY_NAMES.items()}
     return Ops(name, **members)
 
