@@ -15,6 +15,9 @@ twin, and :class:`baselines.residual_jax.LQRResidual` the JAX
 plants' twin for the fused trainer; the three compute the same command (the JAX twin to rounding:
 its matrix products are XLA's). The LQR is the
 gyrostat's (ReactionWheel, AirBearing) without a delay: a memoryless linear feedback.
+:class:`SloshLQRResidual` does the same on FuelSlosh with Navabi & Davoodi's LQR
+(:class:`baselines.slosh.SloshLQRPolicy`, its nonlinear input inversion included); it has no JAX
+twin, so it trains on the ``sb3`` or ``sbx`` backend.
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ import numpy as np
 from attitude_envs import validation
 from baselines.lqr import LQRPolicy
 from baselines.played_action import PlayedActionWrapper
+from baselines.slosh import SloshLQRPolicy
 
 
 def base_lqr(env: gym.Env, **lqr: Any) -> LQRPolicy:
@@ -106,6 +110,26 @@ class LQRResidual(ResidualWrapper):
     twin = WithLQR
     #: the JAX plants' twin, which the fused trainer applies in its place
     jax_twin = "baselines.residual_jax.LQRResidual"
+
+    def __init__(self, env: gym.Env, scale: float = 0.25, **lqr: Any) -> None:
+        super().__init__(env, scale, **lqr)
+
+
+class WithSloshLQR(Residual):
+    """``policy``'s action as a correction to the fuel-slosh LQR's on ``env`` (keywords ``lqr``
+    of :class:`~baselines.slosh.SloshLQRPolicy`): ``clip(u_LQR + scale · clip(a, −1, 1), −1, 1)``
+    in the env's normalized action (gimbal angle, pitch moment). The name gains ``+slosh-lqr``."""
+
+    def __init__(self, policy, env: gym.Env, scale: float = 0.25, **lqr: Any) -> None:
+        super().__init__(policy, SloshLQRPolicy(env, **lqr), scale, "slosh-lqr")
+
+
+class SloshLQRResidual(ResidualWrapper):
+    """A learner's FuelSlosh env whose action is a residual on the fuel-slosh LQR
+    (:class:`WithSloshLQR`'s ``scale`` and LQR keywords). The Zoo's
+    ``env_wrapper: {baselines.residual.SloshLQRResidual: {scale: 0.1}}``."""
+
+    twin = WithSloshLQR
 
     def __init__(self, env: gym.Env, scale: float = 0.25, **lqr: Any) -> None:
         super().__init__(env, scale, **lqr)

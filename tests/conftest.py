@@ -37,15 +37,16 @@ def asymmetric_inertia() -> np.ndarray:
 
 
 def fused_model_plays_as_evaluated(
-    tmp_path, monkeypatch, env_id, overrides, total_timesteps, eval_freq, env_kwargs=None
+    tmp_path, monkeypatch, env_id, overrides, total_timesteps, eval_freq, env_kwargs=None, backend="jax"
 ):
-    """PPO trained on the fused JAX trainer (fast compile, 2 evaluation episodes) with
-    ``overrides`` (its ``env_wrapper`` among them): ``(policy, env)``, the model as
-    ``build_policy`` plays it on ``env_id``, after checking that it plays the training's last
-    evaluation again (seeds 10000 and 10001), behind the wrappers' policy-side twins."""
-    pytest.importorskip("jax")
-    pytest.importorskip("flax")
-    pytest.importorskip("optax")
+    """PPO trained on the fused JAX trainer (fast compile; ``backend="sb3"``: on SB3) with 2
+    evaluation episodes and ``overrides`` (its ``env_wrapper`` among them): ``(policy, env)``, the
+    model as ``build_policy`` plays it on ``env_id``, after checking that it plays the training's
+    last evaluation again (seeds 10000 and 10001), behind the wrappers' policy-side twins."""
+    if backend == "jax":
+        pytest.importorskip("jax")
+        pytest.importorskip("flax")
+        pytest.importorskip("optax")
     import gymnasium as gym
 
     from attitude_envs.evaluation.rollout import rollout
@@ -62,7 +63,7 @@ def fused_model_plays_as_evaluated(
         run,
         env_kwargs=kwargs,
         total_timesteps=total_timesteps,
-        overrides={**overrides, "backend": "jax"},
+        overrides={**overrides, "backend": backend},
         eval_episodes=2,
         eval_freq=eval_freq,
     )

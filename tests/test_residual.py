@@ -1,6 +1,7 @@
-"""Residual RL on the LQR (baselines.residual): the untrained residual is the LQR, the training
-wrapper and the policy-side twin give the same commands, the JAX twin equals the wrapper step for
-step (x64, under flight's delay and actuators), and a model trained on the fused trainer plays
+"""Residual RL on the LQR (baselines.residual): the untrained residual is the LQR (the gyrostat's,
+and the fuel-slosh paper's on FuelSlosh), the training wrapper and the policy-side twin give the
+same commands, the JAX twin equals the wrapper step for step (x64, under flight's delay and
+actuators), and a model trained behind the wrapper (the fused trainer, SB3 on FuelSlosh) plays
 behind the policy-side twin as its training evaluated it."""
 
 from __future__ import annotations
@@ -13,9 +14,11 @@ from conftest import fused_model_plays_as_evaluated
 import attitude_envs  # noqa: F401
 from attitude_envs.evaluation.rollout import rollout
 from baselines.lqr import LQRPolicy
-from baselines.residual import LQRResidual, WithLQR
+from baselines.residual import LQRResidual, SloshLQRResidual, WithLQR, WithSloshLQR
+from baselines.slosh import SloshLQRPolicy
 
 AB = "attitude_envs/AirBearing-v1"
+FS = "attitude_envs/FuelSlosh-v1"
 #: the delay and the actuators' dynamics, without sensors or drawn parameters
 NO_NOISE = {"base": "flight", "sensors": 0, "parameters": 0}
 
@@ -34,22 +37,49 @@ class Constant:
         return self.actions[self.i - 1]
 
 
-def test_the_untrained_residual_is_the_lqr_and_the_sum_is_clipped():
-    env = gym.make(AB)
-    zero = WithLQR(Constant(np.zeros((400, 3), np.float32)), env, scale=0.5)
-    lqr = LQRPolicy(env)
+#: (env id, its keywords, the policy-side twin, its training wrapper, the base policy, the name's suffix)
+PLANTS = {
+    "air-bearing": (AB, {"conditions": NO_NOISE}, WithLQR, LQRResidual, LQRPolicy, "lqr"),
+    # at the LQR's own 0.1 s, with the campaign's thruster faults from 5 s
+    "fuel-slosh": (
+        FS,
+        {
+            "control_dt_s": 0.1,
+            "episode_duration_s": 20.0,
+            "faults": [
+                {"kind": "loss_of_effectiveness", "target": "actuator", "index": 0, "value": 0.5, "onset_s": 5.0},
+                {"kind": "bias", "target": "actuator", "index": 1, "value": 200.0, "onset_s": 5.0},
+            ],
+        },
+        WithSloshLQR,
+        SloshLQRResidual,
+        SloshLQRPolicy,
+        "slosh-lqr",
+    ),
+}
+
+
+@pytest.mark.parametrize("plant", PLANTS)
+def test_the_untrained_residual_is_the_lqr_and_the_sum_is_clipped(plant):
+    env_id, kwargs, twin, _, base, suffix = PLANTS[plant]
+    env = gym.make(env_id, **kwargs)
+    n = env.action_space.shape[0]
+    zero = twin(Constant(np.zeros((400, n), np.float32)), env, scale=0.5)
+    lqr = base(env)
     assert rollout(env, zero, seed=4)["J"] == rollout(env, lqr, seed=4)["J"]
     obs, info = env.reset(seed=4)
-    full = WithLQR(Constant(np.full((1, 3), 7.0)), env, scale=0.5).act(obs, info)
+    full = twin(Constant(np.full((1, n), 7.0)), env, scale=0.5).act(obs, info)
     np.testing.assert_array_equal(full, np.clip(lqr.act(obs, info) + 0.5, -1.0, 1.0))
-    assert zero.name == "Constant+lqr"
+    assert zero.name == f"Constant+{suffix}"
 
 
-def test_the_wrapper_and_the_policy_twin_give_the_same_episode():
-    actions = np.random.default_rng(1).uniform(-1.2, 1.2, (400, 3)).astype(np.float32)
-    env = gym.make(AB, conditions=NO_NOISE)
-    played = rollout(env, WithLQR(Constant(actions), env, scale=0.3), seed=2)["J"]
-    wrapped = LQRResidual(gym.make(AB, conditions=NO_NOISE), scale=0.3)
+@pytest.mark.parametrize("plant", PLANTS)
+def test_the_wrapper_and_the_policy_twin_give_the_same_episode(plant):
+    env_id, kwargs, twin, wrapper, _, _ = PLANTS[plant]
+    env = gym.make(env_id, **kwargs)
+    actions = np.random.default_rng(1).uniform(-1.2, 1.2, (400, env.action_space.shape[0])).astype(np.float32)
+    played = rollout(env, twin(Constant(actions), env, scale=0.3), seed=2)["J"]
+    wrapped = wrapper(gym.make(env_id, **kwargs), scale=0.3)
     wrapped.reset(seed=2)
     total, i = 0.0, 0
     while True:
@@ -64,6 +94,12 @@ def test_the_wrapper_and_the_policy_twin_give_the_same_episode():
 def test_bad_settings_are_named(bad):
     with pytest.raises(ValueError, match="scale|delay_steps"):
         LQRResidual(gym.make(AB), **bad)
+
+
+@pytest.mark.parametrize("bad", [{"scale": -0.1}, {"scale": 2.5}, {"weights": "heavy"}])
+def test_bad_slosh_settings_are_named(bad):
+    with pytest.raises(ValueError, match="scale|weights"):
+        SloshLQRResidual(gym.make(FS), **bad)
 
 
 def test_the_jax_twin_equals_the_wrapper_step_for_step():
@@ -113,3 +149,17 @@ def test_the_fused_trainer_trains_behind_the_twin_and_the_model_plays_behind_the
         tmp_path, monkeypatch, AB, overrides, 32, 16, env_kwargs={"episode_duration_s": 4.0}
     )
     assert isinstance(policy, WithLQR) and policy.scale == 0.3
+
+
+def test_sb3_trains_behind_the_slosh_residual_and_the_model_plays_behind_its_twin(tmp_path, monkeypatch):
+    overrides = {
+        "n_envs": 1,
+        "n_steps": 32,
+        "batch_size": 32,
+        "n_epochs": 1,
+        "gamma": 0.95,
+        "env_wrapper": {"baselines.residual.SloshLQRResidual": {"scale": 0.2}},
+    }
+    kwargs = {"control_dt_s": 0.1, "episode_duration_s": 5.0}
+    policy, _ = fused_model_plays_as_evaluated(tmp_path, monkeypatch, FS, overrides, 64, 32, kwargs, backend="sb3")
+    assert isinstance(policy, WithSloshLQR) and policy.scale == 0.2

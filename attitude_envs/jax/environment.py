@@ -50,6 +50,7 @@ Every env reports ``info["cost"]``, the running cost J accrued over the step (th
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from functools import cache, partial
 from typing import Any
@@ -172,6 +173,19 @@ class Environment:
 
     def observation_space(self, params: Any = None):
         raise NotImplementedError
+
+
+def episode_decisions(episode_duration_s: float, control_dt_s: float) -> int:
+    """The decisions after which the numba envs truncate (both in s): the least ``n ≥ 1`` with
+    ``n · control_dt_s ≥ episode_duration_s − 10⁻⁹ · control_dt_s`` in float64, their
+    time-limit test."""
+    threshold = episode_duration_s - 1e-9 * control_dt_s
+    n = max(1, math.ceil(threshold / control_dt_s))
+    while n > 1 and (n - 1) * control_dt_s >= threshold:
+        n -= 1
+    while n * control_dt_s < threshold:
+        n += 1
+    return n
 
 
 def drawn_arrays(flight: Any, drawn: dict, shapes: dict[str, tuple[int, ...]]) -> dict[str, np.ndarray]:

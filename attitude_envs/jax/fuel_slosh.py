@@ -55,7 +55,6 @@ sensor faults outside flight conditions' sensors
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -78,7 +77,13 @@ from attitude_envs.jax import actuators as jact
 from attitude_envs.jax import cost as jcost
 from attitude_envs.jax import faults as jfaults
 from attitude_envs.jax import sensors as jsens
-from attitude_envs.jax.environment import Environment, check_state_from, drawn_arrays, preset_defaults
+from attitude_envs.jax.environment import (
+    Environment,
+    check_state_from,
+    drawn_arrays,
+    episode_decisions,
+    preset_defaults,
+)
 from attitude_envs.jax.make import state_layers
 from attitude_envs.jax.ops import JAX
 from attitude_envs.jax.spaces import Box
@@ -628,17 +633,6 @@ def with_drawn_parameters(params: EnvParams, drawn: dict) -> EnvParams:
     )
 
 
-def episode_steps(episode_duration_s: float, control_dt_s: float) -> int:
-    """The decisions after which the numba env truncates: the least ``n ≥ 1`` with
-    ``n · control_dt_s >= episode_duration_s − 1e-9 · control_dt_s`` in float64, as its
-    ``step`` tests it (s)."""
-    threshold = episode_duration_s - 1e-9 * control_dt_s
-    n = max(1, math.floor(threshold / control_dt_s) - 2)
-    while n * control_dt_s < threshold:
-        n += 1
-    return n
-
-
 def params_of(
     cfg: FuelSloshConfig,
     fault_configs: tuple[dict, ...] = (),
@@ -700,7 +694,7 @@ def params_of(
             initial_half_width=f(half_width),
         ),
         faults=faults,
-        max_steps_in_episode=jnp.asarray(episode_steps(cfg.episode_duration_s, cfg.control_dt_s), jnp.int32),
+        max_steps_in_episode=jnp.asarray(episode_decisions(cfg.episode_duration_s, cfg.control_dt_s), jnp.int32),
         flight=flight,
         sensors=sensors,
     )

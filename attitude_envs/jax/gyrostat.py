@@ -78,7 +78,13 @@ from attitude_envs.jax import faults as jfaults
 from attitude_envs.jax import quaternion as jq
 from attitude_envs.jax import sensors as jsens
 from attitude_envs.jax.cost import mode_code, termination_charge
-from attitude_envs.jax.environment import Environment, check_state_from, drawn_arrays, preset_defaults
+from attitude_envs.jax.environment import (
+    Environment,
+    check_state_from,
+    drawn_arrays,
+    episode_decisions,
+    preset_defaults,
+)
 from attitude_envs.jax.ops import JAX
 from attitude_envs.jax.spaces import Box
 from attitude_envs.plants.gyrostat_definition import define
@@ -994,18 +1000,6 @@ def _check_layers(sensor_layer: Any, conditions: Any, disturbance: Any) -> None:
         )
 
 
-def max_steps(control_dt_s: float, episode_duration_s: float) -> int:
-    """The decisions of an episode: the first ``k`` with ``k·dt ≥ T − 10⁻⁹·dt``, the numba
-    kernel's truncation test."""
-    dt, limit = control_dt_s, episode_duration_s - 1e-9 * control_dt_s
-    k = max(1, math.ceil(limit / dt))
-    while k * dt < limit:
-        k += 1
-    while k > 1 and (k - 1) * dt >= limit:
-        k -= 1
-    return k
-
-
 def _params_of(cfg: GyrostatConfig, cls: type[ReactionWheelEnv], euler_max_deg: Any = None) -> EnvParams:
     """The ``EnvParams`` of a validated configuration (:func:`attitude_envs.envs.reaction_wheel.configure`)
     of env class ``cls`` (``euler_max_deg``: an AirBearing's validated ``initial_euler_max_deg``)."""
@@ -1081,7 +1075,7 @@ def _params_of(cfg: GyrostatConfig, cls: type[ReactionWheelEnv], euler_max_deg: 
             torque_nm=f(np.zeros(3) if layers.disturbance is None else layers.disturbance.torque_nm)
         ),
         faults=_as_dtype(jfaults.from_realized(faults.realized), dtype),
-        max_steps_in_episode=jnp.asarray(max_steps(cfg.control_dt_s, cfg.episode_duration_s), dtype=jnp.int32),
+        max_steps_in_episode=jnp.asarray(episode_decisions(cfg.episode_duration_s, cfg.control_dt_s), dtype=jnp.int32),
         flight=_flight_params(cfg, dtype),
         sensors=sensor_params,
     )
@@ -1193,7 +1187,6 @@ __all__ = [
     "TimingParams",
     "episode_params",
     "from_keywords",
-    "max_steps",
     "with_drawn_parameters",
     "with_inertia",
 ]

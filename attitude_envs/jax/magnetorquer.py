@@ -85,7 +85,13 @@ from attitude_envs.jax import cost as jcost
 from attitude_envs.jax import faults as jfaults
 from attitude_envs.jax import quaternion as jq
 from attitude_envs.jax import sensors as jsens
-from attitude_envs.jax.environment import Environment, check_state_from, drawn_arrays, preset_defaults
+from attitude_envs.jax.environment import (
+    Environment,
+    check_state_from,
+    drawn_arrays,
+    episode_decisions,
+    preset_defaults,
+)
 from attitude_envs.jax.ops import JAX
 from attitude_envs.jax.spaces import Box
 from attitude_envs.plants import magnetorquer_kernels as K
@@ -1038,18 +1044,6 @@ def _random_inertia(
 
 
 # ----------------------------------------------------------------------------- from the numba env
-def max_steps(duration_s: float, control_dt_s: float) -> int:
-    """The decisions of an episode: the least n with ``n · dt ≥ duration − 1e-9 · dt`` (the
-    numba env's truncation test, in the same float arithmetic)."""
-    threshold = duration_s - 1e-9 * control_dt_s
-    n = max(1, math.ceil(threshold / control_dt_s))
-    while n > 1 and (n - 1) * control_dt_s >= threshold:
-        n -= 1
-    while n * control_dt_s < threshold:
-        n += 1
-    return n
-
-
 def _check_modeled(cfg: MagnetorquerConfig) -> None:
     """A one-line ``ValueError`` for what the JAX plant does not model in ``cfg``: ``sensors``
     or sensor faults in the lab (only on flight conditions' sensors),
@@ -1198,7 +1192,7 @@ def params_of(cfg: MagnetorquerConfig) -> EnvParams:
             axis_angle_deg=f(0.0 if unc is None else unc.axis_angle_deg),
         ),
         faults=jfaults.from_realized(fault_layer.realized),
-        max_steps_in_episode=jnp.asarray(max_steps(cfg.episode_duration_s, cfg.control_dt_s), jnp.int32),
+        max_steps_in_episode=jnp.asarray(episode_decisions(cfg.episode_duration_s, cfg.control_dt_s), jnp.int32),
         flight=_flight_params(cfg),
         sensors=jsens.suite_params(
             layers.sensor_layer.config,
