@@ -343,7 +343,7 @@ def _shown_options(args: list[str]) -> set[str]:
 
 
 def is_synopsis(cmd: Command) -> bool:
-    return not cmd.inline and re.search(r"\[--?\w", cmd.text) is not None
+    return not cmd.inline and re.search(r"\[--?[A-Za-z]", cmd.text) is not None  # an option, not a negative number
 
 
 PARSED = [c for c in COMMANDS if not _is_mention(c)]
