@@ -15,7 +15,8 @@ class PlayedActionWrapper(gym.Wrapper):
     the action with the observation and :func:`~attitude_envs.info.policy_view` of the info that
     preceded it (what the policy saw), so a model trained behind the wrapper plays exactly the
     same behind the twin (``wrap_policy``). The residuals (:class:`baselines.cbf.EigenaxisResidual`,
-    :class:`baselines.residual.LQRResidual`) and the CBF shield are such wrappers."""
+    :class:`baselines.residual.LQRResidual`, :class:`baselines.residual.SloshLQRResidual`) and the CBF
+    shield are such wrappers."""
 
     _last: tuple[np.ndarray, dict[str, Any]] | None = None
 

@@ -120,7 +120,7 @@ class WithSloshLQR(Residual):
     of :class:`~baselines.slosh.SloshLQRPolicy`): ``clip(u_LQR + scale · clip(a, −1, 1), −1, 1)``
     in the env's normalized action (gimbal angle, pitch moment). The name gains ``+slosh-lqr``."""
 
-    def __init__(self, policy, env: gym.Env, scale: float = 0.25, **lqr: Any) -> None:
+    def __init__(self, policy: Any, env: gym.Env, scale: float = 0.25, **lqr: Any) -> None:
         super().__init__(policy, SloshLQRPolicy(env, **lqr), scale, "slosh-lqr")
 
 

@@ -157,7 +157,8 @@ RUN_MINUTES: dict[str, int | str] = {
 #: runs.jsonl, 2026-11-26 to -29, shared cores; slosh: its one run of 2026-11-29, alone)
 CAMPAIGN_MINUTES = {"wheel": 72, "air-bearing": 47, "magnetorquer": 60, "slosh": 30, "linear": 30}
 #: pages whose learned rows played an earlier training of the campaign's entries than the campaign
-#: page's own (training on 2 CPU threads does not repeat bit for bit): what the page says of it
+#: page's own (training on 2 CPU threads does not repeat bit for bit): what the page says of it.
+#: Remove a plant's entry when its learned points are rerun on the campaign page's models.
 EARLIER_MODELS = {
     "slosh": "The learned rows played the campaign's training of 2026-11-28. The campaign page was rerun "
     "on 2026-11-29 and retrained them: its `ppo-flight` scores 2.1862 on the flight cell, where these "

@@ -36,8 +36,8 @@ def asymmetric_inertia() -> np.ndarray:
     return np.array([[4.0, 0.1, -0.05], [0.1, 3.5, 0.08], [-0.05, 0.08, 3.0]])
 
 
-def fused_model_plays_as_evaluated(
-    tmp_path, monkeypatch, env_id, overrides, total_timesteps, eval_freq, env_kwargs=None, backend="jax"
+def trained_model_plays_as_evaluated(
+    tmp_path, monkeypatch, env_id, overrides, total_timesteps, eval_freq, env_kwargs=None, backend: str = "jax"
 ):
     """PPO trained on the fused JAX trainer (fast compile; ``backend="sb3"``: on SB3) with 2
     evaluation episodes and ``overrides`` (its ``env_wrapper`` among them): ``(policy, env)``, the

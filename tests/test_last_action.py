@@ -10,7 +10,7 @@ import warnings
 import gymnasium as gym
 import numpy as np
 import pytest
-from conftest import fused_model_plays_as_evaluated
+from conftest import trained_model_plays_as_evaluated
 from gymnasium.utils.env_checker import check_env
 
 import attitude_envs  # noqa: F401
@@ -124,7 +124,7 @@ def test_the_jax_twin_equals_the_wrapper_step_for_step_under_the_delay():
 
 def test_the_fused_trainer_trains_behind_the_twin_and_the_model_plays_behind_the_policy_twin(tmp_path, monkeypatch):
     overrides = {"n_envs": 2, "n_steps": 80, "batch_size": 80, "n_epochs": 2, "env_wrapper": LAST_ACTION}
-    policy, env = fused_model_plays_as_evaluated(tmp_path, monkeypatch, LS, overrides, 320, 160)
+    policy, env = trained_model_plays_as_evaluated(tmp_path, monkeypatch, LS, overrides, 320, 160)
     assert isinstance(policy, WithLastAction)
     assert policy.policy.model.model.observation_space.shape == (env.observation_space.shape[0] + 3,)
 

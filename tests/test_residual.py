@@ -9,7 +9,7 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 import pytest
-from conftest import fused_model_plays_as_evaluated
+from conftest import trained_model_plays_as_evaluated
 
 import attitude_envs  # noqa: F401
 from attitude_envs.evaluation.rollout import rollout
@@ -145,7 +145,7 @@ def test_the_fused_trainer_trains_behind_the_twin_and_the_model_plays_behind_the
         "gamma": 0.875,
         "env_wrapper": {"baselines.residual.LQRResidual": {"scale": 0.3}},
     }
-    policy, _ = fused_model_plays_as_evaluated(
+    policy, _ = trained_model_plays_as_evaluated(
         tmp_path, monkeypatch, AB, overrides, 32, 16, env_kwargs={"episode_duration_s": 4.0}
     )
     assert isinstance(policy, WithLQR) and policy.scale == 0.3
@@ -161,5 +161,5 @@ def test_sb3_trains_behind_the_slosh_residual_and_the_model_plays_behind_its_twi
         "env_wrapper": {"baselines.residual.SloshLQRResidual": {"scale": 0.2}},
     }
     kwargs = {"control_dt_s": 0.1, "episode_duration_s": 5.0}
-    policy, _ = fused_model_plays_as_evaluated(tmp_path, monkeypatch, FS, overrides, 64, 32, kwargs, backend="sb3")
+    policy, _ = trained_model_plays_as_evaluated(tmp_path, monkeypatch, FS, overrides, 64, 32, kwargs, backend="sb3")
     assert isinstance(policy, WithSloshLQR) and policy.scale == 0.2
