@@ -811,7 +811,12 @@ def build_parser() -> argparse.ArgumentParser:
         choices=BACKENDS,
         help="training backend of every trained agent (default: each agent's train.backend, else its hyperparameters')",
     )
-    bm.add_argument("--out", required=True, help="output directory (rerun to resume; completed episodes are skipped)")
+    bm.add_argument(
+        "--out",
+        required=True,
+        help="output directory (rerun to resume; completed episodes are skipped, and agents may be added to or "
+        "removed from the campaign in between)",
+    )
     bm.add_argument("--no-video", action="store_true", help="skip the episode video even if the campaign asks for it")
     _add_executor_options(bm)
     bm.set_defaults(func=_benchmark)

@@ -103,8 +103,22 @@ def test_partial_csv_is_readable_mid_campaign(tmp_path, monkeypatch):
 
 def test_different_campaign_in_the_same_directory_is_refused(tmp_path):
     run_campaign({**SMALL, "seeds": [0]}, tmp_path, workers=1)
-    with pytest.raises(ValueError, match="different campaign definition"):
+    with pytest.raises(ValueError, match="different campaign definition.*seeds"):
         run_campaign({**SMALL, "seeds": [1]}, tmp_path, workers=1)
+
+
+def test_agents_can_be_added_and_removed_but_not_redefined(tmp_path):
+    base = {**SMALL, "seeds": [0], "agents": [{"name": "zero", "policy": "zero"}]}
+    lqr = {"name": "lqr", "policy": "lqr", "params": {"discretization": "zoh"}}
+    first = run_campaign(base, tmp_path, workers=1)
+    # an agent added (and a new description): only its episodes run, the others are kept
+    added = run_campaign({**base, "description": "more", "agents": [*base["agents"], lqr]}, tmp_path, workers=1)
+    assert (first.episodes_run, added.episodes_run, added.episodes_skipped) == (2, 2, 2)
+    assert {r["agent"] for r in added.rows} == {"zero", "lqr"}
+    assert run_campaign(base, tmp_path, workers=1).episodes_run == 0  # removed: its rows leave the report
+    for changed in ({**lqr, "params": {"discretization": "continuous"}}, {"name": "zero", "policy": "lqr"}):
+        with pytest.raises(ValueError, match=f"agent\\(s\\) {changed['name']} changed"):
+            run_campaign({**base, "agents": [changed]}, tmp_path, workers=1)  # lqr: removed, back changed
 
 
 def test_ray_gives_the_same_table_as_the_local_pool(tmp_path):

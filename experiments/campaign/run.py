@@ -21,7 +21,7 @@ from attitude_envs.make import make_checked
 from experiments.campaign.episode import run_job
 from experiments.campaign.executors import executor_name, make_executor, trains_with_sbx
 from experiments.campaign.jobs import episode_jobs, key_of, training_jobs
-from experiments.campaign.spec import AgentSpec, Campaign, EnvSpec, load_campaign, play_env
+from experiments.campaign.spec import AgentSpec, Campaign, EnvSpec, load_campaign, play_env, resumable
 from experiments.campaign.store import (
     RUN_STATUSES,
     CampaignResult,
@@ -131,10 +131,12 @@ def prepare_campaign(
     marker = Path(out_dir) / "campaign.json"
     if marker.is_file():
         previous = json.loads(marker.read_text(encoding="utf-8"))
-        if previous.get("fingerprint") != campaign.fingerprint:
+        differs = resumable(previous, campaign)
+        if differs is not None:
             raise ValueError(
                 f"--out {str(out_dir)!r} holds results of a different campaign definition "
-                f"({previous.get('name')!r}); choose another --out or delete it"
+                f"({previous.get('name')!r}: {differs} changed; agents may only be added or removed); "
+                "choose another --out or delete it"
             )
     skipped: dict[str, str] = {}
     for agent in campaign.agents:
@@ -164,9 +166,21 @@ def run_campaign(
     out_dir = Path(out_dir)
     say = progress or (lambda _msg: None)
     campaign, skipped = prepare_campaign(config, out_dir, backend, say)
+    marker = out_dir / "campaign.json"
+    recorded = json.loads(marker.read_text(encoding="utf-8")) if marker.is_file() else {}
+    # every agent the folder ever recorded: one removed and then added back changed is refused
+    agents = {**(recorded.get("parts") or {}).get("agents", {}), **campaign.parts["agents"]}
     atomic_write(
-        out_dir / "campaign.json",
-        json.dumps({"name": campaign.name, "fingerprint": campaign.fingerprint, "source": campaign.source}) + "\n",
+        marker,
+        json.dumps(
+            {
+                "name": campaign.name,
+                "fingerprint": campaign.fingerprint,
+                "parts": {"setup": campaign.parts["setup"], "agents": agents},
+                "source": campaign.source,
+            }
+        )
+        + "\n",
     )
     log = RunLog(out_dir / "runs.jsonl", executor_name(ray_address, workers))  # first: a killed run leaves it
     trained: list[dict[str, Any]] = []

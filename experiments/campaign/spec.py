@@ -129,6 +129,8 @@ class Campaign:
     video: bool = False
     source: str = ""
     fingerprint: str = ""
+    #: the identities of its parts (:func:`_parts`): what a run folder's results may be resumed under
+    parts: dict[str, Any] = field(default_factory=dict)
     optimum_solve: bool = True  # solve J* on demand for episodes outside the shipped table (casadi)
     optimum_table: str | None = None  # a J* table in place of the shipped one (tests, private cells)
     #: the report's "what each layer costs" pairs: ``{"name", "without", "with"}`` (agent names)
@@ -397,7 +399,39 @@ def _fingerprint(data: dict[str, Any]) -> str:
             **data,
             "agents": [{k: v for k, v in a.items() if k != "note"} if isinstance(a, dict) else a for a in agents],
         }
+    return _digest(data)
+
+
+def _parts(data: dict[str, Any]) -> dict[str, Any]:
+    """The identities of a campaign's parts: ``setup``, everything but its agents, layers and
+    description (the envs, cells, seeds, metrics and J* settings), and each agent's by name, its
+    note left out. An agent's episodes depend only on the setup and its own entry, so results
+    recorded under other agents stay valid when agents are added or removed (:func:`resumable`)."""
+    setup = {k: v for k, v in data.items() if k not in ("agents", "layers", "description")}
+    agents = {}
+    for a in data.get("agents") or []:
+        entry = {k: v for k, v in a.items() if k != "note"}
+        agents[str(a.get("name", a.get("policy")))] = _digest(entry)
+    return {"setup": _digest(setup), "agents": agents}
+
+
+def _digest(data: Any) -> str:
     return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def resumable(recorded: dict[str, Any], campaign: Campaign) -> str | None:
+    """None when a run folder whose ``campaign.json`` holds ``recorded`` may go on under
+    ``campaign``: the same definition, or the same setup with every agent that both name defined
+    alike (agents added or removed); else what differs, in words."""
+    if recorded.get("fingerprint") == campaign.fingerprint:
+        return None
+    before = recorded.get("parts")
+    if not isinstance(before, dict):  # written before the parts were recorded
+        return "its definition"
+    if before.get("setup") != campaign.parts["setup"]:
+        return "its envs, cells, seeds or J* settings"
+    changed = sorted(n for n, h in (before.get("agents") or {}).items() if campaign.parts["agents"].get(n, h) != h)
+    return f"the definition of agent(s) {', '.join(changed)}" if changed else None
 
 
 def load_campaign(config: str | Path | dict, backend: str | None = None) -> Campaign:
@@ -463,6 +497,7 @@ def load_campaign(config: str | Path | dict, backend: str | None = None) -> Camp
         optimum_table=str(opt["table"]) if opt.get("table") is not None else None,
         source=source,
         fingerprint=_fingerprint(data),
+        parts=_parts(data),
         layers=layers,
     )
 
