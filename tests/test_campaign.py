@@ -115,7 +115,9 @@ def test_agents_can_be_added_and_removed_but_not_redefined(tmp_path):
     added = run_campaign({**base, "description": "more", "agents": [*base["agents"], lqr]}, tmp_path, workers=1)
     assert (first.episodes_run, added.episodes_run, added.episodes_skipped) == (2, 2, 2)
     assert {r["agent"] for r in added.rows} == {"zero", "lqr"}
-    assert run_campaign(base, tmp_path, workers=1).episodes_run == 0  # removed: its rows leave the report
+    removed = run_campaign(base, tmp_path, workers=1)
+    assert removed.episodes_run == 0  # removed: its rows leave the result and the table, not the log
+    assert {r["agent"] for r in removed.rows} == {r["agent"] for r in _csv(tmp_path / "episodes.csv")} == {"zero"}
     for changed in ({**lqr, "params": {"discretization": "continuous"}}, {"name": "zero", "policy": "lqr"}):
         with pytest.raises(ValueError, match=f"agent\\(s\\) {changed['name']} changed"):
             run_campaign({**base, "agents": [changed]}, tmp_path, workers=1)  # lqr: removed, back changed
@@ -320,3 +322,16 @@ def test_agents_whose_episodes_end_early_rank_after_those_that_finish():
     board = leaderboards(rows)[("e", "s", "none")]
     assert [e["agent"] for e in board] == ["finisher", "sometimes", "cut-short"]
     assert [e["terminated_rate"] for e in board] == [0.0, 0.5, 1.0]
+
+
+def test_a_folder_written_before_agent_identities_resumes_under_its_own_definition(tmp_path):
+    config = {**SMALL, "seeds": [0], "agents": [{"name": "zero", "policy": "zero"}]}
+    run_campaign(config, tmp_path, workers=1)
+    marker = tmp_path / "campaign.json"
+    old = json.loads(marker.read_text())
+    marker.write_text(json.dumps({k: v for k, v in old.items() if k != "parts"}))  # as written before
+    more = {**config, "agents": [*config["agents"], {"name": "lqr", "policy": "lqr"}]}
+    with pytest.raises(ValueError, match="rerun it once with its own definition"):
+        run_campaign(more, tmp_path, workers=1)
+    assert run_campaign(config, tmp_path, workers=1).episodes_run == 0
+    assert run_campaign(more, tmp_path, workers=1).episodes_run == 2  # now it records its agents

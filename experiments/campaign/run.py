@@ -135,8 +135,7 @@ def prepare_campaign(
         if differs is not None:
             raise ValueError(
                 f"--out {str(out_dir)!r} holds results of a different campaign definition "
-                f"({previous.get('name')!r}: {differs} changed; agents may only be added or removed); "
-                "choose another --out or delete it"
+                f"({previous.get('name')!r}: {differs}); choose another --out or delete it"
             )
     skipped: dict[str, str] = {}
     for agent in campaign.agents:
@@ -208,6 +207,7 @@ def run_campaign(
         optimum_notes = resolve(
             episode_specs(jobs), store, executor, campaign.optimum_solve, campaign.optimum_table, progress
         )
+        store.wanted = {key_of(j["key"]) for j in jobs}
         todo = [j for j in jobs if not store.done(j["key"])]
         say(f"{len(jobs)} episodes, {len(jobs) - len(todo)} already done, running {len(todo)} on {executor.name}")
         with (
@@ -218,8 +218,7 @@ def run_campaign(
                 store.append(row)
                 bar.update()
                 log.progress()
-        if not todo:
-            store.write_csv()
+        store.write_csv()  # also when nothing ran: an agent removed since leaves the table
         status = "completed"
     except KeyboardInterrupt:
         status = "interrupted"

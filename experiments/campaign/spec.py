@@ -403,15 +403,15 @@ def _fingerprint(data: dict[str, Any]) -> str:
 
 
 def _parts(data: dict[str, Any]) -> dict[str, Any]:
-    """The identities of a campaign's parts: ``setup``, everything but its agents, layers and
-    description (the envs, cells, seeds, metrics and J* settings), and each agent's by name, its
-    note left out. An agent's episodes depend only on the setup and its own entry, so results
+    """The identities of a campaign's parts: ``setup``, everything but its agents, layers,
+    description and video (its name, envs, cells, seeds, metrics, success thresholds and J*
+    settings), and each agent's by name, its note left out. An agent's episodes depend only on the setup and its own entry, so results
     recorded under other agents stay valid when agents are added or removed (:func:`resumable`)."""
-    setup = {k: v for k, v in data.items() if k not in ("agents", "layers", "description")}
+    setup = {k: v for k, v in data.items() if k not in ("agents", "layers", "description", "video")}
     agents = {}
     for a in data.get("agents") or []:
-        entry = {k: v for k, v in a.items() if k != "note"}
-        agents[str(a.get("name", a.get("policy")))] = _digest(entry)
+        name = str(a.get("name", a.get("policy")))
+        agents[name] = _digest({**{k: v for k, v in a.items() if k != "note"}, "name": name})
     return {"setup": _digest(setup), "agents": agents}
 
 
@@ -427,11 +427,19 @@ def resumable(recorded: dict[str, Any], campaign: Campaign) -> str | None:
         return None
     before = recorded.get("parts")
     if not isinstance(before, dict):  # written before the parts were recorded
-        return "its definition"
+        return (
+            "its definition changed, and the folder was written before agents could be added or removed: rerun "
+            "it once with its own definition, then change its agents"
+        )
     if before.get("setup") != campaign.parts["setup"]:
-        return "its envs, cells, seeds or J* settings"
+        return "its name, envs, cells, seeds, metrics, success thresholds or J* settings changed"
     changed = sorted(n for n, h in (before.get("agents") or {}).items() if campaign.parts["agents"].get(n, h) != h)
-    return f"the definition of agent(s) {', '.join(changed)}" if changed else None
+    if changed:
+        return (
+            f"the definition of agent(s) {', '.join(changed)} changed (as recorded in the folder; agents may only "
+            "be added or removed)"
+        )
+    return None
 
 
 def load_campaign(config: str | Path | dict, backend: str | None = None) -> Campaign:

@@ -127,6 +127,9 @@ class ResultStore:
         self.log = self.out_dir / "episodes.jsonl"
         self.csv = self.out_dir / "episodes.csv"
         self.rows: dict[tuple, dict[str, Any]] = {}
+        #: the keys of the campaign's episodes (None: every recorded row); rows of agents since
+        #: removed stay in the log but leave the table
+        self.wanted: set[tuple] | None = None
         self.logged_before = 0  # lines in the log when this store opened it
         if self.log.is_file():
             good = read_lines(self.log)  # an episode whose line a crash cut is simply run again
@@ -180,7 +183,8 @@ class ResultStore:
         return {**row, "j_star": j_star, "j_over_j_star": ratio, "j_star_source": source, **outcome}
 
     def sorted_rows(self) -> list[dict[str, Any]]:
-        return [self.with_optimum(self.rows[k]) for k in sorted(self.rows, key=sort_key)]
+        keys = self.rows if self.wanted is None else [k for k in self.rows if k in self.wanted]
+        return [self.with_optimum(self.rows[k]) for k in sorted(keys, key=sort_key)]
 
     def write_csv(self) -> Path:
         rows = [for_table(r) for r in self.sorted_rows()]
