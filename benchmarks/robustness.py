@@ -160,9 +160,9 @@ CAMPAIGN_MINUTES = {"wheel": 72, "air-bearing": 47, "magnetorquer": 60, "slosh":
 #: page's own (training on 2 CPU threads does not repeat bit for bit): what the page says of it.
 #: Remove a plant's entry when its learned points are rerun on the campaign page's models.
 EARLIER_MODELS = {
-    "slosh": "The learned rows played the campaign's training of 2026-11-28. The campaign page was rerun "
-    "on 2026-11-29 and retrained them: its `ppo-flight` scores 2.1862 on the flight cell, where these "
-    "models score 2.1632 (held-out ×1 above).",
+    "slosh": "`ppo` and `ppo-flight` played the campaign's training of 2026-11-28. The campaign page was "
+    "rerun on 2026-11-29 and retrained them: its `ppo-flight` scores 2.1862 on the flight cell, where these "
+    "models score 2.1632 (held-out ×1 above). `ppo-residual` plays the page's own models.",
 }
 DELAY_LEVELS = (0, 1, 2, 3)
 NOISE_LEVELS = (1.0, 3.0, 10.0)
@@ -280,7 +280,8 @@ def learned_agents(plant: str) -> list[str]:
     return [
         a.name
         for a in campaign_of(plant).agents
-        if a.train is not None and (a.envs is None or flight_cell.name in a.envs or a.train.get("env") == lab.name)
+        if a.train is not None
+        and (a.envs is None or flight_cell.name in a.envs or training_entry(plant, a.name) == lab.name)
     ]
 
 
@@ -663,6 +664,8 @@ def learned_note(plant: str, name: str) -> str:
     if (agent.train.get("env_kwargs") or {}).get("faults"):
         note += ", on random actuator faults"
     wrapper = (agent.train.get("overrides") or {}).get("env_wrapper")
+    if isinstance(wrapper, dict):  # {dotted path: keywords}
+        wrapper = ", ".join(f"{path}({', '.join(f'{k}={v!r}' for k, v in kw.items())})" for path, kw in wrapper.items())
     if wrapper:
         note += f", trained and played behind `{wrapper}`"
     return note + "."
