@@ -55,6 +55,7 @@ from attitude_envs.files import atomic_write
 from attitude_envs.presets import flight
 from experiments import optimum
 from experiments.report.statistics import cvar
+from experiments.training.hyperparams import zoo_objects
 
 #: the env id of each plant page (its campaign's cells)
 PLANTS = {
@@ -275,13 +276,10 @@ def campaign_row(plant: str, name: str):
 
 def learned_agents(plant: str) -> list[str]:
     """The campaign's trained rows on ``plant``'s curves, in campaign order: every agent with
-    ``train`` that plays the flight cell or trains on the lab cell."""
-    lab, flight_cell = cells(plant)
+    ``train`` whose curves play a training on the lab or the flight cell (:func:`training_entry`)."""
+    trained_on = {c.name for c in cells(plant)}
     return [
-        a.name
-        for a in campaign_of(plant).agents
-        if a.train is not None
-        and (a.envs is None or flight_cell.name in a.envs or training_entry(plant, a.name) == lab.name)
+        a.name for a in campaign_of(plant).agents if a.train is not None and training_entry(plant, a.name) in trained_on
     ]
 
 
@@ -663,11 +661,12 @@ def learned_note(plant: str, name: str) -> str:
     note = f"the campaign's {agent.train['algo'].upper()} trained {where}"
     if (agent.train.get("env_kwargs") or {}).get("faults"):
         note += ", on random actuator faults"
-    wrapper = (agent.train.get("overrides") or {}).get("env_wrapper")
-    if isinstance(wrapper, dict):  # {dotted path: keywords}
-        wrapper = ", ".join(f"{path}({', '.join(f'{k}={v!r}' for k, v in kw.items())})" for path, kw in wrapper.items())
-    if wrapper:
-        note += f", trained and played behind `{wrapper}`"
+    wrappers = zoo_objects("env_wrapper", (agent.train.get("overrides") or {}).get("env_wrapper"))
+    if wrappers:
+        named = ", ".join(
+            path + (f"({', '.join(f'{k}={v!r}' for k, v in kw.items())})" if kw else "") for path, kw in wrappers
+        )
+        note += f", trained and played behind `{named}`"
     return note + "."
 
 

@@ -203,11 +203,11 @@ def run_campaign(
                     say(f"  {res['status']}: {res['out_dir']}")
         store = ResultStore(out_dir)
         jobs = episode_jobs(campaign, out_dir, skip_agents=skipped)
+        store.wanted = {key_of(j["key"]) for j in jobs}  # the table and the result: this definition's rows
         # J* once per episode key (not per agent): table, solver cache, else solved on the pool
         optimum_notes = resolve(
             episode_specs(jobs), store, executor, campaign.optimum_solve, campaign.optimum_table, progress
         )
-        store.wanted = {key_of(j["key"]) for j in jobs}
         todo = [j for j in jobs if not store.done(j["key"])]
         say(f"{len(jobs)} episodes, {len(jobs) - len(todo)} already done, running {len(todo)} on {executor.name}")
         with (
@@ -218,7 +218,8 @@ def run_campaign(
                 store.append(row)
                 bar.update()
                 log.progress()
-        store.write_csv()  # also when nothing ran: an agent removed since leaves the table
+        if not todo:  # each append rewrote it; else an agent removed since leaves it here
+            store.write_csv()
         status = "completed"
     except KeyboardInterrupt:
         status = "interrupted"
@@ -235,8 +236,7 @@ def run_campaign(
         elapsed = log.end(status, **counts)  # also when interrupted or failed: the report sums all runs
         if status == "interrupted" and sigint is not None:
             signal.signal(signal.SIGINT, sigint)
-    wanted = {key_of(j["key"]) for j in jobs}
-    rows = [r for r in store.sorted_rows() if key_of(r) in wanted]
+    rows = store.sorted_rows()
     write_json([for_table(r) for r in rows], out_dir / "episodes.json")
     past_runs = read_runs(out_dir / "runs.jsonl")
     return CampaignResult(
