@@ -83,10 +83,6 @@ class GainSchedule:
         object.__setattr__(self, "coefficients", c)
         object.__setattr__(self, "units", validation.choice("units", self.units, set(UNITS)))
 
-    def with_units(self, units: str) -> GainSchedule:
-        """The same coefficients read in other units (assumed: the paper does not say)."""
-        return GainSchedule(self.coefficients, units)
-
     def at(self, angle_rad, rate_rad_s) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(Kp, Kd, KI)`` (3 each) at the channels' angles (rad) and angle rates (rad/s), eq. 23;
         for a batch (E, 3) of angles and rates, each gain is E × 3."""

@@ -16,8 +16,8 @@ plants' twin for the fused trainer; the three compute the same command (the JAX 
 its matrix products are XLA's). The LQR is the
 gyrostat's (ReactionWheel, AirBearing) without a delay: a memoryless linear feedback.
 :class:`SloshLQRResidual` does the same on FuelSlosh with Navabi & Davoodi's LQR
-(:class:`baselines.slosh.SloshLQRPolicy`, its nonlinear input inversion included); it has no JAX
-twin, so it trains on the ``sb3`` or ``sbx`` backend.
+(:class:`baselines.slosh.SloshLQRPolicy`, its nonlinear input inversion included), with the JAX
+twin :class:`baselines.residual_jax.SloshLQRResidual` (the exact inversion only).
 """
 
 from __future__ import annotations
@@ -130,6 +130,8 @@ class SloshLQRResidual(ResidualWrapper):
     ``env_wrapper: {baselines.residual.SloshLQRResidual: {scale: 0.1}}``."""
 
     twin = WithSloshLQR
+    #: the JAX plants' twin, which the fused trainer applies in its place
+    jax_twin = "baselines.residual_jax.SloshLQRResidual"
 
     def __init__(self, env: gym.Env, scale: float = 0.25, **lqr: Any) -> None:
         super().__init__(env, scale, **lqr)

@@ -11,7 +11,6 @@ normalizes them to the env action (clipped at the actuator limits). With
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
@@ -24,10 +23,14 @@ from attitude_envs.presets.navabi_slosh import PAPER_Q, PAPER_R
 
 
 def split_observation(obs: np.ndarray) -> tuple[np.ndarray, float]:
-    """``(x (7), v_x)`` from a FuelSlosh-v0 observation (slosh states 0 when hidden)."""
-    o = np.asarray(obs, dtype=float)
-    if o.shape == (8,):
+    """``(x (7), v_x)`` from a FuelSlosh observation: 8 entries with the slosh states, 4 without
+    (``observe_slosh=False``: the slosh states taken as 0), each with the 3 fault-hint entries
+    appended or not."""
+    o = np.asarray(obs, dtype=float).ravel()
+    if o.size in (8, 11):
         return o[:7].copy(), float(o[7])
+    if o.size not in (4, 7):
+        raise ValueError(f"a FuelSlosh observation has 8 or 4 entries (11 or 7 with the fault hint), got {o.size}")
     x = np.zeros(7)
     x[:3] = o[:3]
     return x, float(o[3])
@@ -190,8 +193,3 @@ class SloshLyapunovPolicy(NewInputPolicy):
         u = self.new_inputs(x, v_x) if u is None else u
         eps = np.asarray(self.params.damping_kg_m2_s)
         return -self.gains["gamma"] * float(eps @ x[[4, 6]] ** 2) + f1 * u[0] + x[2] * f2 + f3 * u[1]
-
-
-def gimbal_for_transverse_acceleration(params: slosh.SloshParams, a_z_m_s2: float) -> float:
-    """Rigid-body gimbal angle (deg) giving transverse acceleration a_z: asin(m_t a_z / F)."""
-    return math.degrees(math.asin(max(-1.0, min(1.0, params.total_mass_kg * a_z_m_s2 / params.thrust_n))))

@@ -59,6 +59,57 @@ def test_slosh_packed_constants_match_the_physical_parameters():
     assert pk[slosh_definition.P_LEVER] == p.b_m + p.d_m
 
 
+def _inversion_cases(n: int, seed: int):
+    """Full states at speed and new inputs, about 1 in 20 beyond the thrust's transverse authority."""
+    rng = np.random.default_rng(seed)
+    ys = rng.normal(size=(n, 10)) * np.array([10, 10, 0.3, 0.3, 0.3, 3000, 5, 0.05, 0.1, 0.1])
+    ys[:, 5] = np.abs(ys[:, 5])
+    return ys, rng.normal(size=n), 0.01 * rng.normal(size=n)
+
+
+def test_slosh_inversion_realizes_the_new_inputs_on_every_executor():
+    """``invert_inputs``: compiled numba and plain Python bit for bit; the (δ, M_c) it returns
+    make the definition's own derivative give a_z = u1 and Ω̇ = u2 wherever |sin δ| ≤ 1;
+    JAX and CasADi evaluate it to rounding."""
+    jax = pytest.importorskip("jax")
+    casadi = pytest.importorskip("casadi")
+    import jax.numpy as jnp
+
+    from attitude_envs.jax.ops import JAX
+    from attitude_envs.plants.ops import PYTHON
+    from attitude_envs.symbolic.ops import CASADI
+
+    pk = SloshParams().packed
+    ys, u1s, u2s = _inversion_cases(300, seed=4)
+    compiled, plain = slosh_definition.define(NUMBA), slosh_definition.define(PYTHON)
+    want = []
+    for y, u1, u2 in zip(ys, u1s, u2s, strict=True):
+        got = compiled.invert_inputs(pk, y, u1, u2, 6)
+        assert got == plain.invert_inputs(pk, y, u1, u2, 6)
+        want.append(got)
+        delta, moment, saturated = got
+        if not saturated:
+            dy = compiled.derivative(pk, y, math.sin(delta), math.cos(delta), moment)
+            assert dy[6] - y[7] * y[5] == pytest.approx(u1, rel=1e-9, abs=1e-12)
+            # Ω̇ is the small difference of large terms at v_x ≈ 3000 m/s: round-off ≈ 5e-10 of it
+            assert dy[7] == pytest.approx(u2, rel=1e-8, abs=1e-12)
+    want = np.array(want, dtype=float)
+    assert 0 < want[:, 2].sum() < 60  # both branches taken
+
+    traced = slosh_definition.define(JAX)
+    with jax.enable_x64(True):  # a context, never the global config (other tests run in float32)
+        f = jax.jit(jax.vmap(lambda y, a, b: jnp.stack(traced.invert_inputs(jnp.asarray(pk), y, a, b, 6))))
+        got = np.asarray(f(jnp.asarray(ys), jnp.asarray(u1s), jnp.asarray(u2s)))
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-10)
+
+    y, a, b = casadi.SX.sym("y", 10), casadi.SX.sym("a"), casadi.SX.sym("b")
+    fn = casadi.Function(
+        "inv", [y, a, b], [casadi.vertcat(*slosh_definition.define(CASADI).invert_inputs(pk, y, a, b, 6))]
+    )
+    for yv, u1, u2, row in zip(ys[:40], u1s[:40], u2s[:40], want[:40], strict=True):
+        np.testing.assert_allclose(np.asarray(fn(yv, u1, u2)).ravel(), row, rtol=1e-12, atol=1e-10)
+
+
 @pytest.mark.parametrize("value", [0.3, -0.3, 0.2999999999999999, 0.30000000000000004, -0.30000000000000004, np.nan])
 def test_slosh_limit_rows_cross_exactly_where_the_absolute_value_exceeds_the_limit(value):
     plain = slosh_definition.define(NUMPY)

@@ -136,6 +136,40 @@ def test_the_jax_twin_equals_the_wrapper_step_for_step():
         env.state_from(numba_env("AirBearing-v1"))
 
 
+def test_the_slosh_jax_twin_equals_the_wrapper_step_for_step_under_a_fault():
+    jax = pytest.importorskip("jax")
+    pytest.importorskip("flax")
+    import jax.numpy as jnp
+
+    from attitude_envs.jax import make
+    from attitude_envs.jax.make import numba_env
+    from baselines.residual_jax import SloshLQRResidual as JaxSloshLQRResidual
+
+    kwargs = {
+        "control_dt_s": 0.1,
+        "faults": [{"kind": "bias", "target": "actuator", "index": 1, "value": 150.0, "onset_s": 5.0}],
+    }
+    actions = np.random.default_rng(1).uniform(-0.3, 0.3, (150, 2)).astype(np.float32)
+    with jax.enable_x64(True):
+        plant, params = make("FuelSlosh-v1", **kwargs)
+        env = JaxSloshLQRResidual.for_plant(plant, "FuelSlosh-v1", kwargs, scale=0.1)
+        wrapped = SloshLQRResidual(numba_env("FuelSlosh-v1", **kwargs), scale=0.1)
+        wrapped.reset(seed=3)
+        state = env.state_from(wrapped)
+        step = jax.jit(env.step_env)
+        key = jax.random.PRNGKey(0)
+        for i, a in enumerate(actions):
+            obs_j, state, reward, terminated, _ = step(key, state, jnp.asarray(a, jnp.float64), params)
+            obs, r, term, trunc, _ = wrapped.step(a)
+            np.testing.assert_allclose(np.asarray(obs_j, np.float32), obs, rtol=2e-7, atol=1e-9, err_msg=str(i))
+            assert float(reward) == pytest.approx(r, rel=1e-10) and bool(terminated) == term
+            assert not (term or trunc)  # the whole stretch, the fault's onset (step 50) included
+    with pytest.raises(ValueError, match="wrapped in baselines.residual.SloshLQRResidual"):
+        env.state_from(numba_env("FuelSlosh-v1"))
+    with pytest.raises(ValueError, match="inversion must be 'nonlinear'"):
+        JaxSloshLQRResidual.for_plant(plant, "FuelSlosh-v1", {}, inversion="linear")
+
+
 def test_the_fused_trainer_trains_behind_the_twin_and_the_model_plays_behind_the_policy_twin(tmp_path, monkeypatch):
     overrides = {
         "n_envs": 2,
@@ -149,6 +183,22 @@ def test_the_fused_trainer_trains_behind_the_twin_and_the_model_plays_behind_the
         tmp_path, monkeypatch, AB, overrides, 32, 16, env_kwargs={"episode_duration_s": 4.0}
     )
     assert isinstance(policy, WithLQR) and policy.scale == 0.3
+
+
+def test_the_fused_trainer_trains_behind_the_slosh_twin_and_the_model_plays_behind_its_policy_twin(
+    tmp_path, monkeypatch
+):
+    overrides = {
+        "n_envs": 2,
+        "n_steps": 16,
+        "batch_size": 32,
+        "n_epochs": 1,
+        "gamma": 0.95,
+        "env_wrapper": {"baselines.residual.SloshLQRResidual": {"scale": 0.2}},
+    }
+    kwargs = {"control_dt_s": 0.1, "episode_duration_s": 5.0}
+    policy, _ = trained_model_plays_as_evaluated(tmp_path, monkeypatch, FS, overrides, 64, 32, kwargs)
+    assert isinstance(policy, WithSloshLQR) and policy.scale == 0.2
 
 
 def test_sb3_trains_behind_the_slosh_residual_and_the_model_plays_behind_its_twin(tmp_path, monkeypatch):

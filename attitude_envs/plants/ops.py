@@ -35,7 +35,7 @@ def _identity(fn: Callable) -> Callable:
 class Ops:
     """The non-arithmetic operations of a plant definition.
 
-    ``sin``, ``cos``, ``sqrt``, ``fabs`` act on one scalar (or elementwise);
+    ``sin``, ``cos``, ``sqrt``, ``fabs``, ``asin`` act on one scalar (or elementwise);
     ``where(c, a, b)`` selects elementwise; ``fmin``, ``fmax`` (the smaller, the larger of
     two), ``round`` (to the nearest integer, half to even) and ``sign`` (−1, 0 or 1) act
     elementwise; ``compile`` wraps each helper a definition defines, so helpers can call each
@@ -46,6 +46,7 @@ class Ops:
     cos: Callable
     sqrt: Callable
     fabs: Callable
+    asin: Callable
     where: Callable
     fmin: Callable
     fmax: Callable
@@ -67,6 +68,7 @@ NUMBA = Ops(
     cos=math.cos,
     sqrt=math.sqrt,
     fabs=math.fabs,
+    asin=math.asin,
     where=_select,
     fmin=np.minimum,
     fmax=np.maximum,
@@ -83,6 +85,7 @@ LIBRARY_NAMES = {
     "cos": ("cos", "cos"),
     "sqrt": ("sqrt", "sqrt"),
     "fabs": ("abs", "fabs"),
+    "asin": ("arcsin", "asin"),
     "where": ("where", "if_else"),
     "fmin": ("minimum", "fmin"),
     "fmax": ("maximum", "fmax"),
@@ -114,6 +117,7 @@ PYTHON = Ops(
     cos=math.cos,
     sqrt=math.sqrt,
     fabs=math.fabs,
+    asin=math.asin,
     where=_select.py_func,
     fmin=lambda a, b: a if a != a or a <= b else b,  # NaN propagates, as np.minimum
     fmax=lambda a, b: a if a != a or a >= b else b,

@@ -136,7 +136,9 @@ class SloshParams:
         return float(mass_matrix(self, psi)[2, 2])
 
 
-def _state(y) -> np.ndarray:
+def checked_state(y) -> np.ndarray:
+    """``y`` as a contiguous float array of the full state's shape (10,); a ``ValueError``
+    otherwise."""
     y = np.ascontiguousarray(y, dtype=float)
     if y.shape != (N_STATE,):
         raise ValueError(f"y must have shape ({N_STATE},), got {y.shape}")
@@ -154,7 +156,7 @@ def mass_matrix(p: SloshParams, psi: np.ndarray) -> np.ndarray:
 def forces(p: SloshParams, y: np.ndarray, delta_rad: float, moment_nm: float) -> np.ndarray:
     """Right-hand side f(s, ψ) + G(δ, M_c) of the mass-matrix form (eqs. 11–14), SI units."""
     out = np.empty(5)
-    kernels.forces_into(p.packed, _state(y), float(delta_rad), float(moment_nm), out)
+    kernels.forces_into(p.packed, checked_state(y), float(delta_rad), float(moment_nm), out)
     return out
 
 
@@ -162,7 +164,7 @@ def derivative(p: SloshParams, y: np.ndarray, delta_rad: float, moment_nm: float
     """ẏ of the full state (10 entries) under gimbal angle δ (rad) and pitch moment (N·m)."""
     dy = np.empty(N_STATE)
     d = float(delta_rad)
-    kernels.derivative_into(p.packed, _state(y), math.sin(d), math.cos(d), float(moment_nm), dy)
+    kernels.derivative_into(p.packed, checked_state(y), math.sin(d), math.cos(d), float(moment_nm), dy)
     return dy
 
 

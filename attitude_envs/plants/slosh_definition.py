@@ -1,7 +1,7 @@
 """The fuel-slosh plant, defined once (Navabi & Davoodi, eqs. 11–14 in mass-matrix form,
 re-derived from their Lagrangian, eqs. 1–10; :mod:`attitude_envs.plants.slosh`): its packed
 constants, mass matrix, generalized forces, state derivative, error state, stage cost with
-the new inputs, and limit checks, written on scalars against an
+the new inputs, limit checks and the inversion of the new inputs, written on scalars against an
 :class:`~attitude_envs.plants.ops.Ops`. :func:`define` returns them for one executor: the
 numba kernels (:mod:`attitude_envs.plants.slosh_kernels`), the JAX twin
 (:mod:`attitude_envs.jax.fuel_slosh`) and the CasADi model (:mod:`attitude_envs.symbolic.slosh`)
@@ -39,7 +39,8 @@ N_LIMIT_ROWS = 8
 @functools.cache
 def define(ops: Ops) -> SimpleNamespace:
     """The slosh plant's functions for the executor ``ops`` (cached per executor)."""
-    sin, cos = ops.sin, ops.cos
+    sin, cos, sqrt, asin = ops.sin, ops.cos, ops.sqrt, ops.asin
+    fabs, fmin, fmax = ops.fabs, ops.fmin, ops.fmax
     quad_form = define_quad_form(ops)
 
     def packed_constants(p):
@@ -175,6 +176,41 @@ def define(ops: Ops) -> SimpleNamespace:
         )
 
     @ops.compile
+    def invert_inputs(pk, y, u1, u2, iterations):
+        """The gimbal angle δ (rad) and pitch moment M_c (N·m) that realize the new inputs
+        ``a_z = u1`` (m/s²) and ``Ω̇ = u2`` (rad/s²) at the full state ``y``: Navabi & Davoodi's
+        nonlinear eqs. 11–13 solved for the inputs (with ``v̇_z = a_z + Ω v_x`` and Ω̇ known,
+        the v_x and slosh rows give ``v̇_x, ψ̈`` for a gimbal cosine, the z row then the gimbal
+        sine; ``iterations`` fixed-point passes from δ = 0). Returns ``(δ, M_c, saturated)``:
+        ``saturated`` when |sin δ| had to be clipped to 1 (the thrust's transverse authority
+        exceeded)."""
+        s1, c1 = sin(y[3]), cos(y[3])
+        s2, c2 = sin(y[4]), cos(y[4])
+        mt, m02, m12, m22, m03, m04, m13, m14, m23, m24, j1, j2 = mass_entries(pk, s1, c1, s2, c2)
+        f0, f1, f2, f3, f4 = force_entries(pk, y, 0.0, 0.0, 0.0, s1, c1, s2, c2)  # no thrust
+        dvz = u1 + y[7] * y[5]
+        # the v_x and slosh rows with v̇_z, Ω̇ moved right (M01 = 0); their block
+        # [[m_t, M03, M04], [M03, J1, 0], [M04, 0, J2]] is eliminated toward v̇_x
+        r1 = f3 - (m13 * dvz + m23 * u2)
+        r2 = f4 - (m14 * dvz + m24 * u2)
+        e1, e2 = m03 / j1, m04 / j2
+        pivot = mt - (m03 * e1 + m04 * e2)
+        sin_d, cos_d = 0.0, 1.0
+        saturated = False
+        dvx, dp1, dp2 = 0.0, 0.0, 0.0
+        for _ in range(iterations):
+            r0 = f0 - m02 * u2 + pk[P_F] * cos_d
+            dvx = (r0 - (e1 * r1 + e2 * r2)) / pivot
+            dp1 = (r1 - m03 * dvx) / j1
+            dp2 = (r2 - m04 * dvx) / j2
+            sin_raw = (mt * dvz + m12 * u2 + m13 * dp1 + m14 * dp2 - f1) / pk[P_F]
+            saturated = fabs(sin_raw) > 1.0
+            sin_d = fmax(-1.0, fmin(1.0, sin_raw))
+            cos_d = sqrt(1.0 - sin_d * sin_d)
+        moment = m02 * dvx + m12 * dvz + m22 * u2 + m23 * dp1 + m24 * dp2 - f2 - pk[P_LEVER] * pk[P_F] * sin_d
+        return asin(sin_d), moment, saturated
+
+    @ops.compile
     def error_state(y):
         """``x = [v_z, θ, Ω, ψ1, ψ̇1, ψ2, ψ̇2]`` of the full state ``y``."""
         return y[6], y[2], y[7], y[3], y[8], y[4], y[9]
@@ -214,5 +250,6 @@ def define(ops: Ops) -> SimpleNamespace:
         error_state=error_state,
         augmented=augmented,
         limit_rows=limit_rows,
+        invert_inputs=invert_inputs,
         quad_form=quad_form,
     )

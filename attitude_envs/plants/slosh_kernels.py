@@ -49,6 +49,7 @@ def step_constants(
 
 mass_entries = _PLANT.mass_entries
 force_entries = _PLANT.force_entries
+invert_inputs = _PLANT.invert_inputs
 
 
 @njit(cache=True, error_model="numpy")

@@ -16,9 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from attitude_envs import validation
 from attitude_envs.cost import QuadraticCost
 from attitude_envs.linearization import LinearModel
-from attitude_envs.plants import slosh
+from attitude_envs.plants import slosh, slosh_kernels
 from attitude_envs.plants.slosh import SloshParams
 
 REDUCED_STATE = (
@@ -114,35 +115,19 @@ def full_linear(p: SloshParams, v_x_m_s: float) -> tuple[np.ndarray, np.ndarray]
     return A, B
 
 
-def invert_inputs(p: SloshParams, y: np.ndarray, u1: float, u2: float, iterations: int = 6):
-    """Exact inversion on the full plant (the nonlinear eqs. 11–13 solved exactly): the
-    ``(δ, M_c)`` (rad, N·m) that make a_z = u1 and Ω̇ = u2 at state ``y``; also returns whether
-    |sin δ| had to be clipped to 1 (thrust authority exceeded)."""
-    M = slosh.mass_matrix(p, y[slosh.IPSI1 : slosh.IPSI2 + 1])
-    f = slosh.forces(p, y, 0.0, 0.0)  # δ = 0: f_x contains +F, f_z and pitch no thrust term
-    f[0] -= p.thrust_n
-    om, vx = y[slosh.IOM], y[slosh.IVX]
-    acc = np.zeros(5)
-    acc[1] = u1 + om * vx
-    acc[2] = u2
-    rows = [0, 3, 4]
-    sub = M[np.ix_(rows, rows)]
-    known = M[np.ix_(rows, [1, 2])] @ acc[1:3]
-    cos_d = 1.0
-    sin_d = 0.0
-    saturated = False
-    for _ in range(iterations):
-        rhs = f[rows] - known
-        rhs[0] += p.thrust_n * cos_d
-        acc[rows] = np.linalg.solve(sub, rhs)
-        fs = M[1] @ acc - f[1]
-        sin_d = fs / p.thrust_n if p.thrust_n > 0 else math.copysign(math.inf, fs)
-        saturated = abs(sin_d) > 1.0
-        sin_d = max(-1.0, min(1.0, sin_d))
-        cos_d = math.sqrt(1.0 - sin_d**2)
-    delta = math.asin(sin_d)
-    moment = M[2] @ acc - f[2] - p.lever_arm_m * p.thrust_n * sin_d
-    return delta, float(moment), saturated
+#: fixed-point passes of the exact input inversion (from δ = 0; the gimbal sine settles to round-off)
+INVERSION_ITERATIONS = 6
+
+
+def invert_inputs(p: SloshParams, y: np.ndarray, u1: float, u2: float, iterations: int = INVERSION_ITERATIONS):
+    """Exact inversion on the full plant (the nonlinear eqs. 11–13 solved for the inputs; the
+    plant definition's ``invert_inputs``): the ``(δ, M_c)`` (rad, N·m) that make a_z = u1
+    (m/s²) and Ω̇ = u2 (rad/s²) at the full state ``y``; also returns whether |sin δ| had to be
+    clipped to 1 (thrust authority exceeded)."""
+    delta, moment, saturated = slosh_kernels.invert_inputs(
+        p.packed, slosh.checked_state(y), float(u1), float(u2), validation.integer("iterations", iterations, 1)
+    )
+    return float(delta), float(moment), bool(saturated)
 
 
 def invert_inputs_linear(p: SloshParams, x: np.ndarray, u1: float, u2: float) -> tuple[float, float]:
@@ -197,11 +182,6 @@ class FuelSloshModel:
     def full_linear(self, v_x_m_s: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Full-plant linearization in the physical inputs (δ rad, M_c N·m), eqs. 15–18."""
         return full_linear(self.params, self.design_v_x_m_s if v_x_m_s is None else v_x_m_s)
-
-    @property
-    def max_transverse_acceleration_m_s2(self) -> float:
-        """The transverse authority F sin(δ_max) / m_t, m/s²."""
-        return self.params.thrust_n * math.sin(self.max_gimbal_rad) / self.params.total_mass_kg
 
     def inputs_for(self, y: np.ndarray, u: np.ndarray, linear: bool = False) -> tuple[float, float]:
         """Physical ``(δ, M_c)`` realizing new inputs ``u`` at full state ``y`` (exact

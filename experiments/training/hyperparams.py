@@ -262,8 +262,8 @@ def jax_wrappers(entry: dict[str, Any]) -> tuple[tuple[str, str], ...]:
         if twin is None:
             raise ValueError(
                 f"the jax backend (the fused trainer) takes only env_wrapper entries with a JAX twin "
-                f"(attitude_envs.wrappers.LastAction, baselines.residual.LQRResidual); {path} has none: "
-                f"train with backend sb3 or sbx"
+                f"(attitude_envs.wrappers.LastAction, baselines.residual.LQRResidual, "
+                f"baselines.residual.SloshLQRResidual); {path} has none: train with backend sb3 or sbx"
             )
         out.append((str(twin), json.dumps(kwargs, sort_keys=True)))
     return tuple(out)
