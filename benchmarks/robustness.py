@@ -155,8 +155,8 @@ RUN_MINUTES: dict[str, int | str] = {
     "linear": 80,
 }
 #: the plant campaign's wall time, min, with its flight cells (the sum of the runs in its page's
-#: runs.jsonl, 2026-11-26 to -29, shared cores; slosh: its one run of 2026-11-29, alone)
-CAMPAIGN_MINUTES = {"wheel": 72, "air-bearing": 47, "magnetorquer": 60, "slosh": 30, "linear": 30}
+#: runs.jsonl, 2026-11-26 to -29, shared cores; slosh: its one run of 2026-11-29 (night), alone)
+CAMPAIGN_MINUTES = {"wheel": 72, "air-bearing": 47, "magnetorquer": 60, "slosh": 13, "linear": 30}
 #: pages whose learned rows played an earlier training of the campaign's entries than the campaign
 #: page's own (training on 2 CPU threads does not repeat bit for bit): what the page says of it.
 #: Remove a plant's entry when its learned points are rerun on the campaign page's models.
