@@ -41,7 +41,7 @@ import json
 import textwrap
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import cache
+from functools import cache, partial
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -146,12 +146,16 @@ PARAMETER_LEVELS = (0.0, 0.1, 0.25, 0.5)
 #: Magnetorquer's mpc and ppo-flight rows: 96 min of wall time, 2026-11-29, beside two FuelSlosh runs.
 #: FuelSlosh in full (2026-11-28 and -29): its delay and held-out solves take 2-5 min each from the
 #: chained warm start (``_optimum``) and up to 30 min from the LQR's; with three runs sharing 2 cores
-#: the page's points took more than 5 h, its held-out ×2 and ×4 unfinished (a time as text)
+#: the page's points took more than 5 h, its held-out ×2 and ×4 unfinished. From ppo-flight's
+#: closed loop (:data:`WARM_AGENT`) the last 33 solves took 20-30 s each: those points, with every
+#: point of ppo and ppo-flight replayed, 11.5 min in one process (2026-11-29, night); a run from
+#: nothing (8 solves a seed) is estimated from that (a time as text)
 RUN_MINUTES: dict[str, int | str] = {
     "wheel": 40,
     "air-bearing": 105,
     "magnetorquer": "≈ 100 min on 2 cores shared with two other runs",
-    "slosh": "more than 5 h on 2 cores",
+    "slosh": "an estimated 70 min in one process, 160 J\\* solves of 20-30 s each from ppo-flight's closed loop"
+    " (33 of them measured; more than 5 h on 2 cores before that warm start),",
     "linear": 80,
 }
 #: the plant campaign's wall time, min, with its flight cells (the sum of the runs in its page's
@@ -160,11 +164,7 @@ CAMPAIGN_MINUTES = {"wheel": 72, "air-bearing": 47, "magnetorquer": 60, "slosh":
 #: pages whose learned rows played an earlier training of the campaign's entries than the campaign
 #: page's own (training on 2 CPU threads does not repeat bit for bit): what the page says of it.
 #: Remove a plant's entry when its learned points are rerun on the campaign page's models.
-EARLIER_MODELS = {
-    "slosh": "`ppo` and `ppo-flight` played the campaign's training of 2026-11-28. The campaign page was "
-    "rerun on 2026-11-29 and retrained them: its `ppo-flight` scores 2.1862 on the flight cell, where these "
-    "models score 2.1632 (held-out ×1 above). `ppo-residual` plays the page's own models.",
-}
+EARLIER_MODELS: dict[str, str] = {}
 DELAY_LEVELS = (0, 1, 2, 3)
 NOISE_LEVELS = (1.0, 3.0, 10.0)
 #: the held-out axis: the flight conditions' parameter tolerances times these (1: the flight cells')
@@ -373,10 +373,17 @@ def players(plant: str, names: list[str] | None, models: Path | None, kwargs: di
     return out
 
 
-def j_star(env_id: str, conditions: dict | str, seed: int, env_kwargs: dict | None = None) -> float:
+def j_star(
+    env_id: str,
+    conditions: dict | str,
+    seed: int,
+    env_kwargs: dict | None = None,
+    warm: Callable[[], np.ndarray] | None = None,
+) -> float:
     """The oracle's J of the episode under ``conditions`` without the sensors (the oracle knows
     the true state; the lab's where nothing else is on): the shipped table's where it holds the
-    episode, else solved; :class:`UnsolvedOptimum` when the solve ends without a solution."""
+    episode, else solved (from ``warm()``'s actions where given, see :func:`_optimum`);
+    :class:`UnsolvedOptimum` when the solve ends without a solution."""
     from experiments.optimum_table import table_value
 
     kwargs = dict(env_kwargs or {})
@@ -390,7 +397,11 @@ def j_star(env_id: str, conditions: dict | str, seed: int, env_kwargs: dict | No
     listed = table_value(env_id, kwargs, seed, None)  # the lab cell's, where only sensors are on
     if listed is not None:
         return float(listed)
-    result = _optimum(env_id, kwargs, seed)
+    result = (
+        _optimum(env_id, kwargs, seed)
+        if warm is None
+        else optimum.solve_episode(env_id, kwargs, seed, warm_start=warm())
+    )
     if not result.solved:
         raise UnsolvedOptimum(f"J* did not solve ({result.status} after {result.iterations} iterations)")
     return result.j_star
@@ -398,6 +409,33 @@ def j_star(env_id: str, conditions: dict | str, seed: int, env_kwargs: dict | No
 
 class UnsolvedOptimum(RuntimeError):
     """The oracle's solve of an episode ended without a solution: its J is no J*."""
+
+
+#: plant → the learned agent (its first training seed) whose closed loop warm-starts J* there, and
+#: the keywords it plays with (the cell's control period). On FuelSlosh under flight conditions the
+#: LQR's rollout leaves the burn and IPOPT takes up to 30 min from it (the chain of
+#: :func:`_optimum` 2-5 min); from ppo-flight's episode, which completes the burn, a held-out solve
+#: takes 20-30 s and lands on the chain's J* (2026-11-29: to 1.1e-8 on the 7 held-out ×2 episodes both solved)
+WARM_AGENT: dict[str, tuple[str, dict]] = {"slosh": ("ppo-flight", {"control_dt_s": 0.1})}
+
+
+def warm_start_of(plant: str, models: Path | None, kwargs: dict) -> Callable[[dict | str, int], np.ndarray] | None:
+    """``warm(conditions, seed)``: the actions of :data:`WARM_AGENT`'s closed loop on the episode
+    ``seed`` under ``conditions`` (sensors on: it observes the measurements), for J*'s solve;
+    None where the plant has no warm agent or ``models`` (a campaign results directory) is None."""
+    if models is None or plant not in WARM_AGENT:
+        return None
+    name, play_kwargs = WARM_AGENT[plant]
+    player = players(plant, [name], models, kwargs)[name][0]
+
+    def warm(conditions: dict | str, seed: int) -> np.ndarray:
+        env = gym.make(player.env_id, conditions=conditions, **{**player.env_kwargs, **play_kwargs})
+        try:
+            return optimum.policy_rollout(env, player.factory(env), seed)[0]
+        finally:
+            env.close()
+
+    return warm
 
 
 def _optimum(env_id: str, kwargs: dict, seed: int) -> optimum.OptimumResult:
@@ -468,6 +506,7 @@ def run(
     log = out.with_suffix(".episodes.jsonl")
     done, j_stars = _read_log(log)
     chosen = players(plant, names, models, kwargs)
+    warm = warm_start_of(plant, models, kwargs)
     rows = []
     if not recorded:
         out.parent.mkdir(parents=True, exist_ok=True)
@@ -491,7 +530,8 @@ def run(
                             episode = (axis, level, seed)
                             if episode not in j_stars:
                                 try:
-                                    j_stars[episode] = j_star(env_id, conditions, seed, kwargs)
+                                    start = None if warm is None else partial(warm, conditions, seed)
+                                    j_stars[episode] = j_star(env_id, conditions, seed, kwargs, start)
                                 except UnsolvedOptimum as exc:
                                     print(f"{plant} {axis} {level:g} seed {seed}: {exc}; the point stays incomplete")
                                     j_stars[episode] = None

@@ -224,23 +224,31 @@ def replay(env, actions: np.ndarray, seed: int | None, options: dict | None) -> 
     return r.J, r.terminated
 
 
-def baseline_rollout(env, spec: tuple[str, dict], seed: int | None, options: dict | None, n_steps: int):
-    """``(actions (n_steps, n_u), J)`` of the baseline ``spec`` (registry name, parameters) on
-    the episode; the policy sees :func:`policy_view` of each info (no ground truth). Steps after
-    an early end are zero actions."""
-    name, params = spec
-    policy = build_policy({"policy": name, "params": dict(params)}, env)
+def policy_rollout(env, policy, seed: int | None, options: dict | None = None, max_steps: int | None = None):
+    """``(actions (steps, n_u), J)`` of ``policy`` on the episode, to its end or ``max_steps``;
+    the policy sees :func:`policy_view` of each info (no ground truth)."""
     obs, info = env.reset(seed=seed, options=options)
     policy.reset(seed)
-    actions = np.zeros((n_steps, env.action_space.shape[0]))
-    total = 0.0
-    for k in range(n_steps):
+    actions, total = [], 0.0
+    while max_steps is None or len(actions) < max_steps:
         a = np.asarray(policy.act(obs, policy_view(info)), dtype=float)
-        actions[k] = a
+        actions.append(a)
         obs, _, terminated, truncated, info = env.step(a)
         total += float(info["cost"])
         if terminated or truncated:
             break
+    return np.array(actions).reshape(len(actions), env.action_space.shape[0]), total
+
+
+def baseline_rollout(env, spec: tuple[str, dict], seed: int | None, options: dict | None, n_steps: int):
+    """``(actions (n_steps, n_u), J)`` of the baseline ``spec`` (registry name, parameters) on
+    the episode (:func:`policy_rollout`). Steps after an early end are zero actions."""
+    name, params = spec
+    played, total = policy_rollout(
+        env, build_policy({"policy": name, "params": dict(params)}, env), seed, options, n_steps
+    )
+    actions = np.zeros((n_steps, env.action_space.shape[0]))
+    actions[: len(played)] = played
     return actions, total
 
 

@@ -122,7 +122,9 @@ def test_a_short_run_writes_rows_and_resumes(tmp_path):
 def test_each_new_plant_plays_every_point(plant, tmp_path, monkeypatch):
     """An analytic agent of each new plant over every axis on a few steps (J* stubbed: no solve)."""
     solved = []
-    monkeypatch.setattr(robustness, "j_star", lambda env_id, conditions, seed, kwargs: solved.append(env_id) or 1.0)
+    monkeypatch.setattr(
+        robustness, "j_star", lambda env_id, conditions, seed, kwargs, warm=None: solved.append(env_id) or 1.0
+    )
     name, kwargs = SHORT[plant]
     rows = robustness.run(plant, 1, tmp_path / "robustness.csv", [name], env_kwargs=kwargs)
     assert [(r["axis"], r["level"]) for r in rows] == [(a, lv) for a, lv, _ in robustness.axes(plant)]
@@ -236,7 +238,9 @@ def test_a_learned_agent_plays_on_its_campaign_play_env(tmp_path, monkeypatch):
         return build
 
     monkeypatch.setattr(robustness, "_factory", factory)
-    monkeypatch.setattr(robustness, "j_star", lambda env_id, conditions, seed, kwargs: 1.0 if "-v0" in env_id else 0)
+    monkeypatch.setattr(
+        robustness, "j_star", lambda env_id, conditions, seed, kwargs, warm=None: 1.0 if "-v0" in env_id else 0
+    )
     out = tmp_path / "robustness.csv"
     rows = robustness.run(
         "linear", 1, out, ["ppo-flight-1hz"], models=tmp_path, axes_chosen=["delay"], env_kwargs={"episode_steps": 200}
@@ -302,10 +306,53 @@ def test_delayed_and_held_out_optima_start_from_the_point_before(monkeypatch):
     assert len(calls) == 1 and calls[0][1] is None  # the parameters axis: the default warm start
 
 
+def test_slosh_optima_start_from_the_warm_agents_closed_loop(tmp_path, monkeypatch):
+    """With the campaign's models, a FuelSlosh J* outside the shipped table starts from the
+    closed loop of ppo-flight's first training seed at the cell's 0.1 s, played on the episode
+    under the point's conditions (its sensors on); the oracle's problem has no sensors."""
+    from baselines.base import ZeroPolicy
+
+    _fake_models(tmp_path, "fs-flight", "ppo-flight")
+    played = []
+
+    def factory(spec, name):
+        def build(env):
+            played.append((name, spec.get("model"), env.unwrapped.control_dt_s, env.unwrapped.conditions.parameters))
+            return ZeroPolicy(env)
+
+        return build
+
+    solved = []
+
+    def solve(env_id, kwargs, seed, warm_start="lqr"):
+        solved.append((env_id, kwargs["conditions"], np.asarray(warm_start).shape))
+        return SimpleNamespace(solved=True, j_star=1.0)
+
+    monkeypatch.setattr(robustness, "_factory", factory)
+    monkeypatch.setattr(robustness.optimum, "solve_episode", solve)
+    monkeypatch.setattr("experiments.optimum_table.table_value", lambda *args: None)
+    out = tmp_path / "robustness.csv"
+    robustness.run(
+        "slosh",
+        1,
+        out,
+        ["slosh-lqr"],
+        models=tmp_path,
+        axes_chosen=["held-out"],
+        env_kwargs={"episode_duration_s": 2.0},
+    )
+    warm = [p for p in played if p[0] == "ppo-flight"]
+    assert [(dt, k) for _, _, dt, k in warm] == [(0.1, 1.0), (0.1, 2.0), (0.1, 4.0)]
+    assert {m for _, m, _, _ in warm} == {str(tmp_path / "models/fs-flight/ppo-flight/seed0/best/model.zip")}
+    assert [(e, c["parameters"], c["sensors"], shape) for e, c, shape in solved] == [
+        (robustness.PLANTS["slosh"], k, 0.0, (20, 2)) for k in (1.0, 2.0, 4.0)
+    ]
+
+
 def test_recorded_curves_leave_out_the_points_not_all_recorded(tmp_path, monkeypatch):
     """``--recorded`` plays and solves nothing: a point whose episodes are not all in the record
     is left out of the rows and named on the page."""
-    monkeypatch.setattr(robustness, "j_star", lambda env_id, conditions, seed, kwargs: 1.0)
+    monkeypatch.setattr(robustness, "j_star", lambda env_id, conditions, seed, kwargs, warm=None: 1.0)
     name, kwargs = SHORT["linear"]
     out = tmp_path / "robustness.csv"
     full = robustness.run("linear", 2, out, [name], env_kwargs=kwargs)
@@ -326,7 +373,7 @@ def test_recorded_curves_leave_out_the_points_not_all_recorded(tmp_path, monkeyp
 
 
 def test_an_episode_whose_optimum_did_not_solve_leaves_its_point_out(tmp_path, monkeypatch):
-    def j_star(env_id, conditions, seed, kwargs):
+    def j_star(env_id, conditions, seed, kwargs, warm=None):
         if conditions == {"sensors": 1.0, "delay_steps": 2} and seed == 1:
             raise robustness.UnsolvedOptimum("J* did not solve (Maximum_Iterations_Exceeded after 1000 iterations)")
         return 1.0
