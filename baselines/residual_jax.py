@@ -148,6 +148,8 @@ class SloshLQRResidual(ResidualTwin):
 
     def base_command(self, obs: jax.Array) -> jax.Array:
         n = obs.shape[-1]
+        if n not in (4, 7, 8, 11):
+            raise ValueError(f"a FuelSlosh observation has 8 or 4 entries (11 or 7 with the fault hint), got {n}")
         if n in (8, 11):  # split_observation's layouts: with the slosh states, or without
             x, v_x = obs[:7], obs[7]
         else:

@@ -160,7 +160,7 @@ RUN_MINUTES: dict[str, int | str] = {
 }
 #: the plant campaign's wall time, min, with its flight cells (the sum of the runs in its page's
 #: runs.jsonl, 2026-11-26 to -29, shared cores; slosh: its one run of 2026-11-29 (night), alone)
-CAMPAIGN_MINUTES = {"wheel": 72, "air-bearing": 47, "magnetorquer": 60, "slosh": 13, "linear": 30}
+CAMPAIGN_MINUTES = {"wheel": 72, "air-bearing": 47, "magnetorquer": 60, "slosh": 12, "linear": 30}
 #: pages whose learned rows played an earlier training of the campaign's entries than the campaign
 #: page's own (training on 2 CPU threads does not repeat bit for bit): what the page says of it.
 #: Remove a plant's entry when its learned points are rerun on the campaign page's models.
@@ -411,29 +411,37 @@ class UnsolvedOptimum(RuntimeError):
     """The oracle's solve of an episode ended without a solution: its J is no J*."""
 
 
-#: plant → the learned agent (its first training seed) whose closed loop warm-starts J* there, and
-#: the keywords it plays with (the cell's control period). On FuelSlosh under flight conditions the
-#: LQR's rollout leaves the burn and IPOPT takes up to 30 min from it (the chain of
-#: :func:`_optimum` 2-5 min); from ppo-flight's episode, which completes the burn, a held-out solve
-#: takes 20-30 s and lands on the chain's J* (2026-11-29: to 1.1e-8 on the 7 held-out ×2 episodes both solved)
-WARM_AGENT: dict[str, tuple[str, dict]] = {"slosh": ("ppo-flight", {"control_dt_s": 0.1})}
+#: plant → the learned agent (its first training seed) whose closed loop, played at the cell's
+#: control period, warm-starts J* there. On FuelSlosh under flight conditions the LQR's rollout
+#: leaves the burn and IPOPT takes up to 30 min from it (the chain of :func:`_optimum` 2-5 min);
+#: from ppo-flight's episode, which completes the burn, a held-out solve takes 20-30 s and lands
+#: on the chain's J* (2026-11-29: to 1.1e-8 on the 7 held-out ×2 episodes both solved)
+WARM_AGENT: dict[str, str] = {"slosh": "ppo-flight"}
 
 
 def warm_start_of(plant: str, models: Path | None, kwargs: dict) -> Callable[[dict | str, int], np.ndarray] | None:
     """``warm(conditions, seed)``: the actions of :data:`WARM_AGENT`'s closed loop on the episode
-    ``seed`` under ``conditions`` (sensors on: it observes the measurements), for J*'s solve;
-    None where the plant has no warm agent or ``models`` (a campaign results directory) is None."""
+    ``seed`` under ``conditions`` (sensors on: it observes the measurements), at the period of
+    the cell built with ``kwargs`` and zero after an early end, one per step of the cell's
+    episode (J*'s warm start); None where the plant has no warm agent or ``models`` (a campaign
+    results directory) is None."""
     if models is None or plant not in WARM_AGENT:
         return None
-    name, play_kwargs = WARM_AGENT[plant]
+    name = WARM_AGENT[plant]
     player = players(plant, [name], models, kwargs)[name][0]
+    cell = gym.make(PLANTS[plant], **kwargs)
+    period_s, steps = float(cell.unwrapped.control_dt_s), cell.unwrapped.decisions_per_episode
+    cell.close()
 
     def warm(conditions: dict | str, seed: int) -> np.ndarray:
-        env = gym.make(player.env_id, conditions=conditions, **{**player.env_kwargs, **play_kwargs})
+        env = gym.make(player.env_id, conditions=conditions, **{**player.env_kwargs, "control_dt_s": period_s})
         try:
-            return optimum.policy_rollout(env, player.factory(env), seed)[0]
+            played, _ = optimum.policy_rollout(env, player.factory(env), seed, max_steps=steps)
         finally:
             env.close()
+        actions = np.zeros((steps, played.shape[1]))
+        actions[: len(played)] = played
+        return actions
 
     return warm
 

@@ -166,6 +166,8 @@ def test_the_slosh_jax_twin_equals_the_wrapper_step_for_step_under_a_fault():
             assert not (term or trunc)  # the whole stretch, the fault's onset (step 50) included
     with pytest.raises(ValueError, match="wrapped in baselines.residual.SloshLQRResidual"):
         env.state_from(numba_env("FuelSlosh-v1"))
+    with pytest.raises(ValueError, match="8 or 4 entries"):
+        env.base_command(jnp.zeros(5))
     with pytest.raises(ValueError, match="inversion must be 'nonlinear'"):
         JaxSloshLQRResidual.for_plant(plant, "FuelSlosh-v1", {}, inversion="linear")
 

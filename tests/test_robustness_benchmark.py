@@ -308,9 +308,14 @@ def test_delayed_and_held_out_optima_start_from_the_point_before(monkeypatch):
 
 def test_slosh_optima_start_from_the_warm_agents_closed_loop(tmp_path, monkeypatch):
     """With the campaign's models, a FuelSlosh J* outside the shipped table starts from the
-    closed loop of ppo-flight's first training seed at the cell's 0.1 s, played on the episode
-    under the point's conditions (its sensors on); the oracle's problem has no sensors."""
+    closed loop of ppo-flight's first training seed at the cell's period, played on the episode
+    under the point's conditions (its sensors on), zero after an early end; the oracle's
+    problem has no sensors."""
     from baselines.base import ZeroPolicy
+
+    class FullThrottle(ZeroPolicy):  # crosses a limit within a few decisions
+        def act(self, obs, info):
+            return np.ones(2)
 
     _fake_models(tmp_path, "fs-flight", "ppo-flight")
     played = []
@@ -318,35 +323,31 @@ def test_slosh_optima_start_from_the_warm_agents_closed_loop(tmp_path, monkeypat
     def factory(spec, name):
         def build(env):
             played.append((name, spec.get("model"), env.unwrapped.control_dt_s, env.unwrapped.conditions.parameters))
-            return ZeroPolicy(env)
+            return FullThrottle(env) if name == "ppo-flight" else ZeroPolicy(env)
 
         return build
 
     solved = []
 
     def solve(env_id, kwargs, seed, warm_start="lqr"):
-        solved.append((env_id, kwargs["conditions"], np.asarray(warm_start).shape))
+        solved.append((env_id, kwargs["conditions"], np.asarray(warm_start)))
         return SimpleNamespace(solved=True, j_star=1.0)
 
     monkeypatch.setattr(robustness, "_factory", factory)
     monkeypatch.setattr(robustness.optimum, "solve_episode", solve)
     monkeypatch.setattr("experiments.optimum_table.table_value", lambda *args: None)
     out = tmp_path / "robustness.csv"
-    robustness.run(
-        "slosh",
-        1,
-        out,
-        ["slosh-lqr"],
-        models=tmp_path,
-        axes_chosen=["held-out"],
-        env_kwargs={"episode_duration_s": 2.0},
-    )
+    cell = {"episode_duration_s": 2.0, "control_dt_s": 0.05}
+    robustness.run("slosh", 1, out, ["slosh-lqr"], models=tmp_path, axes_chosen=["held-out"], env_kwargs=cell)
     warm = [p for p in played if p[0] == "ppo-flight"]
-    assert [(dt, k) for _, _, dt, k in warm] == [(0.1, 1.0), (0.1, 2.0), (0.1, 4.0)]
+    assert [(dt, k) for _, _, dt, k in warm] == [(0.05, 1.0), (0.05, 2.0), (0.05, 4.0)]
     assert {m for _, m, _, _ in warm} == {str(tmp_path / "models/fs-flight/ppo-flight/seed0/best/model.zip")}
-    assert [(e, c["parameters"], c["sensors"], shape) for e, c, shape in solved] == [
-        (robustness.PLANTS["slosh"], k, 0.0, (20, 2)) for k in (1.0, 2.0, 4.0)
+    assert [(e, c["parameters"], c["sensors"], a.shape) for e, c, a in solved] == [
+        (robustness.PLANTS["slosh"], k, 0.0, (40, 2)) for k in (1.0, 2.0, 4.0)
     ]
+    for _, _, actions in solved:  # full throttle until the episode ended early, then zeros
+        ended = int(np.argmin(actions[:, 0]))
+        assert 0 < ended < 40 and np.all(actions[:ended] == 1.0) and np.all(actions[ended:] == 0.0)
 
 
 def test_recorded_curves_leave_out_the_points_not_all_recorded(tmp_path, monkeypatch):
