@@ -102,15 +102,37 @@ def test_bad_slosh_settings_are_named(bad):
         SloshLQRResidual(gym.make(FS), **bad)
 
 
+def _twin_steps_as_the_wrapper(env, wrapped, params, actions) -> int:
+    """Steps the JAX twin ``env`` (x64) from the numba ``wrapped`` env's reset state beside it
+    with ``actions``; asserts each step equal (the observation to the numba env's float32
+    rounding) and returns the steps taken, to the episode's end at most."""
+    import jax
+    import jax.numpy as jnp
+
+    from baselines.residual_jax import ResidualState
+
+    state = env.state_from(wrapped)
+    assert isinstance(state, ResidualState)
+    assert state.obs.dtype == env.reset_env(jax.random.PRNGKey(0), params)[0].dtype  # a scan carries it
+    step = jax.jit(env.step_env)
+    key = jax.random.PRNGKey(0)
+    for i, a in enumerate(actions):
+        obs_j, state, reward, terminated, _ = step(key, state, jnp.asarray(a, jnp.float64), params)
+        obs, r, term, trunc, _ = wrapped.step(a)
+        np.testing.assert_allclose(np.asarray(obs_j, np.float32), obs, rtol=2e-7, atol=1e-9, err_msg=str(i))
+        assert float(reward) == pytest.approx(r, rel=1e-10) and bool(terminated) == term
+        if term or trunc:
+            return i + 1
+    return len(actions)
+
+
 def test_the_jax_twin_equals_the_wrapper_step_for_step():
     jax = pytest.importorskip("jax")
     pytest.importorskip("flax")
-    import jax.numpy as jnp
 
     from attitude_envs.jax import make
     from attitude_envs.jax.make import numba_env
     from baselines.residual_jax import LQRResidual as JaxLQRResidual
-    from baselines.residual_jax import ResidualState
 
     actions = np.random.default_rng(0).uniform(-1.5, 1.5, (60, 3)).astype(np.float32)
     with jax.enable_x64(True):
@@ -118,20 +140,8 @@ def test_the_jax_twin_equals_the_wrapper_step_for_step():
         env = JaxLQRResidual.for_plant(plant, "AirBearing-v1", {"conditions": NO_NOISE}, scale=0.3)
         wrapped = LQRResidual(numba_env("AirBearing-v1", conditions=NO_NOISE), scale=0.3)
         wrapped.reset(seed=3)
-        state = env.state_from(wrapped)
-        assert isinstance(state, ResidualState)
-        assert state.obs.dtype == env.reset_env(jax.random.PRNGKey(0), params)[0].dtype  # a scan carries it
-        step = jax.jit(env.step_env)
-        key = jax.random.PRNGKey(0)
-        for i, a in enumerate(actions):
-            obs_j, state, reward, terminated, _ = step(key, state, jnp.asarray(a, jnp.float64), params)
-            obs, r, term, trunc, _ = wrapped.step(a)
-            # the numba env observes in float32: equal to its rounding
-            np.testing.assert_allclose(np.asarray(obs_j, np.float32), obs, rtol=2e-7, atol=1e-9, err_msg=str(i))
-            assert float(reward) == pytest.approx(r, rel=1e-10) and bool(terminated) == term
-            if term or trunc:
-                break
-        assert i >= 20  # to the episode's end: the delay and the actuators acted
+        # to the episode's end: the delay and the actuators acted
+        assert _twin_steps_as_the_wrapper(env, wrapped, params, actions) > 20
     with pytest.raises(ValueError, match="wrapped in baselines.residual.LQRResidual"):
         env.state_from(numba_env("AirBearing-v1"))
 
@@ -155,15 +165,8 @@ def test_the_slosh_jax_twin_equals_the_wrapper_step_for_step_under_a_fault():
         env = JaxSloshLQRResidual.for_plant(plant, "FuelSlosh-v1", kwargs, scale=0.1)
         wrapped = SloshLQRResidual(numba_env("FuelSlosh-v1", **kwargs), scale=0.1)
         wrapped.reset(seed=3)
-        state = env.state_from(wrapped)
-        step = jax.jit(env.step_env)
-        key = jax.random.PRNGKey(0)
-        for i, a in enumerate(actions):
-            obs_j, state, reward, terminated, _ = step(key, state, jnp.asarray(a, jnp.float64), params)
-            obs, r, term, trunc, _ = wrapped.step(a)
-            np.testing.assert_allclose(np.asarray(obs_j, np.float32), obs, rtol=2e-7, atol=1e-9, err_msg=str(i))
-            assert float(reward) == pytest.approx(r, rel=1e-10) and bool(terminated) == term
-            assert not (term or trunc)  # the whole stretch, the fault's onset (step 50) included
+        # the whole stretch, the fault's onset (step 50) included
+        assert _twin_steps_as_the_wrapper(env, wrapped, params, actions) == 150
     with pytest.raises(ValueError, match="wrapped in baselines.residual.SloshLQRResidual"):
         env.state_from(numba_env("FuelSlosh-v1"))
     with pytest.raises(ValueError, match="8 or 4 entries"):
