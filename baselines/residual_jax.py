@@ -20,7 +20,7 @@ from attitude_envs.plants.slosh_definition import define
 from attitude_envs.plants.slosh_model import INVERSION_ITERATIONS, REDUCED_INDEX
 from baselines import residual
 from baselines.residual import base_lqr, check_scale
-from baselines.slosh import SloshLQRPolicy
+from baselines.slosh import SloshLQRPolicy, observes_slosh
 
 _SLOSH = define(JAX)
 
@@ -147,10 +147,7 @@ class SloshLQRResidual(ResidualTwin):
         return cls(env, SloshLQRPolicy(numba_env(env_id, **env_kwargs), **lqr), scale)
 
     def base_command(self, obs: jax.Array) -> jax.Array:
-        n = obs.shape[-1]
-        if n not in (4, 7, 8, 11):
-            raise ValueError(f"a FuelSlosh observation has 8 or 4 entries (11 or 7 with the fault hint), got {n}")
-        if n in (8, 11):  # split_observation's layouts: with the slosh states, or without
+        if observes_slosh(obs.shape[-1]):  # split_observation's layouts
             x, v_x = obs[:7], obs[7]
         else:
             x, v_x = jnp.zeros(7, obs.dtype).at[:3].set(obs[:3]), obs[3]

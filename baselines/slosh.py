@@ -22,15 +22,21 @@ from attitude_envs.plants.slosh_model import REDUCED_INDEX
 from attitude_envs.presets.navabi_slosh import PAPER_Q, PAPER_R
 
 
+def observes_slosh(size: int) -> bool:
+    """Whether a FuelSlosh observation of ``size`` entries holds the slosh states: 8 entries with
+    them, 4 without (``observe_slosh=False``), each with the 3 fault-hint entries appended or not;
+    a ``ValueError`` for any other size."""
+    if size not in (4, 7, 8, 11):
+        raise ValueError(f"a FuelSlosh observation has 8 or 4 entries (11 or 7 with the fault hint), got {size}")
+    return size in (8, 11)
+
+
 def split_observation(obs: np.ndarray) -> tuple[np.ndarray, float]:
-    """``(x (7), v_x)`` from a FuelSlosh observation: 8 entries with the slosh states, 4 without
-    (``observe_slosh=False``: the slosh states taken as 0), each with the 3 fault-hint entries
-    appended or not."""
+    """``(x (7), v_x)`` from a FuelSlosh observation (:func:`observes_slosh`; the slosh states
+    taken as 0 when it holds none)."""
     o = np.asarray(obs, dtype=float).ravel()
-    if o.size in (8, 11):
+    if observes_slosh(o.size):
         return o[:7].copy(), float(o[7])
-    if o.size not in (4, 7):
-        raise ValueError(f"a FuelSlosh observation has 8 or 4 entries (11 or 7 with the fault hint), got {o.size}")
     x = np.zeros(7)
     x[:3] = o[:3]
     return x, float(o[3])

@@ -436,12 +436,9 @@ def warm_start_of(plant: str, models: Path | None, kwargs: dict) -> Callable[[di
     def warm(conditions: dict | str, seed: int) -> np.ndarray:
         env = gym.make(player.env_id, conditions=conditions, **{**player.env_kwargs, "control_dt_s": period_s})
         try:
-            played, _ = optimum.policy_rollout(env, player.factory(env), seed, max_steps=steps)
+            return optimum.policy_rollout(env, player.factory(env), seed, max_steps=steps)[0]
         finally:
             env.close()
-        actions = np.zeros((steps, played.shape[1]))
-        actions[: len(played)] = played
-        return actions
 
     return warm
 

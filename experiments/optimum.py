@@ -225,8 +225,9 @@ def replay(env, actions: np.ndarray, seed: int | None, options: dict | None) -> 
 
 
 def policy_rollout(env, policy, seed: int | None, options: dict | None = None, max_steps: int | None = None):
-    """``(actions (steps, n_u), J)`` of ``policy`` on the episode, to its end or ``max_steps``;
-    the policy sees :func:`policy_view` of each info (no ground truth)."""
+    """``(actions, J)`` of ``policy`` on the episode, to its end or ``max_steps``: the actions
+    played, ``(steps, n_u)``; with ``max_steps``, ``(max_steps, n_u)``, zero after an early end.
+    The policy sees :func:`policy_view` of each info (no ground truth)."""
     obs, info = env.reset(seed=seed, options=options)
     policy.reset(seed)
     actions, total = [], 0.0
@@ -237,19 +238,16 @@ def policy_rollout(env, policy, seed: int | None, options: dict | None = None, m
         total += float(info["cost"])
         if terminated or truncated:
             break
-    return np.array(actions).reshape(len(actions), env.action_space.shape[0]), total
+    out = np.zeros((len(actions) if max_steps is None else max_steps, env.action_space.shape[0]))
+    out[: len(actions)] = np.reshape(actions, (len(actions), out.shape[1]))
+    return out, total
 
 
 def baseline_rollout(env, spec: tuple[str, dict], seed: int | None, options: dict | None, n_steps: int):
     """``(actions (n_steps, n_u), J)`` of the baseline ``spec`` (registry name, parameters) on
     the episode (:func:`policy_rollout`). Steps after an early end are zero actions."""
     name, params = spec
-    played, total = policy_rollout(
-        env, build_policy({"policy": name, "params": dict(params)}, env), seed, options, n_steps
-    )
-    actions = np.zeros((n_steps, env.action_space.shape[0]))
-    actions[: len(played)] = played
-    return actions, total
+    return policy_rollout(env, build_policy({"policy": name, "params": dict(params)}, env), seed, options, n_steps)
 
 
 def _warm_start(env, problem: DiscreteProblem, warm_start, seed, options) -> tuple[np.ndarray, float, str]:
