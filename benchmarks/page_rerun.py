@@ -1,0 +1,126 @@
+"""Does a fresh ``benchmark --config all`` repeat the committed campaign pages? Row by row (env,
+scenario, fault, agent), each episode's J in the rerun against the page's, and ΣJ / ΣJ* both
+ways; with how long each page of the rerun took (its ``runs.jsonl``).
+
+A row is *learned* when its episodes carry a training seed. Analytic rows should repeat to
+rounding; learned rows repeat bit for bit only when their models were trained by the same code
+(the pages' models may come from earlier commits than the rerun's).
+
+    attitude-envs benchmark --config all --out results/all             # ≈ 96 min on 2 cores
+    python -m benchmarks.page_rerun --rerun results/all --out benchmarks/results/page_rerun.json  # ≈ 5 s
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+from collections import defaultdict
+from pathlib import Path
+from typing import Any
+
+from benchmarks.results_file import write_results
+
+ROOT = Path(__file__).resolve().parent.parent
+PAGES = ROOT / "docs" / "campaigns"
+#: a row whose episodes all agree to this relative |ΔJ| counts as repeated
+REPEATED = 1e-9
+
+
+def _episodes(path: Path) -> dict[tuple[str, ...], dict[tuple[str, str], tuple[float, float]]]:
+    """``{(env, scenario, fault, agent): {(train_seed, seed): (J, J*)}}`` of an episodes.csv."""
+    rows: dict = defaultdict(dict)
+    with path.open(newline="", encoding="utf-8") as f:
+        for r in csv.DictReader(f):
+            key = (r["env"], r["scenario"], r["fault"], r["agent"])
+            rows[key][(r["train_seed"], r["seed"])] = (float(r["J"]), float(r["j_star"] or "nan"))
+    return rows
+
+
+def _ratio(episodes: dict, keys: set) -> float:
+    """ΣJ / ΣJ* over ``keys``."""
+    return sum(episodes[k][0] for k in keys) / sum(episodes[k][1] for k in keys)
+
+
+def compare_page(page: Path, rerun: Path) -> dict[str, Any]:
+    """The rows of one page (``page``/episodes.csv) against the rerun's (``rerun``/episodes.csv)."""
+    a, b = _episodes(page / "episodes.csv"), _episodes(rerun / "episodes.csv")
+    rows = []
+    for key in sorted(set(a) & set(b)):
+        common = set(a[key]) & set(b[key])
+        if not common:
+            continue
+        rel = max(abs(a[key][k][0] - b[key][k][0]) / max(abs(a[key][k][0]), 1e-300) for k in common)
+        rows.append(
+            {
+                "env": key[0],
+                "scenario": key[1],
+                "fault": key[2],
+                "agent": key[3],
+                "learned": any(train_seed for train_seed, _ in common),
+                "episodes": len(common),
+                "max_relative_dj": rel,
+                "page_j_over_j_star": _ratio(a[key], common),
+                "rerun_j_over_j_star": _ratio(b[key], common),
+            }
+        )
+    ends = [json.loads(line) for line in (rerun / "runs.jsonl").read_text().splitlines() if '"end"' in line]
+    return {
+        "rows": rows,
+        "only_page": ["/".join(k) for k in sorted(set(a) - set(b))],
+        "only_rerun": ["/".join(k) for k in sorted(set(b) - set(a))],
+        "wall_min": round(sum(e["wall_time_s"] for e in ends if e.get("event") == "end") / 60, 1),
+    }
+
+
+def summary(pages: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
+    """Per page: its rerun's minutes and how many analytic and learned rows repeated."""
+    out = []
+    for name, p in pages.items():
+        analytic = [r for r in p["rows"] if not r["learned"]]
+        learned = [r for r in p["rows"] if r["learned"]]
+        out.append(
+            {
+                "page": name,
+                "wall_min": p["wall_min"],
+                "analytic_rows": len(analytic),
+                "analytic_repeated": sum(r["max_relative_dj"] <= REPEATED for r in analytic),
+                "analytic_worst": max((r["max_relative_dj"] for r in analytic), default=0.0),
+                "learned_rows": len(learned),
+                "learned_repeated": sum(r["max_relative_dj"] <= REPEATED for r in learned),
+                "missing_rows": len(p["only_page"]) + len(p["only_rerun"]),
+            }
+        )
+    return out
+
+
+def main(argv: list[str] | None = None) -> dict[str, Any]:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rerun", required=True, help="a `benchmark --config all` output folder")
+    parser.add_argument("--pages", default=str(PAGES), help="the committed pages (default: docs/campaigns)")
+    parser.add_argument("--out", default="results/benchmarks/page_rerun.json")
+    args = parser.parse_args(argv)
+    rerun, committed = Path(args.rerun), Path(args.pages)
+    names = sorted(
+        p.name
+        for p in rerun.iterdir()
+        if (p / "episodes.csv").is_file() and (committed / p.name / "episodes.csv").is_file()
+    )
+    if not names:
+        raise SystemExit(f"error: no page of {str(committed)!r} has an episodes.csv in {str(rerun)!r}")
+    pages = {name: compare_page(committed / name, rerun / name) for name in names}
+    table = summary(pages)
+    print("| page | rerun (min) | analytic rows repeated | worst analytic ΔJ/J | learned rows repeated |")
+    print("|---|---|---|---|---|")
+    for s in table:
+        print(
+            f"| {s['page']} | {s['wall_min']} | {s['analytic_repeated']} of {s['analytic_rows']} | "
+            f"{s['analytic_worst']:.1e} | {s['learned_repeated']} of {s['learned_rows']} |"
+        )
+    print(f"total: {sum(s['wall_min'] for s in table):.1f} min")
+    write_results(args.out, argv, summary=table, pages=pages)
+    return {"summary": table, "pages": pages}
+
+
+if __name__ == "__main__":
+    main()
