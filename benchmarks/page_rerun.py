@@ -13,7 +13,6 @@ rounding; learned rows repeat bit for bit only when their models were trained by
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
 from collections import defaultdict
@@ -21,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from benchmarks.results_file import write_results
+from experiments.report.overview import read_episodes
 
 ROOT = Path(__file__).resolve().parent.parent
 PAGES = ROOT / "docs" / "campaigns"
@@ -28,13 +28,14 @@ PAGES = ROOT / "docs" / "campaigns"
 REPEATED = 1e-9
 
 
-def _episodes(path: Path) -> dict[tuple[str, ...], dict[tuple[str, str], tuple[float, float]]]:
-    """``{(env, scenario, fault, agent): {(train_seed, seed): (J, J*)}}`` of an episodes.csv."""
+def _episodes(path: Path) -> dict[tuple[str, ...], dict[tuple[Any, Any], tuple[float, float]]]:
+    """``{(env, scenario, fault, agent): {(train_seed, seed): (J, J*)}}`` of an episodes.csv
+    (:func:`~experiments.report.overview.read_episodes`; J* NaN where the row has none)."""
     rows: dict = defaultdict(dict)
-    with path.open(newline="", encoding="utf-8") as f:
-        for r in csv.DictReader(f):
-            key = (r["env"], r["scenario"], r["fault"], r["agent"])
-            rows[key][(r["train_seed"], r["seed"])] = (float(r["J"]), float(r["j_star"] or "nan"))
+    for r in read_episodes(path):
+        key = (r["env"], r["scenario"], r["fault"], r["agent"])
+        j_star = math.nan if r["j_star"] is None else float(r["j_star"])
+        rows[key][(r["train_seed"], r["seed"])] = (float(r["J"]), j_star)
     return rows
 
 
@@ -60,7 +61,7 @@ def compare_page(page: Path, rerun: Path) -> dict[str, Any]:
                 "scenario": key[1],
                 "fault": key[2],
                 "agent": key[3],
-                "learned": any(train_seed for train_seed, _ in set(a[key]) | set(b[key])),
+                "learned": any(train_seed is not None for train_seed, _ in set(a[key]) | set(b[key])),
                 "episodes": len(common),
                 "episodes_only_page": len(set(a[key]) - set(b[key])),
                 "episodes_only_rerun": len(set(b[key]) - set(a[key])),
