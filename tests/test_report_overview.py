@@ -173,6 +173,12 @@ def test_aggregates_with_rliable(campaigns, tmp_path):
     assert p == 0.0 and lo == hi == 0.0  # ppo (1.3 J*) never beats the LQR (≤ 1.19 J*)
     same = ov.aggregates({ov.BEST_ANALYTIC: scores["lqr"], ov.BEST_LEARNED: scores["lqr"]}, n_boot=50)
     assert same["improvement"][0] == 0.5  # identical runs: a tie
+    # equal to floating-point noise is a tie too, not a win for the one 1e-14 ahead
+    noisy = [s * (1 + 1e-14) for s in scores["lqr"]]
+    nudged = ov.aggregates({ov.BEST_ANALYTIC: scores["lqr"], ov.BEST_LEARNED: noisy}, n_boot=50)
+    assert nudged["improvement"][0] == 0.5
+    ahead = [np.minimum(s * (1 + 1e-6), 1.0) for s in scores["lqr"]]
+    assert ov.aggregates({ov.BEST_ANALYTIC: scores["lqr"], ov.BEST_LEARNED: ahead}, n_boot=50)["improvement"][0] > 0.5
     assert "P(best learned > best analytic) = 0.000" in ov.aggregates_table(agg)
     png = ov.plot_profiles(agg, tmp_path / "profiles.png")
     assert png.is_file() and png.stat().st_size > 0

@@ -302,12 +302,26 @@ def score_profile(samples: Sequence[np.ndarray], taus: np.ndarray = TAUS) -> np.
     return (pooled[None, :] > np.asarray(taus)[:, None]).mean(axis=1)
 
 
+#: normalized scores (J* / J, in [0, 1]) are compared at this many decimals in P(X > Y), so that
+#: two controllers equal to floating-point noise tie: LinearSystem's Q-learning LQR and its DARE
+#: LQR give the same J to 1e-14, and unrounded, the last bits decided that whole task (0 or 1)
+TIE_DECIMALS = 9
+
+
 def improvement_probability(metrics: Any, x: Sequence[np.ndarray], y: Sequence[np.ndarray]) -> float:
     """P(X > Y) of two algorithms' scores ``x`` and ``y`` (one array per task), averaged over the
     tasks: ``metrics`` is ``rliable.metrics``, whose ``probability_of_improvement`` runs here on
-    one task at a time, so that X and Y may have different run counts on a task."""
+    one task at a time, so that X and Y may have different run counts on a task. Scores equal
+    to :data:`TIE_DECIMALS` decimals count as a tie (½)."""
     return float(
-        np.mean([metrics.probability_of_improvement(a[:, None], b[:, None]) for a, b in zip(x, y, strict=True)])
+        np.mean(
+            [
+                metrics.probability_of_improvement(
+                    np.round(a, TIE_DECIMALS)[:, None], np.round(b, TIE_DECIMALS)[:, None]
+                )
+                for a, b in zip(x, y, strict=True)
+            ]
+        )
     )
 
 
